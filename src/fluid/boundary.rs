@@ -1,0 +1,166 @@
+//! Boundary conditions of the FDLB solver (lattice units) and the fill that sets halo and ghost
+//! nodes before every Runge–Kutta stage.
+//!
+//! * **Periodic** faces copy the opposite side.
+//! * **Walls** (no-slip, moving lid, obstacles with a sub-cell wall position) use ghost nodes
+//!   inside the solid: the state at the image point of a ghost (mirrored across the wall, at
+//!   least one cell into the fluid) is interpolated from fluid nodes; the ghost gets the wall
+//!   velocity extrapolated linearly through the wall, the image density (zero normal pressure
+//!   gradient), the wall temperature (isothermal) or the image temperature (adiabatic), and
+//!   the image's non-equilibrium part (the non-equilibrium extrapolation of Guo, Zheng & Shi,
+//!   Chin. Phys. 11, 366 (2002), applied at the ghost-cell image point of Mittal et al.,
+//!   J. Comput. Phys. 227, 4825 (2008)).
+//! * **Pressure inlet**: fixed density and temperature (the lung pressure), velocity and
+//!   non-equilibrium part from the first interior node.
+//! * **Velocity inlet**: fixed velocity and temperature, density and non-equilibrium part
+//!   from the first interior node.
+//! * **Outlet**: zero gradient of every population (copy of the first interior node).
+
+use super::equilibrium::{Equilibrium, MACRO_FIELDS, Macro};
+use super::layout::Layout;
+
+/// One of the 2·D faces of the domain.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Face {
+    XMin,
+    XMax,
+    YMin,
+    YMax,
+    ZMin,
+    ZMax,
+}
+
+impl Face {
+    pub const ALL: [Face; 6] = [Face::XMin, Face::XMax, Face::YMin, Face::YMax, Face::ZMin, Face::ZMax];
+    pub fn axis(self) -> usize {
+        (self as usize) / 2
+    }
+    pub fn is_max(self) -> bool {
+        (self as usize) % 2 == 1
+    }
+    pub fn name(self) -> &'static str {
+        ["x_min", "x_max", "y_min", "y_max", "z_min", "z_max"][self as usize]
+    }
+}
+
+/// The condition on one face (lattice units).
+#[derive(Clone, Debug, PartialEq)]
+pub enum FaceCondition {
+    Periodic,
+    /// A wall half a cell outside the last interior node, moving tangentially with `velocity`.
+    Wall { velocity: [f64; 3], temperature: Option<f64> },
+    PressureInlet { rho: f64, theta: f64 },
+    VelocityInlet { velocity: [f64; 3], theta: f64 },
+    Outlet,
+}
+
+/// Conditions on every face, indexed by [`Face`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Boundaries {
+    pub faces: [FaceCondition; 6],
+}
+
+impl Boundaries {
+    pub fn periodic() -> Self {
+        Boundaries { faces: std::array::from_fn(|_| FaceCondition::Periodic) }
+    }
+    pub fn face(&self, f: Face) -> &FaceCondition {
+        &self.faces[f as usize]
+    }
+}
+
+/// Node state arrays of one Runge–Kutta stage: populations, their equilibria, macroscopic fields.
+pub struct StageFields<'a> {
+    pub f: &'a mut [f64],
+    pub feq: &'a mut [f64],
+    pub mac: &'a mut [f64],
+}
+
+/// Fills ghost, inlet/outlet and periodic halo nodes of `fields` (seed §2.3 boundaries; see the
+/// module docs). Fluid nodes must already hold their moments and equilibria.
+pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFields) {
+    let nv = eq.values_per_node();
+    let mut w = vec![0.0; eq.set.shells.len()];
+    let mut fe = vec![0.0; nv];
+    let mut neq = vec![0.0; nv];
+
+    // Ghost nodes inside walls and obstacles.
+    for g in &layout.ghosts {
+        let mut m = [0.0; MACRO_FIELDS];
+        neq.iter_mut().for_each(|v| *v = 0.0);
+        for &(k, wk) in &g.image {
+            for (a, v) in m.iter_mut().enumerate() {
+                *v += wk * fields.mac[k * MACRO_FIELDS + a];
+            }
+            for i in 0..nv {
+                neq[i] += wk * (fields.f[k * nv + i] - fields.feq[k * nv + i]);
+            }
+        }
+        let r = g.ratio;
+        let uw = g.wall_velocity;
+        let u = [uw[0] + r * (m[1] - uw[0]), uw[1] + r * (m[2] - uw[1]), uw[2] + r * (m[3] - uw[2])];
+        let theta = match g.wall_temperature {
+            Some(tw) => tw + r * (m[4] - tw),
+            None => m[4],
+        };
+        let mg = Macro { rho: m[0], u, theta };
+        set_node(eq, fields, g.node, &mg, Some(&neq), &mut w, &mut fe);
+    }
+
+    // Inlet and outlet halos.
+    for h in &layout.face_halos {
+        let src = h.source;
+        match &layout.boundaries.faces[h.face as usize] {
+            FaceCondition::Outlet => {
+                copy_node(fields, nv, src, h.node);
+            }
+            FaceCondition::PressureInlet { rho, theta } => {
+                let ms = read_macro(fields.mac, src);
+                for i in 0..nv {
+                    neq[i] = fields.f[src * nv + i] - fields.feq[src * nv + i];
+                }
+                let m = Macro { rho: *rho, u: ms.u, theta: *theta };
+                set_node(eq, fields, h.node, &m, Some(&neq), &mut w, &mut fe);
+            }
+            FaceCondition::VelocityInlet { velocity, theta } => {
+                let ms = read_macro(fields.mac, src);
+                for i in 0..nv {
+                    neq[i] = fields.f[src * nv + i] - fields.feq[src * nv + i];
+                }
+                let m = Macro { rho: ms.rho, u: *velocity, theta: *theta };
+                set_node(eq, fields, h.node, &m, Some(&neq), &mut w, &mut fe);
+            }
+            FaceCondition::Periodic | FaceCondition::Wall { .. } => unreachable!("not a face halo"),
+        }
+    }
+
+    // Periodic halos last, so that they also copy ghosts that lie next to a periodic face.
+    for &(dst, src) in &layout.periodic {
+        copy_node(fields, nv, src, dst);
+    }
+}
+
+fn read_macro(mac: &[f64], node: usize) -> Macro {
+    let m = &mac[node * MACRO_FIELDS..(node + 1) * MACRO_FIELDS];
+    Macro { rho: m[0], u: [m[1], m[2], m[3]], theta: m[4] }
+}
+
+fn copy_node(fields: &mut StageFields, nv: usize, src: usize, dst: usize) {
+    fields.f.copy_within(src * nv..(src + 1) * nv, dst * nv);
+    fields.feq.copy_within(src * nv..(src + 1) * nv, dst * nv);
+    fields.mac.copy_within(src * MACRO_FIELDS..(src + 1) * MACRO_FIELDS, dst * MACRO_FIELDS);
+}
+
+/// Writes macro `m`, its equilibrium and f = f⁰ + neq into `node`.
+fn set_node(eq: &Equilibrium, fields: &mut StageFields, node: usize, m: &Macro, neq: Option<&[f64]>, w: &mut [f64], fe: &mut [f64]) {
+    let nv = fe.len();
+    eq.feq_into(m, w, fe);
+    fields.feq[node * nv..(node + 1) * nv].copy_from_slice(fe);
+    let f = &mut fields.f[node * nv..(node + 1) * nv];
+    match neq {
+        Some(n) => f.iter_mut().zip(fe.iter().zip(n)).for_each(|(fi, (e, d))| *fi = e + d),
+        None => f.copy_from_slice(fe),
+    }
+    let mm = &mut fields.mac[node * MACRO_FIELDS..(node + 1) * MACRO_FIELDS];
+    mm.copy_from_slice(&[m.rho, m.u[0], m.u[1], m.u[2], m.theta]);
+}

@@ -1,0 +1,265 @@
+//! Classification of every padded node (fluid, ghost, inlet/outlet halo, periodic halo,
+//! inactive) and the tables the boundary fill walks through. Built once per scene.
+
+use super::boundary::{Boundaries, Face, FaceCondition};
+use super::geometry::{Obstacle, Shape, dot};
+use super::grid::{Grid, HALO};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum NodeKind {
+    /// Updated by the solver.
+    Fluid = 0,
+    /// Solid node within reach of a fluid stencil: filled from its image point.
+    Ghost = 1,
+    /// Inlet or outlet halo node.
+    FaceHalo = 2,
+    /// Copy of a node on the other side of a periodic axis.
+    Periodic = 3,
+    /// Never read.
+    Inactive = 4,
+}
+
+/// A ghost node with its image-point interpolation stencil.
+#[derive(Clone, Debug)]
+pub struct Ghost {
+    pub node: usize,
+    /// (node, weight) of fluid nodes around the image point; weights sum to 1.
+    pub image: Vec<(usize, f64)>,
+    /// d_ghost / d_image ∈ [−1, 0): linear extrapolation factor through the wall.
+    pub ratio: f64,
+    pub wall_velocity: [f64; 3],
+    pub wall_temperature: Option<f64>,
+}
+
+#[derive(Clone, Debug)]
+pub struct FaceHalo {
+    pub node: usize,
+    pub face: Face,
+    /// First interior node on the same line normal to the face.
+    pub source: usize,
+}
+
+#[derive(Clone, Debug)]
+pub struct Layout {
+    pub grid: Grid,
+    pub boundaries: Boundaries,
+    /// Face walls turned into half-spaces, followed by the scene's obstacles.
+    pub obstacles: Vec<Obstacle>,
+    pub kind: Vec<NodeKind>,
+    pub ghosts: Vec<Ghost>,
+    pub face_halos: Vec<FaceHalo>,
+    /// (destination, source) pairs.
+    pub periodic: Vec<(usize, usize)>,
+    pub fluid_count: usize,
+}
+
+impl Layout {
+    pub fn new(grid: Grid, boundaries: Boundaries, user_obstacles: &[Obstacle]) -> Self {
+        let mut obstacles = Vec::new();
+        for face in Face::ALL {
+            let a = face.axis();
+            if a >= grid.dim {
+                continue;
+            }
+            if let FaceCondition::Wall { velocity, temperature } = boundaries.face(face) {
+                let mut normal = [0.0; 3];
+                // The wall lies half a cell outside the last interior node.
+                let offset = if face.is_max() {
+                    normal[a] = -1.0;
+                    -(grid.n[a] as f64 - 0.5)
+                } else {
+                    normal[a] = 1.0;
+                    -0.5
+                };
+                obstacles.push(Obstacle {
+                    shape: Shape::HalfSpace { normal, offset },
+                    velocity: *velocity,
+                    temperature: *temperature,
+                });
+            }
+        }
+        obstacles.extend_from_slice(user_obstacles);
+
+        let n = grid.len();
+        let periodic_axis: [bool; 3] = std::array::from_fn(|a| {
+            a < grid.dim && matches!(boundaries.faces[2 * a], FaceCondition::Periodic)
+        });
+        let pos = |x: [i64; 3]| [x[0] as f64, x[1] as f64, x[2] as f64];
+        // Deepest-first: the obstacle that contains the point with the largest (least negative) sdf.
+        let containing = |p: [f64; 3]| -> Option<(usize, f64)> {
+            let mut best: Option<(usize, f64)> = None;
+            for (k, o) in obstacles.iter().enumerate() {
+                let d = o.shape.sdf(p);
+                if d < 0.0 && best.is_none_or(|(_, bd)| d > bd) {
+                    best = Some((k, d));
+                }
+            }
+            best
+        };
+
+        let mut kind = vec![NodeKind::Inactive; n];
+        let mut solid = vec![false; n];
+        for idx in 0..n {
+            let x = grid.coords(idx);
+            if containing(pos(x)).is_some() {
+                solid[idx] = true;
+                continue;
+            }
+            let outside: Vec<usize> = (0..3).filter(|&a| x[a] < 0 || x[a] >= grid.n[a] as i64).collect();
+            kind[idx] = if outside.is_empty() {
+                NodeKind::Fluid
+            } else if outside.iter().all(|&a| periodic_axis[a]) {
+                NodeKind::Periodic
+            } else if outside.len() == 1 {
+                NodeKind::FaceHalo
+            } else {
+                NodeKind::Inactive
+            };
+        }
+
+        // Solid nodes within axis reach of a fluid node become ghosts.
+        let reach = |idx: usize, kind: &[NodeKind]| -> bool {
+            let x = grid.coords(idx);
+            for a in 0..grid.dim {
+                for s in [-2i64, -1, 1, 2] {
+                    let mut y = x;
+                    y[a] += s;
+                    if grid.contains(y) && kind[grid.index(y)] == NodeKind::Fluid {
+                        return true;
+                    }
+                }
+            }
+            false
+        };
+        let fluid_kind = kind.clone();
+        for idx in 0..n {
+            if solid[idx] && reach(idx, &fluid_kind) {
+                kind[idx] = NodeKind::Ghost;
+            }
+        }
+        // Face halos only where a fluid stencil reads them (not in corners).
+        for idx in 0..n {
+            if kind[idx] == NodeKind::FaceHalo && !reach(idx, &fluid_kind) {
+                kind[idx] = NodeKind::Inactive;
+            }
+        }
+
+        // Resolve a node used for interpolation to a fluid node (through periodic images).
+        let wrap = |x: [i64; 3]| -> [i64; 3] {
+            let mut y = x;
+            for a in 0..3 {
+                if periodic_axis[a] {
+                    y[a] = y[a].rem_euclid(grid.n[a] as i64);
+                }
+            }
+            y
+        };
+        let fluid_at = |x: [i64; 3]| -> Option<usize> {
+            let y = wrap(x);
+            if !grid.contains(y) {
+                return None;
+            }
+            let i = grid.index(y);
+            (kind[i] == NodeKind::Fluid).then_some(i)
+        };
+
+        let mut ghosts = Vec::new();
+        let mut face_halos = Vec::new();
+        let mut periodic = Vec::new();
+        for idx in 0..n {
+            let x = grid.coords(idx);
+            match kind[idx] {
+                NodeKind::Ghost => {
+                    let p = pos(x);
+                    let (k, d) = containing(p).expect("ghost is inside a solid");
+                    let o = &obstacles[k];
+                    let nrm = o.shape.normal(p);
+                    let wall = [p[0] - d * nrm[0], p[1] - d * nrm[1], p[2] - d * nrm[2]];
+                    let d_img = (-d).max(1.0);
+                    let img = [wall[0] + d_img * nrm[0], wall[1] + d_img * nrm[1], wall[2] + d_img * nrm[2]];
+                    let image = interpolation_stencil(&grid, img, &fluid_at);
+                    // Wall velocity: tangential part only for face walls (a lid), full for obstacles.
+                    let mut v = o.velocity;
+                    if let Shape::HalfSpace { normal, .. } = &o.shape {
+                        let vn = dot(v, *normal);
+                        v = [v[0] - vn * normal[0], v[1] - vn * normal[1], v[2] - vn * normal[2]];
+                    }
+                    ghosts.push(Ghost {
+                        node: idx,
+                        image,
+                        ratio: d / d_img,
+                        wall_velocity: v,
+                        wall_temperature: o.temperature,
+                    });
+                }
+                NodeKind::FaceHalo => {
+                    let a = (0..3).find(|&a| x[a] < 0 || x[a] >= grid.n[a] as i64).unwrap();
+                    let face = if x[a] < 0 { Face::ALL[2 * a] } else { Face::ALL[2 * a + 1] };
+                    let mut s = x;
+                    s[a] = if x[a] < 0 { 0 } else { grid.n[a] as i64 - 1 };
+                    face_halos.push(FaceHalo { node: idx, face, source: grid.index(s) });
+                }
+                NodeKind::Periodic => {
+                    let s = wrap(x);
+                    periodic.push((idx, grid.index(s)));
+                }
+                _ => {}
+            }
+        }
+        debug_assert!(HALO >= 2);
+        let fluid_count = kind.iter().filter(|k| **k == NodeKind::Fluid).count();
+        Layout { grid, boundaries, obstacles, kind, ghosts, face_halos, periodic, fluid_count }
+    }
+}
+
+/// Multilinear interpolation weights at `p` over fluid nodes only (renormalised). Falls back to
+/// the nearest fluid node within two cells when the cell around `p` holds no fluid node.
+fn interpolation_stencil(grid: &Grid, p: [f64; 3], fluid_at: &dyn Fn([i64; 3]) -> Option<usize>) -> Vec<(usize, f64)> {
+    let dim = grid.dim;
+    let base: [i64; 3] = std::array::from_fn(|a| if a < dim { p[a].floor() as i64 } else { p[a].round() as i64 });
+    let frac: [f64; 3] = std::array::from_fn(|a| if a < dim { p[a] - base[a] as f64 } else { 0.0 });
+    let corners = 1usize << dim;
+    let mut out: Vec<(usize, f64)> = Vec::new();
+    let mut total = 0.0;
+    for c in 0..corners {
+        let mut x = base;
+        let mut w = 1.0;
+        for a in 0..dim {
+            if c & (1 << a) != 0 {
+                x[a] += 1;
+                w *= frac[a];
+            } else {
+                w *= 1.0 - frac[a];
+            }
+        }
+        if w <= 1e-12 {
+            continue;
+        }
+        if let Some(i) = fluid_at(x) {
+            out.push((i, w));
+            total += w;
+        }
+    }
+    if total > 1e-6 {
+        out.iter_mut().for_each(|(_, w)| *w /= total);
+        return out;
+    }
+    // Nearest fluid node.
+    let mut best: Option<(usize, f64)> = None;
+    let r = 2i64;
+    for dz in if dim == 3 { -r..=r } else { 0..=0 } {
+        for dy in -r..=r {
+            for dx in -r..=r {
+                let x = [base[0] + dx, base[1] + dy, base[2] + dz];
+                if let Some(i) = fluid_at(x) {
+                    let d2 = (x[0] as f64 - p[0]).powi(2) + (x[1] as f64 - p[1]).powi(2) + (x[2] as f64 - p[2]).powi(2);
+                    if best.is_none_or(|(_, bd)| d2 < bd) {
+                        best = Some((i, d2));
+                    }
+                }
+            }
+        }
+    }
+    best.map(|(i, _)| vec![(i, 1.0)]).unwrap_or_default()
+}

@@ -1,0 +1,22 @@
+//! Compressible thermal finite-difference lattice Boltzmann (FDLB) fluid, seed 000 §2.3:
+//! velocity sets D2Q21 / D3Q39, the equilibrium (2.78) and moments (2.79–2.81), the diatomic
+//! extension (2.96–2.104), 3rd-order upwind + RK2 time stepping of (2.77), boundaries, and the
+//! CPU reference solver.
+
+pub mod boundary;
+pub mod equilibrium;
+pub mod geometry;
+pub mod grid;
+pub mod layout;
+pub mod solver;
+pub mod timestep;
+pub mod upwind;
+pub mod velocity_set;
+
+pub use boundary::{Boundaries, Face, FaceCondition};
+pub use equilibrium::{Equilibrium, GasModel, Macro};
+pub use geometry::{Obstacle, Shape};
+pub use grid::Grid;
+pub use solver::{FluidSolver, Instability, Totals};
+pub use timestep::StepParams;
+pub use velocity_set::{VelocitySet, VelocitySetKind};

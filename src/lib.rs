@@ -1,0 +1,21 @@
+//! # phonation
+//!
+//! Vocal-fold fluid–structure interaction: a compressible thermal finite-difference lattice
+//! Boltzmann fluid (D2Q21 / D3Q39, seed 000 §2.3), with (in later milestones) an MPS
+//! orthotropic viscoelastic solid, two coupling methods, a GPU backend and an integer lattice
+//! gas. It ships as a headless simulator (`phonation` binary) and a Bevy plugin (feature `bevy`).
+//!
+//! | module | what |
+//! |---|---|
+//! | [`fluid`] | FDLB: velocity sets, equilibrium, boundaries, CPU reference solver |
+//! | [`stages`] | the ordered stage list of one step (CPU, GPU, Bevy, timings) |
+//! | [`units`] | physical (cgs / SI) ↔ lattice units, Mach scaling |
+//! | [`scene`] | scene files (TOML), validation of user input, building a solver |
+//! | [`output`] | probes CSV, PNG colour maps, VTK, summary JSON |
+//! | [`validation`] | analytic references and validation cases (Taylor–Green, Sod, …) |
+//! | [`bench`] | memory bandwidth and cells/s measurements |
+//! | `plugin` | Bevy plugin (feature `bevy`, on by default) |
+
+pub mod fluid;
+pub mod stages;
+pub mod validation;

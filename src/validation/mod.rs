@@ -1,0 +1,8 @@
+//! Validation cases with analytic or published references (../shared/reference). Each case
+//! returns its measured figure next to the reference; the tests and the `validate` CLI
+//! subcommand assert the tolerances.
+
+pub mod taylor_green;
+pub mod riemann;
+pub mod sod;
+pub mod sound;
