@@ -16,6 +16,11 @@
 //! | [`bench`] | memory bandwidth and cells/s measurements |
 //! | `plugin` | Bevy plugin (feature `bevy`, on by default) |
 
+pub mod bench;
 pub mod fluid;
+pub mod output;
+pub mod run;
+pub mod scene;
 pub mod stages;
+pub mod units;
 pub mod validation;

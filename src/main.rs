@@ -1,1 +1,131 @@
-fn main(){}
+//! `phonation`: the headless command line. `phonation` with no arguments runs the default
+//! built-in scene; `run`, `bench`, `validate`, `scenes`, `check` are the subcommands.
+
+use anyhow::{Context, bail};
+use clap::{Parser, Subcommand};
+use phonation::run::{RunOptions, RunStatus, run_scene};
+use phonation::scene;
+use std::path::PathBuf;
+
+#[derive(Parser)]
+#[command(name = "phonation", version, about = "Vocal-fold FSI simulator: headless runs, benchmarks and validation")]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scene file (or a built-in scene by name) and write its outputs.
+    Run {
+        /// Scene file path or built-in name (see `phonation scenes`).
+        scene: Option<String>,
+        /// Output directory (default: out/<scene name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Run this many steps instead of the scene's duration.
+        #[arg(long)]
+        steps: Option<u64>,
+    },
+    /// Validate a scene file and print what it resolves to, without running it.
+    Check { scene: String },
+    /// List the built-in scenes.
+    Scenes,
+    /// Memory bandwidth, node updates per second and speed-vs-error tables.
+    Bench {
+        /// Small grids, for a smoke run.
+        #[arg(long)]
+        quick: bool,
+        /// Also write the report as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Run the validation cases against their references; exits non-zero if any fails.
+    Validate {
+        /// Only cases whose name contains this.
+        #[arg(long)]
+        case: Option<String>,
+        /// Also write the outcomes as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+}
+
+fn scene_text(arg: &str) -> anyhow::Result<String> {
+    if let Some(t) = scene::builtin(arg) {
+        return Ok(t.to_string());
+    }
+    std::fs::read_to_string(arg).with_context(|| format!("reading scene file {arg} (not a built-in scene either: {})", scene::BUILTIN.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")))
+}
+
+fn main() -> anyhow::Result<()> {
+    let cli = Cli::parse();
+    match cli.command.unwrap_or(Command::Run { scene: None, out: None, steps: None }) {
+        Command::Run { scene: name, out, steps } => {
+            let name = name.unwrap_or_else(|| scene::DEFAULT_SCENE.to_string());
+            let sc = scene::load(&scene_text(&name)?)?;
+            let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.file.name));
+            let sum = sc.summary();
+            eprintln!(
+                "scene {}: {:?} {:?} nodes, Δt = {:.4} (τ = {:.4}, A = {:.4}), ν = {:.5} lattice, {} steps, Mach {:.3}{}",
+                sum.name, sc.file.domain.lattice, sum.nodes, sum.params.dt, sum.params.tau, sum.params.a, sum.nu_lattice, steps.unwrap_or(sum.steps), sum.reference_mach,
+                if sum.mach_scaled { " (Mach-scaled)" } else { "" }
+            );
+            let report = run_scene(&sc, &dir, &RunOptions { steps, show_progress: true })?;
+            eprintln!(
+                "{} steps, {:.4e} s simulated in {:.1} s wall ({:.3e} node updates/s), mass drift {:.2e}, max Mach {:.3}",
+                report.steps_done, report.simulated_time_s, report.wall_time_s, report.node_updates_per_s, report.mass_drift, report.max_mach
+            );
+            eprintln!("outputs in {}", dir.display());
+            if let RunStatus::Unstable { diagnosis, .. } = &report.status {
+                bail!("run stopped: {diagnosis} (outputs written so far are kept in {})", dir.display());
+            }
+        }
+        Command::Check { scene: name } => {
+            let sc = scene::load(&scene_text(&name)?)?;
+            println!("{}", serde_json::to_string_pretty(&sc.summary())?);
+        }
+        Command::Scenes => {
+            for (n, t) in scene::BUILTIN {
+                let d = scene::parse(t).map(|s| s.description).unwrap_or_default();
+                println!("{n:16} {d}");
+            }
+        }
+        Command::Bench { quick, json } => {
+            let r = phonation::bench::run(quick);
+            println!("threads: {}, STREAM-like triad bandwidth: {:.2} GB/s", r.threads, r.triad_bandwidth_gb_s);
+            println!("{:8} {:>16} {:>16} {:>10} {:>10}", "lattice", "nodes", "updates/s", "B/update", "of b/w");
+            for l in &r.lattices {
+                println!("{:8} {:>16} {:>16.3e} {:>10.0} {:>9.1}%", l.lattice, format!("{:?}", l.nodes), l.node_updates_per_s, l.bytes_per_node_update, 100.0 * l.bandwidth_fraction);
+                let st: Vec<String> = l.stage_fractions.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
+                println!("         stages: {}", st.join(", "));
+            }
+            println!("speed vs error, Taylor–Green D2Q21 (Re = 10):");
+            println!("{:>6} {:>14} {:>16}", "n", "wall s / t.u.", "decay-rate error");
+            for t in &r.speed_vs_error {
+                println!("{:>6} {:>14.3e} {:>15.3}%", t.n, t.wall_per_time_unit, 100.0 * t.relative_error);
+            }
+            if let Some(p) = json {
+                std::fs::write(p, serde_json::to_string_pretty(&r)?)?;
+            }
+        }
+        Command::Validate { case, json } => {
+            let outcomes = phonation::validation::suite::run(case.as_deref());
+            let mut failed = 0;
+            for o in &outcomes {
+                println!("{}", o);
+                if !o.pass {
+                    failed += 1;
+                }
+            }
+            if let Some(p) = json {
+                std::fs::write(p, serde_json::to_string_pretty(&outcomes)?)?;
+            }
+            println!("validate: {} passed, {} failed", outcomes.len() - failed, failed);
+            if failed > 0 {
+                bail!("{failed} validation case(s) out of tolerance");
+            }
+        }
+    }
+    Ok(())
+}

@@ -2,7 +2,11 @@
 //! returns its measured figure next to the reference; the tests and the `validate` CLI
 //! subcommand assert the tolerances.
 
-pub mod taylor_green;
+pub mod cavity;
+pub mod channel;
+pub mod cylinder;
 pub mod riemann;
 pub mod sod;
 pub mod sound;
+pub mod suite;
+pub mod taylor_green;

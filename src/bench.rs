@@ -1,0 +1,98 @@
+//! Speed measurements (a `bench` subcommand, never a timed test): the machine's memory bandwidth
+//! (a STREAM-like triad) and the FDLB node updates per second measured in the same process, the
+//! bytes moved per node update and the fraction of bandwidth achieved; and a speed-vs-error table
+//! (Taylor–Green at three resolutions).
+
+use crate::fluid::{Boundaries, Equilibrium, FluidSolver, GasModel, Grid, Macro, VelocitySet, VelocitySetKind, timestep};
+use crate::validation::taylor_green::{TaylorGreenCase, TaylorGreenResult};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::time::Instant;
+
+/// Best-of-`reps` triad a[i] = b[i] + s·c[i] over `n` f64, in bytes/s (3 × 8 bytes per element,
+/// the STREAM convention).
+pub fn triad_bandwidth(n: usize, reps: usize) -> f64 {
+    let mut a = vec![0.0f64; n];
+    let b: Vec<f64> = (0..n).map(|i| i as f64).collect();
+    let c: Vec<f64> = (0..n).map(|i| (n - i) as f64).collect();
+    let mut best = f64::INFINITY;
+    for r in 0..reps {
+        let s = 1.0 + r as f64 * 1e-3;
+        let t = Instant::now();
+        a.par_chunks_mut(1 << 16).zip(b.par_chunks(1 << 16)).zip(c.par_chunks(1 << 16)).for_each(|((a, b), c)| {
+            for i in 0..a.len() {
+                a[i] = b[i] + s * c[i];
+            }
+        });
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    std::hint::black_box(&a);
+    24.0 * n as f64 / best
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct LatticeSpeed {
+    pub lattice: String,
+    pub nodes: [usize; 3],
+    pub steps: u64,
+    pub node_updates_per_s: f64,
+    pub bytes_per_node_update: f64,
+    pub bandwidth_fraction: f64,
+    pub stage_fractions: Vec<(String, f64)>,
+}
+
+/// Node updates per second of a periodic box with a smooth flow.
+pub fn lattice_speed(set: VelocitySetKind, n: [usize; 3], steps: u64, bandwidth: f64) -> LatticeSpeed {
+    let vs = VelocitySet::new(set);
+    let dim = vs.dim;
+    let l1 = vs.max_l1_speed();
+    let eq = Equilibrium::new(vs, GasModel::Monatomic);
+    let params = timestep::choose(0.05, 0.6, l1, None, timestep::DEFAULT_COURANT_SAFETY).unwrap();
+    let k = 2.0 * std::f64::consts::PI / n[0] as f64;
+    let init = move |x: [f64; 3]| Macro { rho: 1.0, u: [0.05 * (k * x[1]).sin(), 0.05 * (k * x[0]).sin(), 0.0], theta: 0.6 };
+    let mut s = FluidSolver::new(eq, Grid::new(dim, n), Boundaries::periodic(), &[], params, init);
+    s.run(2).expect("stable");
+    s.timings = Default::default();
+    let t = Instant::now();
+    s.run(steps).expect("stable");
+    let wall = t.elapsed().as_secs_f64();
+    let ups = steps as f64 * s.layout.fluid_count as f64 / wall;
+    let bytes = s.bytes_per_node_update();
+    LatticeSpeed {
+        lattice: format!("{set:?}"),
+        nodes: s.layout.grid.n,
+        steps,
+        node_updates_per_s: ups,
+        bytes_per_node_update: bytes,
+        bandwidth_fraction: ups * bytes / bandwidth,
+        stage_fractions: s.timings.report().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    pub threads: usize,
+    pub triad_bandwidth_gb_s: f64,
+    pub lattices: Vec<LatticeSpeed>,
+    pub speed_vs_error: Vec<TaylorGreenResult>,
+}
+
+/// The full CPU benchmark. `quick` shrinks grids for a smoke run.
+pub fn run(quick: bool) -> BenchReport {
+    let bw = triad_bandwidth(if quick { 1 << 22 } else { 1 << 25 }, 10);
+    let (n2, n3, st) = if quick { (128, 32, 3) } else { (512, 96, 10) };
+    let lattices = vec![
+        lattice_speed(VelocitySetKind::D2q21, [n2, n2, 1], st, bw),
+        lattice_speed(VelocitySetKind::D3q39, [n3, n3, n3], st.min(5), bw),
+    ];
+    let speed_vs_error = [32usize, 64, 128]
+        .iter()
+        .map(|&n| {
+            let mut c = TaylorGreenCase::new(VelocitySetKind::D2q21, n);
+            // Fixed physical problem: Re = U L / ν = 0.02 · n / (0.002 · n) = 10 at every resolution.
+            c.decay_times = if quick { 0.1 } else { 0.5 };
+            c.run()
+        })
+        .collect();
+    BenchReport { threads: rayon::current_num_threads(), triad_bandwidth_gb_s: bw / 1e9, lattices, speed_vs_error }
+}

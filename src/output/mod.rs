@@ -1,0 +1,8 @@
+//! Outputs of a run: probe time series (CSV), field snapshots (PNG colour maps, legacy VTK for
+//! ParaView) and a summary (JSON). Each writer flushes as it goes so that a run that stops early
+//! keeps everything written so far.
+
+pub mod fields;
+pub mod png_map;
+pub mod probes;
+pub mod vtk;

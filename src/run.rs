@@ -1,0 +1,140 @@
+//! Headless run of a scene: steps the CPU solver, writes probes, snapshots and a summary, and
+//! stops with a diagnosis (keeping every output written so far) when the run goes unstable.
+
+use crate::fluid::{FluidSolver, Instability};
+use crate::output::{fields, png_map, probes::ProbeWriter, vtk};
+use crate::scene::FluidScene;
+use crate::scene::build::SceneSummary;
+use crate::scene::schema::Field;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// How a run ended.
+#[derive(Clone, Debug, Serialize)]
+#[serde(tag = "status", rename_all = "snake_case")]
+pub enum RunStatus {
+    Completed,
+    Unstable {
+        diagnosis: String,
+        step: u64,
+        time_s: f64,
+        /// Physical position of the offending node.
+        position: [f64; 3],
+        quantity: String,
+        value: f64,
+    },
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct RunReport {
+    pub scene: SceneSummary,
+    #[serde(flatten)]
+    pub status: RunStatus,
+    pub steps_done: u64,
+    pub simulated_time_s: f64,
+    pub wall_time_s: f64,
+    pub node_updates_per_s: f64,
+    pub mass_drift: f64,
+    pub max_mach: f64,
+    /// Fraction of the step's wall time per stage of the stage list.
+    pub stage_fractions: Vec<(String, f64)>,
+    pub files: Vec<PathBuf>,
+}
+
+/// Options that override the scene file.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// Run this many steps instead of the scene's duration.
+    pub steps: Option<u64>,
+    pub show_progress: bool,
+}
+
+fn snapshot(s: &FluidSolver, scene: &FluidScene, dir: &Path, k: u64, files: &mut Vec<PathBuf>) -> std::io::Result<()> {
+    for &f in &scene.file.output.png_fields {
+        let name = format!("{:?}", f).to_lowercase();
+        let path = dir.join(format!("snapshot_{k:03}_{name}.png"));
+        let sl = fields::slice(s, &scene.units, f);
+        png_map::write_png(&path, &sl, matches!(f, Field::Vorticity | Field::Pressure))?;
+        files.push(path);
+    }
+    if scene.file.output.vtk {
+        let path = dir.join(format!("snapshot_{k:03}.vtk"));
+        vtk::write_vtk(&path, s, &scene.units, &format!("{} step {}", scene.file.name, s.step_count))?;
+        files.push(path);
+    }
+    Ok(())
+}
+
+/// Runs `scene`, writing into `dir` (created if needed). Returns the report, also written as
+/// `summary.json`; an unstable run is reported in it, not as an `Err`.
+pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::Result<RunReport> {
+    std::fs::create_dir_all(dir)?;
+    let mut s = scene.build_solver();
+    let units = scene.units;
+    let total = opts.steps.unwrap_or(scene.steps);
+    let mut files = vec![dir.join("probes.csv")];
+    let mut probes = ProbeWriter::create(&files[0], &s, &scene.probes)?;
+    probes.sample(&s, &units)?;
+    let snaps = scene.file.output.snapshots;
+    let snap_every = if snaps > 0 { (total / snaps).max(1) } else { u64::MAX };
+    let m0 = s.totals().mass;
+    let bar = if opts.show_progress { indicatif::ProgressBar::new(total) } else { indicatif::ProgressBar::hidden() };
+    bar.set_style(indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} steps  {per_sec}  eta {eta}").unwrap());
+    let t0 = Instant::now();
+    let mut status = RunStatus::Completed;
+    let mut k_snap = 0;
+    for step in 1..=total {
+        if let Err(e) = s.step() {
+            status = unstable(&e, scene);
+            break;
+        }
+        if step % scene.file.output.probe_every == 0 || step == total {
+            probes.sample(&s, &units)?;
+        }
+        if step % snap_every == 0 && k_snap < snaps {
+            k_snap += 1;
+            snapshot(&s, scene, dir, k_snap, &mut files)?;
+        }
+        if step % 64 == 0 {
+            bar.set_position(step);
+        }
+    }
+    bar.finish_and_clear();
+    let wall = t0.elapsed().as_secs_f64();
+    // A final snapshot of whatever state the run reached (the last finite one if unstable).
+    if matches!(status, RunStatus::Unstable { .. }) {
+        snapshot(&s, scene, dir, 999, &mut files)?;
+    }
+    let steps_done = s.step_count;
+    let report = RunReport {
+        scene: scene.summary(),
+        status,
+        steps_done,
+        simulated_time_s: units.time_to_physical(s.time),
+        wall_time_s: wall,
+        node_updates_per_s: steps_done as f64 * s.layout.fluid_count as f64 / wall.max(1e-9),
+        mass_drift: (s.totals().mass - m0) / m0,
+        max_mach: s.max_mach(),
+        stage_fractions: s.timings.report().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
+        files: files.clone(),
+    };
+    let summary = dir.join("summary.json");
+    std::fs::write(&summary, serde_json::to_string_pretty(&report)?)?;
+    let mut report = report;
+    report.files.push(summary);
+    Ok(report)
+}
+
+fn unstable(e: &Instability, scene: &FluidScene) -> RunStatus {
+    let u = &scene.units;
+    let pos = std::array::from_fn(|a| if a < scene.grid.dim { (e.node[a] as f64 + 0.5) * u.dx } else { 0.0 });
+    RunStatus::Unstable {
+        diagnosis: e.to_string(),
+        step: e.step,
+        time_s: u.time_to_physical(e.time),
+        position: pos,
+        quantity: e.quantity.to_string(),
+        value: e.value,
+    }
+}

@@ -1,0 +1,383 @@
+//! Validation of a scene file and its translation to lattice units. Every check runs before
+//! anything large is allocated; an error names the field and the reason.
+
+use super::schema::*;
+use crate::fluid::equilibrium::MACRO_FIELDS;
+use crate::fluid::{Boundaries, Equilibrium, FaceCondition, FluidSolver, Grid, Macro, Obstacle, Shape, StepParams, VelocitySet, timestep};
+use crate::units::Units;
+use serde::Serialize;
+use thiserror::Error;
+
+/// A rejected scene: which field, and why.
+#[derive(Debug, Error, PartialEq)]
+#[error("scene field `{field}`: {reason}")]
+pub struct SceneError {
+    pub field: String,
+    pub reason: String,
+}
+
+fn err<T>(field: impl Into<String>, reason: impl Into<String>) -> Result<T, SceneError> {
+    Err(SceneError { field: field.into(), reason: reason.into() })
+}
+
+/// A validated scene in lattice units, ready to allocate.
+#[derive(Clone, Debug)]
+pub struct FluidScene {
+    pub file: SceneFile,
+    pub units: Units,
+    pub set: VelocitySet,
+    pub grid: Grid,
+    pub boundaries: Boundaries,
+    pub obstacles: Vec<Obstacle>,
+    pub params: StepParams,
+    /// Kinematic viscosity in lattice units.
+    pub nu: f64,
+    pub initial_velocity: [f64; 3],
+    pub perturbation: f64,
+    pub body_force: [f64; 3],
+    pub steps: u64,
+    /// (name, interior node coordinates, rounded to the nearest node)
+    pub probes: Vec<(String, [i64; 3])>,
+    /// Lattice Mach number of the reference velocity (Mach scaling) or of the largest velocity
+    /// the scene prescribes.
+    pub reference_mach: f64,
+    pub mach_scaled: bool,
+    pub estimated_bytes: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneSummary {
+    pub name: String,
+    pub lattice: String,
+    pub nodes: [usize; 3],
+    pub units: Units,
+    pub params: StepParams,
+    pub nu_lattice: f64,
+    pub steps: u64,
+    pub reference_mach: f64,
+    pub mach_scaled: bool,
+}
+
+/// Parses TOML text (unknown keys and wrong types are errors that name the key).
+pub fn parse(text: &str) -> Result<SceneFile, SceneError> {
+    toml::from_str(text).map_err(|e| {
+        let msg = e.message().to_string();
+        let field = e.span().map(|s| text[s].lines().next().unwrap_or("").trim().to_string()).unwrap_or_default();
+        SceneError { field: if field.is_empty() { "<file>".into() } else { field }, reason: msg }
+    })
+}
+
+/// Parses and validates a scene.
+pub fn load(text: &str) -> Result<FluidScene, SceneError> {
+    FluidScene::new(parse(text)?)
+}
+
+fn finite_positive(field: &str, v: f64) -> Result<f64, SceneError> {
+    if v.is_finite() && v > 0.0 { Ok(v) } else { err(field, format!("must be positive and finite, got {v}")) }
+}
+
+fn vector(field: &str, v: &[f64], dim: usize, allow_empty: bool) -> Result<[f64; 3], SceneError> {
+    if v.is_empty() && allow_empty {
+        return Ok([0.0; 3]);
+    }
+    if v.len() != dim {
+        return err(field, format!("needs {dim} components for a {dim}D lattice, got {}", v.len()));
+    }
+    if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+        return err(field, format!("component {x} is not finite"));
+    }
+    Ok(std::array::from_fn(|a| if a < dim { v[a] } else { 0.0 }))
+}
+
+fn available_memory() -> f64 {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|s| s.lines().find(|l| l.starts_with("MemAvailable")).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok()))
+        .map(|kb| kb * 1024.0)
+        .unwrap_or(8.0 * 1024.0 * 1024.0 * 1024.0)
+}
+
+impl FluidScene {
+    pub fn new(file: SceneFile) -> Result<Self, SceneError> {
+        let set = VelocitySet::new(file.domain.lattice);
+        let dim = set.dim;
+        let d = &file.domain;
+        if d.size.len() != dim {
+            return err("domain.size", format!("lattice {:?} is {dim}D, so size needs {dim} entries, got {}", d.lattice, d.size.len()));
+        }
+        if d.cells.len() != dim {
+            return err("domain.cells", format!("needs {dim} entries, got {}", d.cells.len()));
+        }
+        for a in 0..dim {
+            finite_positive(&format!("domain.size[{a}]"), d.size[a])?;
+            if d.cells[a] < 1 {
+                return err(format!("domain.cells[{a}]"), format!("must be at least 1, got {}", d.cells[a]));
+            }
+        }
+        let dx = d.size[0] / d.cells[0] as f64;
+        for a in 1..dim {
+            let dxa = d.size[a] / d.cells[a] as f64;
+            if ((dxa - dx) / dx).abs() > 1e-6 {
+                return err(format!("domain.cells[{a}]"), format!("spacing {dxa} differs from the x spacing {dx}; cells must be square"));
+            }
+        }
+        let n: [usize; 3] = std::array::from_fn(|a| if a < dim { d.cells[a] as usize } else { 1 });
+
+        let g = &file.gas;
+        let rho0 = finite_positive("gas.density", g.density)?;
+        let mu = finite_positive("gas.viscosity", g.viscosity)?;
+        let c_real = match g.sound_speed {
+            Some(c) => finite_positive("gas.sound_speed", c)?,
+            None => match file.units {
+                UnitSystem::Cgs => 34_300.0,
+                UnitSystem::Si => 343.0,
+            },
+        };
+        let eq = Equilibrium::new(set.clone(), g.model);
+        let gamma = eq.gamma();
+        let window = set.positivity_window();
+        let nm = &file.numerics;
+        let theta0 = nm.temperature.unwrap_or(0.6);
+        if !(theta0 > window.0 + 0.02 && theta0 < window.1 - 0.02) {
+            return err(
+                "numerics.temperature",
+                format!("reduced temperature {theta0} must lie inside ({:.3}, {:.3}), 0.02 away from the edges of the window where every {:?} weight is positive", window.0, window.1, d.lattice),
+            );
+        }
+        let (c_eff, mach_scaled, ref_mach) = match &nm.mach_scaling {
+            Some(ms) => {
+                let u = finite_positive("numerics.mach_scaling.reference_velocity", ms.reference_velocity)?;
+                let ma = ms.mach;
+                if !(ma > 0.0 && ma <= 0.5) {
+                    return err("numerics.mach_scaling.mach", format!("must be in (0, 0.5], got {ma}"));
+                }
+                (u / ma, true, ma)
+            }
+            None => (c_real, false, 0.0),
+        };
+        let units = Units::new(dx, rho0, c_eff, theta0, gamma);
+        let nu = units.kinematic_viscosity_to_lattice(mu / rho0);
+
+        // Boundaries.
+        let fs = &file.boundaries;
+        let mut faces: Vec<(&str, Option<&FaceSpec>)> = vec![("x_min", Some(&fs.x_min)), ("x_max", Some(&fs.x_max)), ("y_min", Some(&fs.y_min)), ("y_max", Some(&fs.y_max))];
+        faces.push(("z_min", fs.z_min.as_ref()));
+        faces.push(("z_max", fs.z_max.as_ref()));
+        let mut conds: Vec<FaceCondition> = Vec::new();
+        let mut max_u: f64 = 0.0;
+        for (k, (name, spec)) in faces.iter().enumerate() {
+            let field = format!("boundaries.{name}");
+            let axis = k / 2;
+            let c = match (spec, axis < dim) {
+                (None, true) => return err(field, "missing: a 3D lattice needs conditions on the z faces"),
+                (Some(_), false) => return err(field, "a 2D lattice has no z faces"),
+                (None, false) => FaceCondition::Periodic,
+                (Some(s), true) => match s {
+                    FaceSpec::Periodic => FaceCondition::Periodic,
+                    FaceSpec::Wall { velocity, temperature_ratio } => {
+                        let v = vector(&format!("{field}.velocity"), velocity, dim, true)?;
+                        max_u = max_u.max(v.iter().map(|x| x.abs()).fold(0.0, f64::max));
+                        let t = match temperature_ratio {
+                            Some(r) => Some(theta0 * finite_positive(&format!("{field}.temperature_ratio"), *r)?),
+                            None => None,
+                        };
+                        FaceCondition::Wall { velocity: v.map(|x| units.velocity_to_lattice(x)), temperature: t }
+                    }
+                    FaceSpec::PressureInlet { pressure, temperature_ratio } => {
+                        if !pressure.is_finite() {
+                            return err(format!("{field}.pressure"), "must be finite");
+                        }
+                        let th = theta0 * finite_positive(&format!("{field}.temperature_ratio"), *temperature_ratio)?;
+                        let p = units.gauge_pressure_to_lattice(*pressure);
+                        if p <= 0.0 {
+                            return err(format!("{field}.pressure"), format!("gauge pressure {pressure} gives a non-positive absolute pressure"));
+                        }
+                        max_u = max_u.max((2.0 * pressure.abs() / rho0).sqrt());
+                        FaceCondition::PressureInlet { rho: p / th, theta: th }
+                    }
+                    FaceSpec::VelocityInlet { velocity, temperature_ratio } => {
+                        let v = vector(&format!("{field}.velocity"), velocity, dim, false)?;
+                        max_u = max_u.max(v.iter().map(|x| x.abs()).fold(0.0, f64::max));
+                        let th = theta0 * finite_positive(&format!("{field}.temperature_ratio"), *temperature_ratio)?;
+                        FaceCondition::VelocityInlet { velocity: v.map(|x| units.velocity_to_lattice(x)), theta: th }
+                    }
+                    FaceSpec::Outlet => FaceCondition::Outlet,
+                },
+            };
+            conds.push(c);
+        }
+        for a in 0..dim {
+            let (lo, hi) = (&conds[2 * a], &conds[2 * a + 1]);
+            if matches!(lo, FaceCondition::Periodic) != matches!(hi, FaceCondition::Periodic) {
+                return err(format!("boundaries.{}", ["x_max", "y_max", "z_max"][a]), "periodic faces must come in pairs on the same axis");
+            }
+        }
+        for (k, c) in conds.iter().enumerate() {
+            if let FaceCondition::Wall { temperature: Some(t), .. } | FaceCondition::PressureInlet { theta: t, .. } | FaceCondition::VelocityInlet { theta: t, .. } = c
+                && !(*t > window.0 && *t < window.1)
+            {
+                return err(format!("boundaries.{}.temperature_ratio", faces[k].0), format!("θ = {t:.4} leaves the positivity window ({:.3}, {:.3})", window.0, window.1));
+            }
+        }
+        let boundaries = Boundaries { faces: conds.try_into().expect("six faces") };
+
+        // Obstacles.
+        let lattice_point = |field: &str, p: &[f64]| -> Result<[f64; 3], SceneError> {
+            let v = vector(field, p, dim, false)?;
+            for a in 0..dim {
+                if v[a] < 0.0 || v[a] > d.size[a] {
+                    return err(field, format!("coordinate {} lies outside the domain [0, {}]", v[a], d.size[a]));
+                }
+            }
+            Ok(std::array::from_fn(|a| if a < dim { units.position_to_lattice(v[a]) } else { 0.0 }))
+        };
+        let mut obstacles = Vec::new();
+        for (k, o) in file.obstacles.iter().enumerate() {
+            let f = format!("obstacles[{k}]");
+            let shape = match o {
+                ObstacleSpec::Cylinder { center, radius } => {
+                    let c = lattice_point(&format!("{f}.center"), center)?;
+                    let r = finite_positive(&format!("{f}.radius"), *radius)?;
+                    for a in 0..2 {
+                        if center[a] - r < 0.0 || center[a] + r > d.size[a] {
+                            return err(format!("{f}.radius"), format!("the cylinder (centre {center:?}, radius {r}) does not fit inside the domain"));
+                        }
+                    }
+                    Shape::Cylinder { center: c, radius: units.length_to_lattice(r) }
+                }
+                ObstacleSpec::Sphere { center, radius } => {
+                    if dim != 3 {
+                        return err(&f, "a sphere needs a 3D lattice; use a cylinder in 2D");
+                    }
+                    let c = lattice_point(&format!("{f}.center"), center)?;
+                    let r = finite_positive(&format!("{f}.radius"), *radius)?;
+                    Shape::Sphere { center: c, radius: units.length_to_lattice(r) }
+                }
+                ObstacleSpec::Box { min, max } => {
+                    let lo = lattice_point(&format!("{f}.min"), min)?;
+                    let hi = lattice_point(&format!("{f}.max"), max)?;
+                    if (0..dim).any(|a| hi[a] <= lo[a]) {
+                        return err(format!("{f}.max"), "every component must exceed min");
+                    }
+                    let (mut lo, mut hi) = (lo, hi);
+                    if dim == 2 {
+                        lo[2] = -1e9;
+                        hi[2] = 1e9;
+                    }
+                    Shape::Cuboid { min: lo, max: hi }
+                }
+            };
+            obstacles.push(Obstacle { shape, velocity: [0.0; 3], temperature: None });
+        }
+
+        // Initial state and forcing.
+        let ini = &file.initial;
+        let u0 = vector("initial.velocity", &ini.velocity, dim, true)?;
+        max_u = max_u.max(u0.iter().map(|x| x.abs()).fold(0.0, f64::max));
+        if !(ini.perturbation.is_finite() && ini.perturbation.abs() <= 0.5) {
+            return err("initial.perturbation", format!("must be in [−0.5, 0.5], got {}", ini.perturbation));
+        }
+        let gforce = vector("initial.body_force", &ini.body_force, dim, true)?;
+
+        // Time step.
+        let safety = nm.courant_safety.unwrap_or(timestep::DEFAULT_COURANT_SAFETY);
+        if !(safety > 0.0 && safety <= 1.0) {
+            return err("numerics.courant_safety", format!("must be in (0, 1], got {safety}"));
+        }
+        let fixed_dt = match nm.time_step {
+            Some(dt) => Some(units.time_to_lattice(finite_positive("numerics.time_step", dt)?)),
+            None => None,
+        };
+        let mut params = timestep::choose(nu, theta0, set.max_l1_speed(), fixed_dt, safety).map_err(|e| SceneError {
+            field: if fixed_dt.is_some() { "numerics.time_step".into() } else { "gas.viscosity".into() },
+            reason: e.to_string(),
+        })?;
+        if let Some(tau) = nm.tau {
+            let tau = finite_positive("numerics.tau", tau)?;
+            if tau < nu / theta0 {
+                return err("numerics.tau", format!("τ = {tau} is below ν/θ₀ = {:.5}; A = τ − ν/θ₀ would be negative", nu / theta0));
+            }
+            params.tau = tau;
+            params.a = tau - nu / theta0;
+            timestep::check(params, set.max_l1_speed()).map_err(|e| SceneError { field: "numerics.tau".into(), reason: e.to_string() })?;
+        }
+
+        let duration = finite_positive("run.duration", file.run.duration)?;
+        let steps = (units.time_to_lattice(duration) / params.dt).ceil() as u64;
+        if steps > 1_000_000_000 {
+            return err("run.duration", format!("needs {steps} steps"));
+        }
+
+        let mut probes = Vec::new();
+        for (k, p) in file.probes.iter().enumerate() {
+            let x = lattice_point(&format!("probes[{k}].position"), &p.position)?;
+            let node = std::array::from_fn(|a| if a < dim { (x[a].round() as i64).clamp(0, n[a] as i64 - 1) } else { 0 });
+            probes.push((p.name.clone(), node));
+        }
+        if file.output.probe_every == 0 {
+            return err("output.probe_every", "must be at least 1");
+        }
+
+        // Memory estimate before allocation.
+        let grid = Grid::new(dim, n);
+        let nv = eq.values_per_node() as f64;
+        let estimated_bytes = grid.len() as f64 * (8.0 * (3.0 * nv + MACRO_FIELDS as f64) + 1.0);
+        let limit = nm.max_memory_bytes.unwrap_or(0.75 * available_memory());
+        if estimated_bytes > limit {
+            return err("domain.cells", format!("the grid needs {:.2} GiB of memory, more than the {:.2} GiB allowed", estimated_bytes / 2f64.powi(30), limit / 2f64.powi(30)));
+        }
+
+        let reference_mach = if mach_scaled { ref_mach } else { units.velocity_to_lattice(max_u) / (gamma * theta0).sqrt() };
+        Ok(FluidScene {
+            units,
+            set,
+            grid,
+            boundaries,
+            obstacles,
+            params,
+            nu,
+            initial_velocity: u0.map(|u| units.velocity_to_lattice(u)),
+            perturbation: ini.perturbation,
+            body_force: gforce.map(|g| units.acceleration_to_lattice(g)),
+            steps,
+            probes,
+            reference_mach,
+            mach_scaled,
+            estimated_bytes,
+            file,
+        })
+    }
+
+    /// Allocates the solver in its initial state.
+    pub fn build_solver(&self) -> FluidSolver {
+        let eq = Equilibrium::new(self.set.clone(), self.file.gas.model);
+        let (u0, th0, amp) = (self.initial_velocity, self.units.theta0, self.perturbation);
+        let n = self.grid.n;
+        let speed = u0.iter().map(|x| x * x).sum::<f64>().sqrt().max(1e-3);
+        let init = move |x: [f64; 3]| {
+            // A smooth transverse kick, zero on the domain faces, that breaks the up-down symmetry.
+            let sy = (std::f64::consts::PI * (x[1] + 0.5) / n[1] as f64).sin();
+            let sx = (2.0 * std::f64::consts::PI * (x[0] + 0.5) / n[0] as f64).sin();
+            let mut u = u0;
+            u[1] += amp * speed * sx * sy;
+            Macro { rho: 1.0, u, theta: th0 }
+        };
+        let mut s = FluidSolver::new(eq, self.grid.clone(), self.boundaries.clone(), &self.obstacles, self.params, init);
+        s.body_force = self.body_force;
+        s
+    }
+
+    pub fn summary(&self) -> SceneSummary {
+        SceneSummary {
+            name: self.file.name.clone(),
+            lattice: format!("{:?}", self.file.domain.lattice),
+            nodes: self.grid.n,
+            units: self.units,
+            params: self.params,
+            nu_lattice: self.nu,
+            steps: self.steps,
+            reference_mach: self.reference_mach,
+            mach_scaled: self.mach_scaled,
+        }
+    }
+}

@@ -1,0 +1,109 @@
+//! The validation suite run by `phonation validate`: every case, its figure, its reference and
+//! its tolerance. The fast cases are also asserted by `cargo test` (tests/fluid.rs); the slow
+//! ones (cavity, cylinder) run only here.
+
+use super::{cavity, channel, cylinder, sod, sound, taylor_green::TaylorGreenCase};
+use crate::fluid::{GasModel, VelocitySetKind};
+use serde::Serialize;
+use std::fmt;
+use std::time::Instant;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Outcome {
+    pub case: String,
+    pub figure: String,
+    pub measured: f64,
+    pub reference: String,
+    pub pass: bool,
+    pub wall_s: f64,
+}
+
+impl fmt::Display for Outcome {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        write!(f, "[{}] {:28} {:34} = {:>12.5}  (reference {}; {:.1} s)", if self.pass { "pass" } else { "FAIL" }, self.case, self.figure, self.measured, self.reference, self.wall_s)
+    }
+}
+
+type Case = (&'static str, fn() -> Vec<(String, f64, String, bool)>);
+
+fn within(m: f64, lo: f64, hi: f64) -> bool {
+    m >= lo && m <= hi
+}
+
+/// All cases: (name, runner returning (figure, measured, reference text, pass)).
+pub fn cases() -> Vec<Case> {
+    vec![
+        ("taylor_green_2d", || {
+            let r = TaylorGreenCase::new(VelocitySetKind::D2q21, 64).run();
+            vec![("decay-rate error vs ν = θ(τ−A)".into(), r.relative_error, "|err| ≤ 0.02".into(), r.relative_error.abs() <= 0.02)]
+        }),
+        ("taylor_green_3d", || {
+            let mut c = TaylorGreenCase::new(VelocitySetKind::D3q39, 24);
+            c.nu = 0.25;
+            let r = c.run();
+            vec![("decay-rate error vs ν = θ(τ−A)".into(), r.relative_error, "|err| ≤ 0.02".into(), r.relative_error.abs() <= 0.02)]
+        }),
+        ("sound_speed", || {
+            [(VelocitySetKind::D2q21, GasModel::Monatomic), (VelocitySetKind::D3q39, GasModel::Monatomic), (VelocitySetKind::D2q21, GasModel::Diatomic), (VelocitySetKind::D3q39, GasModel::Diatomic)]
+                .iter()
+                .map(|&(s, g)| {
+                    let r = sound::sound_speed(s, g, 64);
+                    (format!("{s:?} γ = {:.3}: c_s error", r.gamma), r.relative_error, "|err| ≤ 0.01".into(), r.relative_error.abs() <= 0.01)
+                })
+                .collect()
+        }),
+        ("sod_shock_tube", || {
+            let mut out = Vec::new();
+            for gas in [GasModel::Monatomic, GasModel::Diatomic] {
+                let mut c = sod::SodCase::new(VelocitySetKind::D2q21, gas);
+                c.scale = 0.7;
+                let r = c.run();
+                for (name, m, e, rel) in &r.plateaus {
+                    out.push((format!("γ = {:.1}: {name}", r.gamma), *m, format!("{e:.5} ± 2%"), rel.abs() <= 0.02));
+                }
+                let ds = r.shock_position.0 - r.shock_position.1;
+                let dc = r.contact_position.0 - r.contact_position.1;
+                out.push((format!("γ = {:.1}: shock offset (cells)", r.gamma), ds, "|Δ| ≤ 3".into(), ds.abs() <= 3.0));
+                out.push((format!("γ = {:.1}: contact offset (cells)", r.gamma), dc, "|Δ| ≤ 3".into(), dc.abs() <= 3.0));
+            }
+            out
+        }),
+        ("poiseuille", || {
+            let r = channel::poiseuille(32);
+            vec![("profile L2 error".into(), r.l2_error, "≤ 0.01".into(), r.l2_error <= 0.01)]
+        }),
+        ("thermal_couette", || {
+            let r = channel::thermal_couette(32);
+            let (m, p) = r.peak_rise.unwrap();
+            vec![
+                ("velocity profile L2 error".into(), r.l2_error, "≤ 0.01".into(), r.l2_error <= 0.01),
+                ("peak Δθ / (Pr U²/8c_p)".into(), m / p, "1 ± 0.03".into(), (m / p - 1.0).abs() <= 0.03),
+            ]
+        }),
+        ("lid_cavity_re100", || {
+            let r = cavity::cavity(96, 0.1, 20.0);
+            vec![(format!("{}²: max |u − Ghia| / U", r.n), r.max_deviation, "≤ 0.03".into(), r.max_deviation <= 0.03)]
+        }),
+        ("cylinder_re100", || {
+            let r = cylinder::cylinder(12, 0.1, 22.0);
+            vec![(format!("D = {} cells: Strouhal ({} periods)", r.diameter, r.periods_measured), r.strouhal, "[0.160, 0.170]".into(), within(r.strouhal, 0.160, 0.170))]
+        }),
+    ]
+}
+
+/// Runs every case whose name contains `filter`.
+pub fn run(filter: Option<&str>) -> Vec<Outcome> {
+    let mut out = Vec::new();
+    for (name, f) in cases() {
+        if filter.is_some_and(|p| !name.contains(p)) {
+            continue;
+        }
+        let t = Instant::now();
+        let rows = f();
+        let wall = t.elapsed().as_secs_f64();
+        for (figure, measured, reference, pass) in rows {
+            out.push(Outcome { case: name.to_string(), figure, measured, reference, pass, wall_s: wall });
+        }
+    }
+    out
+}
