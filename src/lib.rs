@@ -24,3 +24,5 @@ pub mod scene;
 pub mod stages;
 pub mod units;
 pub mod validation;
+#[cfg(feature = "bevy")]
+pub mod plugin;

@@ -58,13 +58,27 @@ pub struct SceneSummary {
     pub mach_scaled: bool,
 }
 
-/// Parses TOML text (unknown keys and wrong types are errors that name the key).
+/// Parses TOML text (unknown keys and wrong types are errors that name the dotted key).
 pub fn parse(text: &str) -> Result<SceneFile, SceneError> {
-    toml::from_str(text).map_err(|e| {
-        let msg = e.message().to_string();
-        let field = e.span().map(|s| text[s].lines().next().unwrap_or("").trim().to_string()).unwrap_or_default();
-        SceneError { field: if field.is_empty() { "<file>".into() } else { field }, reason: msg }
-    })
+    toml::from_str(text).map_err(|e| SceneError { field: e.span().map(|s| key_path(text, s.start)).unwrap_or_else(|| "<file>".into()), reason: e.message().to_string() })
+}
+
+/// Dotted path (`table.key`) of the key on the line holding byte `pos`.
+fn key_path(text: &str, pos: usize) -> String {
+    let before = &text[..pos.min(text.len())];
+    let line_start = before.rfind('\n').map(|i| i + 1).unwrap_or(0);
+    let line = text[line_start..].lines().next().unwrap_or("");
+    let table = before[..line_start]
+        .lines()
+        .rev()
+        .find_map(|l| l.trim().strip_prefix('[').map(|t| t.trim_start_matches('[').trim_end_matches(']').trim().to_string()));
+    let key = line.split('=').next().unwrap_or("").trim().trim_start_matches('[').trim_end_matches(']');
+    match (table, key.is_empty()) {
+        (Some(t), false) if !line.trim_start().starts_with('[') => format!("{t}.{key}"),
+        (Some(t), _) => t,
+        (None, false) => key.to_string(),
+        (None, true) => "<file>".into(),
+    }
 }
 
 /// Parses and validates a scene.

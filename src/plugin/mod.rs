@@ -1,0 +1,133 @@
+//! Bevy integration (feature `bevy`): the [`PhonationPlugin`] steps every entity that carries a
+//! [`FluidSimulation`] on the CPU backend, `steps_per_frame` steps per frame, honouring
+//! pause / single-step from [`SimulationControl`]. The systems live in [`PhonationSystems`] sets
+//! named after the solver's stages, so apps can order their own systems around them.
+//!
+//! A run that goes unstable stops stepping its entity and records the diagnosis in
+//! [`FluidStatus`]; the state before the failing step is kept for inspection.
+//!
+//! Works with `MinimalPlugins` (headless apps and tests); the GPU backend and rendering come with
+//! later milestones and keep this ECS-facing API.
+
+use crate::fluid::{FluidSolver, Instability, Totals};
+use crate::scene::FluidScene;
+use crate::units::Units;
+use bevy::prelude::*;
+
+/// System sets, in order, of one frame of the simulation.
+#[derive(SystemSet, Debug, Clone, PartialEq, Eq, Hash)]
+pub enum PhonationSystems {
+    /// Advances every simulation by `steps_per_frame` steps of [`crate::stages::FDLB_STEP`].
+    Step,
+    /// Updates [`FluidDiagnostics`].
+    Diagnostics,
+}
+
+/// Global pause / stepping controls (an egui panel or the app's input edits this).
+#[derive(Resource, Debug, Clone)]
+pub struct SimulationControl {
+    pub paused: bool,
+    /// Steps per frame while running.
+    pub steps_per_frame: u32,
+    /// While paused: run this many steps on the next frame, then stay paused.
+    pub single_steps: u32,
+}
+
+impl Default for SimulationControl {
+    fn default() -> Self {
+        SimulationControl { paused: false, steps_per_frame: 1, single_steps: 0 }
+    }
+}
+
+/// A fluid simulation owned by an entity (CPU backend).
+#[derive(Component)]
+pub struct FluidSimulation {
+    pub solver: FluidSolver,
+    /// Physical ↔ lattice units of the scene, when built from one.
+    pub units: Option<Units>,
+}
+
+impl FluidSimulation {
+    pub fn new(solver: FluidSolver) -> Self {
+        FluidSimulation { solver, units: None }
+    }
+
+    /// Allocates the solver of a validated scene.
+    pub fn from_scene(scene: &FluidScene) -> Self {
+        FluidSimulation { solver: scene.build_solver(), units: Some(scene.units) }
+    }
+}
+
+/// Whether an entity's simulation is still running.
+#[derive(Component, Debug, Clone, Default, PartialEq)]
+pub enum FluidStatus {
+    #[default]
+    Running,
+    Unstable(Instability),
+}
+
+/// Per-entity figures updated every frame.
+#[derive(Component, Debug, Clone, Default)]
+pub struct FluidDiagnostics {
+    pub steps: u64,
+    /// Lattice time units simulated.
+    pub time: f64,
+    pub initial_totals: Option<Totals>,
+    pub totals: Option<Totals>,
+    /// Relative mass drift since the first frame.
+    pub mass_drift: f64,
+}
+
+pub struct PhonationPlugin;
+
+impl Plugin for PhonationPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<SimulationControl>()
+            .configure_sets(Update, (PhonationSystems::Step, PhonationSystems::Diagnostics).chain())
+            .add_systems(Update, step_simulations.in_set(PhonationSystems::Step))
+            .add_systems(Update, update_diagnostics.in_set(PhonationSystems::Diagnostics));
+    }
+}
+
+fn step_simulations(mut control: ResMut<SimulationControl>, mut sims: Query<(Entity, &mut FluidSimulation, Option<&mut FluidStatus>)>, mut commands: Commands) {
+    let steps = if control.paused {
+        std::mem::take(&mut control.single_steps)
+    } else {
+        control.steps_per_frame
+    };
+    if steps == 0 {
+        return;
+    }
+    for (entity, mut sim, status) in &mut sims {
+        if matches!(status.as_deref(), Some(FluidStatus::Unstable(_))) {
+            continue;
+        }
+        if let Err(e) = sim.solver.run(steps as u64) {
+            warn!("phonation: simulation on {entity} stopped: {e}");
+            match status {
+                Some(mut s) => *s = FluidStatus::Unstable(e),
+                None => {
+                    commands.entity(entity).insert(FluidStatus::Unstable(e));
+                }
+            }
+        }
+    }
+}
+
+fn update_diagnostics(mut sims: Query<(Entity, &FluidSimulation, Option<&mut FluidDiagnostics>)>, mut commands: Commands) {
+    for (entity, sim, diag) in &mut sims {
+        let totals = sim.solver.totals();
+        let mut d = diag.as_deref().cloned().unwrap_or_default();
+        let initial = *d.initial_totals.get_or_insert(totals);
+        d.steps = sim.solver.step_count;
+        d.time = sim.solver.time;
+        d.totals = Some(totals);
+        d.mass_drift = (totals.mass - initial.mass) / initial.mass;
+        match diag {
+            Some(mut existing) => *existing = d,
+            None => {
+                commands.entity(entity).insert(d);
+            }
+        }
+    }
+}

@@ -1,0 +1,74 @@
+//! The Bevy plugin in a headless app (MinimalPlugins): stepping through the plugin gives exactly
+//! the same fields as stepping the solver directly; pause and single-step work; an unstable run
+//! is reported on the entity.
+#![cfg(feature = "bevy")]
+
+use bevy::prelude::*;
+use phonation::plugin::{FluidDiagnostics, FluidSimulation, FluidStatus, PhonationPlugin, SimulationControl};
+use phonation::scene;
+
+fn scene() -> scene::FluidScene {
+    let text = std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/good_base.toml")).unwrap();
+    scene::load(&text).unwrap()
+}
+
+fn app() -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, PhonationPlugin));
+    app
+}
+
+#[test]
+fn plugin_steps_give_exactly_the_direct_solver_fields() {
+    let sc = scene();
+    let mut app = app();
+    app.insert_resource(SimulationControl { paused: false, steps_per_frame: 3, single_steps: 0 });
+    let e = app.world_mut().spawn(FluidSimulation::from_scene(&sc)).id();
+    for _ in 0..10 {
+        app.update();
+    }
+    let mut direct = sc.build_solver();
+    direct.run(30).unwrap();
+    let sim = app.world().get::<FluidSimulation>(e).unwrap();
+    assert_eq!(sim.solver.step_count, 30);
+    assert_eq!(sim.solver.f.len(), direct.f.len());
+    assert!(sim.solver.f.iter().zip(&direct.f).all(|(a, b)| a.to_bits() == b.to_bits()), "fields differ");
+    let d = app.world().get::<FluidDiagnostics>(e).unwrap();
+    assert_eq!(d.steps, 30);
+    assert!(d.mass_drift.abs() < 0.05);
+}
+
+#[test]
+fn pause_and_single_step() {
+    let sc = scene();
+    let mut app = app();
+    app.insert_resource(SimulationControl { paused: true, steps_per_frame: 5, single_steps: 0 });
+    let e = app.world_mut().spawn(FluidSimulation::from_scene(&sc)).id();
+    app.update();
+    app.update();
+    assert_eq!(app.world().get::<FluidSimulation>(e).unwrap().solver.step_count, 0);
+    app.world_mut().resource_mut::<SimulationControl>().single_steps = 2;
+    app.update();
+    app.update();
+    assert_eq!(app.world().get::<FluidSimulation>(e).unwrap().solver.step_count, 2);
+}
+
+#[test]
+fn unstable_simulation_is_marked_and_stops() {
+    let mut sc = scene();
+    sc.params.dt = 1.0;
+    sc.params.tau = 1.0;
+    sc.params.a = 0.0;
+    let mut app = app();
+    app.insert_resource(SimulationControl { paused: false, steps_per_frame: 50, single_steps: 0 });
+    let e = app.world_mut().spawn(FluidSimulation::from_scene(&sc)).id();
+    for _ in 0..40 {
+        app.update();
+    }
+    let status = app.world().get::<FluidStatus>(e).cloned();
+    let Some(FluidStatus::Unstable(err)) = status else { panic!("expected an unstable status, got {status:?}") };
+    let steps = app.world().get::<FluidSimulation>(e).unwrap().solver.step_count;
+    assert_eq!(steps, err.step, "stepping stopped at the failing step");
+    app.update();
+    assert_eq!(app.world().get::<FluidSimulation>(e).unwrap().solver.step_count, steps);
+}
