@@ -291,11 +291,12 @@ fn poiseuille_profile() {
 }
 
 #[test]
-fn thermal_couette_velocity_profile_is_linear() {
-    // The peak temperature rise is checked by `phonation validate --case couette`, where it
-    // currently fails (0.55 of Pr U²/8c_p; the ghost-node walls leak mass, see the issue note).
+fn thermal_couette_profile_and_viscous_heating() {
+    // Isothermal walls, Pr = 1: the peak temperature rise is Pr U² / (8 c_p), c_p = 2 (2D).
     let r = channel::thermal_couette(16);
     assert!(r.l2_error < 0.01, "{r:?}");
+    let (measured, predicted) = r.peak_rise.unwrap();
+    assert!((measured / predicted - 1.0).abs() < 0.03, "{r:?}");
 }
 
 fn periodic_solver(kind: VelocitySetKind, n: [usize; 3], theta0: f64, u0: f64) -> FluidSolver {

@@ -18,6 +18,7 @@
 
 use super::equilibrium::{Equilibrium, MACRO_FIELDS, Macro};
 use super::layout::Layout;
+use super::timestep::StepParams;
 
 /// One of the 2·D faces of the domain.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -69,16 +70,18 @@ impl Boundaries {
     }
 }
 
-/// Node state arrays of one Runge–Kutta stage: populations, their equilibria, macroscopic fields.
+/// Node state arrays of one Runge–Kutta stage: populations f, the advected field
+/// h = (1 − A/τ) f + (A/τ) f⁰, and the macroscopic fields.
 pub struct StageFields<'a> {
     pub f: &'a mut [f64],
-    pub feq: &'a mut [f64],
+    pub h: &'a mut [f64],
     pub mac: &'a mut [f64],
 }
 
 /// Fills ghost, inlet/outlet and periodic halo nodes of `fields` (seed §2.3 boundaries; see the
 /// module docs). Fluid nodes must already hold their moments and equilibria.
-pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFields) {
+pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFields, p: StepParams) {
+    let k_eq = p.a / p.tau;
     let nv = eq.values_per_node();
     let mut w = vec![0.0; eq.set.shells.len()];
     let mut fe = vec![0.0; nv];
@@ -92,8 +95,10 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
             for (a, v) in m.iter_mut().enumerate() {
                 *v += wk * fields.mac[k * MACRO_FIELDS + a];
             }
+            let mk = read_macro(fields.mac, k);
+            eq.feq_into(&mk, &mut w, &mut fe);
             for i in 0..nv {
-                neq[i] += wk * (fields.f[k * nv + i] - fields.feq[k * nv + i]);
+                neq[i] += wk * (fields.f[k * nv + i] - fe[i]);
             }
         }
         let r = g.ratio;
@@ -103,8 +108,9 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
             Some(tw) => tw + r * (m[4] - tw),
             None => m[4],
         };
-        let mg = Macro { rho: m[0], u, theta };
-        set_node(eq, fields, g.node, &mg, Some(&neq), &mut w, &mut fe);
+        // Zero normal pressure gradient: the ghost keeps the image pressure at its own temperature.
+        let mg = Macro { rho: m[0] * m[4] / theta, u, theta };
+        set_node(eq, fields, g.node, &mg, &neq, k_eq, &mut w, &mut fe);
     }
 
     // Inlet and outlet halos.
@@ -116,19 +122,15 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
             }
             FaceCondition::PressureInlet { rho, theta } => {
                 let ms = read_macro(fields.mac, src);
-                for i in 0..nv {
-                    neq[i] = fields.f[src * nv + i] - fields.feq[src * nv + i];
-                }
+                non_equilibrium(eq, fields, src, &mut w, &mut fe, &mut neq);
                 let m = Macro { rho: *rho, u: ms.u, theta: *theta };
-                set_node(eq, fields, h.node, &m, Some(&neq), &mut w, &mut fe);
+                set_node(eq, fields, h.node, &m, &neq, k_eq, &mut w, &mut fe);
             }
             FaceCondition::VelocityInlet { velocity, theta } => {
                 let ms = read_macro(fields.mac, src);
-                for i in 0..nv {
-                    neq[i] = fields.f[src * nv + i] - fields.feq[src * nv + i];
-                }
+                non_equilibrium(eq, fields, src, &mut w, &mut fe, &mut neq);
                 let m = Macro { rho: ms.rho, u: *velocity, theta: *theta };
-                set_node(eq, fields, h.node, &m, Some(&neq), &mut w, &mut fe);
+                set_node(eq, fields, h.node, &m, &neq, k_eq, &mut w, &mut fe);
             }
             FaceCondition::Periodic | FaceCondition::Wall { .. } => unreachable!("not a face halo"),
         }
@@ -145,21 +147,31 @@ fn read_macro(mac: &[f64], node: usize) -> Macro {
     Macro { rho: m[0], u: [m[1], m[2], m[3]], theta: m[4] }
 }
 
+/// f − f⁰ of `node` into `neq`.
+fn non_equilibrium(eq: &Equilibrium, fields: &StageFields, node: usize, w: &mut [f64], fe: &mut [f64], neq: &mut [f64]) {
+    let nv = fe.len();
+    eq.feq_into(&read_macro(fields.mac, node), w, fe);
+    for i in 0..nv {
+        neq[i] = fields.f[node * nv + i] - fe[i];
+    }
+}
+
 fn copy_node(fields: &mut StageFields, nv: usize, src: usize, dst: usize) {
     fields.f.copy_within(src * nv..(src + 1) * nv, dst * nv);
-    fields.feq.copy_within(src * nv..(src + 1) * nv, dst * nv);
+    fields.h.copy_within(src * nv..(src + 1) * nv, dst * nv);
     fields.mac.copy_within(src * MACRO_FIELDS..(src + 1) * MACRO_FIELDS, dst * MACRO_FIELDS);
 }
 
-/// Writes macro `m`, its equilibrium and f = f⁰ + neq into `node`.
-fn set_node(eq: &Equilibrium, fields: &mut StageFields, node: usize, m: &Macro, neq: Option<&[f64]>, w: &mut [f64], fe: &mut [f64]) {
+/// Writes macro `m`, f = f⁰ + neq and h = f + (A/τ)(f⁰ − f) = f⁰ + (1 − A/τ) neq into `node`.
+#[allow(clippy::too_many_arguments)]
+fn set_node(eq: &Equilibrium, fields: &mut StageFields, node: usize, m: &Macro, neq: &[f64], k_eq: f64, w: &mut [f64], fe: &mut [f64]) {
     let nv = fe.len();
     eq.feq_into(m, w, fe);
-    fields.feq[node * nv..(node + 1) * nv].copy_from_slice(fe);
     let f = &mut fields.f[node * nv..(node + 1) * nv];
-    match neq {
-        Some(n) => f.iter_mut().zip(fe.iter().zip(n)).for_each(|(fi, (e, d))| *fi = e + d),
-        None => f.copy_from_slice(fe),
+    let h = &mut fields.h[node * nv..(node + 1) * nv];
+    for i in 0..nv {
+        f[i] = fe[i] + neq[i];
+        h[i] = fe[i] + (1.0 - k_eq) * neq[i];
     }
     let mm = &mut fields.mac[node * MACRO_FIELDS..(node + 1) * MACRO_FIELDS];
     mm.copy_from_slice(&[m.rho, m.u[0], m.u[1], m.u[2], m.theta]);

@@ -48,7 +48,9 @@ pub struct FluidSolver {
     /// Populations fⁿ (and Gⁿ), cell-major.
     pub f: Vec<f64>,
     f1: Vec<f64>,
-    feq: Vec<f64>,
+    /// Advected field of the current stage: h = (1 − A/τ) f + (A/τ) f⁰ (the two upwind terms
+    /// of (2.77) share one stencil because they are linear).
+    h: Vec<f64>,
     mac: Vec<f64>,
     stencil: Vec<VelocityStencil>,
     window: (f64, f64),
@@ -69,7 +71,7 @@ impl FluidSolver {
         let mut s = FluidSolver {
             f: vec![0.0; n * nv],
             f1: vec![0.0; n * nv],
-            feq: vec![0.0; n * nv],
+            h: vec![0.0; n * nv],
             mac: vec![0.0; n * MACRO_FIELDS],
             eq,
             layout,
@@ -144,7 +146,7 @@ impl FluidSolver {
                     RkStage::First => &self.f,
                     RkStage::Second => &self.f1,
                 };
-                let bad = moments_pass(&self.eq, &self.layout, src, &mut self.feq, &mut self.mac, self.window);
+                let bad = moments_pass(&self.eq, &self.layout, src, &mut self.h, &mut self.mac, self.window, self.params);
                 if let Some((node, quantity, value, reason)) = bad {
                     return Err(Instability {
                         step: self.step_count,
@@ -161,8 +163,8 @@ impl FluidSolver {
                     RkStage::First => &mut self.f,
                     RkStage::Second => &mut self.f1,
                 };
-                let mut fields = StageFields { f, feq: &mut self.feq, mac: &mut self.mac };
-                fill_boundaries(&self.layout, &self.eq, &mut fields);
+                let mut fields = StageFields { f, h: &mut self.h, mac: &mut self.mac };
+                fill_boundaries(&self.layout, &self.eq, &mut fields, self.params);
             }
             StageKind::AdvectCollide => {
                 let ctx = RhsContext {
@@ -173,8 +175,8 @@ impl FluidSolver {
                     g: self.body_force,
                 };
                 match stage.rk {
-                    RkStage::First => ctx.update(&self.f, &self.feq, &self.mac, &mut self.f1, RkStage::First),
-                    RkStage::Second => ctx.update(&self.f1, &self.feq, &self.mac, &mut self.f, RkStage::Second),
+                    RkStage::First => ctx.update(&self.f, &self.h, &self.mac, &mut self.f1, RkStage::First),
+                    RkStage::Second => ctx.update(&self.f1, &self.h, &self.mac, &mut self.f, RkStage::Second),
                 }
             }
         }
@@ -254,9 +256,9 @@ impl FluidSolver {
     }
 
     /// Bytes read and written per fluid-node update of one full step by this implementation
-    /// (f64): per RK stage the moments pass reads f and writes f⁰ and the 5 macro fields; the
-    /// update reads f and f⁰ (neighbours from cache), the macro fields, and writes f (stage 2
-    /// also reads fⁿ).
+    /// (f64, neighbours assumed served from cache): per RK stage the moments pass reads f and
+    /// writes h and the 5 macro fields; the update reads h, f and the macro fields and writes f;
+    /// stage 2 also reads fⁿ.
     pub fn bytes_per_node_update(&self) -> f64 {
         let nv = self.eq.values_per_node() as f64;
         let m = MACRO_FIELDS as f64;
@@ -265,28 +267,41 @@ impl FluidSolver {
     }
 }
 
-/// Moments pass: writes f⁰ and the macro fields of every fluid node; returns the first node
-/// (lowest index) whose state is not admissible.
-fn moments_pass(eq: &Equilibrium, layout: &Layout, f: &[f64], feq: &mut [f64], mac: &mut [f64], window: (f64, f64)) -> Option<(usize, &'static str, f64, String)> {
+/// Moments pass: writes the macro fields and the advected field h = (1 − A/τ) f + (A/τ) f⁰ of
+/// every fluid node; returns the first node (lowest index) whose state is not admissible.
+#[allow(clippy::type_complexity)]
+fn moments_pass(eq: &Equilibrium, layout: &Layout, f: &[f64], h: &mut [f64], mac: &mut [f64], window: (f64, f64), p: StepParams) -> Option<(usize, &'static str, f64, String)> {
     let nv = eq.values_per_node();
     let row = layout.grid.padded[0];
     let kind = &layout.kind;
-    feq.par_chunks_mut(row * nv)
+    let (k_f, k_eq) = (1.0 - p.a / p.tau, p.a / p.tau);
+    h.par_chunks_mut(row * nv)
         .zip(mac.par_chunks_mut(row * MACRO_FIELDS))
         .enumerate()
-        .map(|(r, (feq_row, mac_row))| {
+        .with_min_len(rows_per_task(row * nv))
+        .map(|(r, (h_row, mac_row))| {
             let mut w = vec![0.0; eq.set.shells.len()];
+            let mut fe = vec![0.0; nv];
             let mut bad = None;
             for x in 0..row {
                 let node = r * row + x;
                 if kind[node] != NodeKind::Fluid {
                     continue;
                 }
-                let m = eq.moments(&f[node * nv..(node + 1) * nv]);
+                let fn_ = &f[node * nv..(node + 1) * nv];
+                let m = eq.moments(fn_);
                 if bad.is_none() {
                     bad = check_state(&m, window).map(|(q, v, why)| (node, q, v, why));
                 }
-                eq.feq_into(&m, &mut w, &mut feq_row[x * nv..(x + 1) * nv]);
+                let hn = &mut h_row[x * nv..(x + 1) * nv];
+                if k_eq == 0.0 {
+                    hn.copy_from_slice(fn_);
+                } else {
+                    eq.feq_into(&m, &mut w, &mut fe);
+                    for v in 0..nv {
+                        hn[v] = k_f * fn_[v] + k_eq * fe[v];
+                    }
+                }
                 mac_row[x * MACRO_FIELDS..(x + 1) * MACRO_FIELDS].copy_from_slice(&[m.rho, m.u[0], m.u[1], m.u[2], m.theta]);
             }
             bad
@@ -295,6 +310,12 @@ fn moments_pass(eq: &Equilibrium, layout: &Layout, f: &[f64], feq: &mut [f64], m
             (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
             (a, b) => a.or(b),
         })
+}
+
+/// Rows per rayon task so that a task updates at least ~16k values (small grids would otherwise
+/// drown in scheduling overhead).
+fn rows_per_task(values_per_row: usize) -> usize {
+    (16_384 / values_per_row.max(1)).max(1)
 }
 
 fn check_state(m: &Macro, window: (f64, f64)) -> Option<(&'static str, f64, String)> {
@@ -325,49 +346,47 @@ struct RhsContext<'a> {
 impl RhsContext<'_> {
     /// Runge–Kutta update of every fluid node: stage 1 writes `out = src + Δt L(src)`;
     /// stage 2 writes `out = ½ out + ½ (src + Δt L(src))` (`out` holds fⁿ).
-    fn update(&self, src: &[f64], feq: &[f64], mac: &[f64], out: &mut [f64], rk: RkStage) {
+    /// L = −c·∇h − (f − f⁰)/τ + F, with f⁰ recomputed from the node's macro fields.
+    fn update(&self, src: &[f64], h: &[f64], mac: &[f64], out: &mut [f64], rk: RkStage) {
         let eq = self.eq;
         let nv = eq.values_per_node();
         let q = eq.q();
         let row = self.layout.grid.padded[0];
         let kind = &self.layout.kind;
-        let StepParams { dt, tau, a } = self.params;
-        let k_f = 1.0 - a / tau;
-        let k_eq = a / tau;
+        let StepParams { dt, tau, .. } = self.params;
         let inv_tau = 1.0 / tau;
         let has_force = self.g.iter().any(|g| *g != 0.0);
         let g = self.g;
-        out.par_chunks_mut(row * nv).enumerate().for_each(|(r, out_row)| {
+        // Tap offsets in values (node offset × nv), flattened per velocity.
+        let taps: Vec<Vec<(isize, f64)>> = self.stencil.iter().map(|s| s.taps.iter().map(|&(o, c)| (o * nv as isize, c)).collect()).collect();
+        let centres: Vec<f64> = self.stencil.iter().map(|s| s.centre).collect();
+        out.par_chunks_mut(row * nv).enumerate().with_min_len(rows_per_task(row * nv)).for_each(|(r, out_row)| {
+            let mut w = vec![0.0; eq.set.shells.len()];
+            let mut fe = vec![0.0; nv];
             for x in 0..row {
                 let node = r * row + x;
                 if kind[node] != NodeKind::Fluid {
                     continue;
                 }
-                let m = &mac[node * MACRO_FIELDS..(node + 1) * MACRO_FIELDS];
-                let force_base = if has_force {
-                    (g[0] * m[1] + g[1] * m[2] + g[2] * m[3], 1.0 / m[4])
-                } else {
-                    (0.0, 0.0)
-                };
+                let mm = &mac[node * MACRO_FIELDS..(node + 1) * MACRO_FIELDS];
+                let m = Macro { rho: mm[0], u: [mm[1], mm[2], mm[3]], theta: mm[4] };
+                eq.feq_into(&m, &mut w, &mut fe);
+                let force = if has_force { (g[0] * m.u[0] + g[1] * m.u[1] + g[2] * m.u[2], 1.0 / m.theta) } else { (0.0, 0.0) };
                 let o = &mut out_row[x * nv..(x + 1) * nv];
+                let base = node * nv;
                 for v in 0..nv {
                     let i = if v < q { v } else { v - q };
-                    let st = &self.stencil[i];
-                    let centre = node * nv + v;
-                    let mut adv_f = st.centre * src[centre];
-                    let mut adv_eq = st.centre * feq[centre];
-                    for &(off, c) in &st.taps {
-                        let k = (centre as isize + off * nv as isize) as usize;
-                        adv_f += c * src[k];
-                        adv_eq += c * feq[k];
+                    let centre = base + v;
+                    let mut adv = centres[i] * h[centre];
+                    for &(off, c) in &taps[i] {
+                        adv += c * h[(centre as isize + off) as usize];
                     }
                     let fi = src[centre];
-                    let ei = feq[centre];
-                    let mut l = -k_f * adv_f - k_eq * adv_eq - (fi - ei) * inv_tau;
+                    let ei = fe[v];
+                    let mut l = -adv - (fi - ei) * inv_tau;
                     if has_force {
                         let cg = eq.cf[i];
-                        let gc = g[0] * cg[0] + g[1] * cg[1] + g[2] * cg[2];
-                        l += ei * (gc - force_base.0) * force_base.1;
+                        l += ei * (g[0] * cg[0] + g[1] * cg[1] + g[2] * cg[2] - force.0) * force.1;
                     }
                     let new = fi + dt * l;
                     o[v] = match rk {
