@@ -18,6 +18,7 @@
 
 use super::equilibrium::{Equilibrium, MACRO_FIELDS, Macro};
 use super::layout::Layout;
+use super::storage::RowBlocked;
 use super::timestep::StepParams;
 
 /// One of the 2·D faces of the domain.
@@ -76,6 +77,8 @@ pub struct StageFields<'a> {
     pub f: &'a mut [f64],
     pub h: &'a mut [f64],
     pub mac: &'a mut [f64],
+    pub pop: RowBlocked,
+    pub mac_layout: RowBlocked,
 }
 
 /// Fills ghost, inlet/outlet and periodic halo nodes of `fields` (seed §2.3 boundaries; see the
@@ -86,19 +89,21 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
     let mut w = vec![0.0; eq.set.shells.len()];
     let mut fe = vec![0.0; nv];
     let mut neq = vec![0.0; nv];
+    let mut fk = vec![0.0; nv];
 
     // Ghost nodes inside walls and obstacles.
     for g in &layout.ghosts {
         let mut m = [0.0; MACRO_FIELDS];
         neq.iter_mut().for_each(|v| *v = 0.0);
         for &(k, wk) in &g.image {
-            for (a, v) in m.iter_mut().enumerate() {
-                *v += wk * fields.mac[k * MACRO_FIELDS + a];
+            let mk = read_macro(fields, k);
+            for (v, x) in m.iter_mut().zip([mk.rho, mk.u[0], mk.u[1], mk.u[2], mk.theta]) {
+                *v += wk * x;
             }
-            let mk = read_macro(fields.mac, k);
             eq.feq_into(&mk, &mut w, &mut fe);
+            fields.pop.gather(fields.f, k, &mut fk);
             for i in 0..nv {
-                neq[i] += wk * (fields.f[k * nv + i] - fe[i]);
+                neq[i] += wk * (fk[i] - fe[i]);
             }
         }
         let r = g.ratio;
@@ -118,16 +123,16 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
         let src = h.source;
         match &layout.boundaries.faces[h.face as usize] {
             FaceCondition::Outlet => {
-                copy_node(fields, nv, src, h.node);
+                copy_node(fields, src, h.node);
             }
             FaceCondition::PressureInlet { rho, theta } => {
-                let ms = read_macro(fields.mac, src);
+                let ms = read_macro(fields, src);
                 non_equilibrium(eq, fields, src, &mut w, &mut fe, &mut neq);
                 let m = Macro { rho: *rho, u: ms.u, theta: *theta };
                 set_node(eq, fields, h.node, &m, &neq, k_eq, &mut w, &mut fe);
             }
             FaceCondition::VelocityInlet { velocity, theta } => {
-                let ms = read_macro(fields.mac, src);
+                let ms = read_macro(fields, src);
                 non_equilibrium(eq, fields, src, &mut w, &mut fe, &mut neq);
                 let m = Macro { rho: ms.rho, u: *velocity, theta: *theta };
                 set_node(eq, fields, h.node, &m, &neq, k_eq, &mut w, &mut fe);
@@ -137,42 +142,41 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
     }
 
     // Periodic halos last, so that they also copy ghosts that lie next to a periodic face.
-    for &(dst, src) in &layout.periodic {
-        copy_node(fields, nv, src, dst);
+    for &(dst, src, len) in &layout.periodic {
+        fields.pop.copy_run(fields.f, src, dst, len);
+        fields.pop.copy_run(fields.h, src, dst, len);
+        fields.mac_layout.copy_run(fields.mac, src, dst, len);
     }
 }
 
-fn read_macro(mac: &[f64], node: usize) -> Macro {
-    let m = &mac[node * MACRO_FIELDS..(node + 1) * MACRO_FIELDS];
+fn read_macro(fields: &StageFields, node: usize) -> Macro {
+    let mut m = [0.0; MACRO_FIELDS];
+    fields.mac_layout.gather(fields.mac, node, &mut m);
     Macro { rho: m[0], u: [m[1], m[2], m[3]], theta: m[4] }
 }
 
 /// f − f⁰ of `node` into `neq`.
 fn non_equilibrium(eq: &Equilibrium, fields: &StageFields, node: usize, w: &mut [f64], fe: &mut [f64], neq: &mut [f64]) {
-    let nv = fe.len();
-    eq.feq_into(&read_macro(fields.mac, node), w, fe);
-    for i in 0..nv {
-        neq[i] = fields.f[node * nv + i] - fe[i];
+    eq.feq_into(&read_macro(fields, node), w, fe);
+    fields.pop.gather(fields.f, node, neq);
+    for (n, e) in neq.iter_mut().zip(fe.iter()) {
+        *n -= e;
     }
 }
 
-fn copy_node(fields: &mut StageFields, nv: usize, src: usize, dst: usize) {
-    fields.f.copy_within(src * nv..(src + 1) * nv, dst * nv);
-    fields.h.copy_within(src * nv..(src + 1) * nv, dst * nv);
-    fields.mac.copy_within(src * MACRO_FIELDS..(src + 1) * MACRO_FIELDS, dst * MACRO_FIELDS);
+fn copy_node(fields: &mut StageFields, src: usize, dst: usize) {
+    fields.pop.copy_node(fields.f, src, dst);
+    fields.pop.copy_node(fields.h, src, dst);
+    fields.mac_layout.copy_node(fields.mac, src, dst);
 }
 
 /// Writes macro `m`, f = f⁰ + neq and h = f + (A/τ)(f⁰ − f) = f⁰ + (1 − A/τ) neq into `node`.
 #[allow(clippy::too_many_arguments)]
 fn set_node(eq: &Equilibrium, fields: &mut StageFields, node: usize, m: &Macro, neq: &[f64], k_eq: f64, w: &mut [f64], fe: &mut [f64]) {
-    let nv = fe.len();
     eq.feq_into(m, w, fe);
-    let f = &mut fields.f[node * nv..(node + 1) * nv];
-    let h = &mut fields.h[node * nv..(node + 1) * nv];
-    for i in 0..nv {
-        f[i] = fe[i] + neq[i];
-        h[i] = fe[i] + (1.0 - k_eq) * neq[i];
-    }
-    let mm = &mut fields.mac[node * MACRO_FIELDS..(node + 1) * MACRO_FIELDS];
-    mm.copy_from_slice(&[m.rho, m.u[0], m.u[1], m.u[2], m.theta]);
+    let f: Vec<f64> = fe.iter().zip(neq).map(|(e, n)| e + n).collect();
+    let h: Vec<f64> = fe.iter().zip(neq).map(|(e, n)| e + (1.0 - k_eq) * n).collect();
+    fields.pop.scatter(fields.f, node, &f);
+    fields.pop.scatter(fields.h, node, &h);
+    fields.mac_layout.scatter(fields.mac, node, &[m.rho, m.u[0], m.u[1], m.u[2], m.theta]);
 }

@@ -49,8 +49,8 @@ pub struct Layout {
     pub kind: Vec<NodeKind>,
     pub ghosts: Vec<Ghost>,
     pub face_halos: Vec<FaceHalo>,
-    /// (destination, source) pairs.
-    pub periodic: Vec<(usize, usize)>,
+    /// Periodic copies as runs (destination, source, length) of consecutive nodes along x.
+    pub periodic: Vec<(usize, usize, usize)>,
     pub fluid_count: usize,
 }
 
@@ -208,6 +208,22 @@ impl Layout {
             }
         }
         debug_assert!(HALO >= 2);
+        // Merge consecutive pairs along a row into runs.
+        let px = grid.padded[0];
+        let mut runs: Vec<(usize, usize, usize)> = Vec::new();
+        for (d, s) in periodic {
+            if let Some(last) = runs.last_mut()
+                && d == last.0 + last.2
+                && s == last.1 + last.2
+                && d / px == last.0 / px
+                && s / px == last.1 / px
+            {
+                last.2 += 1;
+                continue;
+            }
+            runs.push((d, s, 1));
+        }
+        let periodic = runs;
         let fluid_count = kind.iter().filter(|k| **k == NodeKind::Fluid).count();
         Layout { grid, boundaries, obstacles, kind, ghosts, face_halos, periodic, fluid_count }
     }

@@ -9,6 +9,7 @@ pub mod geometry;
 pub mod grid;
 pub mod layout;
 pub mod solver;
+pub mod storage;
 pub mod timestep;
 pub mod upwind;
 pub mod velocity_set;

@@ -13,7 +13,8 @@ use super::geometry::Obstacle;
 use super::grid::Grid;
 use super::layout::{Layout, NodeKind};
 use super::timestep::StepParams;
-use super::upwind::{VelocityStencil, stencils};
+use super::storage::RowBlocked;
+use super::upwind::stencils;
 use crate::stages::{FDLB_STEP, RkStage, Stage, StageKind, StageTimings};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -45,14 +46,19 @@ pub struct FluidSolver {
     pub params: StepParams,
     /// Body force per unit mass g (c²/Δx), uniform.
     pub body_force: [f64; 3],
-    /// Populations fⁿ (and Gⁿ), cell-major.
+    /// Populations fⁿ (and Gⁿ), row-blocked ([`RowBlocked`]).
     pub f: Vec<f64>,
     f1: Vec<f64>,
     /// Advected field of the current stage: h = (1 − A/τ) f + (A/τ) f⁰ (the two upwind terms
     /// of (2.77) share one stencil because they are linear).
     h: Vec<f64>,
+    /// Macro fields ρ, u_x, u_y, u_z, θ of the current stage, row-blocked.
     mac: Vec<f64>,
-    stencil: Vec<VelocityStencil>,
+    /// Layout of populations and of macro fields.
+    pub pop: RowBlocked,
+    pub macro_layout: RowBlocked,
+    /// Per velocity: centre coefficient and (value offset, coefficient) taps.
+    stencil: Vec<(f64, Vec<(isize, f64)>)>,
     window: (f64, f64),
     pub step_count: u64,
     pub time: f64,
@@ -61,18 +67,26 @@ pub struct FluidSolver {
 
 impl FluidSolver {
     /// Allocates the solver and sets every node to the equilibrium of `init(x)` (x in interior
-    /// node coordinates).
+    /// node coordinates; halo and solid nodes too, so that every stored value is finite).
     pub fn new(eq: Equilibrium, grid: Grid, boundaries: Boundaries, obstacles: &[Obstacle], params: StepParams, init: impl Fn([f64; 3]) -> Macro + Sync) -> Self {
         let layout = Layout::new(grid, boundaries, obstacles);
-        let n = layout.grid.len();
+        let g = &layout.grid;
+        let n = g.len();
         let nv = eq.values_per_node();
-        let stencil = stencils(&eq.set.c, layout.grid.stride);
+        let pop = RowBlocked { px: g.padded[0], nv };
+        let macro_layout = RowBlocked { px: g.padded[0], nv: MACRO_FIELDS };
+        let stencil = stencils(&eq.set.c)
+            .into_iter()
+            .map(|s| (s.centre, s.taps.iter().map(|&(d, c)| (pop.neighbour_offset(d, g.padded[1]), c)).collect()))
+            .collect();
         let window = eq.set.positivity_window();
         let mut s = FluidSolver {
             f: vec![0.0; n * nv],
             f1: vec![0.0; n * nv],
             h: vec![0.0; n * nv],
             mac: vec![0.0; n * MACRO_FIELDS],
+            pop,
+            macro_layout,
             eq,
             layout,
             params,
@@ -87,28 +101,32 @@ impl FluidSolver {
         s
     }
 
-    /// Sets every fluid node to the equilibrium of `init(x)`.
+    /// Sets every node to the equilibrium of `init(x)`.
     pub fn initialise(&mut self, init: impl Fn([f64; 3]) -> Macro + Sync) {
         let nv = self.eq.values_per_node();
-        let grid = &self.layout.grid;
-        let kind = &self.layout.kind;
-        let eq = &self.eq;
-        self.f.par_chunks_mut(nv).enumerate().for_each(|(node, f)| {
-            if kind[node] != NodeKind::Fluid {
-                return;
-            }
-            let x = grid.coords(node);
+        let mut w = vec![0.0; self.eq.set.shells.len()];
+        let mut fe = vec![0.0; nv];
+        for node in 0..self.layout.grid.len() {
+            let x = self.layout.grid.coords(node);
             let m = init([x[0] as f64, x[1] as f64, x[2] as f64]);
-            let mut w = vec![0.0; eq.set.shells.len()];
-            eq.feq_into(&m, &mut w, f);
-        });
+            self.eq.feq_into(&m, &mut w, &mut fe);
+            self.pop.scatter(&mut self.f, node, &fe);
+            self.macro_layout.scatter(&mut self.mac, node, &[m.rho, m.u[0], m.u[1], m.u[2], m.theta]);
+        }
         self.f1.copy_from_slice(&self.f);
+        self.h.copy_from_slice(&self.f);
     }
 
-    /// Overwrites the populations of one fluid node (used by tests that start off equilibrium).
-    pub fn node_populations_mut(&mut self, node: usize) -> &mut [f64] {
-        let nv = self.eq.values_per_node();
-        &mut self.f[node * nv..(node + 1) * nv]
+    /// Populations of one node of fⁿ.
+    pub fn node_populations(&self, node: usize) -> Vec<f64> {
+        let mut out = vec![0.0; self.pop.nv];
+        self.pop.gather(&self.f, node, &mut out);
+        out
+    }
+
+    /// Overwrites the populations of one node of fⁿ.
+    pub fn set_node_populations(&mut self, node: usize, vals: &[f64]) {
+        self.pop.scatter(&mut self.f, node, vals);
     }
 
     /// Reduced-temperature window in which every equilibrium weight is positive.
@@ -140,22 +158,15 @@ impl FluidSolver {
 
     /// Executes one stage of the list.
     pub fn run_stage(&mut self, stage: &Stage) -> Result<(), Instability> {
+        let ctx = Kernels { eq: &self.eq, layout: &self.layout, stencil: &self.stencil, params: self.params, g: self.body_force, pop: self.pop };
         match stage.kind {
             StageKind::Moments => {
                 let src = match stage.rk {
                     RkStage::First => &self.f,
                     RkStage::Second => &self.f1,
                 };
-                let bad = moments_pass(&self.eq, &self.layout, src, &mut self.h, &mut self.mac, self.window, self.params);
-                if let Some((node, quantity, value, reason)) = bad {
-                    return Err(Instability {
-                        step: self.step_count,
-                        time: self.time,
-                        node: self.layout.grid.coords(node),
-                        quantity,
-                        value,
-                        reason,
-                    });
+                if let Some((node, quantity, value, reason)) = ctx.moments(src, &mut self.h, &mut self.mac, self.window) {
+                    return Err(Instability { step: self.step_count, time: self.time, node: self.layout.grid.coords(node), quantity, value, reason });
                 }
             }
             StageKind::Boundaries => {
@@ -163,30 +174,20 @@ impl FluidSolver {
                     RkStage::First => &mut self.f,
                     RkStage::Second => &mut self.f1,
                 };
-                let mut fields = StageFields { f, h: &mut self.h, mac: &mut self.mac };
+                let mut fields = StageFields { f, h: &mut self.h, mac: &mut self.mac, pop: self.pop, mac_layout: self.macro_layout };
                 fill_boundaries(&self.layout, &self.eq, &mut fields, self.params);
             }
-            StageKind::AdvectCollide => {
-                let ctx = RhsContext {
-                    eq: &self.eq,
-                    layout: &self.layout,
-                    stencil: &self.stencil,
-                    params: self.params,
-                    g: self.body_force,
-                };
-                match stage.rk {
-                    RkStage::First => ctx.update(&self.f, &self.h, &self.mac, &mut self.f1, RkStage::First),
-                    RkStage::Second => ctx.update(&self.f1, &self.h, &self.mac, &mut self.f, RkStage::Second),
-                }
-            }
+            StageKind::AdvectCollide => match stage.rk {
+                RkStage::First => ctx.update(&self.f, &self.h, &self.mac, &mut self.f1, RkStage::First),
+                RkStage::Second => ctx.update(&self.f1, &self.h, &self.mac, &mut self.f, RkStage::Second),
+            },
         }
         Ok(())
     }
 
     /// Macroscopic state of a padded node of fⁿ.
     pub fn macro_at(&self, node: usize) -> Macro {
-        let nv = self.eq.values_per_node();
-        self.eq.moments(&self.f[node * nv..(node + 1) * nv])
+        self.eq.moments(&self.node_populations(node))
     }
 
     /// Macroscopic state at interior node coordinates.
@@ -211,16 +212,15 @@ impl FluidSolver {
 
     /// Mass, momentum and total energy (Σ f c²/2 + Σ G) summed over fluid nodes.
     pub fn totals(&self) -> Totals {
-        let nv = self.eq.values_per_node();
         let q = self.eq.q();
         let eq = &self.eq;
         let kind = &self.layout.kind;
-        let (mass, mx, my, mz, energy) = self
-            .f
-            .par_chunks(nv)
-            .enumerate()
-            .filter(|(node, _)| kind[*node] == NodeKind::Fluid)
-            .map(|(_, f)| {
+        let (mass, mx, my, mz, energy) = (0..self.layout.grid.len())
+            .into_par_iter()
+            .with_min_len(1024)
+            .filter(|node| kind[*node] == NodeKind::Fluid)
+            .map(|node| {
+                let f = self.node_populations(node);
                 let mut t = (0.0, 0.0, 0.0, 0.0, 0.0);
                 for i in 0..q {
                     let c = eq.cf[i];
@@ -241,16 +241,14 @@ impl FluidSolver {
 
     /// Largest local Mach number |u|/c_s over fluid nodes.
     pub fn max_mach(&self) -> f64 {
-        let nv = self.eq.values_per_node();
         let kind = &self.layout.kind;
-        let eq = &self.eq;
-        self.f
-            .par_chunks(nv)
-            .enumerate()
-            .filter(|(node, _)| kind[*node] == NodeKind::Fluid)
-            .map(|(_, f)| {
-                let m = eq.moments(f);
-                m.speed2().sqrt() / eq.sound_speed(m.theta)
+        (0..self.layout.grid.len())
+            .into_par_iter()
+            .with_min_len(1024)
+            .filter(|node| kind[*node] == NodeKind::Fluid)
+            .map(|node| {
+                let m = self.macro_at(node);
+                m.speed2().sqrt() / self.eq.sound_speed(m.theta)
             })
             .reduce(|| 0.0, f64::max)
     }
@@ -265,51 +263,6 @@ impl FluidSolver {
         let stage = (nv + nv + m) + (nv + nv + m + nv);
         8.0 * (2.0 * stage + nv)
     }
-}
-
-/// Moments pass: writes the macro fields and the advected field h = (1 − A/τ) f + (A/τ) f⁰ of
-/// every fluid node; returns the first node (lowest index) whose state is not admissible.
-#[allow(clippy::type_complexity)]
-fn moments_pass(eq: &Equilibrium, layout: &Layout, f: &[f64], h: &mut [f64], mac: &mut [f64], window: (f64, f64), p: StepParams) -> Option<(usize, &'static str, f64, String)> {
-    let nv = eq.values_per_node();
-    let row = layout.grid.padded[0];
-    let kind = &layout.kind;
-    let (k_f, k_eq) = (1.0 - p.a / p.tau, p.a / p.tau);
-    h.par_chunks_mut(row * nv)
-        .zip(mac.par_chunks_mut(row * MACRO_FIELDS))
-        .enumerate()
-        .with_min_len(rows_per_task(row * nv))
-        .map(|(r, (h_row, mac_row))| {
-            let mut w = vec![0.0; eq.set.shells.len()];
-            let mut fe = vec![0.0; nv];
-            let mut bad = None;
-            for x in 0..row {
-                let node = r * row + x;
-                if kind[node] != NodeKind::Fluid {
-                    continue;
-                }
-                let fn_ = &f[node * nv..(node + 1) * nv];
-                let m = eq.moments(fn_);
-                if bad.is_none() {
-                    bad = check_state(&m, window).map(|(q, v, why)| (node, q, v, why));
-                }
-                let hn = &mut h_row[x * nv..(x + 1) * nv];
-                if k_eq == 0.0 {
-                    hn.copy_from_slice(fn_);
-                } else {
-                    eq.feq_into(&m, &mut w, &mut fe);
-                    for v in 0..nv {
-                        hn[v] = k_f * fn_[v] + k_eq * fe[v];
-                    }
-                }
-                mac_row[x * MACRO_FIELDS..(x + 1) * MACRO_FIELDS].copy_from_slice(&[m.rho, m.u[0], m.u[1], m.u[2], m.theta]);
-            }
-            bad
-        })
-        .reduce(|| None, |a, b| match (a, b) {
-            (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
-            (a, b) => a.or(b),
-        })
 }
 
 /// Rows per rayon task so that a task updates at least ~16k values (small grids would otherwise
@@ -335,15 +288,179 @@ fn check_state(m: &Macro, window: (f64, f64)) -> Option<(&'static str, f64, Stri
     None
 }
 
-struct RhsContext<'a> {
-    eq: &'a Equilibrium,
-    layout: &'a Layout,
-    stencil: &'a [VelocityStencil],
-    params: StepParams,
-    g: [f64; 3],
+/// Per-row scratch of the kernels: macroscopic fields and equilibria along x.
+struct RowScratch {
+    rho: Vec<f64>,
+    u: [Vec<f64>; 3],
+    theta: Vec<f64>,
+    /// 1/θ and 1 − u²/(2θ).
+    inv_theta: Vec<f64>,
+    base: Vec<f64>,
+    /// Shell weights along x, one row per shell.
+    shell_w: Vec<Vec<f64>>,
+    fe: Vec<f64>,
+    adv: Vec<f64>,
 }
 
-impl RhsContext<'_> {
+impl RowScratch {
+    fn new(px: usize, shells: usize) -> Self {
+        let z = || vec![0.0; px];
+        RowScratch { rho: z(), u: [z(), z(), z()], theta: z(), inv_theta: z(), base: z(), shell_w: (0..shells).map(|_| z()).collect(), fe: z(), adv: z() }
+    }
+
+    /// Shell weights and the velocity-independent parts of (2.78) on x ∈ [x0, x1).
+    fn prepare_equilibrium(&mut self, eq: &Equilibrium, x0: usize, x1: usize) {
+        let theta = &self.theta[x0..x1];
+        for (s, shell) in eq.set.shells.iter().enumerate() {
+            for (w, t) in self.shell_w[s][x0..x1].iter_mut().zip(theta) {
+                *w = shell.weight(*t);
+            }
+        }
+        let n = x1 - x0;
+        let (u0, u1, u2) = (&self.u[0][x0..x1], &self.u[1][x0..x1], &self.u[2][x0..x1]);
+        let (inv, base) = (&mut self.inv_theta[x0..x1], &mut self.base[x0..x1]);
+        for x in 0..n {
+            let i = 1.0 / theta[x];
+            inv[x] = i;
+            base[x] = 1.0 - 0.5 * (u0[x] * u0[x] + u1[x] * u1[x] + u2[x] * u2[x]) * i;
+        }
+    }
+
+    /// f⁰ of value `v` (f or G) along x ∈ [x0, x1) into `self.fe` (2.78, 2.97).
+    fn equilibrium(&mut self, eq: &Equilibrium, v: usize, x0: usize, x1: usize) {
+        let q = eq.q();
+        let i = if v < q { v } else { v - q };
+        let c = eq.cf[i];
+        let n = x1 - x0;
+        let w = &self.shell_w[eq.set.shell_of[i]][x0..x1];
+        let (u0, u1, u2) = (&self.u[0][x0..x1], &self.u[1][x0..x1], &self.u[2][x0..x1]);
+        let (inv, base, rho, theta) = (&self.inv_theta[x0..x1], &self.base[x0..x1], &self.rho[x0..x1], &self.theta[x0..x1]);
+        let fe = &mut self.fe[x0..x1];
+        let rot = if v >= q { eq.rot_half } else { 0.0 };
+        for x in 0..n {
+            let xi = (c[0] * u0[x] + c[1] * u1[x] + c[2] * u2[x]) * inv[x];
+            let b = base[x];
+            let poly = b + xi * (b + xi * (0.5 + xi * (1.0 / 6.0)));
+            fe[x] = w[x] * rho[x] * poly;
+        }
+        if v >= q {
+            for x in 0..n {
+                fe[x] *= rot * theta[x];
+            }
+        }
+    }
+}
+
+/// The row kernels of the moments and advect–collide stages.
+struct Kernels<'a> {
+    eq: &'a Equilibrium,
+    layout: &'a Layout,
+    stencil: &'a [(f64, Vec<(isize, f64)>)],
+    params: StepParams,
+    g: [f64; 3],
+    pop: RowBlocked,
+}
+
+impl Kernels<'_> {
+    /// Interior x-range of padded rows and whether padded row `r` is an interior row.
+    fn interior(&self, r: usize) -> Option<(usize, usize)> {
+        let g = &self.layout.grid;
+        let y = r % g.padded[1];
+        let z = r / g.padded[1];
+        let inside = y >= g.halo[1] && y < g.halo[1] + g.n[1] && z >= g.halo[2] && z < g.halo[2] + g.n[2];
+        inside.then_some((g.halo[0], g.halo[0] + g.n[0]))
+    }
+
+    /// Moments pass: macro fields and h = (1 − A/τ) f + (A/τ) f⁰ on every interior row; returns
+    /// the first fluid node (lowest index) whose state is not admissible.
+    #[allow(clippy::type_complexity)]
+    fn moments(&self, f: &[f64], h: &mut [f64], mac: &mut [f64], window: (f64, f64)) -> Option<(usize, &'static str, f64, String)> {
+        let eq = self.eq;
+        let nv = eq.values_per_node();
+        let q = eq.q();
+        let px = self.pop.px;
+        let kind = &self.layout.kind;
+        let (k_f, k_eq) = (1.0 - self.params.a / self.params.tau, self.params.a / self.params.tau);
+        let edh = eq.energy_dof_half;
+        h.par_chunks_mut(px * nv)
+            .zip(mac.par_chunks_mut(px * MACRO_FIELDS))
+            .enumerate()
+            .with_min_len(rows_per_task(px * nv))
+            .map(|(r, (h_row, mac_row))| {
+                let (x0, x1) = self.interior(r)?;
+                let f_row = &f[r * px * nv..(r + 1) * px * nv];
+                let mut s = RowScratch::new(px, eq.set.shells.len());
+                let mut en = vec![0.0; px];
+                let mut j = [vec![0.0; px], vec![0.0; px], vec![0.0; px]];
+                let n = x1 - x0;
+                {
+                    let (rho, en) = (&mut s.rho[x0..x1], &mut en[x0..x1]);
+                    let [j0, j1, j2] = &mut j;
+                    let (j0, j1, j2) = (&mut j0[x0..x1], &mut j1[x0..x1], &mut j2[x0..x1]);
+                    for v in 0..q {
+                        let fv = &f_row[v * px + x0..v * px + x1];
+                        let c = eq.cf[v];
+                        let hc = eq.half_c2[v];
+                        for x in 0..n {
+                            let fx = fv[x];
+                            rho[x] += fx;
+                            j0[x] += c[0] * fx;
+                            j1[x] += c[1] * fx;
+                            j2[x] += c[2] * fx;
+                            en[x] += hc * fx;
+                        }
+                    }
+                    for v in q..nv {
+                        for (e, g) in en.iter_mut().zip(&f_row[v * px + x0..v * px + x1]) {
+                            *e += g;
+                        }
+                    }
+                }
+                for x in x0..x1 {
+                    let inv = 1.0 / s.rho[x];
+                    let u = [j[0][x] * inv, j[1][x] * inv, j[2][x] * inv];
+                    s.u[0][x] = u[0];
+                    s.u[1][x] = u[1];
+                    s.u[2][x] = u[2];
+                    s.theta[x] = (en[x] * inv - 0.5 * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2])) / edh;
+                }
+                let mut bad = None;
+                for x in x0..x1 {
+                    if kind[r * px + x] == NodeKind::Fluid {
+                        let m = Macro { rho: s.rho[x], u: [s.u[0][x], s.u[1][x], s.u[2][x]], theta: s.theta[x] };
+                        if let Some((qty, val, why)) = check_state(&m, window) {
+                            bad = Some((r * px + x, qty, val, why));
+                            break;
+                        }
+                    }
+                }
+                if bad.is_some() {
+                    return bad;
+                }
+                if k_eq == 0.0 {
+                    h_row.copy_from_slice(f_row);
+                } else {
+                    s.prepare_equilibrium(eq, x0, x1);
+                    for v in 0..nv {
+                        s.equilibrium(eq, v, x0, x1);
+                        let (hv, fv, fe) = (&mut h_row[v * px + x0..v * px + x1], &f_row[v * px + x0..v * px + x1], &s.fe[x0..x1]);
+                        for x in 0..n {
+                            hv[x] = k_f * fv[x] + k_eq * fe[x];
+                        }
+                    }
+                }
+                let fields = [&s.rho, &s.u[0], &s.u[1], &s.u[2], &s.theta];
+                for (k, fld) in fields.iter().enumerate() {
+                    mac_row[k * px + x0..k * px + x1].copy_from_slice(&fld[x0..x1]);
+                }
+                None
+            })
+            .reduce(|| None, |a, b| match (a, b) {
+                (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
+                (a, b) => a.or(b),
+            })
+    }
+
     /// Runge–Kutta update of every fluid node: stage 1 writes `out = src + Δt L(src)`;
     /// stage 2 writes `out = ½ out + ½ (src + Δt L(src))` (`out` holds fⁿ).
     /// L = −c·∇h − (f − f⁰)/τ + F, with f⁰ recomputed from the node's macro fields.
@@ -351,48 +468,66 @@ impl RhsContext<'_> {
         let eq = self.eq;
         let nv = eq.values_per_node();
         let q = eq.q();
-        let row = self.layout.grid.padded[0];
+        let px = self.pop.px;
         let kind = &self.layout.kind;
         let StepParams { dt, tau, .. } = self.params;
         let inv_tau = 1.0 / tau;
-        let has_force = self.g.iter().any(|g| *g != 0.0);
         let g = self.g;
-        // Tap offsets in values (node offset × nv), flattened per velocity.
-        let taps: Vec<Vec<(isize, f64)>> = self.stencil.iter().map(|s| s.taps.iter().map(|&(o, c)| (o * nv as isize, c)).collect()).collect();
-        let centres: Vec<f64> = self.stencil.iter().map(|s| s.centre).collect();
-        out.par_chunks_mut(row * nv).enumerate().with_min_len(rows_per_task(row * nv)).for_each(|(r, out_row)| {
-            let mut w = vec![0.0; eq.set.shells.len()];
-            let mut fe = vec![0.0; nv];
-            for x in 0..row {
-                let node = r * row + x;
-                if kind[node] != NodeKind::Fluid {
-                    continue;
+        let has_force = g.iter().any(|g| *g != 0.0);
+        out.par_chunks_mut(px * nv).enumerate().with_min_len(rows_per_task(px * nv)).for_each(|(r, out_row)| {
+            let Some((x0, x1)) = self.interior(r) else { return };
+            let mut s = RowScratch::new(px, eq.set.shells.len());
+            let mrow = &mac[r * px * MACRO_FIELDS..(r + 1) * px * MACRO_FIELDS];
+            s.rho[x0..x1].copy_from_slice(&mrow[x0..x1]);
+            for a in 0..3 {
+                s.u[a][x0..x1].copy_from_slice(&mrow[(1 + a) * px + x0..(1 + a) * px + x1]);
+            }
+            s.theta[x0..x1].copy_from_slice(&mrow[4 * px + x0..4 * px + x1]);
+            s.prepare_equilibrium(eq, x0, x1);
+            let fluid: Vec<bool> = (0..px).map(|x| kind[r * px + x] == NodeKind::Fluid).collect();
+            for v in 0..nv {
+                let i = if v < q { v } else { v - q };
+                let (centre, taps) = &self.stencil[i];
+                let base = (r * nv + v) * px;
+                let n = x1 - x0;
+                {
+                    let adv = &mut s.adv[x0..x1];
+                    for (a, hx) in adv.iter_mut().zip(&h[base + x0..base + x1]) {
+                        *a = centre * hx;
+                    }
+                    for &(off, c) in taps {
+                        let start = (base as isize + off) as usize;
+                        for (a, hx) in adv.iter_mut().zip(&h[start + x0..start + x1]) {
+                            *a += c * hx;
+                        }
+                    }
                 }
-                let mm = &mac[node * MACRO_FIELDS..(node + 1) * MACRO_FIELDS];
-                let m = Macro { rho: mm[0], u: [mm[1], mm[2], mm[3]], theta: mm[4] };
-                eq.feq_into(&m, &mut w, &mut fe);
-                let force = if has_force { (g[0] * m.u[0] + g[1] * m.u[1] + g[2] * m.u[2], 1.0 / m.theta) } else { (0.0, 0.0) };
-                let o = &mut out_row[x * nv..(x + 1) * nv];
-                let base = node * nv;
-                for v in 0..nv {
-                    let i = if v < q { v } else { v - q };
-                    let centre = base + v;
-                    let mut adv = centres[i] * h[centre];
-                    for &(off, c) in &taps[i] {
-                        adv += c * h[(centre as isize + off) as usize];
+                s.equilibrium(eq, v, x0, x1);
+                if has_force {
+                    let ci = eq.cf[i];
+                    let gc = g[0] * ci[0] + g[1] * ci[1] + g[2] * ci[2];
+                    for x in x0..x1 {
+                        let gu = g[0] * s.u[0][x] + g[1] * s.u[1][x] + g[2] * s.u[2][x];
+                        // Force term f⁰ g·(c − u)/θ, folded into the advection accumulator.
+                        s.adv[x] -= s.fe[x] * (gc - gu) * s.inv_theta[x];
                     }
-                    let fi = src[centre];
-                    let ei = fe[v];
-                    let mut l = -adv - (fi - ei) * inv_tau;
-                    if has_force {
-                        let cg = eq.cf[i];
-                        l += ei * (g[0] * cg[0] + g[1] * cg[1] + g[2] * cg[2] - force.0) * force.1;
+                }
+                let fv = &src[base + x0..base + x1];
+                let ov = &mut out_row[v * px + x0..v * px + x1];
+                let (adv, fe, fl) = (&s.adv[x0..x1], &s.fe[x0..x1], &fluid[x0..x1]);
+                match rk {
+                    RkStage::First => {
+                        for x in 0..n {
+                            let new = fv[x] + dt * (-adv[x] - (fv[x] - fe[x]) * inv_tau);
+                            ov[x] = if fl[x] { new } else { ov[x] };
+                        }
                     }
-                    let new = fi + dt * l;
-                    o[v] = match rk {
-                        RkStage::First => new,
-                        RkStage::Second => 0.5 * (o[v] + new),
-                    };
+                    RkStage::Second => {
+                        for x in 0..n {
+                            let new = fv[x] + dt * (-adv[x] - (fv[x] - fe[x]) * inv_tau);
+                            ov[x] = if fl[x] { 0.5 * (ov[x] + new) } else { ov[x] };
+                        }
+                    }
                 }
             }
         });

@@ -6,16 +6,15 @@
 //! and the linear stability limit of this scheme with Heun's two-stage Runge–Kutta method,
 //! used by the automatic time-step choice ([`super::timestep`]).
 
-/// Flattened stencil of one velocity: the centre coefficient and (offset, coefficient) pairs,
-/// offsets in nodes of the padded grid.
+/// Stencil of one velocity: the centre coefficient and (displacement, coefficient) pairs.
 #[derive(Clone, Debug, Default)]
 pub struct VelocityStencil {
     pub centre: f64,
-    pub taps: Vec<(isize, f64)>,
+    pub taps: Vec<([i64; 3], f64)>,
 }
 
-/// Builds the stencil of every velocity for a grid with node strides `stride`.
-pub fn stencils(c: &[[i32; 3]], stride: [usize; 3]) -> Vec<VelocityStencil> {
+/// Builds the stencil of every velocity: c·∇f ≈ centre·f(x) + Σ coeff·f(x + displacement).
+pub fn stencils(c: &[[i32; 3]]) -> Vec<VelocityStencil> {
     c.iter()
         .map(|v| {
             let mut s = VelocityStencil::default();
@@ -24,12 +23,15 @@ pub fn stencils(c: &[[i32; 3]], stride: [usize; 3]) -> Vec<VelocityStencil> {
                     continue;
                 }
                 let mag = v[a].unsigned_abs() as f64;
-                let sg = v[a].signum() as isize;
-                let st = stride[a] as isize;
+                let sg = v[a].signum() as i64;
+                let mut d = [0i64; 3];
                 s.centre += 3.0 * mag / 6.0;
-                s.taps.push((sg * st, 2.0 * mag / 6.0));
-                s.taps.push((-sg * st, -6.0 * mag / 6.0));
-                s.taps.push((-2 * sg * st, mag / 6.0));
+                d[a] = sg;
+                s.taps.push((d, 2.0 * mag / 6.0));
+                d[a] = -sg;
+                s.taps.push((d, -6.0 * mag / 6.0));
+                d[a] = -2 * sg;
+                s.taps.push((d, mag / 6.0));
             }
             s
         })
