@@ -3,20 +3,22 @@
 //! per-stage timings are keyed by.
 //!
 //! One FDLB step is Heun's two-stage Runge–Kutta method (seed §2.3) on (2.77); each Runge–Kutta
-//! stage computes the moments (2.79–2.81) and equilibria (2.78) of its input, fills the boundary
-//! nodes, then evaluates advection (3rd-order upwind, with the A term) and BGK collision.
+//! stage computes the moments (2.79–2.81) and equilibria (2.78) of its input together with the
+//! local (collision and force) part of the update, fills the boundary nodes, then adds the
+//! advection (3rd-order upwind of h = (1 − A/τ) f + (A/τ) f⁰).
 
 use std::time::Duration;
 
 /// Kind of work a stage does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum StageKind {
-    /// Macroscopic moments and local equilibria of every fluid node; instability check.
-    Moments,
+    /// Macroscopic moments, equilibria, the advected field h and the local part of the
+    /// Runge–Kutta update (BGK collision, body force) of every fluid node; instability check.
+    MomentsCollide,
     /// Ghost, inlet/outlet and periodic halo nodes.
     Boundaries,
-    /// Advection (upwind) + collision, combined into the Runge–Kutta update.
-    AdvectCollide,
+    /// Advection: subtracts Δt c·∇h (3rd-order upwind) from the stage's output.
+    Advect,
 }
 
 /// Which Runge–Kutta stage a stage belongs to.
@@ -37,12 +39,12 @@ pub struct Stage {
 
 /// One FDLB step, in order.
 pub const FDLB_STEP: [Stage; 6] = [
-    Stage { kind: StageKind::Moments, rk: RkStage::First, name: "moments/1" },
+    Stage { kind: StageKind::MomentsCollide, rk: RkStage::First, name: "moments_collide/1" },
     Stage { kind: StageKind::Boundaries, rk: RkStage::First, name: "boundaries/1" },
-    Stage { kind: StageKind::AdvectCollide, rk: RkStage::First, name: "advect_collide/1" },
-    Stage { kind: StageKind::Moments, rk: RkStage::Second, name: "moments/2" },
+    Stage { kind: StageKind::Advect, rk: RkStage::First, name: "advect/1" },
+    Stage { kind: StageKind::MomentsCollide, rk: RkStage::Second, name: "moments_collide/2" },
     Stage { kind: StageKind::Boundaries, rk: RkStage::Second, name: "boundaries/2" },
-    Stage { kind: StageKind::AdvectCollide, rk: RkStage::Second, name: "advect_collide/2" },
+    Stage { kind: StageKind::Advect, rk: RkStage::Second, name: "advect/2" },
 ];
 
 /// Accumulated wall time per stage of [`FDLB_STEP`].

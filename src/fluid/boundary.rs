@@ -18,7 +18,7 @@
 
 use super::equilibrium::{Equilibrium, MACRO_FIELDS, Macro};
 use super::layout::Layout;
-use super::storage::RowBlocked;
+use super::storage::{RowBlocked, copy_runs_parallel};
 use super::timestep::StepParams;
 
 /// One of the 2·D faces of the domain.
@@ -142,11 +142,9 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
     }
 
     // Periodic halos last, so that they also copy ghosts that lie next to a periodic face.
-    for &(dst, src, len) in &layout.periodic {
-        fields.pop.copy_run(fields.f, src, dst, len);
-        fields.pop.copy_run(fields.h, src, dst, len);
-        fields.mac_layout.copy_run(fields.mac, src, dst, len);
-    }
+    copy_runs_parallel(fields.pop, fields.f, &layout.periodic);
+    copy_runs_parallel(fields.pop, fields.h, &layout.periodic);
+    copy_runs_parallel(fields.mac_layout, fields.mac, &layout.periodic);
 }
 
 fn read_macro(fields: &StageFields, node: usize) -> Macro {

@@ -2,10 +2,12 @@
 //! [`crate::stages::FDLB_STEP`], conserved totals and macroscopic fields.
 //!
 //! Discrete equation (2.77), rewritten for the upwind scheme:
-//! ∂f_i/∂t = −(1 − A/τ) c_i·∇f_i − (A/τ) c_i·∇f⁰_i − (f_i − f⁰_i)/τ + F_i,
+//! ∂f_i/∂t = −c_i·∇h_i − (f_i − f⁰_i)/τ + F_i,   h = (1 − A/τ) f + (A/τ) f⁰,
 //! with the body-force term F_i = f⁰_i g·(c_i − u)/θ (the first-order Hermite term of
 //! −g·∂f/∂c; it adds exactly ρg to the momentum and ρg·u to the energy).
-//! Runge–Kutta: Heun's method (RK2).
+//! Runge–Kutta: Heun's method (RK2): f¹ = fⁿ + Δt L(fⁿ), fⁿ⁺¹ = ½ fⁿ + ½ (f¹ + Δt L(f¹)).
+//! Each stage first writes its local part (collision and force) into the stage output, then the
+//! boundary fill, then subtracts the advection.
 
 use super::boundary::{Boundaries, StageFields, fill_boundaries};
 use super::equilibrium::{Equilibrium, MACRO_FIELDS, Macro};
@@ -49,6 +51,9 @@ pub struct FluidSolver {
     /// Populations fⁿ (and Gⁿ), row-blocked ([`RowBlocked`]).
     pub f: Vec<f64>,
     f1: Vec<f64>,
+    /// Output of the second stage (fⁿ⁺¹), swapped with `f` at the end of a step, so that fⁿ
+    /// stays intact when a step fails.
+    f2: Vec<f64>,
     /// Advected field of the current stage: h = (1 − A/τ) f + (A/τ) f⁰ (the two upwind terms
     /// of (2.77) share one stencil because they are linear).
     h: Vec<f64>,
@@ -83,6 +88,7 @@ impl FluidSolver {
         let mut s = FluidSolver {
             f: vec![0.0; n * nv],
             f1: vec![0.0; n * nv],
+            f2: vec![0.0; n * nv],
             h: vec![0.0; n * nv],
             mac: vec![0.0; n * MACRO_FIELDS],
             pop,
@@ -114,6 +120,7 @@ impl FluidSolver {
             self.macro_layout.scatter(&mut self.mac, node, &[m.rho, m.u[0], m.u[1], m.u[2], m.theta]);
         }
         self.f1.copy_from_slice(&self.f);
+        self.f2.copy_from_slice(&self.f);
         self.h.copy_from_slice(&self.f);
     }
 
@@ -142,6 +149,7 @@ impl FluidSolver {
             self.timings.total[k] += t0.elapsed();
             r?;
         }
+        std::mem::swap(&mut self.f, &mut self.f2);
         self.timings.steps += 1;
         self.step_count += 1;
         self.time += self.params.dt;
@@ -160,12 +168,12 @@ impl FluidSolver {
     pub fn run_stage(&mut self, stage: &Stage) -> Result<(), Instability> {
         let ctx = Kernels { eq: &self.eq, layout: &self.layout, stencil: &self.stencil, params: self.params, g: self.body_force, pop: self.pop };
         match stage.kind {
-            StageKind::Moments => {
-                let src = match stage.rk {
-                    RkStage::First => &self.f,
-                    RkStage::Second => &self.f1,
+            StageKind::MomentsCollide => {
+                let r = match stage.rk {
+                    RkStage::First => ctx.moments_collide(&self.f, None, &mut self.h, &mut self.mac, &mut self.f1, self.window),
+                    RkStage::Second => ctx.moments_collide(&self.f1, Some(&self.f), &mut self.h, &mut self.mac, &mut self.f2, self.window),
                 };
-                if let Some((node, quantity, value, reason)) = ctx.moments(src, &mut self.h, &mut self.mac, self.window) {
+                if let Some((node, quantity, value, reason)) = r {
                     return Err(Instability { step: self.step_count, time: self.time, node: self.layout.grid.coords(node), quantity, value, reason });
                 }
             }
@@ -177,9 +185,9 @@ impl FluidSolver {
                 let mut fields = StageFields { f, h: &mut self.h, mac: &mut self.mac, pop: self.pop, mac_layout: self.macro_layout };
                 fill_boundaries(&self.layout, &self.eq, &mut fields, self.params);
             }
-            StageKind::AdvectCollide => match stage.rk {
-                RkStage::First => ctx.update(&self.f, &self.h, &self.mac, &mut self.f1, RkStage::First),
-                RkStage::Second => ctx.update(&self.f1, &self.h, &self.mac, &mut self.f, RkStage::Second),
+            StageKind::Advect => match stage.rk {
+                RkStage::First => ctx.advect(&self.h, &mut self.f1, 1.0),
+                RkStage::Second => ctx.advect(&self.h, &mut self.f2, 0.5),
             },
         }
         Ok(())
@@ -254,14 +262,15 @@ impl FluidSolver {
     }
 
     /// Bytes read and written per fluid-node update of one full step by this implementation
-    /// (f64, neighbours assumed served from cache): per RK stage the moments pass reads f and
-    /// writes h and the 5 macro fields; the update reads h, f and the macro fields and writes f;
-    /// stage 2 also reads fⁿ.
+    /// (f64, neighbours assumed served from cache): per RK stage the moments–collision pass reads
+    /// the stage input (and fⁿ in stage 2) and writes h, the 5 macro fields and the stage output;
+    /// the advection reads h and the stage output and writes the stage output.
     pub fn bytes_per_node_update(&self) -> f64 {
         let nv = self.eq.values_per_node() as f64;
         let m = MACRO_FIELDS as f64;
-        let stage = (nv + nv + m) + (nv + nv + m + nv);
-        8.0 * (2.0 * stage + nv)
+        let first = (nv + nv + m + nv) + (nv + nv + nv);
+        let second = first + nv;
+        8.0 * (first + second)
     }
 }
 
@@ -371,28 +380,35 @@ impl Kernels<'_> {
         inside.then_some((g.halo[0], g.halo[0] + g.n[0]))
     }
 
-    /// Moments pass: macro fields and h = (1 − A/τ) f + (A/τ) f⁰ on every interior row; returns
-    /// the first fluid node (lowest index) whose state is not admissible.
+    /// Moments–collision pass on every interior row: macro fields, h = (1 − A/τ) f + (A/τ) f⁰,
+    /// and the local part of the stage output, `out = f + Δt(−(f − f⁰)/τ + F)` (stage 1) or
+    /// `out = ½ fⁿ + ½ (f + Δt(−(f − f⁰)/τ + F))` (stage 2, `base` = fⁿ), at fluid nodes.
+    /// Returns the first fluid node (lowest index) whose state is not admissible.
     #[allow(clippy::type_complexity)]
-    fn moments(&self, f: &[f64], h: &mut [f64], mac: &mut [f64], window: (f64, f64)) -> Option<(usize, &'static str, f64, String)> {
+    fn moments_collide(&self, f: &[f64], base: Option<&[f64]>, h: &mut [f64], mac: &mut [f64], out: &mut [f64], window: (f64, f64)) -> Option<(usize, &'static str, f64, String)> {
         let eq = self.eq;
         let nv = eq.values_per_node();
         let q = eq.q();
         let px = self.pop.px;
         let kind = &self.layout.kind;
-        let (k_f, k_eq) = (1.0 - self.params.a / self.params.tau, self.params.a / self.params.tau);
+        let StepParams { dt, tau, a } = self.params;
+        let (k_f, k_eq) = (1.0 - a / tau, a / tau);
+        let dt_tau = dt / tau;
         let edh = eq.energy_dof_half;
+        let g = self.g;
+        let has_force = g.iter().any(|g| *g != 0.0);
         h.par_chunks_mut(px * nv)
             .zip(mac.par_chunks_mut(px * MACRO_FIELDS))
+            .zip(out.par_chunks_mut(px * nv))
             .enumerate()
             .with_min_len(rows_per_task(px * nv))
-            .map(|(r, (h_row, mac_row))| {
+            .map(|(r, ((h_row, mac_row), out_row))| {
                 let (x0, x1) = self.interior(r)?;
+                let n = x1 - x0;
                 let f_row = &f[r * px * nv..(r + 1) * px * nv];
                 let mut s = RowScratch::new(px, eq.set.shells.len());
                 let mut en = vec![0.0; px];
                 let mut j = [vec![0.0; px], vec![0.0; px], vec![0.0; px]];
-                let n = x1 - x0;
                 {
                     let (rho, en) = (&mut s.rho[x0..x1], &mut en[x0..x1]);
                     let [j0, j1, j2] = &mut j;
@@ -424,28 +440,49 @@ impl Kernels<'_> {
                     s.u[2][x] = u[2];
                     s.theta[x] = (en[x] * inv - 0.5 * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2])) / edh;
                 }
-                let mut bad = None;
+                let fluid: Vec<bool> = (0..px).map(|x| kind[r * px + x] == NodeKind::Fluid).collect();
                 for x in x0..x1 {
-                    if kind[r * px + x] == NodeKind::Fluid {
+                    if fluid[x] {
                         let m = Macro { rho: s.rho[x], u: [s.u[0][x], s.u[1][x], s.u[2][x]], theta: s.theta[x] };
                         if let Some((qty, val, why)) = check_state(&m, window) {
-                            bad = Some((r * px + x, qty, val, why));
-                            break;
+                            return Some((r * px + x, qty, val, why));
                         }
                     }
                 }
-                if bad.is_some() {
-                    return bad;
-                }
-                if k_eq == 0.0 {
-                    h_row.copy_from_slice(f_row);
-                } else {
-                    s.prepare_equilibrium(eq, x0, x1);
-                    for v in 0..nv {
-                        s.equilibrium(eq, v, x0, x1);
-                        let (hv, fv, fe) = (&mut h_row[v * px + x0..v * px + x1], &f_row[v * px + x0..v * px + x1], &s.fe[x0..x1]);
-                        for x in 0..n {
-                            hv[x] = k_f * fv[x] + k_eq * fe[x];
+                s.prepare_equilibrium(eq, x0, x1);
+                for v in 0..nv {
+                    let i = if v < q { v } else { v - q };
+                    s.equilibrium(eq, v, x0, x1);
+                    if has_force {
+                        let ci = eq.cf[i];
+                        let gc = g[0] * ci[0] + g[1] * ci[1] + g[2] * ci[2];
+                        for x in x0..x1 {
+                            let gu = g[0] * s.u[0][x] + g[1] * s.u[1][x] + g[2] * s.u[2][x];
+                            // Force term f⁰ g·(c − u)/θ, kept in `adv` as a source.
+                            s.adv[x] = dt * s.fe[x] * (gc - gu) * s.inv_theta[x];
+                        }
+                    } else {
+                        s.adv[x0..x1].iter_mut().for_each(|a| *a = 0.0);
+                    }
+                    let range = v * px + x0..v * px + x1;
+                    let (hv, fv, fe, src, fl) = (&mut h_row[range.clone()], &f_row[range.clone()], &s.fe[x0..x1], &s.adv[x0..x1], &fluid[x0..x1]);
+                    for x in 0..n {
+                        hv[x] = k_f * fv[x] + k_eq * fe[x];
+                    }
+                    let ov = &mut out_row[range.clone()];
+                    match base {
+                        None => {
+                            for x in 0..n {
+                                let local = fv[x] - dt_tau * (fv[x] - fe[x]) + src[x];
+                                ov[x] = if fl[x] { local } else { ov[x] };
+                            }
+                        }
+                        Some(b) => {
+                            let bv = &b[r * px * nv + v * px + x0..r * px * nv + v * px + x1];
+                            for x in 0..n {
+                                let local = 0.5 * (bv[x] + fv[x] - dt_tau * (fv[x] - fe[x]) + src[x]);
+                                ov[x] = if fl[x] { local } else { ov[x] };
+                            }
                         }
                     }
                 }
@@ -461,73 +498,35 @@ impl Kernels<'_> {
             })
     }
 
-    /// Runge–Kutta update of every fluid node: stage 1 writes `out = src + Δt L(src)`;
-    /// stage 2 writes `out = ½ out + ½ (src + Δt L(src))` (`out` holds fⁿ).
-    /// L = −c·∇h − (f − f⁰)/τ + F, with f⁰ recomputed from the node's macro fields.
-    fn update(&self, src: &[f64], h: &[f64], mac: &[f64], out: &mut [f64], rk: RkStage) {
+    /// Advection: `out −= factor · Δt · c·∇h` at fluid nodes (3rd-order upwind, [`super::upwind`]).
+    fn advect(&self, h: &[f64], out: &mut [f64], factor: f64) {
         let eq = self.eq;
         let nv = eq.values_per_node();
         let q = eq.q();
         let px = self.pop.px;
         let kind = &self.layout.kind;
-        let StepParams { dt, tau, .. } = self.params;
-        let inv_tau = 1.0 / tau;
-        let g = self.g;
-        let has_force = g.iter().any(|g| *g != 0.0);
+        let k = factor * self.params.dt;
         out.par_chunks_mut(px * nv).enumerate().with_min_len(rows_per_task(px * nv)).for_each(|(r, out_row)| {
             let Some((x0, x1)) = self.interior(r) else { return };
-            let mut s = RowScratch::new(px, eq.set.shells.len());
-            let mrow = &mac[r * px * MACRO_FIELDS..(r + 1) * px * MACRO_FIELDS];
-            s.rho[x0..x1].copy_from_slice(&mrow[x0..x1]);
-            for a in 0..3 {
-                s.u[a][x0..x1].copy_from_slice(&mrow[(1 + a) * px + x0..(1 + a) * px + x1]);
-            }
-            s.theta[x0..x1].copy_from_slice(&mrow[4 * px + x0..4 * px + x1]);
-            s.prepare_equilibrium(eq, x0, x1);
-            let fluid: Vec<bool> = (0..px).map(|x| kind[r * px + x] == NodeKind::Fluid).collect();
+            let n = x1 - x0;
+            let fluid: Vec<bool> = (x0..x1).map(|x| kind[r * px + x] == NodeKind::Fluid).collect();
+            let mut adv = vec![0.0; n];
             for v in 0..nv {
                 let i = if v < q { v } else { v - q };
                 let (centre, taps) = &self.stencil[i];
                 let base = (r * nv + v) * px;
-                let n = x1 - x0;
-                {
-                    let adv = &mut s.adv[x0..x1];
-                    for (a, hx) in adv.iter_mut().zip(&h[base + x0..base + x1]) {
-                        *a = centre * hx;
-                    }
-                    for &(off, c) in taps {
-                        let start = (base as isize + off) as usize;
-                        for (a, hx) in adv.iter_mut().zip(&h[start + x0..start + x1]) {
-                            *a += c * hx;
-                        }
+                for (a, hx) in adv.iter_mut().zip(&h[base + x0..base + x1]) {
+                    *a = centre * hx;
+                }
+                for &(off, c) in taps {
+                    let start = (base as isize + off) as usize;
+                    for (a, hx) in adv.iter_mut().zip(&h[start + x0..start + x1]) {
+                        *a += c * hx;
                     }
                 }
-                s.equilibrium(eq, v, x0, x1);
-                if has_force {
-                    let ci = eq.cf[i];
-                    let gc = g[0] * ci[0] + g[1] * ci[1] + g[2] * ci[2];
-                    for x in x0..x1 {
-                        let gu = g[0] * s.u[0][x] + g[1] * s.u[1][x] + g[2] * s.u[2][x];
-                        // Force term f⁰ g·(c − u)/θ, folded into the advection accumulator.
-                        s.adv[x] -= s.fe[x] * (gc - gu) * s.inv_theta[x];
-                    }
-                }
-                let fv = &src[base + x0..base + x1];
                 let ov = &mut out_row[v * px + x0..v * px + x1];
-                let (adv, fe, fl) = (&s.adv[x0..x1], &s.fe[x0..x1], &fluid[x0..x1]);
-                match rk {
-                    RkStage::First => {
-                        for x in 0..n {
-                            let new = fv[x] + dt * (-adv[x] - (fv[x] - fe[x]) * inv_tau);
-                            ov[x] = if fl[x] { new } else { ov[x] };
-                        }
-                    }
-                    RkStage::Second => {
-                        for x in 0..n {
-                            let new = fv[x] + dt * (-adv[x] - (fv[x] - fe[x]) * inv_tau);
-                            ov[x] = if fl[x] { 0.5 * (ov[x] + new) } else { ov[x] };
-                        }
-                    }
+                for x in 0..n {
+                    ov[x] = if fluid[x] { ov[x] - k * adv[x] } else { ov[x] };
                 }
             }
         });

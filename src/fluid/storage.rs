@@ -53,19 +53,34 @@ impl RowBlocked {
         }
     }
 
-    /// Copies `len` consecutive nodes (same row) starting at `src` onto those starting at `dst`.
-    #[inline]
-    pub fn copy_run(&self, a: &mut [f64], src: usize, dst: usize, len: usize) {
-        let (bs, bd) = (self.index(src, 0), self.index(dst, 0));
-        for v in 0..self.nv {
-            a.copy_within(bs + v * self.px..bs + v * self.px + len, bd + v * self.px);
-        }
-    }
-
     /// Offset in values of the same population at a neighbour displaced by `d` nodes, for a
     /// padded grid of `py` rows per z-plane.
     #[inline]
     pub fn neighbour_offset(&self, d: [i64; 3], py: usize) -> isize {
         (d[0] + (d[1] + d[2] * py as i64) * (self.nv * self.px) as i64) as isize
     }
+}
+
+/// Copies runs (destination, source, length) of nodes in parallel. The destinations of the runs
+/// must be disjoint from each other and from every source (true of periodic halo copies, whose
+/// sources are interior nodes and whose destinations are halo nodes).
+pub fn copy_runs_parallel(layout: RowBlocked, a: &mut [f64], runs: &[(usize, usize, usize)]) {
+    use rayon::prelude::*;
+    struct Ptr(*mut f64);
+    // SAFETY: every task writes only its own run's destination values and reads only sources,
+    // which no task writes (the caller's contract above).
+    unsafe impl Sync for Ptr {}
+    unsafe impl Send for Ptr {}
+    let len = a.len();
+    let p = Ptr(a.as_mut_ptr());
+    runs.par_iter().with_min_len(64).for_each(|&(dst, src, n)| {
+        let p = &p;
+        let (bs, bd) = (layout.index(src, 0), layout.index(dst, 0));
+        for v in 0..layout.nv {
+            let (s0, d0) = (bs + v * layout.px, bd + v * layout.px);
+            assert!(s0 + n <= len && d0 + n <= len);
+            // SAFETY: in bounds (checked above); source and destination ranges do not overlap.
+            unsafe { std::ptr::copy_nonoverlapping(p.0.add(s0), p.0.add(d0), n) };
+        }
+    });
 }
