@@ -18,6 +18,7 @@
 
 pub mod bench;
 pub mod fluid;
+pub mod gpu;
 pub mod output;
 pub mod run;
 pub mod scene;

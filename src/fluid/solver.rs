@@ -136,6 +136,12 @@ impl FluidSolver {
         self.pop.scatter(&mut self.f, node, vals);
     }
 
+    /// The stage arrays (f¹, fⁿ⁺¹ being built, h, macro fields), for parity checks against
+    /// the GPU backend.
+    pub fn stage_arrays(&self) -> (&[f64], &[f64], &[f64], &[f64]) {
+        (&self.f1, &self.f2, &self.h, &self.mac)
+    }
+
     /// Reduced-temperature window in which every equilibrium weight is positive.
     pub fn temperature_window(&self) -> (f64, f64) {
         self.window

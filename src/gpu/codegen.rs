@@ -1,0 +1,329 @@
+//! Generator of the FDLB compute kernels (WGSL) from one description of the velocity set
+//! ([`crate::fluid::Equilibrium`]): every loop over velocities is unrolled and every lattice
+//! constant (c_i, shell of i, stencil taps) is written into the code, so no kernel indexes a
+//! `const` array at run time (naga + lavapipe copy such arrays per access, DESIGN §7).
+//!
+//! GPU memory layout: structure of arrays, value v of padded node `node` at `v·N + node`
+//! (N = padded node count); macro fields ρ, u_x, u_y, u_z, θ at `k·N + node`. f32 throughout.
+//! The kernels are the GPU twins of the CPU stages ([`crate::stages::FDLB_STEP`]):
+//! `moments_collide`, `advect`, and the boundary fill `ghost_fill`, `face_fill`, `periodic_copy`.
+
+use crate::fluid::Equilibrium;
+use crate::fluid::upwind::stencils;
+use std::fmt::Write;
+
+/// Threads per workgroup of every kernel.
+pub const WORKGROUP: u32 = 64;
+
+const PARAMS: &str = r#"
+struct Params {
+    n_nodes: u32, px: u32, py: u32, pz: u32,
+    nx: u32, ny: u32, nz: u32, hx: u32,
+    hy: u32, hz: u32, count: u32, stage: u32,
+    dt: f32, tau: f32, a: f32, window_lo: f32,
+    window_hi: f32, gx: f32, gy: f32, gz: f32,
+};
+@group(0) @binding(0) var<uniform> P: Params;
+
+// Linear thread index of a 2D dispatch (rows of 65535 workgroups at most).
+fn thread_index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
+    return gid.x + gid.y * nwg.x * WG;
+}
+
+// Padded node of interior item i (x fastest).
+fn interior_node(i: u32) -> u32 {
+    let x = i % P.nx;
+    let y = (i / P.nx) % P.ny;
+    let z = i / (P.nx * P.ny);
+    return (x + P.hx) + P.px * ((y + P.hy) + P.py * (z + P.hz));
+}
+"#;
+
+fn f(x: f64) -> String {
+    // WGSL abstract-float literal that round-trips to the nearest f32.
+    let v = x as f32;
+    if v == 0.0 { "0.0".into() } else { format!("{v:e}") }
+}
+
+/// Shared helpers: shell weights W(θ), one equilibrium function per value v.
+fn equilibrium_functions(eq: &Equilibrium) -> String {
+    let mut s = String::new();
+    let shells = &eq.set.shells;
+    let _ = writeln!(s, "struct W {{ {} }};", (0..shells.len()).map(|k| format!("w{k}: f32")).collect::<Vec<_>>().join(", "));
+    let _ = writeln!(s, "fn shell_weights(t: f32) -> W {{");
+    let _ = writeln!(s, "    var w: W;");
+    for (k, sh) in shells.iter().enumerate() {
+        let [a0, a1, a2, a3] = sh.poly;
+        let _ = writeln!(s, "    w.w{k} = {} + t * ({} + t * ({} + t * {}));", f(a0), f(a1), f(a2), f(a3));
+    }
+    let _ = writeln!(s, "    return w;\n}}");
+    // Equilibrium (2.78): fe = w ρ [b + ξ (b + ξ (1/2 + ξ/6))], ξ = c·u/θ, b = 1 − u²/(2θ).
+    let q = eq.q();
+    for v in 0..eq.values_per_node() {
+        let i = if v < q { v } else { v - q };
+        let c = eq.set.c[i];
+        let mut xi = Vec::new();
+        for (a, comp) in ["ux", "uy", "uz"].iter().enumerate() {
+            match c[a] {
+                0 => {}
+                1 => xi.push(comp.to_string()),
+                -1 => xi.push(format!("-{comp}")),
+                k => xi.push(format!("{k}.0 * {comp}")),
+            }
+        }
+        let xi = if xi.is_empty() { "0.0".to_string() } else { xi.join(" + ") };
+        let rot = if v >= q { format!(" * {} * theta", f(eq.rot_half)) } else { String::new() };
+        let _ = writeln!(
+            s,
+            "fn feq{v}(w: W, rho: f32, ux: f32, uy: f32, uz: f32, inv: f32, b: f32, theta: f32) -> f32 {{ let xi = ({xi}) * inv; return w.w{} * rho * (b + xi * (b + xi * (0.5 + xi * (1.0 / 6.0)))){rot}; }}",
+            eq.set.shell_of[i]
+        );
+    }
+    s
+}
+
+/// Code computing ρ, u, θ from values `f0 … f{nv−1}` already loaded into locals.
+fn moments_code(eq: &Equilibrium) -> String {
+    let q = eq.q();
+    let mut s = String::new();
+    let sum = |w: &dyn Fn(usize) -> Option<String>| -> String {
+        let terms: Vec<String> = (0..q).filter_map(w).collect();
+        if terms.is_empty() { "0.0".into() } else { terms.join(" + ") }
+    };
+    let _ = writeln!(s, "    let rho = {};", sum(&|i| Some(format!("f{i}"))));
+    for (a, name) in ["jx", "jy", "jz"].iter().enumerate() {
+        let e = sum(&|i| match eq.set.c[i][a] {
+            0 => None,
+            1 => Some(format!("f{i}")),
+            -1 => Some(format!("-f{i}")),
+            k => Some(format!("{k}.0 * f{i}")),
+        });
+        let _ = writeln!(s, "    let {name} = {e};");
+    }
+    let mut en: Vec<String> = (0..q).filter(|&i| eq.half_c2[i] != 0.0).map(|i| format!("{} * f{i}", f(eq.half_c2[i]))).collect();
+    en.extend((q..eq.values_per_node()).map(|v| format!("f{v}")));
+    let _ = writeln!(s, "    let en = {};", en.join(" + "));
+    let _ = writeln!(s, "    let irho = 1.0 / rho;");
+    let _ = writeln!(s, "    let ux = jx * irho; let uy = jy * irho; let uz = jz * irho;");
+    let _ = writeln!(s, "    let u2 = ux * ux + uy * uy + uz * uz;");
+    let _ = writeln!(s, "    let theta = (en * irho - 0.5 * u2) / {};", f(eq.energy_dof_half));
+    s
+}
+
+/// `moments_collide`: moments, instability check, h, and the local part of the RK stage.
+pub fn moments_collide(eq: &Equilibrium) -> String {
+    let nv = eq.values_per_node();
+    let q = eq.q();
+    let mut s = format!("const WG: u32 = {WORKGROUP}u;\n{PARAMS}\n");
+    s += r#"
+@group(0) @binding(1) var<storage, read> kind: array<u32>;
+@group(0) @binding(2) var<storage, read> src: array<f32>;
+@group(0) @binding(3) var<storage, read> base: array<f32>;
+@group(0) @binding(4) var<storage, read_write> h: array<f32>;
+@group(0) @binding(5) var<storage, read_write> mac: array<f32>;
+@group(0) @binding(6) var<storage, read_write> dst: array<f32>;
+@group(0) @binding(7) var<storage, read_write> status: array<atomic<u32>, 2>;
+"#;
+    s += &equilibrium_functions(eq);
+    s += "@compute @workgroup_size(WG)\nfn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {\n";
+    s += "    let i = thread_index(gid, nwg);\n    if (i >= P.nx * P.ny * P.nz) { return; }\n    let node = interior_node(i);\n    if (kind[node] != 0u) { return; }\n    let N = P.n_nodes;\n";
+    for v in 0..nv {
+        let _ = writeln!(s, "    let f{v} = src[{v}u * N + node];");
+    }
+    s += &moments_code(eq);
+    s += r#"    // Instability: the lowest failing node index wins (status[0]); status[1] says what.
+    var code = 0u;
+    if (!(rho > 0.0) || rho != rho) { code = 1u; }
+    else if (u2 != u2) { code = 2u; }
+    else if (!(theta > P.window_lo && theta < P.window_hi)) { code = 3u; }
+    if (code != 0u) {
+        let prev = atomicMin(&status[0], node);
+        if (node < prev) { atomicStore(&status[1], code); }
+        return;
+    }
+    let w = shell_weights(theta);
+    let inv = 1.0 / theta;
+    let b = 1.0 - 0.5 * u2 * inv;
+    let kf = 1.0 - P.a / P.tau;
+    let keq = P.a / P.tau;
+    let dt_tau = P.dt / P.tau;
+    let gu = P.gx * ux + P.gy * uy + P.gz * uz;
+    let second = P.stage == 2u;
+"#;
+    for v in 0..nv {
+        let i = if v < q { v } else { v - q };
+        let c = eq.set.c[i];
+        let gc = format!("(P.gx * {}.0 + P.gy * {}.0 + P.gz * {}.0)", c[0], c[1], c[2]);
+        let _ = writeln!(s, "    {{ let fe = feq{v}(w, rho, ux, uy, uz, inv, b, theta);");
+        let _ = writeln!(s, "      h[{v}u * N + node] = kf * f{v} + keq * fe;");
+        let _ = writeln!(s, "      let local = f{v} - dt_tau * (f{v} - fe) + P.dt * fe * ({gc} - gu) * inv;");
+        let _ = writeln!(s, "      if (second) {{ dst[{v}u * N + node] = 0.5 * (base[{v}u * N + node] + local); }} else {{ dst[{v}u * N + node] = local; }} }}");
+    }
+    s += "    mac[node] = rho; mac[N + node] = ux; mac[2u * N + node] = uy; mac[3u * N + node] = uz; mac[4u * N + node] = theta;\n}\n";
+    s
+}
+
+/// `advect`: dst −= k Δt c·∇h with the unrolled 3rd-order upwind stencil of every velocity.
+pub fn advect(eq: &Equilibrium) -> String {
+    let nv = eq.values_per_node();
+    let q = eq.q();
+    let st = stencils(&eq.set.c);
+    let mut s = format!("const WG: u32 = {WORKGROUP}u;\n{PARAMS}\n");
+    s += r#"
+@group(0) @binding(1) var<storage, read> kind: array<u32>;
+@group(0) @binding(2) var<storage, read> h: array<f32>;
+@group(0) @binding(3) var<storage, read_write> dst: array<f32>;
+
+@compute @workgroup_size(WG)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = thread_index(gid, nwg);
+    if (i >= P.nx * P.ny * P.nz) { return; }
+    let node = interior_node(i);
+    if (kind[node] != 0u) { return; }
+    let N = P.n_nodes;
+    let sy = i32(P.px);
+    let sz = i32(P.px * P.py);
+    let k = select(1.0, 0.5, P.stage == 2u) * P.dt;
+"#;
+    for v in 0..nv {
+        let i = if v < q { v } else { v - q };
+        let stc = &st[i];
+        let _ = write!(s, "    {{ let c = i32({v}u * N + node); let adv = {} * h[c]", f(stc.centre));
+        for (d, coef) in &stc.taps {
+            let off = match (d[0], d[1], d[2]) {
+                (dx, 0, 0) => format!("{dx}"),
+                (0, dy, 0) => format!("{dy} * sy"),
+                (0, 0, dz) => format!("{dz} * sz"),
+                _ => unreachable!("axis-wise stencil"),
+            };
+            let _ = write!(s, " + {} * h[c + {off}]", f(*coef));
+        }
+        let _ = writeln!(s, ";\n      dst[c] = dst[c] - k * adv; }}");
+    }
+    s += "}\n";
+    s
+}
+
+/// Boundary fill kernels (`ghost_fill`, `face_fill`, `periodic_copy`) in one module.
+pub fn boundaries(eq: &Equilibrium) -> String {
+    let nv = eq.values_per_node();
+    let mut s = format!("const WG: u32 = {WORKGROUP}u;\nconst NV: u32 = {nv}u;\n{PARAMS}\n");
+    s += r#"
+struct Entry {
+    node: u32, source: u32, code: u32, n_img: u32,
+    rho: f32, theta: f32, ux: f32, uy: f32,
+    uz: f32, ratio: f32, _p0: f32, _p1: f32,
+};
+@group(0) @binding(1) var<storage, read> entries: array<Entry>;
+@group(0) @binding(2) var<storage, read> images: array<vec2<u32>>;
+@group(0) @binding(3) var<storage, read_write> fv: array<f32>;
+@group(0) @binding(4) var<storage, read_write> h: array<f32>;
+@group(0) @binding(5) var<storage, read_write> mac: array<f32>;
+"#;
+    s += &equilibrium_functions(eq);
+    // set_node: f = fe + n, h = fe + (1 − A/τ) n, macro fields.
+    let _ = writeln!(s, "fn set_node(node: u32, rho: f32, ux: f32, uy: f32, uz: f32, theta: f32, n: array<f32, {nv}>) {{");
+    s += "    let N = P.n_nodes;\n    let w = shell_weights(theta);\n    let inv = 1.0 / theta;\n    let b = 1.0 - 0.5 * (ux * ux + uy * uy + uz * uz) * inv;\n    let kf = 1.0 - P.a / P.tau;\n";
+    for v in 0..nv {
+        let _ = writeln!(s, "    {{ let fe = feq{v}(w, rho, ux, uy, uz, inv, b, theta); fv[{v}u * N + node] = fe + n[{v}]; h[{v}u * N + node] = fe + kf * n[{v}]; }}");
+    }
+    s += "    mac[node] = rho; mac[N + node] = ux; mac[2u * N + node] = uy; mac[3u * N + node] = uz; mac[4u * N + node] = theta;\n}\n";
+    // neq_add: n += wgt (f − fe) of node k.
+    let _ = writeln!(s, "fn neq_of(k: u32) -> array<f32, {nv}> {{");
+    s += "    let N = P.n_nodes;\n    let rho = mac[k]; let ux = mac[N + k]; let uy = mac[2u * N + k]; let uz = mac[3u * N + k]; let theta = mac[4u * N + k];\n";
+    s += "    let w = shell_weights(theta);\n    let inv = 1.0 / theta;\n    let b = 1.0 - 0.5 * (ux * ux + uy * uy + uz * uz) * inv;\n";
+    let _ = writeln!(s, "    var n: array<f32, {nv}>;");
+    for v in 0..nv {
+        let _ = writeln!(s, "    n[{v}] = fv[{v}u * N + k] - feq{v}(w, rho, ux, uy, uz, inv, b, theta);");
+    }
+    s += "    return n;\n}\n";
+    s += r#"
+// Ghost nodes: image-point state extrapolated through the wall (see fluid::boundary).
+@compute @workgroup_size(WG)
+fn ghost_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let t = thread_index(gid, nwg);
+    if (t >= P.count) { return; }
+    let e = entries[t];
+    let N = P.n_nodes;
+    var m = array<f32, 5>(0.0, 0.0, 0.0, 0.0, 0.0);
+"#;
+    let _ = writeln!(s, "    var n: array<f32, {nv}>;");
+    s += r#"    for (var j = 0u; j < e.n_img; j = j + 1u) {
+        let im = images[t * 8u + j];
+        let k = im.x;
+        let wk = bitcast<f32>(im.y);
+        m[0] += wk * mac[k]; m[1] += wk * mac[N + k]; m[2] += wk * mac[2u * N + k]; m[3] += wk * mac[3u * N + k]; m[4] += wk * mac[4u * N + k];
+        let nk = neq_of(k);
+"#;
+    for v in 0..nv {
+        let _ = writeln!(s, "        n[{v}] += wk * nk[{v}];");
+    }
+    s += r#"    }
+    let r = e.ratio;
+    let ux = e.ux + r * (m[1] - e.ux);
+    let uy = e.uy + r * (m[2] - e.uy);
+    let uz = e.uz + r * (m[3] - e.uz);
+    var theta = m[4];
+    if (e.code == 1u) { theta = e.theta + r * (m[4] - e.theta); }
+    set_node(e.node, m[0] * m[4] / theta, ux, uy, uz, theta, n);
+}
+
+// Inlet / outlet halos: code 0 outlet (copy), 1 pressure inlet, 2 velocity inlet.
+@compute @workgroup_size(WG)
+fn face_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let t = thread_index(gid, nwg);
+    if (t >= P.count) { return; }
+    let e = entries[t];
+    let N = P.n_nodes;
+    let s = e.source;
+    if (e.code == 0u) {
+        for (var v = 0u; v < NV; v = v + 1u) { fv[v * N + e.node] = fv[v * N + s]; h[v * N + e.node] = h[v * N + s]; }
+        for (var k = 0u; k < 5u; k = k + 1u) { mac[k * N + e.node] = mac[k * N + s]; }
+        return;
+    }
+    let n = neq_of(s);
+    if (e.code == 1u) {
+        set_node(e.node, e.rho, mac[N + s], mac[2u * N + s], mac[3u * N + s], e.theta, n);
+    } else {
+        set_node(e.node, mac[s], e.ux, e.uy, e.uz, e.theta, n);
+    }
+}
+
+// Periodic halos: entries hold (node = destination, source).
+@compute @workgroup_size(WG)
+fn periodic_copy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let t = thread_index(gid, nwg);
+    if (t >= P.count) { return; }
+    let d = images[t].x;
+    let s = images[t].y;
+    let N = P.n_nodes;
+    for (var v = 0u; v < NV; v = v + 1u) { fv[v * N + d] = fv[v * N + s]; h[v * N + d] = h[v * N + s]; }
+    for (var k = 0u; k < 5u; k = k + 1u) { mac[k * N + d] = mac[k * N + s]; }
+}
+"#;
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fluid::{GasModel, VelocitySet, VelocitySetKind};
+
+    /// Every generated module parses and validates with naga, for both sets and both gases.
+    #[test]
+    fn generated_wgsl_validates() {
+        for kind in [VelocitySetKind::D2q21, VelocitySetKind::D3q39] {
+            for gas in [GasModel::Monatomic, GasModel::Diatomic] {
+                let eq = Equilibrium::new(VelocitySet::new(kind), gas);
+                for (name, src) in [("moments_collide", moments_collide(&eq)), ("advect", advect(&eq)), ("boundaries", boundaries(&eq))] {
+                    let module = naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{kind:?} {gas:?} {name}: {}", e.emit_to_string(&src)));
+                    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+                        .validate(&module)
+                        .unwrap_or_else(|e| panic!("{kind:?} {gas:?} {name}: {e:?}"));
+                    // No run-time indexing of const arrays: the only arrays are local accumulators.
+                    assert!(!src.contains("const C"), "{name}");
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,402 @@
+//! The GPU twin of [`crate::fluid::FluidSolver`]: the same stages ([`FDLB_STEP`]) recorded as
+//! compute dispatches of the generated kernels ([`super::codegen`]), f32 structure-of-arrays
+//! buffers, set up from a CPU solver (geometry tables, initial state) so that the two can be
+//! compared stage by stage.
+//!
+//! Memory per node: 4 population arrays (fⁿ, f¹, fⁿ⁺¹, h) of NV f32 plus 5 macro fields and a
+//! node kind: (16·NV + 24) bytes (D2Q21: 360 B, D3Q39: 648 B). Bytes moved per node update of
+//! one step: stage 1 reads f (NV) and writes h, f¹ (2 NV) and 5 macros, then the advection reads
+//! h and f¹ and writes f¹ (3 NV); stage 2 also reads fⁿ: (13 NV + 10)·4 bytes, neighbours of
+//! the stencil assumed served from cache.
+
+use super::codegen::{self, WORKGROUP};
+use super::context::{GpuContext, GpuError};
+use crate::fluid::layout::NodeKind;
+use crate::fluid::{FaceCondition, FluidSolver};
+use crate::stages::{FDLB_STEP, RkStage, Stage, StageKind};
+use bytemuck::{Pod, Zeroable};
+use wgpu::util::DeviceExt;
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct Params {
+    n_nodes: u32,
+    px: u32,
+    py: u32,
+    pz: u32,
+    nx: u32,
+    ny: u32,
+    nz: u32,
+    hx: u32,
+    hy: u32,
+    hz: u32,
+    count: u32,
+    stage: u32,
+    dt: f32,
+    tau: f32,
+    a: f32,
+    window_lo: f32,
+    window_hi: f32,
+    gx: f32,
+    gy: f32,
+    gz: f32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, Default)]
+struct Entry {
+    node: u32,
+    source: u32,
+    code: u32,
+    n_img: u32,
+    rho: f32,
+    theta: f32,
+    ux: f32,
+    uy: f32,
+    uz: f32,
+    ratio: f32,
+    _p0: f32,
+    _p1: f32,
+}
+
+/// Which node array to read back.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GpuArray {
+    /// fⁿ (after a full step) — the state.
+    State,
+    /// f¹, the first Runge–Kutta stage's output.
+    FirstStage,
+    /// fⁿ⁺¹ being built by the second stage (before [`GpuFluid::finish_step`]).
+    SecondStage,
+    /// The advected field h of the last moments pass.
+    Advected,
+    /// Macro fields ρ, u_x, u_y, u_z, θ.
+    Macro,
+}
+
+pub struct GpuFluid {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    pub nv: usize,
+    pub n_nodes: usize,
+    interior: u32,
+    /// f buffers: [fⁿ or fⁿ⁺¹, f¹, fⁿ⁺¹ or fⁿ]; `cur` says which of 0 and 2 holds fⁿ.
+    f: [wgpu::Buffer; 3],
+    cur: usize,
+    h: wgpu::Buffer,
+    mac: wgpu::Buffer,
+    kind: wgpu::Buffer,
+    status: wgpu::Buffer,
+    ghosts: (wgpu::Buffer, wgpu::Buffer, u32),
+    faces: (wgpu::Buffer, u32),
+    periodic: (wgpu::Buffer, u32),
+    params_stage: [wgpu::Buffer; 2],
+    params_count: [wgpu::Buffer; 3],
+    moments: wgpu::ComputePipeline,
+    advect: wgpu::ComputePipeline,
+    ghost_fill: wgpu::ComputePipeline,
+    face_fill: wgpu::ComputePipeline,
+    periodic_copy: wgpu::ComputePipeline,
+    pub step_count: u64,
+}
+
+fn storage(device: &wgpu::Device, label: &str, data: &[u8]) -> wgpu::Buffer {
+    // Empty lists still need a binding: one zero word.
+    let data: &[u8] = if data.is_empty() { &[0u8; 48] } else { data };
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: data,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+    })
+}
+
+fn pipeline(device: &wgpu::Device, label: &str, src: &str, entry: &str) -> wgpu::ComputePipeline {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(label), source: wgpu::ShaderSource::Wgsl(src.into()) });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: None,
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    })
+}
+
+/// Workgroup counts for `threads` threads (2D when one dimension is not enough).
+fn groups(threads: u32) -> (u32, u32) {
+    let w = threads.div_ceil(WORKGROUP).max(1);
+    if w <= 65_535 { (w, 1) } else { (65_535, w.div_ceil(65_535)) }
+}
+
+impl GpuFluid {
+    /// Uploads the state, geometry tables and parameters of a CPU solver.
+    pub fn from_solver(ctx: &GpuContext, s: &FluidSolver) -> Result<Self, GpuError> {
+        let device = ctx.device.clone();
+        let queue = ctx.queue.clone();
+        let eq = &s.eq;
+        let nv = eq.values_per_node();
+        let g = &s.layout.grid;
+        let n = g.len();
+        let bytes = (nv * n * 4) as u64;
+        if bytes > ctx.limits.max_storage_buffer_binding_size as u64 {
+            return Err(GpuError::TooLarge { what: "one population array", bytes, limit: ctx.limits.max_storage_buffer_binding_size as u64 });
+        }
+        let mut f0 = vec![0f32; nv * n];
+        let mut vals = vec![0.0; nv];
+        for node in 0..n {
+            s.pop.gather(&s.f, node, &mut vals);
+            for v in 0..nv {
+                f0[v * n + node] = vals[v] as f32;
+            }
+        }
+        let fb = bytemuck::cast_slice(&f0);
+        let f = [storage(&device, "f", fb), storage(&device, "f1", fb), storage(&device, "f2", fb)];
+        let h = storage(&device, "h", fb);
+        let mac = storage(&device, "mac", bytemuck::cast_slice(&vec![0f32; 5 * n]));
+        let kind: Vec<u32> = s.layout.kind.iter().map(|k| *k as u32).collect();
+        let kind = storage(&device, "kind", bytemuck::cast_slice(&kind));
+        let status = storage(&device, "status", bytemuck::cast_slice(&[u32::MAX, 0u32]));
+
+        let mut ghost_entries = Vec::new();
+        let mut images: Vec<[u32; 2]> = Vec::new();
+        for gh in &s.layout.ghosts {
+            assert!(gh.image.len() <= 8);
+            ghost_entries.push(Entry {
+                node: gh.node as u32,
+                code: gh.wall_temperature.is_some() as u32,
+                n_img: gh.image.len() as u32,
+                theta: gh.wall_temperature.unwrap_or(0.0) as f32,
+                ux: gh.wall_velocity[0] as f32,
+                uy: gh.wall_velocity[1] as f32,
+                uz: gh.wall_velocity[2] as f32,
+                ratio: gh.ratio as f32,
+                ..Default::default()
+            });
+            for j in 0..8 {
+                images.push(gh.image.get(j).map(|&(k, w)| [k as u32, (w as f32).to_bits()]).unwrap_or([0, 0]));
+            }
+        }
+        let mut face_entries = Vec::new();
+        for fh in &s.layout.face_halos {
+            let mut e = Entry { node: fh.node as u32, source: fh.source as u32, ..Default::default() };
+            match &s.layout.boundaries.faces[fh.face as usize] {
+                FaceCondition::Outlet => e.code = 0,
+                FaceCondition::PressureInlet { rho, theta } => {
+                    e.code = 1;
+                    e.rho = *rho as f32;
+                    e.theta = *theta as f32;
+                }
+                FaceCondition::VelocityInlet { velocity, theta } => {
+                    e.code = 2;
+                    e.theta = *theta as f32;
+                    e.ux = velocity[0] as f32;
+                    e.uy = velocity[1] as f32;
+                    e.uz = velocity[2] as f32;
+                }
+                _ => unreachable!("face halo of a periodic or wall face"),
+            }
+            face_entries.push(e);
+        }
+        let periodic: Vec<[u32; 2]> = s.layout.periodic.iter().flat_map(|&(d, src, len)| (0..len).map(move |k| [(d + k) as u32, (src + k) as u32])).collect();
+
+        let window = s.temperature_window();
+        let base = Params {
+            n_nodes: n as u32,
+            px: g.padded[0] as u32,
+            py: g.padded[1] as u32,
+            pz: g.padded[2] as u32,
+            nx: g.n[0] as u32,
+            ny: g.n[1] as u32,
+            nz: g.n[2] as u32,
+            hx: g.halo[0] as u32,
+            hy: g.halo[1] as u32,
+            hz: g.halo[2] as u32,
+            count: 0,
+            stage: 1,
+            dt: s.params.dt as f32,
+            tau: s.params.tau as f32,
+            a: s.params.a as f32,
+            window_lo: window.0 as f32,
+            window_hi: window.1 as f32,
+            gx: s.body_force[0] as f32,
+            gy: s.body_force[1] as f32,
+            gz: s.body_force[2] as f32,
+        };
+        let uniform = |p: Params| device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some("params"), contents: bytemuck::bytes_of(&p), usage: wgpu::BufferUsages::UNIFORM });
+        let params_stage = [uniform(Params { stage: 1, ..base }), uniform(Params { stage: 2, ..base })];
+        let counts = [ghost_entries.len(), face_entries.len(), periodic.len()];
+        let params_count = [uniform(Params { count: counts[0] as u32, ..base }), uniform(Params { count: counts[1] as u32, ..base }), uniform(Params { count: counts[2] as u32, ..base })];
+
+        let bsrc = codegen::boundaries(eq);
+        Ok(GpuFluid {
+            moments: pipeline(&device, "moments_collide", &codegen::moments_collide(eq), "main"),
+            advect: pipeline(&device, "advect", &codegen::advect(eq), "main"),
+            ghost_fill: pipeline(&device, "ghost_fill", &bsrc, "ghost_fill"),
+            face_fill: pipeline(&device, "face_fill", &bsrc, "face_fill"),
+            periodic_copy: pipeline(&device, "periodic_copy", &bsrc, "periodic_copy"),
+            ghosts: (storage(&device, "ghosts", bytemuck::cast_slice(&ghost_entries)), storage(&device, "images", bytemuck::cast_slice(&images)), counts[0] as u32),
+            faces: (storage(&device, "faces", bytemuck::cast_slice(&face_entries)), counts[1] as u32),
+            periodic: (storage(&device, "periodic", bytemuck::cast_slice(&periodic)), counts[2] as u32),
+            interior: g.interior_len() as u32,
+            nv,
+            n_nodes: n,
+            f,
+            cur: 0,
+            h,
+            mac,
+            kind,
+            status,
+            params_stage,
+            params_count,
+            device,
+            queue,
+            step_count: s.step_count,
+        })
+    }
+
+    /// Bind group of `p` (automatic layout: exactly the bindings its entry point uses).
+    fn bind(&self, p: &wgpu::ComputePipeline, buffers: &[(u32, &wgpu::Buffer)]) -> wgpu::BindGroup {
+        let layout = p.get_bind_group_layout(0);
+        let entries: Vec<wgpu::BindGroupEntry> = buffers.iter().map(|&(i, b)| wgpu::BindGroupEntry { binding: i, resource: b.as_entire_binding() }).collect();
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries })
+    }
+
+    fn dispatch(pass: &mut wgpu::ComputePass, p: &wgpu::ComputePipeline, bg: &wgpu::BindGroup, threads: u32) {
+        if threads == 0 {
+            return;
+        }
+        let (x, y) = groups(threads);
+        pass.set_pipeline(p);
+        pass.set_bind_group(0, bg, &[]);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+
+    /// Records one stage of [`FDLB_STEP`] into `pass`.
+    fn record_stage(&self, pass: &mut wgpu::ComputePass, stage: &Stage) {
+        let (fn_, f1, fnext) = (&self.f[self.cur], &self.f[1], &self.f[2 - self.cur]);
+        let k = match stage.rk {
+            RkStage::First => 0,
+            RkStage::Second => 1,
+        };
+        let params = &self.params_stage[k];
+        match stage.kind {
+            StageKind::MomentsCollide => {
+                let (src, out) = if k == 0 { (fn_, f1) } else { (f1, fnext) };
+                let bg = self.bind(&self.moments, &[(0, params), (1, &self.kind), (2, src), (3, fn_), (4, &self.h), (5, &self.mac), (6, out), (7, &self.status)]);
+                Self::dispatch(pass, &self.moments, &bg, self.interior);
+            }
+            StageKind::Boundaries => {
+                let fv = if k == 0 { fn_ } else { f1 };
+                let bg = self.bind(&self.ghost_fill, &[(0, &self.params_count[0]), (1, &self.ghosts.0), (2, &self.ghosts.1), (3, fv), (4, &self.h), (5, &self.mac)]);
+                Self::dispatch(pass, &self.ghost_fill, &bg, self.ghosts.2);
+                let bg = self.bind(&self.face_fill, &[(0, &self.params_count[1]), (1, &self.faces.0), (3, fv), (4, &self.h), (5, &self.mac)]);
+                Self::dispatch(pass, &self.face_fill, &bg, self.faces.1);
+                let bg = self.bind(&self.periodic_copy, &[(0, &self.params_count[2]), (2, &self.periodic.0), (3, fv), (4, &self.h), (5, &self.mac)]);
+                Self::dispatch(pass, &self.periodic_copy, &bg, self.periodic.1);
+            }
+            StageKind::Advect => {
+                let out = if k == 0 { f1 } else { fnext };
+                let bg = self.bind(&self.advect, &[(0, params), (1, &self.kind), (2, &self.h), (3, out)]);
+                Self::dispatch(pass, &self.advect, &bg, self.interior);
+            }
+        }
+    }
+
+    /// Runs one stage on its own (for per-kernel parity tests). After the last stage of a step,
+    /// call [`Self::finish_step`].
+    pub fn run_stage(&mut self, stage: &Stage) {
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            self.record_stage(&mut pass, stage);
+        }
+        self.queue.submit([enc.finish()]);
+    }
+
+    /// Swaps fⁿ and fⁿ⁺¹ at the end of a step.
+    pub fn finish_step(&mut self) {
+        self.cur = 2 - self.cur;
+        self.step_count += 1;
+    }
+
+    /// Runs `n` full steps, submitting the stage list of each step in one compute pass.
+    pub fn run(&mut self, n: u64) {
+        for _ in 0..n {
+            let mut enc = self.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                for stage in &FDLB_STEP {
+                    self.record_stage(&mut pass, stage);
+                }
+            }
+            self.queue.submit([enc.finish()]);
+            self.finish_step();
+        }
+    }
+
+    /// First inadmissible node and its code (1 density, 2 velocity, 3 temperature), if any.
+    pub fn instability(&self) -> Option<(usize, u32)> {
+        let s: Vec<u32> = bytemuck::cast_slice(&self.read_buffer(&self.status)).to_vec();
+        (s[0] != u32::MAX).then(|| (s[0] as usize, s[1]))
+    }
+
+    /// Blocks until the queue is idle.
+    pub fn wait(&self) {
+        let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
+    }
+
+    fn read_buffer(&self, b: &wgpu::Buffer) -> Vec<u8> {
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor { label: Some("readback"), size: b.size(), usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(b, 0, &staging, 0, b.size());
+        self.queue.submit([enc.finish()]);
+        let slice = staging.slice(..);
+        slice.map_async(wgpu::MapMode::Read, |r| r.expect("map readback buffer"));
+        self.wait();
+        let out = slice.get_mapped_range().to_vec();
+        staging.unmap();
+        out
+    }
+
+    /// Reads an array back: structure of arrays, value v of node at `v·N + node`.
+    pub fn download(&self, which: GpuArray) -> Vec<f32> {
+        let b = match which {
+            GpuArray::State => &self.f[self.cur],
+            GpuArray::FirstStage => &self.f[1],
+            GpuArray::SecondStage => &self.f[2 - self.cur],
+            GpuArray::Advected => &self.h,
+            GpuArray::Macro => &self.mac,
+        };
+        bytemuck::cast_slice(&self.read_buffer(b)).to_vec()
+    }
+
+    /// Largest |GPU − CPU| / scale over the fluid nodes of the state, with scale the largest
+    /// |CPU value| of each population (the populations span several orders of magnitude).
+    pub fn max_relative_difference(&self, cpu: &FluidSolver) -> f64 {
+        let gpu = self.download(GpuArray::State);
+        compare_populations(&gpu, cpu, &cpu.f, self.n_nodes)
+    }
+}
+
+/// max_v max_node |gpu − cpu| / max_node |cpu| over fluid nodes; `cpu_arr` in the CPU layout.
+pub fn compare_populations(gpu: &[f32], cpu: &FluidSolver, cpu_arr: &[f64], n: usize) -> f64 {
+    let nv = cpu.pop.nv;
+    let mut worst: f64 = 0.0;
+    let mut vals = vec![0.0; nv];
+    let mut scale = vec![0.0f64; nv];
+    let mut diff = vec![0.0f64; nv];
+    for node in 0..n {
+        if cpu.layout.kind[node] != NodeKind::Fluid {
+            continue;
+        }
+        cpu.pop.gather(cpu_arr, node, &mut vals);
+        for v in 0..nv {
+            scale[v] = scale[v].max(vals[v].abs());
+            diff[v] = diff[v].max((gpu[v * n + node] as f64 - vals[v]).abs());
+        }
+    }
+    for v in 0..nv {
+        worst = worst.max(diff[v] / scale[v].max(1e-30));
+    }
+    worst
+}

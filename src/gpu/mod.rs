@@ -1,0 +1,10 @@
+//! GPU backend (wgpu compute, no Bevy needed): a headless device ([`context`]), kernels generated
+//! from the velocity set ([`codegen`]) and the FDLB runner that records the stage list
+//! ([`fdlb`]). Every kernel has a CPU twin in [`crate::fluid`]; `tests/gpu.rs` checks parity.
+
+pub mod codegen;
+pub mod context;
+pub mod fdlb;
+
+pub use context::{GpuContext, GpuError};
+pub use fdlb::{GpuArray, GpuFluid};
