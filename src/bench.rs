@@ -81,10 +81,7 @@ pub struct BenchReport {
 pub fn run(quick: bool) -> BenchReport {
     let bw = triad_bandwidth(if quick { 1 << 22 } else { 1 << 25 }, 10);
     let (n2, n3, st) = if quick { (128, 32, 3) } else { (512, 96, 10) };
-    let lattices = vec![
-        lattice_speed(VelocitySetKind::D2q21, [n2, n2, 1], st, bw),
-        lattice_speed(VelocitySetKind::D3q39, [n3, n3, n3], st.min(5), bw),
-    ];
+    let lattices = vec![lattice_speed(VelocitySetKind::D2q21, [n2, n2, 1], st, bw), lattice_speed(VelocitySetKind::D3q39, [n3, n3, n3], st.min(5), bw)];
     let speed_vs_error = [32usize, 64, 128]
         .iter()
         .map(|&n| {

@@ -17,13 +17,14 @@
 //! | `plugin` | Bevy plugin (feature `bevy`, on by default) |
 
 pub mod bench;
+pub mod engine;
 pub mod fluid;
 pub mod gpu;
 pub mod output;
+#[cfg(feature = "bevy")]
+pub mod plugin;
 pub mod run;
 pub mod scene;
 pub mod stages;
 pub mod units;
 pub mod validation;
-#[cfg(feature = "bevy")]
-pub mod plugin;

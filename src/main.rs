@@ -3,7 +3,7 @@
 
 use anyhow::{Context, bail};
 use clap::{Parser, Subcommand};
-use phonation::run::{RunOptions, RunStatus, run_scene};
+use phonation::run::{Backend, RunOptions, RunStatus, run_scene};
 use phonation::scene;
 use std::path::PathBuf;
 
@@ -12,6 +12,13 @@ use std::path::PathBuf;
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum BenchBackend {
+    Cpu,
+    Gpu,
+    Both,
 }
 
 #[derive(Subcommand)]
@@ -26,6 +33,9 @@ enum Command {
         /// Run this many steps instead of the scene's duration.
         #[arg(long)]
         steps: Option<u64>,
+        /// Solver backend: cpu, gpu, or auto (a hardware GPU when present, else the CPU).
+        #[arg(long, value_enum, default_value = "auto")]
+        backend: Backend,
     },
     /// Validate a scene file and print what it resolves to, without running it.
     Check { scene: String },
@@ -36,6 +46,9 @@ enum Command {
         /// Small grids, for a smoke run.
         #[arg(long)]
         quick: bool,
+        /// Which backends to measure.
+        #[arg(long, value_enum, default_value = "cpu")]
+        backend: BenchBackend,
         /// Also write the report as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -55,23 +68,34 @@ fn scene_text(arg: &str) -> anyhow::Result<String> {
     if let Some(t) = scene::builtin(arg) {
         return Ok(t.to_string());
     }
-    std::fs::read_to_string(arg).with_context(|| format!("reading scene file {arg} (not a built-in scene either: {})", scene::BUILTIN.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")))
+    std::fs::read_to_string(arg).with_context(|| {
+        format!("reading scene file {arg} (not a built-in scene either: {})", scene::BUILTIN.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "))
+    })
 }
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
-    match cli.command.unwrap_or(Command::Run { scene: None, out: None, steps: None }) {
-        Command::Run { scene: name, out, steps } => {
+    match cli.command.unwrap_or(Command::Run { scene: None, out: None, steps: None, backend: Backend::Auto }) {
+        Command::Run { scene: name, out, steps, backend } => {
             let name = name.unwrap_or_else(|| scene::DEFAULT_SCENE.to_string());
             let sc = scene::load(&scene_text(&name)?)?;
             let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.file.name));
             let sum = sc.summary();
             eprintln!(
                 "scene {}: {:?} {:?} nodes, Δt = {:.4} (τ = {:.4}, A = {:.4}), ν = {:.5} lattice, {} steps, Mach {:.3}{}",
-                sum.name, sc.file.domain.lattice, sum.nodes, sum.params.dt, sum.params.tau, sum.params.a, sum.nu_lattice, steps.unwrap_or(sum.steps), sum.reference_mach,
+                sum.name,
+                sc.file.domain.lattice,
+                sum.nodes,
+                sum.params.dt,
+                sum.params.tau,
+                sum.params.a,
+                sum.nu_lattice,
+                steps.unwrap_or(sum.steps),
+                sum.reference_mach,
                 if sum.mach_scaled { " (Mach-scaled)" } else { "" }
             );
-            let report = run_scene(&sc, &dir, &RunOptions { steps, show_progress: true })?;
+            let report = run_scene(&sc, &dir, &RunOptions { steps, show_progress: true, backend })?;
+            eprintln!("backend: {}", report.backend);
             eprintln!(
                 "{} steps, {:.4e} s simulated in {:.1} s wall ({:.3e} node updates/s), mass drift {:.2e}, max Mach {:.3}",
                 report.steps_done, report.simulated_time_s, report.wall_time_s, report.node_updates_per_s, report.mass_drift, report.max_mach
@@ -91,22 +115,73 @@ fn main() -> anyhow::Result<()> {
                 println!("{n:16} {d}");
             }
         }
-        Command::Bench { quick, json } => {
-            let r = phonation::bench::run(quick);
-            println!("threads: {}, STREAM-like triad bandwidth: {:.2} GB/s", r.threads, r.triad_bandwidth_gb_s);
-            println!("{:8} {:>16} {:>16} {:>10} {:>10}", "lattice", "nodes", "updates/s", "B/update", "of b/w");
-            for l in &r.lattices {
-                println!("{:8} {:>16} {:>16.3e} {:>10.0} {:>9.1}%", l.lattice, format!("{:?}", l.nodes), l.node_updates_per_s, l.bytes_per_node_update, 100.0 * l.bandwidth_fraction);
-                let st: Vec<String> = l.stage_fractions.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
-                println!("         stages: {}", st.join(", "));
+        Command::Bench { quick, backend, json } => {
+            let mut report = serde_json::Map::new();
+            let mut cpu_speeds = Vec::new();
+            if backend != BenchBackend::Gpu {
+                let r = phonation::bench::run(quick);
+                println!("CPU: {} threads, STREAM-like triad bandwidth {:.2} GB/s", r.threads, r.triad_bandwidth_gb_s);
+                println!("{:8} {:>16} {:>16} {:>10} {:>10}", "lattice", "nodes", "updates/s", "B/update", "of b/w");
+                for l in &r.lattices {
+                    println!(
+                        "{:8} {:>16} {:>16.3e} {:>10.0} {:>9.1}%",
+                        l.lattice,
+                        format!("{:?}", l.nodes),
+                        l.node_updates_per_s,
+                        l.bytes_per_node_update,
+                        100.0 * l.bandwidth_fraction
+                    );
+                    let st: Vec<String> = l.stage_fractions.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
+                    println!("         stages: {}", st.join(", "));
+                    cpu_speeds.push((l.lattice.clone(), l.node_updates_per_s));
+                }
+                println!("speed vs error, Taylor–Green D2Q21 (Re = 10):");
+                println!("{:>6} {:>14} {:>16}", "n", "wall s / t.u.", "decay-rate error");
+                for t in &r.speed_vs_error {
+                    println!("{:>6} {:>14.3e} {:>15.3}%", t.n, t.wall_per_time_unit, 100.0 * t.relative_error);
+                }
+                report.insert("cpu".into(), serde_json::to_value(&r)?);
             }
-            println!("speed vs error, Taylor–Green D2Q21 (Re = 10):");
-            println!("{:>6} {:>14} {:>16}", "n", "wall s / t.u.", "decay-rate error");
-            for t in &r.speed_vs_error {
-                println!("{:>6} {:>14.3e} {:>15.3}%", t.n, t.wall_per_time_unit, 100.0 * t.relative_error);
+            if backend != BenchBackend::Cpu {
+                let ctx = phonation::gpu::GpuContext::new()?;
+                let bw = phonation::gpu::bench::copy_bandwidth(&ctx, if quick { 64 << 20 } else { 1 << 30 }, 10);
+                println!("GPU: {}, copy-kernel bandwidth {:.2} GB/s", ctx.describe(), bw / 1e9);
+                let sizes: Vec<(phonation::fluid::VelocitySetKind, [usize; 3])> = if quick {
+                    vec![(phonation::fluid::VelocitySetKind::D2q21, [256, 256, 1]), (phonation::fluid::VelocitySetKind::D3q39, [32, 32, 32])]
+                } else {
+                    vec![
+                        (phonation::fluid::VelocitySetKind::D2q21, [1024, 1024, 1]),
+                        (phonation::fluid::VelocitySetKind::D3q39, [128, 128, 128]),
+                        (phonation::fluid::VelocitySetKind::D3q39, [64, 64, 64]),
+                    ]
+                };
+                let mut gpu = Vec::new();
+                for (set, n) in sizes {
+                    let l = phonation::gpu::bench::lattice_speed(&ctx, set, n, if quick { 5 } else { 20 }, bw);
+                    match &l.skipped {
+                        Some(why) => println!("{:8} {:>16} skipped: {why}", l.lattice, format!("{:?}", l.nodes)),
+                        None => {
+                            let vs_cpu = cpu_speeds
+                                .iter()
+                                .find(|(n, _)| *n == l.lattice)
+                                .map(|(_, c)| format!("  {:.2}× the CPU backend", l.node_updates_per_s / c))
+                                .unwrap_or_default();
+                            println!(
+                                "{:8} {:>16} {:>16.3e} {:>10.0} {:>9.1}%{vs_cpu}",
+                                l.lattice,
+                                format!("{:?}", l.nodes),
+                                l.node_updates_per_s,
+                                l.bytes_per_node_update,
+                                100.0 * l.bandwidth_fraction
+                            );
+                        }
+                    }
+                    gpu.push(l);
+                }
+                report.insert("gpu".into(), serde_json::json!({ "adapter": ctx.describe(), "copy_bandwidth_gb_s": bw / 1e9, "lattices": gpu }));
             }
             if let Some(p) = json {
-                std::fs::write(p, serde_json::to_string_pretty(&r)?)?;
+                std::fs::write(p, serde_json::to_string_pretty(&report)?)?;
             }
         }
         Command::Validate { case, json } => {

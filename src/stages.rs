@@ -57,10 +57,6 @@ pub struct StageTimings {
 impl StageTimings {
     pub fn report(&self) -> Vec<(&'static str, f64)> {
         let all: f64 = self.total.iter().map(|d| d.as_secs_f64()).sum();
-        FDLB_STEP
-            .iter()
-            .zip(&self.total)
-            .map(|(s, d)| (s.name, if all > 0.0 { d.as_secs_f64() / all } else { 0.0 }))
-            .collect()
+        FDLB_STEP.iter().zip(&self.total).map(|(s, d)| (s.name, if all > 0.0 { d.as_secs_f64() / all } else { 0.0 })).collect()
     }
 }

@@ -247,7 +247,13 @@ fn taylor_green_convergence_orders() {
         });
         let steps = (16.0 / dt).round() as u64;
         s.run(steps).unwrap();
-        s.interior_macros().iter().flat_map(|m| { let m = m.unwrap(); [m.u[0], m.u[1], m.theta] }).collect()
+        s.interior_macros()
+            .iter()
+            .flat_map(|m| {
+                let m = m.unwrap();
+                [m.u[0], m.u[1], m.theta]
+            })
+            .collect()
     };
     let reference = field(0.0125);
     let err = |dt: f64| field(dt).iter().zip(&reference).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();

@@ -50,9 +50,18 @@ impl Face {
 pub enum FaceCondition {
     Periodic,
     /// A wall half a cell outside the last interior node, moving tangentially with `velocity`.
-    Wall { velocity: [f64; 3], temperature: Option<f64> },
-    PressureInlet { rho: f64, theta: f64 },
-    VelocityInlet { velocity: [f64; 3], theta: f64 },
+    Wall {
+        velocity: [f64; 3],
+        temperature: Option<f64>,
+    },
+    PressureInlet {
+        rho: f64,
+        theta: f64,
+    },
+    VelocityInlet {
+        velocity: [f64; 3],
+        theta: f64,
+    },
     Outlet,
 }
 

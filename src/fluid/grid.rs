@@ -52,11 +52,7 @@ impl Grid {
     /// ≥ n inside the halo).
     #[inline]
     pub fn index(&self, x: [i64; 3]) -> usize {
-        let p = [
-            (x[0] + self.halo[0] as i64) as usize,
-            (x[1] + self.halo[1] as i64) as usize,
-            (x[2] + self.halo[2] as i64) as usize,
-        ];
+        let p = [(x[0] + self.halo[0] as i64) as usize, (x[1] + self.halo[1] as i64) as usize, (x[2] + self.halo[2] as i64) as usize];
         self.index_padded(p)
     }
 

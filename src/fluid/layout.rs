@@ -72,19 +72,13 @@ impl Layout {
                     normal[a] = 1.0;
                     -0.5
                 };
-                obstacles.push(Obstacle {
-                    shape: Shape::HalfSpace { normal, offset },
-                    velocity: *velocity,
-                    temperature: *temperature,
-                });
+                obstacles.push(Obstacle { shape: Shape::HalfSpace { normal, offset }, velocity: *velocity, temperature: *temperature });
             }
         }
         obstacles.extend_from_slice(user_obstacles);
 
         let n = grid.len();
-        let periodic_axis: [bool; 3] = std::array::from_fn(|a| {
-            a < grid.dim && matches!(boundaries.faces[2 * a], FaceCondition::Periodic)
-        });
+        let periodic_axis: [bool; 3] = std::array::from_fn(|a| a < grid.dim && matches!(boundaries.faces[2 * a], FaceCondition::Periodic));
         let pos = |x: [i64; 3]| [x[0] as f64, x[1] as f64, x[2] as f64];
         // Deepest-first: the obstacle that contains the point with the largest (least negative) sdf.
         let containing = |p: [f64; 3]| -> Option<(usize, f64)> {
@@ -185,13 +179,7 @@ impl Layout {
                         let vn = dot(v, *normal);
                         v = [v[0] - vn * normal[0], v[1] - vn * normal[1], v[2] - vn * normal[2]];
                     }
-                    ghosts.push(Ghost {
-                        node: idx,
-                        image,
-                        ratio: d / d_img,
-                        wall_velocity: v,
-                        wall_temperature: o.temperature,
-                    });
+                    ghosts.push(Ghost { node: idx, image, ratio: d / d_img, wall_velocity: v, wall_temperature: o.temperature });
                 }
                 NodeKind::FaceHalo => {
                     let a = (0..3).find(|&a| x[a] < 0 || x[a] >= grid.n[a] as i64).unwrap();

@@ -14,8 +14,8 @@ use super::equilibrium::{Equilibrium, MACRO_FIELDS, Macro};
 use super::geometry::Obstacle;
 use super::grid::Grid;
 use super::layout::{Layout, NodeKind};
-use super::timestep::StepParams;
 use super::storage::RowBlocked;
+use super::timestep::StepParams;
 use super::upwind::stencils;
 use crate::stages::{FDLB_STEP, RkStage, Stage, StageKind, StageTimings};
 use rayon::prelude::*;
@@ -73,17 +73,22 @@ pub struct FluidSolver {
 impl FluidSolver {
     /// Allocates the solver and sets every node to the equilibrium of `init(x)` (x in interior
     /// node coordinates; halo and solid nodes too, so that every stored value is finite).
-    pub fn new(eq: Equilibrium, grid: Grid, boundaries: Boundaries, obstacles: &[Obstacle], params: StepParams, init: impl Fn([f64; 3]) -> Macro + Sync) -> Self {
+    pub fn new(
+        eq: Equilibrium,
+        grid: Grid,
+        boundaries: Boundaries,
+        obstacles: &[Obstacle],
+        params: StepParams,
+        init: impl Fn([f64; 3]) -> Macro + Sync,
+    ) -> Self {
         let layout = Layout::new(grid, boundaries, obstacles);
         let g = &layout.grid;
         let n = g.len();
         let nv = eq.values_per_node();
         let pop = RowBlocked { px: g.padded[0], nv };
         let macro_layout = RowBlocked { px: g.padded[0], nv: MACRO_FIELDS };
-        let stencil = stencils(&eq.set.c)
-            .into_iter()
-            .map(|s| (s.centre, s.taps.iter().map(|&(d, c)| (pop.neighbour_offset(d, g.padded[1]), c)).collect()))
-            .collect();
+        let stencil =
+            stencils(&eq.set.c).into_iter().map(|s| (s.centre, s.taps.iter().map(|&(d, c)| (pop.neighbour_offset(d, g.padded[1]), c)).collect())).collect();
         let window = eq.set.positivity_window();
         let mut s = FluidSolver {
             f: vec![0.0; n * nv],
@@ -391,7 +396,15 @@ impl Kernels<'_> {
     /// `out = ½ fⁿ + ½ (f + Δt(−(f − f⁰)/τ + F))` (stage 2, `base` = fⁿ), at fluid nodes.
     /// Returns the first fluid node (lowest index) whose state is not admissible.
     #[allow(clippy::type_complexity)]
-    fn moments_collide(&self, f: &[f64], base: Option<&[f64]>, h: &mut [f64], mac: &mut [f64], out: &mut [f64], window: (f64, f64)) -> Option<(usize, &'static str, f64, String)> {
+    fn moments_collide(
+        &self,
+        f: &[f64],
+        base: Option<&[f64]>,
+        h: &mut [f64],
+        mac: &mut [f64],
+        out: &mut [f64],
+        window: (f64, f64),
+    ) -> Option<(usize, &'static str, f64, String)> {
         let eq = self.eq;
         let nv = eq.values_per_node();
         let q = eq.q();
@@ -498,10 +511,13 @@ impl Kernels<'_> {
                 }
                 None
             })
-            .reduce(|| None, |a, b| match (a, b) {
-                (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
-                (a, b) => a.or(b),
-            })
+            .reduce(
+                || None,
+                |a, b| match (a, b) {
+                    (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
+                    (a, b) => a.or(b),
+                },
+            )
     }
 
     /// Advection: `out −= factor · Δt · c·∇h` at fluid nodes (3rd-order upwind, [`super::upwind`]).

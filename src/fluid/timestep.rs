@@ -27,7 +27,9 @@ pub struct StepParams {
 
 #[derive(Debug, Error, PartialEq)]
 pub enum TimeStepError {
-    #[error("time_step: Δt = {dt} lattice units exceeds the advection stability limit {limit:.4} (Courant {sigma:.3} / max Σ|c_iα| = {l1}) of 3rd-order upwind + Runge–Kutta 2")]
+    #[error(
+        "time_step: Δt = {dt} lattice units exceeds the advection stability limit {limit:.4} (Courant {sigma:.3} / max Σ|c_iα| = {l1}) of 3rd-order upwind + Runge–Kutta 2"
+    )]
     Advection { dt: f64, limit: f64, sigma: f64, l1: i32 },
     #[error("time_step: Δt/τ = {ratio:.3} exceeds {max} (τ = {tau}); the explicit collision would be inaccurate or unstable")]
     Collision { ratio: f64, max: f64, tau: f64 },

@@ -69,11 +69,7 @@ pub fn max_courant() -> f64 {
     let (mut lo, mut hi) = (0.1, 2.0);
     for _ in 0..60 {
         let m = 0.5 * (lo + hi);
-        if stable(m) {
-            lo = m
-        } else {
-            hi = m
-        }
+        if stable(m) { lo = m } else { hi = m }
     }
     lo
 }

@@ -86,8 +86,7 @@ const D3Q39_SHELLS: [Shell; 6] = [
 
 /// The (2.95) coefficient exactly as the extracted seed text writes it, kept only so that a
 /// test can show why it was corrected: `F31 = −T²/5 + 7T³/40`.
-pub const D3Q39_F31_AS_EXTRACTED: Shell =
-    Shell { name: "F31 (seed text)", prototype: [1, 1, 1], poly: [0.0, 0.0, -1.0 / 5.0, 7.0 / 40.0] };
+pub const D3Q39_F31_AS_EXTRACTED: Shell = Shell { name: "F31 (seed text)", prototype: [1, 1, 1], poly: [0.0, 0.0, -1.0 / 5.0, 7.0 / 40.0] };
 
 /// A velocity set with its velocities enumerated shell by shell.
 #[derive(Clone, Debug)]
@@ -169,11 +168,7 @@ impl VelocitySet {
             // a inside, b outside
             for _ in 0..200 {
                 let m = 0.5 * (a + b);
-                if inside(m) {
-                    a = m
-                } else {
-                    b = m
-                }
+                if inside(m) { a = m } else { b = m }
             }
             a
         };
@@ -185,11 +180,7 @@ impl VelocitySet {
 /// signs.
 fn shell_images(p: [i32; 3], dim: usize) -> Vec<[i32; 3]> {
     let mut out: Vec<[i32; 3]> = Vec::new();
-    let perms: &[[usize; 3]] = if dim == 2 {
-        &[[0, 1, 2], [1, 0, 2]]
-    } else {
-        &[[0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1], [2, 1, 0]]
-    };
+    let perms: &[[usize; 3]] = if dim == 2 { &[[0, 1, 2], [1, 0, 2]] } else { &[[0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1], [2, 1, 0]] };
     for perm in perms {
         for signs in 0..8u32 {
             let mut v = [0i32; 3];

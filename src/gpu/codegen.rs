@@ -157,7 +157,8 @@ pub fn moments_collide(eq: &Equilibrium) -> String {
         let _ = writeln!(s, "    {{ let fe = feq{v}(w, rho, ux, uy, uz, inv, b, theta);");
         let _ = writeln!(s, "      h[{v}u * N + node] = kf * f{v} + keq * fe;");
         let _ = writeln!(s, "      let local = f{v} - dt_tau * (f{v} - fe) + P.dt * fe * ({gc} - gu) * inv;");
-        let _ = writeln!(s, "      if (second) {{ dst[{v}u * N + node] = 0.5 * (base[{v}u * N + node] + local); }} else {{ dst[{v}u * N + node] = local; }} }}");
+        let _ =
+            writeln!(s, "      if (second) {{ dst[{v}u * N + node] = 0.5 * (base[{v}u * N + node] + local); }} else {{ dst[{v}u * N + node] = local; }} }}");
     }
     s += "    mac[node] = rho; mac[N + node] = ux; mac[2u * N + node] = uy; mac[3u * N + node] = uz; mac[4u * N + node] = theta;\n}\n";
     s
@@ -225,12 +226,16 @@ struct Entry {
     let _ = writeln!(s, "fn set_node(node: u32, rho: f32, ux: f32, uy: f32, uz: f32, theta: f32, n: array<f32, {nv}>) {{");
     s += "    let N = P.n_nodes;\n    let w = shell_weights(theta);\n    let inv = 1.0 / theta;\n    let b = 1.0 - 0.5 * (ux * ux + uy * uy + uz * uz) * inv;\n    let kf = 1.0 - P.a / P.tau;\n";
     for v in 0..nv {
-        let _ = writeln!(s, "    {{ let fe = feq{v}(w, rho, ux, uy, uz, inv, b, theta); fv[{v}u * N + node] = fe + n[{v}]; h[{v}u * N + node] = fe + kf * n[{v}]; }}");
+        let _ = writeln!(
+            s,
+            "    {{ let fe = feq{v}(w, rho, ux, uy, uz, inv, b, theta); fv[{v}u * N + node] = fe + n[{v}]; h[{v}u * N + node] = fe + kf * n[{v}]; }}"
+        );
     }
     s += "    mac[node] = rho; mac[N + node] = ux; mac[2u * N + node] = uy; mac[3u * N + node] = uz; mac[4u * N + node] = theta;\n}\n";
     // neq_add: n += wgt (f − fe) of node k.
     let _ = writeln!(s, "fn neq_of(k: u32) -> array<f32, {nv}> {{");
-    s += "    let N = P.n_nodes;\n    let rho = mac[k]; let ux = mac[N + k]; let uy = mac[2u * N + k]; let uz = mac[3u * N + k]; let theta = mac[4u * N + k];\n";
+    s +=
+        "    let N = P.n_nodes;\n    let rho = mac[k]; let ux = mac[N + k]; let uy = mac[2u * N + k]; let uz = mac[3u * N + k]; let theta = mac[4u * N + k];\n";
     s += "    let w = shell_weights(theta);\n    let inv = 1.0 / theta;\n    let b = 1.0 - 0.5 * (ux * ux + uy * uy + uz * uz) * inv;\n";
     let _ = writeln!(s, "    var n: array<f32, {nv}>;");
     for v in 0..nv {

@@ -222,10 +222,20 @@ impl GpuFluid {
             gy: s.body_force[1] as f32,
             gz: s.body_force[2] as f32,
         };
-        let uniform = |p: Params| device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some("params"), contents: bytemuck::bytes_of(&p), usage: wgpu::BufferUsages::UNIFORM });
+        let uniform = |p: Params| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("params"),
+                contents: bytemuck::bytes_of(&p),
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+        };
         let params_stage = [uniform(Params { stage: 1, ..base }), uniform(Params { stage: 2, ..base })];
         let counts = [ghost_entries.len(), face_entries.len(), periodic.len()];
-        let params_count = [uniform(Params { count: counts[0] as u32, ..base }), uniform(Params { count: counts[1] as u32, ..base }), uniform(Params { count: counts[2] as u32, ..base })];
+        let params_count = [
+            uniform(Params { count: counts[0] as u32, ..base }),
+            uniform(Params { count: counts[1] as u32, ..base }),
+            uniform(Params { count: counts[2] as u32, ..base }),
+        ];
 
         let bsrc = codegen::boundaries(eq);
         Ok(GpuFluid {
@@ -234,7 +244,11 @@ impl GpuFluid {
             ghost_fill: pipeline(&device, "ghost_fill", &bsrc, "ghost_fill"),
             face_fill: pipeline(&device, "face_fill", &bsrc, "face_fill"),
             periodic_copy: pipeline(&device, "periodic_copy", &bsrc, "periodic_copy"),
-            ghosts: (storage(&device, "ghosts", bytemuck::cast_slice(&ghost_entries)), storage(&device, "images", bytemuck::cast_slice(&images)), counts[0] as u32),
+            ghosts: (
+                storage(&device, "ghosts", bytemuck::cast_slice(&ghost_entries)),
+                storage(&device, "images", bytemuck::cast_slice(&images)),
+                counts[0] as u32,
+            ),
             faces: (storage(&device, "faces", bytemuck::cast_slice(&face_entries)), counts[1] as u32),
             periodic: (storage(&device, "periodic", bytemuck::cast_slice(&periodic)), counts[2] as u32),
             interior: g.interior_len() as u32,
@@ -282,12 +296,14 @@ impl GpuFluid {
         match stage.kind {
             StageKind::MomentsCollide => {
                 let (src, out) = if k == 0 { (fn_, f1) } else { (f1, fnext) };
-                let bg = self.bind(&self.moments, &[(0, params), (1, &self.kind), (2, src), (3, fn_), (4, &self.h), (5, &self.mac), (6, out), (7, &self.status)]);
+                let bg =
+                    self.bind(&self.moments, &[(0, params), (1, &self.kind), (2, src), (3, fn_), (4, &self.h), (5, &self.mac), (6, out), (7, &self.status)]);
                 Self::dispatch(pass, &self.moments, &bg, self.interior);
             }
             StageKind::Boundaries => {
                 let fv = if k == 0 { fn_ } else { f1 };
-                let bg = self.bind(&self.ghost_fill, &[(0, &self.params_count[0]), (1, &self.ghosts.0), (2, &self.ghosts.1), (3, fv), (4, &self.h), (5, &self.mac)]);
+                let bg =
+                    self.bind(&self.ghost_fill, &[(0, &self.params_count[0]), (1, &self.ghosts.0), (2, &self.ghosts.1), (3, fv), (4, &self.h), (5, &self.mac)]);
                 Self::dispatch(pass, &self.ghost_fill, &bg, self.ghosts.2);
                 let bg = self.bind(&self.face_fill, &[(0, &self.params_count[1]), (1, &self.faces.0), (3, fv), (4, &self.h), (5, &self.mac)]);
                 Self::dispatch(pass, &self.face_fill, &bg, self.faces.1);
@@ -346,7 +362,12 @@ impl GpuFluid {
     }
 
     fn read_buffer(&self, b: &wgpu::Buffer) -> Vec<u8> {
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor { label: Some("readback"), size: b.size(), usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: b.size(),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let mut enc = self.device.create_command_encoder(&Default::default());
         enc.copy_buffer_to_buffer(b, 0, &staging, 0, b.size());
         self.queue.submit([enc.finish()]);
@@ -368,6 +389,23 @@ impl GpuFluid {
             GpuArray::Macro => &self.mac,
         };
         bytemuck::cast_slice(&self.read_buffer(b)).to_vec()
+    }
+
+    /// Copies the GPU state into a CPU solver of the same scene (f64, CPU layout), with the step
+    /// count and time, so that the CPU-side outputs (probes, snapshots) can be written.
+    pub fn download_into(&self, s: &mut FluidSolver) {
+        let gpu = self.download(GpuArray::State);
+        let n = self.n_nodes;
+        let nv = self.nv;
+        let mut vals = vec![0.0; nv];
+        for node in 0..n {
+            for (v, x) in vals.iter_mut().enumerate() {
+                *x = gpu[v * n + node] as f64;
+            }
+            s.pop.scatter(&mut s.f, node, &vals);
+        }
+        s.step_count = self.step_count;
+        s.time = self.step_count as f64 * s.params.dt;
     }
 
     /// Largest |GPU − CPU| / scale over the fluid nodes of the state, with scale the largest

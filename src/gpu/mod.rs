@@ -2,6 +2,7 @@
 //! from the velocity set ([`codegen`]) and the FDLB runner that records the stage list
 //! ([`fdlb`]). Every kernel has a CPU twin in [`crate::fluid`]; `tests/gpu.rs` checks parity.
 
+pub mod bench;
 pub mod codegen;
 pub mod context;
 pub mod fdlb;

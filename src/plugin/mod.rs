@@ -90,11 +90,7 @@ impl Plugin for PhonationPlugin {
 }
 
 fn step_simulations(mut control: ResMut<SimulationControl>, mut sims: Query<(Entity, &mut FluidSimulation, Option<&mut FluidStatus>)>, mut commands: Commands) {
-    let steps = if control.paused {
-        std::mem::take(&mut control.single_steps)
-    } else {
-        control.steps_per_frame
-    };
+    let steps = if control.paused { std::mem::take(&mut control.single_steps) } else { control.steps_per_frame };
     if steps == 0 {
         return;
     }

@@ -60,7 +60,8 @@ pub struct SceneSummary {
 
 /// Parses TOML text (unknown keys and wrong types are errors that name the dotted key).
 pub fn parse(text: &str) -> Result<SceneFile, SceneError> {
-    toml::from_str(text).map_err(|e| SceneError { field: e.span().map(|s| key_path(text, s.start)).unwrap_or_else(|| "<file>".into()), reason: e.message().to_string() })
+    toml::from_str(text)
+        .map_err(|e| SceneError { field: e.span().map(|s| key_path(text, s.start)).unwrap_or_else(|| "<file>".into()), reason: e.message().to_string() })
 }
 
 /// Dotted path (`table.key`) of the key on the line holding byte `pos`.
@@ -68,10 +69,8 @@ fn key_path(text: &str, pos: usize) -> String {
     let before = &text[..pos.min(text.len())];
     let line_start = before.rfind('\n').map(|i| i + 1).unwrap_or(0);
     let line = text[line_start..].lines().next().unwrap_or("");
-    let table = before[..line_start]
-        .lines()
-        .rev()
-        .find_map(|l| l.trim().strip_prefix('[').map(|t| t.trim_start_matches('[').trim_end_matches(']').trim().to_string()));
+    let table =
+        before[..line_start].lines().rev().find_map(|l| l.trim().strip_prefix('[').map(|t| t.trim_start_matches('[').trim_end_matches(']').trim().to_string()));
     let key = line.split('=').next().unwrap_or("").trim().trim_start_matches('[').trim_end_matches(']');
     match (table, key.is_empty()) {
         (Some(t), false) if !line.trim_start().starts_with('[') => format!("{t}.{key}"),
@@ -155,7 +154,10 @@ impl FluidScene {
         if !(theta0 > window.0 + 0.02 && theta0 < window.1 - 0.02) {
             return err(
                 "numerics.temperature",
-                format!("reduced temperature {theta0} must lie inside ({:.3}, {:.3}), 0.02 away from the edges of the window where every {:?} weight is positive", window.0, window.1, d.lattice),
+                format!(
+                    "reduced temperature {theta0} must lie inside ({:.3}, {:.3}), 0.02 away from the edges of the window where every {:?} weight is positive",
+                    window.0, window.1, d.lattice
+                ),
             );
         }
         let (c_eff, mach_scaled, ref_mach) = match &nm.mach_scaling {
@@ -174,7 +176,8 @@ impl FluidScene {
 
         // Boundaries.
         let fs = &file.boundaries;
-        let mut faces: Vec<(&str, Option<&FaceSpec>)> = vec![("x_min", Some(&fs.x_min)), ("x_max", Some(&fs.x_max)), ("y_min", Some(&fs.y_min)), ("y_max", Some(&fs.y_max))];
+        let mut faces: Vec<(&str, Option<&FaceSpec>)> =
+            vec![("x_min", Some(&fs.x_min)), ("x_max", Some(&fs.x_max)), ("y_min", Some(&fs.y_min)), ("y_max", Some(&fs.y_max))];
         faces.push(("z_min", fs.z_min.as_ref()));
         faces.push(("z_max", fs.z_max.as_ref()));
         let mut conds: Vec<FaceCondition> = Vec::new();
@@ -227,10 +230,15 @@ impl FluidScene {
             }
         }
         for (k, c) in conds.iter().enumerate() {
-            if let FaceCondition::Wall { temperature: Some(t), .. } | FaceCondition::PressureInlet { theta: t, .. } | FaceCondition::VelocityInlet { theta: t, .. } = c
+            if let FaceCondition::Wall { temperature: Some(t), .. }
+            | FaceCondition::PressureInlet { theta: t, .. }
+            | FaceCondition::VelocityInlet { theta: t, .. } = c
                 && !(*t > window.0 && *t < window.1)
             {
-                return err(format!("boundaries.{}.temperature_ratio", faces[k].0), format!("θ = {t:.4} leaves the positivity window ({:.3}, {:.3})", window.0, window.1));
+                return err(
+                    format!("boundaries.{}.temperature_ratio", faces[k].0),
+                    format!("θ = {t:.4} leaves the positivity window ({:.3}, {:.3})", window.0, window.1),
+                );
             }
         }
         let boundaries = Boundaries { faces: conds.try_into().expect("six faces") };
@@ -302,10 +310,8 @@ impl FluidScene {
             Some(dt) => Some(units.time_to_lattice(finite_positive("numerics.time_step", dt)?)),
             None => None,
         };
-        let mut params = timestep::choose(nu, theta0, set.max_l1_speed(), fixed_dt, safety).map_err(|e| SceneError {
-            field: if fixed_dt.is_some() { "numerics.time_step".into() } else { "gas.viscosity".into() },
-            reason: e.to_string(),
-        })?;
+        let mut params = timestep::choose(nu, theta0, set.max_l1_speed(), fixed_dt, safety)
+            .map_err(|e| SceneError { field: if fixed_dt.is_some() { "numerics.time_step".into() } else { "gas.viscosity".into() }, reason: e.to_string() })?;
         if let Some(tau) = nm.tau {
             let tau = finite_positive("numerics.tau", tau)?;
             if tau < nu / theta0 {
@@ -338,7 +344,10 @@ impl FluidScene {
         let estimated_bytes = grid.len() as f64 * (8.0 * (3.0 * nv + MACRO_FIELDS as f64) + 1.0);
         let limit = nm.max_memory_bytes.unwrap_or(0.75 * available_memory());
         if estimated_bytes > limit {
-            return err("domain.cells", format!("the grid needs {:.2} GiB of memory, more than the {:.2} GiB allowed", estimated_bytes / 2f64.powi(30), limit / 2f64.powi(30)));
+            return err(
+                "domain.cells",
+                format!("the grid needs {:.2} GiB of memory, more than the {:.2} GiB allowed", estimated_bytes / 2f64.powi(30), limit / 2f64.powi(30)),
+            );
         }
 
         let reference_mach = if mach_scaled { ref_mach } else { units.velocity_to_lattice(max_u) / (gamma * theta0).sqrt() };

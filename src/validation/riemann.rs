@@ -54,11 +54,7 @@ impl Solution {
         let u_star = 0.5 * (left.u + right.u) + 0.5 * (fr - fl);
         let g = (gamma - 1.0) / (gamma + 1.0);
         let rho_side = |s: State| {
-            if p > s.p {
-                s.rho * (p / s.p + g) / (g * p / s.p + 1.0)
-            } else {
-                s.rho * (p / s.p).powf(1.0 / gamma)
-            }
+            if p > s.p { s.rho * (p / s.p + g) / (g * p / s.p + 1.0) } else { s.rho * (p / s.p).powf(1.0 / gamma) }
         };
         Solution { gamma, left, right, p_star: p, u_star, rho_star_left: rho_side(left), rho_star_right: rho_side(right) }
     }

@@ -20,7 +20,16 @@ pub struct Outcome {
 
 impl fmt::Display for Outcome {
     fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
-        write!(f, "[{}] {:28} {:34} = {:>12.5}  (reference {}; {:.1} s)", if self.pass { "pass" } else { "FAIL" }, self.case, self.figure, self.measured, self.reference, self.wall_s)
+        write!(
+            f,
+            "[{}] {:28} {:34} = {:>12.5}  (reference {}; {:.1} s)",
+            if self.pass { "pass" } else { "FAIL" },
+            self.case,
+            self.figure,
+            self.measured,
+            self.reference,
+            self.wall_s
+        )
     }
 }
 
@@ -44,13 +53,18 @@ pub fn cases() -> Vec<Case> {
             vec![("decay-rate error vs ν = θ(τ−A)".into(), r.relative_error, "|err| ≤ 0.02".into(), r.relative_error.abs() <= 0.02)]
         }),
         ("sound_speed", || {
-            [(VelocitySetKind::D2q21, GasModel::Monatomic), (VelocitySetKind::D3q39, GasModel::Monatomic), (VelocitySetKind::D2q21, GasModel::Diatomic), (VelocitySetKind::D3q39, GasModel::Diatomic)]
-                .iter()
-                .map(|&(s, g)| {
-                    let r = sound::sound_speed(s, g, 64);
-                    (format!("{s:?} γ = {:.3}: c_s error", r.gamma), r.relative_error, "|err| ≤ 0.01".into(), r.relative_error.abs() <= 0.01)
-                })
-                .collect()
+            [
+                (VelocitySetKind::D2q21, GasModel::Monatomic),
+                (VelocitySetKind::D3q39, GasModel::Monatomic),
+                (VelocitySetKind::D2q21, GasModel::Diatomic),
+                (VelocitySetKind::D3q39, GasModel::Diatomic),
+            ]
+            .iter()
+            .map(|&(s, g)| {
+                let r = sound::sound_speed(s, g, 64);
+                (format!("{s:?} γ = {:.3}: c_s error", r.gamma), r.relative_error, "|err| ≤ 0.01".into(), r.relative_error.abs() <= 0.01)
+            })
+            .collect()
         }),
         ("sod_shock_tube", || {
             let mut out = Vec::new();
@@ -86,7 +100,12 @@ pub fn cases() -> Vec<Case> {
         }),
         ("cylinder_re100", || {
             let r = cylinder::cylinder(12, 0.1, 22.0);
-            vec![(format!("D = {} cells: Strouhal ({} periods)", r.diameter, r.periods_measured), r.strouhal, "[0.160, 0.170]".into(), within(r.strouhal, 0.160, 0.170))]
+            vec![(
+                format!("D = {} cells: Strouhal ({} periods)", r.diameter, r.periods_measured),
+                r.strouhal,
+                "[0.160, 0.170]".into(),
+                within(r.strouhal, 0.160, 0.170),
+            )]
         }),
     ]
 }
