@@ -174,6 +174,10 @@ fn main() -> anyhow::Result<()> {
                                 l.bytes_per_node_update,
                                 100.0 * l.bandwidth_fraction
                             );
+                            if !l.stage_fractions.is_empty() {
+                                let st: Vec<String> = l.stage_fractions.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
+                                println!("         GPU stages (timestamps): {}", st.join(", "));
+                            }
                         }
                     }
                     gpu.push(l);

@@ -204,7 +204,9 @@ fn validations_pass_on_the_gpu() {
     let r = c.run_on(Backend::Gpu).unwrap();
     eprintln!("GPU Taylor–Green 3D: decay-rate error {:e}", r.relative_error);
     assert!(r.relative_error.abs() < 0.02, "{r:?}");
-    for (set, gas) in [(VelocitySetKind::D2q21, GasModel::Monatomic), (VelocitySetKind::D3q39, GasModel::Monatomic), (VelocitySetKind::D2q21, GasModel::Diatomic)] {
+    for (set, gas) in
+        [(VelocitySetKind::D2q21, GasModel::Monatomic), (VelocitySetKind::D3q39, GasModel::Monatomic), (VelocitySetKind::D2q21, GasModel::Diatomic)]
+    {
         let r = sound::sound_speed_on(set, gas, 64, Backend::Gpu).unwrap();
         eprintln!("GPU sound speed {set:?} γ = {}: error {:e}", r.gamma, r.relative_error);
         assert!(r.relative_error.abs() < 0.01, "{r:?}");

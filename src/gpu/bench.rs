@@ -75,6 +75,8 @@ pub struct GpuLatticeSpeed {
     pub bandwidth_fraction: f64,
     /// Why the size could not run (too large for a binding, …).
     pub skipped: Option<String>,
+    /// Fraction of the GPU time per stage (timestamp queries), when available.
+    pub stage_fractions: Vec<(String, f64)>,
 }
 
 /// FDLB node updates per second on the GPU for a periodic box (f32: 4-byte values).
@@ -100,6 +102,7 @@ pub fn lattice_speed(ctx: &GpuContext, set: VelocitySetKind, n: [usize; 3], step
         bytes_per_node_update: bytes,
         bandwidth_fraction: 0.0,
         skipped: None,
+        stage_fractions: Vec::new(),
     };
     let mut gpu = match GpuFluid::from_solver(ctx, &cpu) {
         Ok(g) => g,
@@ -117,5 +120,9 @@ pub fn lattice_speed(ctx: &GpuContext, set: VelocitySetKind, n: [usize; 3], step
     let wall = t.elapsed().as_secs_f64();
     out.node_updates_per_s = steps as f64 * cpu.layout.fluid_count as f64 / wall;
     out.bandwidth_fraction = out.node_updates_per_s * bytes / bandwidth;
+    if let Some(st) = gpu.profile_stages(ctx, 3) {
+        let all: f64 = st.iter().map(|(_, t)| t).sum();
+        out.stage_fractions = st.into_iter().map(|(n, t)| (n.to_string(), t / all.max(1e-30))).collect();
+    }
     out
 }

@@ -350,6 +350,45 @@ impl GpuFluid {
         }
     }
 
+    /// Runs `steps` steps with every stage in its own compute pass bracketed by timestamps, and
+    /// returns the GPU time per stage of [`FDLB_STEP`] summed over the steps (seconds), or
+    /// `None` when the adapter has no timestamp queries.
+    pub fn profile_stages(&mut self, ctx: &GpuContext, steps: u64) -> Option<Vec<(&'static str, f64)>> {
+        if !ctx.timestamps {
+            return None;
+        }
+        let count = 2 * FDLB_STEP.len() as u32;
+        let qs = self.device.create_query_set(&wgpu::QuerySetDescriptor { label: Some("stage timestamps"), ty: wgpu::QueryType::Timestamp, count });
+        let resolve = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamps"),
+            size: 8 * count as u64,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let period = self.queue.get_timestamp_period() as f64 * 1e-9;
+        let mut total = vec![0.0; FDLB_STEP.len()];
+        for _ in 0..steps {
+            let mut enc = self.device.create_command_encoder(&Default::default());
+            for (k, stage) in FDLB_STEP.iter().enumerate() {
+                let tw = wgpu::ComputePassTimestampWrites {
+                    query_set: &qs,
+                    beginning_of_pass_write_index: Some(2 * k as u32),
+                    end_of_pass_write_index: Some(2 * k as u32 + 1),
+                };
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(stage.name), timestamp_writes: Some(tw) });
+                self.record_stage(&mut pass, stage);
+            }
+            enc.resolve_query_set(&qs, 0..count, &resolve, 0);
+            self.queue.submit([enc.finish()]);
+            self.finish_step();
+            let ts: Vec<u64> = bytemuck::cast_slice(&self.read_buffer(&resolve)).to_vec();
+            for k in 0..FDLB_STEP.len() {
+                total[k] += ts[2 * k + 1].saturating_sub(ts[2 * k]) as f64 * period;
+            }
+        }
+        Some(FDLB_STEP.iter().zip(total).map(|(s, t)| (s.name, t)).collect())
+    }
+
     /// First inadmissible node and its code (1 density, 2 velocity, 3 temperature), if any.
     pub fn instability(&self) -> Option<(usize, u32)> {
         let s: Vec<u32> = bytemuck::cast_slice(&self.read_buffer(&self.status)).to_vec();

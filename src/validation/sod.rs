@@ -4,8 +4,8 @@
 
 use super::riemann::{Solution, State};
 use crate::engine::{Backend, Engine};
-use crate::gpu::GpuError;
 use crate::fluid::{Boundaries, Equilibrium, FaceCondition, FluidSolver, GasModel, Grid, Macro, StepParams, VelocitySet, VelocitySetKind, timestep};
+use crate::gpu::GpuError;
 
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct SodResult {

@@ -1,8 +1,8 @@
 //! Speed of sound: a standing isentropic acoustic mode in a periodic tube; its oscillation
 //! period against c_s = √(γθ) (2.104) with γ = (D+2)/D (monatomic) or 1.4 (diatomic).
 
-use crate::fluid::{Boundaries, Equilibrium, FluidSolver, GasModel, Grid, Macro, VelocitySet, VelocitySetKind, timestep};
 use crate::engine::{Backend, Engine};
+use crate::fluid::{Boundaries, Equilibrium, FluidSolver, GasModel, Grid, Macro, VelocitySet, VelocitySetKind, timestep};
 use crate::gpu::GpuError;
 use std::f64::consts::PI;
 
