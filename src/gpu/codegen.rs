@@ -4,7 +4,10 @@
 //! `const` array at run time (naga + lavapipe copy such arrays per access, DESIGN §7).
 //!
 //! GPU memory layout: structure of arrays, value v of padded node `node` at `v·N + node`
-//! (N = padded node count); macro fields ρ, u_x, u_y, u_z, θ at `k·N + node`. f32 throughout.
+//! (N = padded node count rounded up to a multiple of 64); macro fields ρ, u_x, u_y, u_z, θ at
+//! `k·N + node`. f32 throughout. When a population array exceeds the adapter's storage-binding
+//! limit, it is bound as several ranges of `per_binding` populations ([`Split`]): population v
+//! is element `(v mod per_binding)·N + node` of binding `v / per_binding` of that array.
 //! The kernels are the GPU twins of the CPU stages ([`crate::stages::FDLB_STEP`]):
 //! `moments_collide`, `advect`, and the boundary fill `ghost_fill`, `face_fill`, `periodic_copy`.
 
@@ -14,6 +17,36 @@ use std::fmt::Write;
 
 /// Threads per workgroup of every kernel.
 pub const WORKGROUP: u32 = 64;
+
+/// How the NV populations of one array are spread over storage bindings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Split {
+    pub nv: usize,
+    /// Populations per binding.
+    pub per_binding: usize,
+}
+
+impl Split {
+    /// Everything in one binding.
+    pub fn whole(nv: usize) -> Self {
+        Split { nv, per_binding: nv }
+    }
+    pub fn groups(&self) -> usize {
+        self.nv.div_ceil(self.per_binding)
+    }
+    /// Populations in binding `g`.
+    pub fn len(&self, g: usize) -> usize {
+        self.per_binding.min(self.nv - g * self.per_binding)
+    }
+    /// `array{g}[{r}u * N + {index}]` for population v.
+    fn at(&self, array: &str, v: usize, index: &str) -> String {
+        format!("{array}{}[{}u * N + {index}]", v / self.per_binding, v % self.per_binding)
+    }
+    /// Declarations of the bindings of `array`, from binding number `first`.
+    fn declare(&self, array: &str, access: &str, first: u32) -> String {
+        (0..self.groups()).map(|g| format!("@group(0) @binding({}) var<storage, {access}> {array}{g}: array<f32>;\n", first + g as u32)).collect()
+    }
+}
 
 const PARAMS: &str = r#"
 struct Params {
@@ -111,24 +144,25 @@ fn moments_code(eq: &Equilibrium) -> String {
 }
 
 /// `moments_collide`: moments, instability check, h, and the local part of the RK stage.
-pub fn moments_collide(eq: &Equilibrium) -> String {
+pub fn moments_collide(eq: &Equilibrium, split: Split) -> String {
+    let g = split.groups() as u32;
     let nv = eq.values_per_node();
     let q = eq.q();
     let mut s = format!("const WG: u32 = {WORKGROUP}u;\n{PARAMS}\n");
     s += r#"
 @group(0) @binding(1) var<storage, read> kind: array<u32>;
-@group(0) @binding(2) var<storage, read> src: array<f32>;
-@group(0) @binding(3) var<storage, read> base: array<f32>;
-@group(0) @binding(4) var<storage, read_write> h: array<f32>;
-@group(0) @binding(5) var<storage, read_write> mac: array<f32>;
-@group(0) @binding(6) var<storage, read_write> dst: array<f32>;
-@group(0) @binding(7) var<storage, read_write> status: array<atomic<u32>, 2>;
+@group(0) @binding(2) var<storage, read_write> mac: array<f32>;
+@group(0) @binding(3) var<storage, read_write> status: array<atomic<u32>, 2>;
 "#;
+    s += &split.declare("src", "read", 10);
+    s += &split.declare("base", "read", 10 + g);
+    s += &split.declare("h", "read_write", 10 + 2 * g);
+    s += &split.declare("dst", "read_write", 10 + 3 * g);
     s += &equilibrium_functions(eq);
     s += "@compute @workgroup_size(WG)\nfn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {\n";
     s += "    let i = thread_index(gid, nwg);\n    if (i >= P.nx * P.ny * P.nz) { return; }\n    let node = interior_node(i);\n    if (kind[node] != 0u) { return; }\n    let N = P.n_nodes;\n";
     for v in 0..nv {
-        let _ = writeln!(s, "    let f{v} = src[{v}u * N + node];");
+        let _ = writeln!(s, "    let f{v} = {};", split.at("src", v, "node"));
     }
     s += &moments_code(eq);
     s += r#"    // Instability: the lowest failing node index wins (status[0]); status[1] says what.
@@ -155,26 +189,28 @@ pub fn moments_collide(eq: &Equilibrium) -> String {
         let c = eq.set.c[i];
         let gc = format!("(P.gx * {}.0 + P.gy * {}.0 + P.gz * {}.0)", c[0], c[1], c[2]);
         let _ = writeln!(s, "    {{ let fe = feq{v}(w, rho, ux, uy, uz, inv, b, theta);");
-        let _ = writeln!(s, "      h[{v}u * N + node] = kf * f{v} + keq * fe;");
+        let _ = writeln!(s, "      {} = kf * f{v} + keq * fe;", split.at("h", v, "node"));
         let _ = writeln!(s, "      let local = f{v} - dt_tau * (f{v} - fe) + P.dt * fe * ({gc} - gu) * inv;");
-        let _ =
-            writeln!(s, "      if (second) {{ dst[{v}u * N + node] = 0.5 * (base[{v}u * N + node] + local); }} else {{ dst[{v}u * N + node] = local; }} }}");
+        let (d, b) = (split.at("dst", v, "node"), split.at("base", v, "node"));
+        let _ = writeln!(s, "      if (second) {{ {d} = 0.5 * ({b} + local); }} else {{ {d} = local; }} }}");
     }
     s += "    mac[node] = rho; mac[N + node] = ux; mac[2u * N + node] = uy; mac[3u * N + node] = uz; mac[4u * N + node] = theta;\n}\n";
     s
 }
 
 /// `advect`: dst −= k Δt c·∇h with the unrolled 3rd-order upwind stencil of every velocity.
-pub fn advect(eq: &Equilibrium) -> String {
+pub fn advect(eq: &Equilibrium, split: Split) -> String {
+    let g = split.groups() as u32;
     let nv = eq.values_per_node();
     let q = eq.q();
     let st = stencils(&eq.set.c);
     let mut s = format!("const WG: u32 = {WORKGROUP}u;\n{PARAMS}\n");
     s += r#"
 @group(0) @binding(1) var<storage, read> kind: array<u32>;
-@group(0) @binding(2) var<storage, read> h: array<f32>;
-@group(0) @binding(3) var<storage, read_write> dst: array<f32>;
-
+"#;
+    s += &split.declare("h", "read", 10);
+    s += &split.declare("dst", "read_write", 10 + g);
+    s += r#"
 @compute @workgroup_size(WG)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = thread_index(gid, nwg);
@@ -189,7 +225,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     for v in 0..nv {
         let i = if v < q { v } else { v - q };
         let stc = &st[i];
-        let _ = write!(s, "    {{ let c = i32({v}u * N + node); let adv = {} * h[c]", f(stc.centre));
+        let (grp, r) = (v / split.per_binding, v % split.per_binding);
+        let _ = write!(s, "    {{ let c = i32({r}u * N + node); let adv = {} * h{grp}[c]", f(stc.centre));
         for (d, coef) in &stc.taps {
             let off = match (d[0], d[1], d[2]) {
                 (dx, 0, 0) => format!("{dx}"),
@@ -197,18 +234,19 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
                 (0, 0, dz) => format!("{dz} * sz"),
                 _ => unreachable!("axis-wise stencil"),
             };
-            let _ = write!(s, " + {} * h[c + {off}]", f(*coef));
+            let _ = write!(s, " + {} * h{grp}[c + {off}]", f(*coef));
         }
-        let _ = writeln!(s, ";\n      dst[c] = dst[c] - k * adv; }}");
+        let _ = writeln!(s, ";\n      dst{grp}[c] = dst{grp}[c] - k * adv; }}");
     }
     s += "}\n";
     s
 }
 
 /// Boundary fill kernels (`ghost_fill`, `face_fill`, `periodic_copy`) in one module.
-pub fn boundaries(eq: &Equilibrium) -> String {
+pub fn boundaries(eq: &Equilibrium, split: Split) -> String {
+    let g = split.groups() as u32;
     let nv = eq.values_per_node();
-    let mut s = format!("const WG: u32 = {WORKGROUP}u;\nconst NV: u32 = {nv}u;\n{PARAMS}\n");
+    let mut s = format!("const WG: u32 = {WORKGROUP}u;\n{PARAMS}\n");
     s += r#"
 struct Entry {
     node: u32, source: u32, code: u32, n_img: u32,
@@ -217,19 +255,17 @@ struct Entry {
 };
 @group(0) @binding(1) var<storage, read> entries: array<Entry>;
 @group(0) @binding(2) var<storage, read> images: array<vec2<u32>>;
-@group(0) @binding(3) var<storage, read_write> fv: array<f32>;
-@group(0) @binding(4) var<storage, read_write> h: array<f32>;
-@group(0) @binding(5) var<storage, read_write> mac: array<f32>;
+@group(0) @binding(3) var<storage, read_write> mac: array<f32>;
 "#;
+    s += &split.declare("fv", "read_write", 10);
+    s += &split.declare("h", "read_write", 10 + g);
     s += &equilibrium_functions(eq);
     // set_node: f = fe + n, h = fe + (1 − A/τ) n, macro fields.
     let _ = writeln!(s, "fn set_node(node: u32, rho: f32, ux: f32, uy: f32, uz: f32, theta: f32, n: array<f32, {nv}>) {{");
     s += "    let N = P.n_nodes;\n    let w = shell_weights(theta);\n    let inv = 1.0 / theta;\n    let b = 1.0 - 0.5 * (ux * ux + uy * uy + uz * uz) * inv;\n    let kf = 1.0 - P.a / P.tau;\n";
     for v in 0..nv {
-        let _ = writeln!(
-            s,
-            "    {{ let fe = feq{v}(w, rho, ux, uy, uz, inv, b, theta); fv[{v}u * N + node] = fe + n[{v}]; h[{v}u * N + node] = fe + kf * n[{v}]; }}"
-        );
+        let (fa, ha) = (split.at("fv", v, "node"), split.at("h", v, "node"));
+        let _ = writeln!(s, "    {{ let fe = feq{v}(w, rho, ux, uy, uz, inv, b, theta); {fa} = fe + n[{v}]; {ha} = fe + kf * n[{v}]; }}");
     }
     s += "    mac[node] = rho; mac[N + node] = ux; mac[2u * N + node] = uy; mac[3u * N + node] = uz; mac[4u * N + node] = theta;\n}\n";
     // neq_add: n += wgt (f − fe) of node k.
@@ -239,9 +275,19 @@ struct Entry {
     s += "    let w = shell_weights(theta);\n    let inv = 1.0 / theta;\n    let b = 1.0 - 0.5 * (ux * ux + uy * uy + uz * uz) * inv;\n";
     let _ = writeln!(s, "    var n: array<f32, {nv}>;");
     for v in 0..nv {
-        let _ = writeln!(s, "    n[{v}] = fv[{v}u * N + k] - feq{v}(w, rho, ux, uy, uz, inv, b, theta);");
+        let _ = writeln!(s, "    n[{v}] = {} - feq{v}(w, rho, ux, uy, uz, inv, b, theta);", split.at("fv", v, "k"));
     }
     s += "    return n;\n}\n";
+    // copy_node: every value of node s onto node d (loops over each binding's populations).
+    s += "fn copy_node(s: u32, d: u32) {\n    let N = P.n_nodes;\n";
+    for grp in 0..split.groups() {
+        let _ = writeln!(
+            s,
+            "    for (var v = 0u; v < {}u; v = v + 1u) {{ fv{grp}[v * N + d] = fv{grp}[v * N + s]; h{grp}[v * N + d] = h{grp}[v * N + s]; }}",
+            split.len(grp)
+        );
+    }
+    s += "    for (var k = 0u; k < 5u; k = k + 1u) { mac[k * N + d] = mac[k * N + s]; }\n}\n";
     s += r#"
 // Ghost nodes: image-point state extrapolated through the wall (see fluid::boundary).
 @compute @workgroup_size(WG)
@@ -282,8 +328,7 @@ fn face_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     let N = P.n_nodes;
     let s = e.source;
     if (e.code == 0u) {
-        for (var v = 0u; v < NV; v = v + 1u) { fv[v * N + e.node] = fv[v * N + s]; h[v * N + e.node] = h[v * N + s]; }
-        for (var k = 0u; k < 5u; k = k + 1u) { mac[k * N + e.node] = mac[k * N + s]; }
+        copy_node(s, e.node);
         return;
     }
     let n = neq_of(s);
@@ -299,11 +344,7 @@ fn face_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
 fn periodic_copy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let t = thread_index(gid, nwg);
     if (t >= P.count) { return; }
-    let d = images[t].x;
-    let s = images[t].y;
-    let N = P.n_nodes;
-    for (var v = 0u; v < NV; v = v + 1u) { fv[v * N + d] = fv[v * N + s]; h[v * N + d] = h[v * N + s]; }
-    for (var k = 0u; k < 5u; k = k + 1u) { mac[k * N + d] = mac[k * N + s]; }
+    copy_node(images[t].y, images[t].x);
 }
 "#;
     s
@@ -320,13 +361,18 @@ mod tests {
         for kind in [VelocitySetKind::D2q21, VelocitySetKind::D3q39] {
             for gas in [GasModel::Monatomic, GasModel::Diatomic] {
                 let eq = Equilibrium::new(VelocitySet::new(kind), gas);
-                for (name, src) in [("moments_collide", moments_collide(&eq)), ("advect", advect(&eq)), ("boundaries", boundaries(&eq))] {
-                    let module = naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{kind:?} {gas:?} {name}: {}", e.emit_to_string(&src)));
-                    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-                        .validate(&module)
-                        .unwrap_or_else(|e| panic!("{kind:?} {gas:?} {name}: {e:?}"));
-                    // No run-time indexing of const arrays: the only arrays are local accumulators.
-                    assert!(!src.contains("const C"), "{name}");
+                let nv = eq.values_per_node();
+                for split in [Split::whole(nv), Split { nv, per_binding: 16 }] {
+                    for (name, src) in
+                        [("moments_collide", moments_collide(&eq, split)), ("advect", advect(&eq, split)), ("boundaries", boundaries(&eq, split))]
+                    {
+                        let module = naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{kind:?} {gas:?} {name}: {}", e.emit_to_string(&src)));
+                        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+                            .validate(&module)
+                            .unwrap_or_else(|e| panic!("{kind:?} {gas:?} {name}: {e:?}"));
+                        // No run-time indexing of const arrays: the only arrays are local accumulators.
+                        assert!(!src.contains("const C"), "{name}");
+                    }
                 }
             }
         }

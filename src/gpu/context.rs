@@ -40,7 +40,7 @@ impl GpuContext {
         let limits = wgpu::Limits {
             max_storage_buffer_binding_size: supported.max_storage_buffer_binding_size,
             max_buffer_size: supported.max_buffer_size,
-            max_storage_buffers_per_shader_stage: supported.max_storage_buffers_per_shader_stage.min(16),
+            max_storage_buffers_per_shader_stage: supported.max_storage_buffers_per_shader_stage.min(64),
             max_compute_workgroups_per_dimension: supported.max_compute_workgroups_per_dimension,
             ..wgpu::Limits::default()
         };
@@ -54,6 +54,13 @@ impl GpuContext {
         }))
         .map_err(|e| GpuError::Device(e.to_string()))?;
         Ok(GpuContext { device, queue, info, limits, timestamps })
+    }
+
+    /// Pretends the adapter allows at most `bytes` per storage binding, so that tests can drive
+    /// the split-binding path ([`super::codegen::Split`]) on small lattices.
+    pub fn with_binding_limit(mut self, bytes: u64) -> Self {
+        self.limits.max_storage_buffer_binding_size = self.limits.max_storage_buffer_binding_size.min(bytes);
+        self
     }
 
     /// One line naming the adapter, e.g. "llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, Cpu)".

@@ -3,13 +3,17 @@
 //! buffers, set up from a CPU solver (geometry tables, initial state) so that the two can be
 //! compared stage by stage.
 //!
+//! Node arrays use a stride N' = N rounded up to a multiple of 64, so that population ranges
+//! bound separately ([`codegen::Split`], when an array exceeds the adapter's binding limit) start
+//! on 256-byte boundaries.
+//!
 //! Memory per node: 4 population arrays (fⁿ, f¹, fⁿ⁺¹, h) of NV f32 plus 5 macro fields and a
 //! node kind: (16·NV + 24) bytes (D2Q21: 360 B, D3Q39: 648 B). Bytes moved per node update of
 //! one step: stage 1 reads f (NV) and writes h, f¹ (2 NV) and 5 macros, then the advection reads
 //! h and f¹ and writes f¹ (3 NV); stage 2 also reads fⁿ: (13 NV + 10)·4 bytes, neighbours of
 //! the stencil assumed served from cache.
 
-use super::codegen::{self, WORKGROUP};
+use super::codegen::{self, Split, WORKGROUP};
 use super::context::{GpuContext, GpuError};
 use crate::fluid::layout::NodeKind;
 use crate::fluid::{FaceCondition, FluidSolver};
@@ -78,7 +82,11 @@ pub struct GpuFluid {
     device: wgpu::Device,
     queue: wgpu::Queue,
     pub nv: usize,
+    /// Padded node count of the lattice.
     pub n_nodes: usize,
+    /// Node stride N' of the GPU arrays (n_nodes rounded up to a multiple of 64).
+    stride: usize,
+    split: Split,
     interior: u32,
     /// f buffers: [fⁿ or fⁿ⁺¹, f¹, fⁿ⁺¹ or fⁿ]; `cur` says which of 0 and 2 holds fⁿ.
     f: [wgpu::Buffer; 3],
@@ -137,24 +145,41 @@ impl GpuFluid {
         let nv = eq.values_per_node();
         let g = &s.layout.grid;
         let n = g.len();
-        let bytes = (nv * n * 4) as u64;
-        if bytes > ctx.limits.max_storage_buffer_binding_size as u64 {
-            return Err(GpuError::TooLarge { what: "one population array", bytes, limit: ctx.limits.max_storage_buffer_binding_size as u64 });
+        let stride = n.div_ceil(64) * 64;
+        let pop_bytes = (stride * 4) as u64;
+        let limit = ctx.limits.max_storage_buffer_binding_size as u64;
+        let per_binding = ((limit / pop_bytes) as usize).min(nv);
+        let total = nv as u64 * pop_bytes;
+        if per_binding == 0 {
+            return Err(GpuError::TooLarge { what: "one population", bytes: pop_bytes, limit });
         }
-        let mut f0 = vec![0f32; nv * n];
+        if total > ctx.limits.max_buffer_size {
+            return Err(GpuError::TooLarge { what: "one population array", bytes: total, limit: ctx.limits.max_buffer_size });
+        }
+        let split = Split { nv, per_binding };
+        let needed = 3 + 4 * split.groups() as u32;
+        if needed > ctx.limits.max_storage_buffers_per_shader_stage {
+            return Err(GpuError::TooLarge {
+                what: "storage bindings of the moments kernel",
+                bytes: needed as u64,
+                limit: ctx.limits.max_storage_buffers_per_shader_stage as u64,
+            });
+        }
+        let mut f0 = vec![0f32; nv * stride];
         let mut vals = vec![0.0; nv];
         for node in 0..n {
             s.pop.gather(&s.f, node, &mut vals);
             for v in 0..nv {
-                f0[v * n + node] = vals[v] as f32;
+                f0[v * stride + node] = vals[v] as f32;
             }
         }
         let fb = bytemuck::cast_slice(&f0);
         let f = [storage(&device, "f", fb), storage(&device, "f1", fb), storage(&device, "f2", fb)];
         let h = storage(&device, "h", fb);
-        let mac = storage(&device, "mac", bytemuck::cast_slice(&vec![0f32; 5 * n]));
-        let kind: Vec<u32> = s.layout.kind.iter().map(|k| *k as u32).collect();
-        let kind = storage(&device, "kind", bytemuck::cast_slice(&kind));
+        let mac = storage(&device, "mac", bytemuck::cast_slice(&vec![0f32; 5 * stride]));
+        let mut kind_padded: Vec<u32> = s.layout.kind.iter().map(|k| *k as u32).collect();
+        kind_padded.resize(stride, NodeKind::Inactive as u32);
+        let kind = storage(&device, "kind", bytemuck::cast_slice(&kind_padded));
         let status = storage(&device, "status", bytemuck::cast_slice(&[u32::MAX, 0u32]));
 
         let mut ghost_entries = Vec::new();
@@ -201,7 +226,7 @@ impl GpuFluid {
 
         let window = s.temperature_window();
         let base = Params {
-            n_nodes: n as u32,
+            n_nodes: stride as u32,
             px: g.padded[0] as u32,
             py: g.padded[1] as u32,
             pz: g.padded[2] as u32,
@@ -237,10 +262,10 @@ impl GpuFluid {
             uniform(Params { count: counts[2] as u32, ..base }),
         ];
 
-        let bsrc = codegen::boundaries(eq);
+        let bsrc = codegen::boundaries(eq, split);
         Ok(GpuFluid {
-            moments: pipeline(&device, "moments_collide", &codegen::moments_collide(eq), "main"),
-            advect: pipeline(&device, "advect", &codegen::advect(eq), "main"),
+            moments: pipeline(&device, "moments_collide", &codegen::moments_collide(eq, split), "main"),
+            advect: pipeline(&device, "advect", &codegen::advect(eq, split), "main"),
             ghost_fill: pipeline(&device, "ghost_fill", &bsrc, "ghost_fill"),
             face_fill: pipeline(&device, "face_fill", &bsrc, "face_fill"),
             periodic_copy: pipeline(&device, "periodic_copy", &bsrc, "periodic_copy"),
@@ -254,6 +279,8 @@ impl GpuFluid {
             interior: g.interior_len() as u32,
             nv,
             n_nodes: n,
+            stride,
+            split,
             f,
             cur: 0,
             h,
@@ -269,9 +296,24 @@ impl GpuFluid {
     }
 
     /// Bind group of `p` (automatic layout: exactly the bindings its entry point uses).
-    fn bind(&self, p: &wgpu::ComputePipeline, buffers: &[(u32, &wgpu::Buffer)]) -> wgpu::BindGroup {
+    /// `whole`: (binding, buffer) bound entirely; `arrays`: (first binding, population array)
+    /// bound as the ranges of [`Split`].
+    fn bind(&self, p: &wgpu::ComputePipeline, whole: &[(u32, &wgpu::Buffer)], arrays: &[(u32, &wgpu::Buffer)]) -> wgpu::BindGroup {
         let layout = p.get_bind_group_layout(0);
-        let entries: Vec<wgpu::BindGroupEntry> = buffers.iter().map(|&(i, b)| wgpu::BindGroupEntry { binding: i, resource: b.as_entire_binding() }).collect();
+        let mut entries: Vec<wgpu::BindGroupEntry> = whole.iter().map(|&(i, b)| wgpu::BindGroupEntry { binding: i, resource: b.as_entire_binding() }).collect();
+        let pop = (self.stride * 4) as u64;
+        for &(first, b) in arrays {
+            for g in 0..self.split.groups() {
+                entries.push(wgpu::BindGroupEntry {
+                    binding: first + g as u32,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: b,
+                        offset: (g * self.split.per_binding) as u64 * pop,
+                        size: std::num::NonZeroU64::new(self.split.len(g) as u64 * pop),
+                    }),
+                });
+            }
+        }
         self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries })
     }
 
@@ -293,26 +335,33 @@ impl GpuFluid {
             RkStage::Second => 1,
         };
         let params = &self.params_stage[k];
+        let g = self.split.groups() as u32;
         match stage.kind {
             StageKind::MomentsCollide => {
                 let (src, out) = if k == 0 { (fn_, f1) } else { (f1, fnext) };
-                let bg =
-                    self.bind(&self.moments, &[(0, params), (1, &self.kind), (2, src), (3, fn_), (4, &self.h), (5, &self.mac), (6, out), (7, &self.status)]);
+                let bg = self.bind(
+                    &self.moments,
+                    &[(0, params), (1, &self.kind), (2, &self.mac), (3, &self.status)],
+                    &[(10, src), (10 + g, fn_), (10 + 2 * g, &self.h), (10 + 3 * g, out)],
+                );
                 Self::dispatch(pass, &self.moments, &bg, self.interior);
             }
             StageKind::Boundaries => {
                 let fv = if k == 0 { fn_ } else { f1 };
-                let bg =
-                    self.bind(&self.ghost_fill, &[(0, &self.params_count[0]), (1, &self.ghosts.0), (2, &self.ghosts.1), (3, fv), (4, &self.h), (5, &self.mac)]);
+                let bg = self.bind(
+                    &self.ghost_fill,
+                    &[(0, &self.params_count[0]), (1, &self.ghosts.0), (2, &self.ghosts.1), (3, &self.mac)],
+                    &[(10, fv), (10 + g, &self.h)],
+                );
                 Self::dispatch(pass, &self.ghost_fill, &bg, self.ghosts.2);
-                let bg = self.bind(&self.face_fill, &[(0, &self.params_count[1]), (1, &self.faces.0), (3, fv), (4, &self.h), (5, &self.mac)]);
+                let bg = self.bind(&self.face_fill, &[(0, &self.params_count[1]), (1, &self.faces.0), (3, &self.mac)], &[(10, fv), (10 + g, &self.h)]);
                 Self::dispatch(pass, &self.face_fill, &bg, self.faces.1);
-                let bg = self.bind(&self.periodic_copy, &[(0, &self.params_count[2]), (2, &self.periodic.0), (3, fv), (4, &self.h), (5, &self.mac)]);
+                let bg = self.bind(&self.periodic_copy, &[(0, &self.params_count[2]), (2, &self.periodic.0), (3, &self.mac)], &[(10, fv), (10 + g, &self.h)]);
                 Self::dispatch(pass, &self.periodic_copy, &bg, self.periodic.1);
             }
             StageKind::Advect => {
                 let out = if k == 0 { f1 } else { fnext };
-                let bg = self.bind(&self.advect, &[(0, params), (1, &self.kind), (2, &self.h), (3, out)]);
+                let bg = self.bind(&self.advect, &[(0, params), (1, &self.kind)], &[(10, &self.h), (10 + g, out)]);
                 Self::dispatch(pass, &self.advect, &bg, self.interior);
             }
         }
@@ -418,7 +467,8 @@ impl GpuFluid {
         out
     }
 
-    /// Reads an array back: structure of arrays, value v of node at `v·N + node`.
+    /// Reads an array back: structure of arrays, value v of node at `v·N + node` with N the
+    /// lattice's padded node count (the GPU stride padding removed).
     pub fn download(&self, which: GpuArray) -> Vec<f32> {
         let b = match which {
             GpuArray::State => &self.f[self.cur],
@@ -427,7 +477,8 @@ impl GpuFluid {
             GpuArray::Advected => &self.h,
             GpuArray::Macro => &self.mac,
         };
-        bytemuck::cast_slice(&self.read_buffer(b)).to_vec()
+        let raw: Vec<f32> = bytemuck::cast_slice(&self.read_buffer(b)).to_vec();
+        raw.chunks(self.stride).flat_map(|c| c[..self.n_nodes].iter().copied()).collect()
     }
 
     /// Copies the GPU state into a CPU solver of the same scene (f64, CPU layout), with the step
