@@ -3,8 +3,8 @@
 
 use super::context::{GpuContext, GpuError};
 use super::fdlb::GpuFluid;
-use crate::fluid::{Boundaries, Equilibrium, FluidSolver, GasModel, Grid, Macro, VelocitySet, VelocitySetKind, timestep};
-use serde::Serialize;
+use crate::bench::{LatticeSpeed, benchmark_solver};
+use crate::fluid::VelocitySetKind;
 use std::time::Instant;
 use wgpu::util::DeviceExt;
 
@@ -65,36 +65,12 @@ pub fn copy_bandwidth(ctx: &GpuContext, bytes: u64, reps: usize) -> f64 {
     2.0 * bytes as f64 / best
 }
 
-#[derive(Clone, Debug, Serialize)]
-pub struct GpuLatticeSpeed {
-    pub lattice: String,
-    pub nodes: [usize; 3],
-    pub steps: u64,
-    pub node_updates_per_s: f64,
-    pub bytes_per_node_update: f64,
-    pub bandwidth_fraction: f64,
-    /// Why the size could not run (too large for a binding, …).
-    pub skipped: Option<String>,
-    /// Fraction of the GPU time per stage (timestamp queries), when available.
-    pub stage_fractions: Vec<(String, f64)>,
-}
-
 /// FDLB node updates per second on the GPU for a periodic box (f32: 4-byte values).
-pub fn lattice_speed(ctx: &GpuContext, set: VelocitySetKind, n: [usize; 3], steps: u64, bandwidth: f64) -> GpuLatticeSpeed {
-    let vs = VelocitySet::new(set);
-    let dim = vs.dim;
-    let l1 = vs.max_l1_speed();
-    let eq = Equilibrium::new(vs, GasModel::Monatomic);
-    let nv = eq.values_per_node() as f64;
-    let params = timestep::choose(0.05, 0.6, l1, None, timestep::DEFAULT_COURANT_SAFETY).unwrap();
-    let k = 2.0 * std::f64::consts::PI / n[0] as f64;
-    let cpu = FluidSolver::new(eq, Grid::new(dim, n), Boundaries::periodic(), &[], params, move |x| Macro {
-        rho: 1.0,
-        u: [0.05 * (k * x[1]).sin(), 0.05 * (k * x[0]).sin(), 0.0],
-        theta: 0.6,
-    });
+pub fn lattice_speed(ctx: &GpuContext, set: VelocitySetKind, n: [usize; 3], steps: u64, bandwidth: f64) -> LatticeSpeed {
+    let cpu = benchmark_solver(set, n);
+    let nv = cpu.eq.values_per_node() as f64;
     let bytes = 4.0 * (13.0 * nv + 10.0);
-    let mut out = GpuLatticeSpeed {
+    let mut out = LatticeSpeed {
         lattice: format!("{set:?}"),
         nodes: cpu.layout.grid.n,
         steps,
