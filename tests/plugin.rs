@@ -72,3 +72,67 @@ fn unstable_simulation_is_marked_and_stops() {
     app.update();
     assert_eq!(app.world().get::<FluidSimulation>(e).unwrap().solver.step_count, steps);
 }
+
+/// The render-world GPU path on lavapipe (or a real GPU): a headless app with Bevy's renderer,
+/// no window. The probe values read back through `Readback`, tagged with their step index, must
+/// equal the CPU backend's at that step (f32 tolerance).
+#[test]
+fn gpu_stepping_in_the_render_world_matches_the_cpu() {
+    use bevy::app::PluginsState;
+    use bevy::window::{ExitCondition, WindowPlugin};
+    use phonation::plugin::{GpuProbes, GpuStepping, PhonationGpuPlugin};
+    if let Err(e) = phonation::gpu::GpuContext::new() {
+        if std::env::var("CI").is_ok_and(|v| v == "true") {
+            panic!("CI must run the GPU tests, but {e}");
+        }
+        eprintln!("SKIPPED: no GPU adapter ({e})");
+        return;
+    }
+    let sc = scene();
+    let mut app = App::new();
+    app.add_plugins((
+        DefaultPlugins.set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() }).disable::<bevy::log::LogPlugin>(),
+        PhonationPlugin,
+        PhonationGpuPlugin,
+    ));
+    while app.plugins_state() == PluginsState::Adding {
+        bevy::tasks::tick_global_task_pools_on_main_thread();
+    }
+    app.finish();
+    app.cleanup();
+    app.insert_resource(SimulationControl { paused: false, steps_per_frame: 4, single_steps: 0 });
+    let e = app.world_mut().spawn((FluidSimulation::from_scene(&sc), GpuStepping)).id();
+    let mut got = None;
+    for _ in 0..200 {
+        app.update();
+        if let Some(p) = app.world().get::<GpuProbes>(e)
+            && p.readbacks >= 3
+            && p.step > 0
+        {
+            got = Some(p.clone());
+            break;
+        }
+    }
+    let probes = got.expect("probe readbacks arrive within 200 frames");
+    eprintln!("render-world GPU probes at step {} after {} readbacks: {:?}", probes.step, probes.readbacks, probes.values);
+    assert_eq!(probes.values.len(), sc.probes.len());
+    assert_eq!(probes.step % 4, 0, "steps are recorded 4 per frame");
+    // The CPU mirror was not stepped (the entity is GPU-stepped).
+    assert_eq!(app.world().get::<FluidSimulation>(e).unwrap().solver.step_count, 0);
+    let mut cpu = sc.build_solver();
+    cpu.run(probes.step).unwrap();
+    for (k, (_, x)) in sc.probes.iter().enumerate() {
+        let m = cpu.macro_at_coords(*x);
+        let g = probes.values[k];
+        let cpu_vals = [m.rho, m.u[0], m.u[1], m.u[2], m.theta];
+        for j in 0..5 {
+            assert!(
+                (g[j] as f64 - cpu_vals[j]).abs() < 1e-4 * cpu_vals[j].abs().max(0.05),
+                "probe {k} value {j} at step {}: GPU {} CPU {}",
+                probes.step,
+                g[j],
+                cpu_vals[j]
+            );
+        }
+    }
+}

@@ -78,8 +78,17 @@ pub enum GpuArray {
     Macro,
 }
 
+struct ProbeKernel {
+    pipeline: wgpu::ComputePipeline,
+    nodes: wgpu::Buffer,
+    params: wgpu::Buffer,
+    count: usize,
+}
+
 pub struct GpuFluid {
     device: wgpu::Device,
+    eq: crate::fluid::Equilibrium,
+    probe: Option<ProbeKernel>,
     queue: wgpu::Queue,
     pub nv: usize,
     /// Padded node count of the lattice.
@@ -139,30 +148,33 @@ fn groups(threads: u32) -> (u32, u32) {
 impl GpuFluid {
     /// Uploads the state, geometry tables and parameters of a CPU solver.
     pub fn from_solver(ctx: &GpuContext, s: &FluidSolver) -> Result<Self, GpuError> {
-        let device = ctx.device.clone();
-        let queue = ctx.queue.clone();
+        Self::from_device(ctx.device.clone(), ctx.queue.clone(), &ctx.limits, s)
+    }
+
+    /// The same on a device opened elsewhere (Bevy's render device). `limits`: the device's.
+    pub fn from_device(device: wgpu::Device, queue: wgpu::Queue, limits: &wgpu::Limits, s: &FluidSolver) -> Result<Self, GpuError> {
         let eq = &s.eq;
         let nv = eq.values_per_node();
         let g = &s.layout.grid;
         let n = g.len();
         let stride = n.div_ceil(64) * 64;
         let pop_bytes = (stride * 4) as u64;
-        let limit = ctx.limits.max_storage_buffer_binding_size as u64;
+        let limit = limits.max_storage_buffer_binding_size as u64;
         let per_binding = ((limit / pop_bytes) as usize).min(nv);
         let total = nv as u64 * pop_bytes;
         if per_binding == 0 {
             return Err(GpuError::TooLarge { what: "one population", bytes: pop_bytes, limit });
         }
-        if total > ctx.limits.max_buffer_size {
-            return Err(GpuError::TooLarge { what: "one population array", bytes: total, limit: ctx.limits.max_buffer_size });
+        if total > limits.max_buffer_size {
+            return Err(GpuError::TooLarge { what: "one population array", bytes: total, limit: limits.max_buffer_size });
         }
         let split = Split { nv, per_binding };
         let needed = 3 + 4 * split.groups() as u32;
-        if needed > ctx.limits.max_storage_buffers_per_shader_stage {
+        if needed > limits.max_storage_buffers_per_shader_stage {
             return Err(GpuError::TooLarge {
                 what: "storage bindings of the moments kernel",
                 bytes: needed as u64,
-                limit: ctx.limits.max_storage_buffers_per_shader_stage as u64,
+                limit: limits.max_storage_buffers_per_shader_stage as u64,
             });
         }
         let mut f0 = vec![0f32; nv * stride];
@@ -277,6 +289,8 @@ impl GpuFluid {
             faces: (storage(&device, "faces", bytemuck::cast_slice(&face_entries)), counts[1] as u32),
             periodic: (storage(&device, "periodic", bytemuck::cast_slice(&periodic)), counts[2] as u32),
             interior: g.interior_len() as u32,
+            eq: eq.clone(),
+            probe: None,
             nv,
             n_nodes: n,
             stride,
@@ -386,17 +400,52 @@ impl GpuFluid {
 
     /// Runs `n` full steps, submitting the stage list of each step in one compute pass.
     pub fn run(&mut self, n: u64) {
-        for _ in 0..n {
+        let mut done = 0;
+        while done < n {
+            let batch = (n - done).min(16);
             let mut enc = self.device.create_command_encoder(&Default::default());
+            self.record_steps(&mut enc, batch);
+            self.queue.submit([enc.finish()]);
+            done += batch;
+        }
+    }
+
+    /// Records `n` full steps into `enc` (one compute pass per step), e.g. Bevy's render-graph
+    /// encoder; the state buffers swap as the steps are recorded.
+    pub fn record_steps(&mut self, enc: &mut wgpu::CommandEncoder, n: u64) {
+        for _ in 0..n {
             {
                 let mut pass = enc.begin_compute_pass(&Default::default());
                 for stage in &FDLB_STEP {
                     self.record_stage(&mut pass, stage);
                 }
             }
-            self.queue.submit([enc.finish()]);
             self.finish_step();
         }
+    }
+
+    /// Records the probe kernel: the macroscopic state of `nodes` after the recorded steps, with
+    /// the step index, into `out` (u32 words: 1 + 5 per probe, see [`codegen::probes`]).
+    pub fn record_probes(&mut self, enc: &mut wgpu::CommandEncoder, nodes: &[usize], out: &wgpu::Buffer) {
+        if self.probe.is_none() || self.probe.as_ref().is_some_and(|p| p.count != nodes.len()) {
+            let words: Vec<u32> = nodes.iter().map(|&n| n as u32).collect();
+            self.probe = Some(ProbeKernel {
+                pipeline: pipeline(&self.device, "probes", &codegen::probes(&self.eq, self.split), "main"),
+                nodes: storage(&self.device, "probe nodes", bytemuck::cast_slice(&words)),
+                params: self.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("probe params"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }),
+                count: nodes.len(),
+            });
+        }
+        let p = self.probe.as_ref().unwrap();
+        self.queue.write_buffer(&p.params, 0, bytemuck::cast_slice(&[self.step_count as u32, nodes.len() as u32, self.stride as u32, 0]));
+        let bg = self.bind(&p.pipeline, &[(0, &p.params), (1, &p.nodes), (2, out)], &[(10, &self.f[self.cur])]);
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        Self::dispatch(&mut pass, &p.pipeline, &bg, nodes.len().max(1) as u32);
     }
 
     /// Runs `steps` steps with every stage in its own compute pass bracketed by timestamps, and

@@ -14,6 +14,9 @@ use crate::scene::FluidScene;
 use crate::units::Units;
 use bevy::prelude::*;
 
+pub mod gpu;
+pub use gpu::{GpuFluidHandle, GpuProbes, GpuStepping, PhonationGpuPlugin};
+
 /// System sets, in order, of one frame of the simulation.
 #[derive(SystemSet, Debug, Clone, PartialEq, Eq, Hash)]
 pub enum PhonationSystems {
@@ -45,18 +48,26 @@ pub struct FluidSimulation {
     pub solver: FluidSolver,
     /// Physical ↔ lattice units of the scene, when built from one.
     pub units: Option<Units>,
+    /// Probe names and padded node indices (the scene's probes).
+    pub probes: Vec<(String, usize)>,
 }
 
 impl FluidSimulation {
     pub fn new(solver: FluidSolver) -> Self {
-        FluidSimulation { solver, units: None }
+        FluidSimulation { solver, units: None, probes: Vec::new() }
     }
 
     /// Allocates the solver of a validated scene.
     pub fn from_scene(scene: &FluidScene) -> Self {
-        FluidSimulation { solver: scene.build_solver(), units: Some(scene.units) }
+        let solver = scene.build_solver();
+        let probes = scene.probes.iter().map(|(n, x)| (n.clone(), solver.layout.grid.index(*x))).collect();
+        FluidSimulation { solver, units: Some(scene.units), probes }
     }
 }
+
+/// Steps every simulation advances this frame, from [`SimulationControl`] (pause, single steps).
+#[derive(Resource, Debug, Clone, Copy, Default)]
+pub struct StepsThisFrame(pub u32);
 
 /// Whether an entity's simulation is still running.
 #[derive(Component, Debug, Clone, Default, PartialEq)]
@@ -83,14 +94,23 @@ pub struct PhonationPlugin;
 impl Plugin for PhonationPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<SimulationControl>()
+            .init_resource::<StepsThisFrame>()
             .configure_sets(Update, (PhonationSystems::Step, PhonationSystems::Diagnostics).chain())
-            .add_systems(Update, step_simulations.in_set(PhonationSystems::Step))
+            .add_systems(Update, (plan_steps, step_simulations).chain().in_set(PhonationSystems::Step))
             .add_systems(Update, update_diagnostics.in_set(PhonationSystems::Diagnostics));
     }
 }
 
-fn step_simulations(mut control: ResMut<SimulationControl>, mut sims: Query<(Entity, &mut FluidSimulation, Option<&mut FluidStatus>)>, mut commands: Commands) {
-    let steps = if control.paused { std::mem::take(&mut control.single_steps) } else { control.steps_per_frame };
+fn plan_steps(mut control: ResMut<SimulationControl>, mut steps: ResMut<StepsThisFrame>) {
+    steps.0 = if control.paused { std::mem::take(&mut control.single_steps) } else { control.steps_per_frame };
+}
+
+fn step_simulations(
+    steps: Res<StepsThisFrame>,
+    mut sims: Query<(Entity, &mut FluidSimulation, Option<&mut FluidStatus>), Without<gpu::GpuFluidHandle>>,
+    mut commands: Commands,
+) {
+    let steps = steps.0;
     if steps == 0 {
         return;
     }
@@ -110,7 +130,7 @@ fn step_simulations(mut control: ResMut<SimulationControl>, mut sims: Query<(Ent
     }
 }
 
-fn update_diagnostics(mut sims: Query<(Entity, &FluidSimulation, Option<&mut FluidDiagnostics>)>, mut commands: Commands) {
+fn update_diagnostics(mut sims: Query<(Entity, &FluidSimulation, Option<&mut FluidDiagnostics>), Without<gpu::GpuFluidHandle>>, mut commands: Commands) {
     for (entity, sim, diag) in &mut sims {
         let totals = sim.solver.totals();
         let mut d = diag.as_deref().cloned().unwrap_or_default();

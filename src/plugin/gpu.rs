@@ -1,0 +1,119 @@
+//! GPU stepping in Bevy's render world (feature `bevy`). Add [`PhonationGpuPlugin`] next to
+//! [`super::PhonationPlugin`] in an app that has Bevy's `RenderPlugin`, and put [`GpuStepping`]
+//! on a [`FluidSimulation`] entity: its lattice is uploaded to Bevy's render device as a
+//! [`GpuFluid`], the render world records the frame's steps ([`crate::stages::FDLB_STEP`]) from
+//! a system in the `RenderGraph` schedule (before Bevy submits the frame), and a probe kernel
+//! writes the probes' macroscopic state together with the step index into a buffer that comes
+//! back through Bevy's `Readback` into [`GpuProbes`]. Readbacks lag a few frames; the step index
+//! says which step the values belong to.
+//!
+//! Without a render device (`MinimalPlugins`, no adapter), nothing is uploaded and the entity
+//! keeps being stepped on the CPU by [`super::PhonationPlugin`] with the same ECS-facing API.
+
+use super::{FluidSimulation, PhonationSystems, StepsThisFrame};
+use crate::gpu::GpuFluid;
+use bevy::prelude::*;
+use bevy::render::RenderApp;
+use bevy::render::extract_component::{ExtractComponent, ExtractComponentPlugin};
+use bevy::render::gpu_readback::{Readback, ReadbackComplete};
+use bevy::render::render_asset::RenderAssets;
+use bevy::render::renderer::{RenderContext, RenderDevice, RenderGraph, RenderQueue};
+use bevy::render::storage::{GpuShaderBuffer, ShaderBuffer};
+use std::sync::{Arc, Mutex};
+
+/// Requests that a [`FluidSimulation`] be stepped on the GPU in the render world.
+#[derive(Component, Debug, Default, Clone, Copy)]
+pub struct GpuStepping;
+
+/// The GPU lattice of an entity, shared with the render world.
+#[derive(Component, Clone, ExtractComponent)]
+pub struct GpuFluidHandle {
+    gpu: Arc<Mutex<GpuFluid>>,
+    probes: Handle<ShaderBuffer>,
+    nodes: Arc<Vec<usize>>,
+    /// Steps the render world records this frame.
+    steps_this_frame: u32,
+}
+
+/// Probe values read back from the GPU: the step they belong to and (ρ, u_x, u_y, u_z, θ) per
+/// probe of the scene, in lattice units.
+#[derive(Component, Debug, Default, Clone)]
+pub struct GpuProbes {
+    pub step: u64,
+    pub values: Vec<[f32; 5]>,
+    /// Number of readbacks received.
+    pub readbacks: u64,
+}
+
+pub struct PhonationGpuPlugin;
+
+impl Plugin for PhonationGpuPlugin {
+    fn build(&self, app: &mut App) {
+        app.add_plugins(ExtractComponentPlugin::<GpuFluidHandle>::default())
+            .add_systems(Update, (upload_to_gpu.before(super::step_simulations), schedule_gpu_steps.after(super::plan_steps)).in_set(PhonationSystems::Step));
+        if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
+            render_app.add_systems(RenderGraph, step_gpu_fluids);
+        }
+    }
+}
+
+fn upload_to_gpu(
+    mut commands: Commands,
+    sims: Query<(Entity, &FluidSimulation), (With<GpuStepping>, Without<GpuFluidHandle>)>,
+    device: Option<Res<RenderDevice>>,
+    queue: Option<Res<RenderQueue>>,
+    mut buffers: ResMut<Assets<ShaderBuffer>>,
+) {
+    let (Some(device), Some(queue)) = (device, queue) else { return };
+    for (entity, sim) in &sims {
+        let q: &wgpu::Queue = &queue.0;
+        let gpu = match GpuFluid::from_device(device.wgpu_device().clone(), q.clone(), &device.limits(), &sim.solver) {
+            Ok(g) => g,
+            Err(e) => {
+                warn!("phonation: {entity} stays on the CPU: {e}");
+                commands.entity(entity).remove::<GpuStepping>();
+                continue;
+            }
+        };
+        let nodes: Vec<usize> = sim.probes.iter().map(|(_, n)| *n).collect();
+        let mut buffer = ShaderBuffer::from(vec![0u32; 1 + 5 * nodes.len().max(1)]);
+        buffer.buffer_description.usage |= wgpu::BufferUsages::COPY_SRC;
+        let probes = buffers.add(buffer);
+        commands
+            .entity(entity)
+            .insert((
+                GpuFluidHandle { gpu: Arc::new(Mutex::new(gpu)), probes: probes.clone(), nodes: Arc::new(nodes), steps_this_frame: 0 },
+                GpuProbes::default(),
+                Readback::buffer(probes),
+            ))
+            .observe(read_probes);
+    }
+}
+
+fn read_probes(event: On<ReadbackComplete>, mut probes: Query<&mut GpuProbes>) {
+    let Ok(mut p) = probes.get_mut(event.entity) else { return };
+    let words: Vec<u32> = event.data.chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
+    if words.is_empty() {
+        return;
+    }
+    p.step = words[0] as u64;
+    p.values = words[1..].chunks_exact(5).map(|c| std::array::from_fn(|j| f32::from_bits(c[j]))).collect();
+    p.readbacks += 1;
+}
+
+fn schedule_gpu_steps(steps: Res<StepsThisFrame>, mut handles: Query<&mut GpuFluidHandle>) {
+    for mut h in &mut handles {
+        h.steps_this_frame = steps.0;
+    }
+}
+
+/// Render world: records this frame's steps and the probe kernel into the frame's encoder.
+fn step_gpu_fluids(mut ctx: RenderContext, handles: Query<&GpuFluidHandle>, buffers: Res<RenderAssets<GpuShaderBuffer>>) {
+    for h in &handles {
+        let Some(out) = buffers.get(&h.probes) else { continue };
+        let mut gpu = h.gpu.lock().expect("GPU lattice lock");
+        let enc = ctx.command_encoder();
+        gpu.record_steps(enc, h.steps_this_frame as u64);
+        gpu.record_probes(enc, &h.nodes, &out.buffer);
+    }
+}
