@@ -74,6 +74,12 @@ fn scene_text(arg: &str) -> anyhow::Result<String> {
 }
 
 fn main() -> anyhow::Result<()> {
+    // Mesa's software Vulkan prints errors when XDG_RUNTIME_DIR is unset (seen when `auto`
+    // probes for an adapter); point it at the temp directory.
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        // SAFETY: first statement of main, before any other thread exists.
+        unsafe { std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir()) };
+    }
     let cli = Cli::parse();
     match cli.command.unwrap_or(Command::Run { scene: None, out: None, steps: None, backend: Backend::Auto }) {
         Command::Run { scene: name, out, steps, backend } => {
