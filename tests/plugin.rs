@@ -100,23 +100,24 @@ fn gpu_stepping_in_the_render_world_matches_the_cpu() {
     }
     app.finish();
     app.cleanup();
-    app.insert_resource(SimulationControl { paused: false, steps_per_frame: 4, single_steps: 0 });
+    app.insert_resource(SimulationControl { paused: false, steps_per_frame: 8, single_steps: 0 });
     let e = app.world_mut().spawn((FluidSimulation::from_scene(&sc), GpuStepping)).id();
     let mut got = None;
-    for _ in 0..200 {
+    // 200 steps: the inflow (an acoustic front from the inlet) has reached the probe by then.
+    for _ in 0..400 {
         app.update();
         if let Some(p) = app.world().get::<GpuProbes>(e)
-            && p.readbacks >= 3
-            && p.step > 0
+            && p.step >= 200
         {
             got = Some(p.clone());
             break;
         }
     }
-    let probes = got.expect("probe readbacks arrive within 200 frames");
+    let probes = got.expect("probe readbacks reach step 200 within 400 frames");
     eprintln!("render-world GPU probes at step {} after {} readbacks: {:?}", probes.step, probes.readbacks, probes.values);
     assert_eq!(probes.values.len(), sc.probes.len());
-    assert_eq!(probes.step % 4, 0, "steps are recorded 4 per frame");
+    assert_eq!(probes.step % 8, 0, "steps are recorded 8 per frame");
+    assert!(probes.values[0][1] > 0.01, "the flow has reached the probe: {:?}", probes.values);
     // The CPU mirror was not stepped (the entity is GPU-stepped).
     assert_eq!(app.world().get::<FluidSimulation>(e).unwrap().solver.step_count, 0);
     let mut cpu = sc.build_solver();

@@ -2,7 +2,7 @@
 //! [`super::PhonationPlugin`] in an app that has Bevy's `RenderPlugin`, and put [`GpuStepping`]
 //! on a [`FluidSimulation`] entity: its lattice is uploaded to Bevy's render device as a
 //! [`GpuFluid`], the render world records the frame's steps ([`crate::stages::FDLB_STEP`]) from
-//! a system in the `RenderGraph` schedule (before Bevy submits the frame), and a probe kernel
+//! a system in the `RenderGraph` schedule ordered before the camera driver's set, and a probe kernel
 //! writes the probes' macroscopic state together with the step index into a buffer that comes
 //! back through Bevy's `Readback` into [`GpuProbes`]. Readbacks lag a few frames; the step index
 //! says which step the values belong to.
@@ -17,7 +17,7 @@ use bevy::render::RenderApp;
 use bevy::render::extract_component::{ExtractComponent, ExtractComponentPlugin};
 use bevy::render::gpu_readback::{Readback, ReadbackComplete};
 use bevy::render::render_asset::RenderAssets;
-use bevy::render::renderer::{RenderContext, RenderDevice, RenderGraph, RenderQueue};
+use bevy::render::renderer::{RenderContext, RenderDevice, RenderGraph, RenderGraphSystems, RenderQueue};
 use bevy::render::storage::{GpuShaderBuffer, ShaderBuffer};
 use std::sync::{Arc, Mutex};
 
@@ -52,7 +52,8 @@ impl Plugin for PhonationGpuPlugin {
         app.add_plugins(ExtractComponentPlugin::<GpuFluidHandle>::default())
             .add_systems(Update, (upload_to_gpu.before(super::step_simulations), schedule_gpu_steps.after(super::plan_steps)).in_set(PhonationSystems::Step));
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
-            render_app.add_systems(RenderGraph, step_gpu_fluids);
+            // Before `RenderGraphSystems::Render`, where Bevy's camera driver records the views.
+            render_app.add_systems(RenderGraph, step_gpu_fluids.before(RenderGraphSystems::Render));
         }
     }
 }
