@@ -8,15 +8,8 @@ use crate::fluid::VelocitySetKind;
 use std::time::Instant;
 use wgpu::util::DeviceExt;
 
-const COPY: &str = r#"
-@group(0) @binding(0) var<storage, read> src: array<vec4<f32>>;
-@group(0) @binding(1) var<storage, read_write> dst: array<vec4<f32>>;
-@compute @workgroup_size(256)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = gid.x + gid.y * nwg.x * 256u;
-    if (i < arrayLength(&src)) { dst[i] = src[i]; }
-}
-"#;
+/// The copy kernel (shaders/copy.wgsl); the FDLB kernels are generated (super::codegen).
+const COPY: &str = include_str!("../../shaders/copy.wgsl");
 
 /// Best-of-`reps` copy bandwidth (bytes read + written per second) over `bytes`-sized buffers.
 pub fn copy_bandwidth(ctx: &GpuContext, bytes: u64, reps: usize) -> f64 {
