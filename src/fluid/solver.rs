@@ -308,9 +308,13 @@ fn check_state(m: &Macro, window: (f64, f64)) -> Option<(&'static str, f64, Stri
     None
 }
 
-/// Per-row scratch of the kernels: macroscopic fields and equilibria along x.
+/// Per-row scratch of the kernels: moment sums, macroscopic fields and equilibria along x.
+/// One per rayon task, reused across the rows the task updates.
 struct RowScratch {
     rho: Vec<f64>,
+    /// Momentum and energy sums of the moments pass.
+    j: [Vec<f64>; 3],
+    en: Vec<f64>,
     u: [Vec<f64>; 3],
     theta: Vec<f64>,
     /// 1/θ and 1 − u²/(2θ).
@@ -325,7 +329,26 @@ struct RowScratch {
 impl RowScratch {
     fn new(px: usize, shells: usize) -> Self {
         let z = || vec![0.0; px];
-        RowScratch { rho: z(), u: [z(), z(), z()], theta: z(), inv_theta: z(), base: z(), shell_w: (0..shells).map(|_| z()).collect(), fe: z(), adv: z() }
+        RowScratch {
+            rho: z(),
+            j: [z(), z(), z()],
+            en: z(),
+            u: [z(), z(), z()],
+            theta: z(),
+            inv_theta: z(),
+            base: z(),
+            shell_w: (0..shells).map(|_| z()).collect(),
+            fe: z(),
+            adv: z(),
+        }
+    }
+
+    /// Zeroes the moment sums on x ∈ [x0, x1) before a row is accumulated.
+    fn clear_sums(&mut self, x0: usize, x1: usize) {
+        let [j0, j1, j2] = &mut self.j;
+        for a in [&mut self.rho, j0, j1, j2, &mut self.en] {
+            a[x0..x1].iter_mut().for_each(|v| *v = 0.0);
+        }
     }
 
     /// Shell weights and the velocity-independent parts of (2.78) on x ∈ [x0, x1).
@@ -421,96 +444,97 @@ impl Kernels<'_> {
             .zip(out.par_chunks_mut(px * nv))
             .enumerate()
             .with_min_len(rows_per_task(px * nv))
-            .map(|(r, ((h_row, mac_row), out_row))| {
-                let (x0, x1) = self.interior(r)?;
-                let n = x1 - x0;
-                let f_row = &f[r * px * nv..(r + 1) * px * nv];
-                let mut s = RowScratch::new(px, eq.set.shells.len());
-                let mut en = vec![0.0; px];
-                let mut j = [vec![0.0; px], vec![0.0; px], vec![0.0; px]];
-                {
-                    let (rho, en) = (&mut s.rho[x0..x1], &mut en[x0..x1]);
-                    let [j0, j1, j2] = &mut j;
-                    let (j0, j1, j2) = (&mut j0[x0..x1], &mut j1[x0..x1], &mut j2[x0..x1]);
-                    for v in 0..q {
-                        let fv = &f_row[v * px + x0..v * px + x1];
-                        let c = eq.cf[v];
-                        let hc = eq.half_c2[v];
+            .map_init(
+                || RowScratch::new(px, eq.set.shells.len()),
+                |s, (r, ((h_row, mac_row), out_row))| {
+                    let (x0, x1) = self.interior(r)?;
+                    let n = x1 - x0;
+                    let f_row = &f[r * px * nv..(r + 1) * px * nv];
+                    let kind_row = &kind[r * px..(r + 1) * px];
+                    s.clear_sums(x0, x1);
+                    {
+                        let (rho, en) = (&mut s.rho[x0..x1], &mut s.en[x0..x1]);
+                        let [j0, j1, j2] = &mut s.j;
+                        let (j0, j1, j2) = (&mut j0[x0..x1], &mut j1[x0..x1], &mut j2[x0..x1]);
+                        for v in 0..q {
+                            let fv = &f_row[v * px + x0..v * px + x1];
+                            let c = eq.cf[v];
+                            let hc = eq.half_c2[v];
+                            for x in 0..n {
+                                let fx = fv[x];
+                                rho[x] += fx;
+                                j0[x] += c[0] * fx;
+                                j1[x] += c[1] * fx;
+                                j2[x] += c[2] * fx;
+                                en[x] += hc * fx;
+                            }
+                        }
+                        for v in q..nv {
+                            for (e, g) in en.iter_mut().zip(&f_row[v * px + x0..v * px + x1]) {
+                                *e += g;
+                            }
+                        }
+                    }
+                    for x in x0..x1 {
+                        let inv = 1.0 / s.rho[x];
+                        let u = [s.j[0][x] * inv, s.j[1][x] * inv, s.j[2][x] * inv];
+                        s.u[0][x] = u[0];
+                        s.u[1][x] = u[1];
+                        s.u[2][x] = u[2];
+                        s.theta[x] = (s.en[x] * inv - 0.5 * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2])) / edh;
+                    }
+                    for x in x0..x1 {
+                        if kind_row[x] == NodeKind::Fluid {
+                            let m = Macro { rho: s.rho[x], u: [s.u[0][x], s.u[1][x], s.u[2][x]], theta: s.theta[x] };
+                            if let Some((qty, val, why)) = check_state(&m, window) {
+                                return Some((r * px + x, qty, val, why));
+                            }
+                        }
+                    }
+                    s.prepare_equilibrium(eq, x0, x1);
+                    for v in 0..nv {
+                        let i = if v < q { v } else { v - q };
+                        s.equilibrium(eq, v, x0, x1);
+                        if has_force {
+                            let ci = eq.cf[i];
+                            let gc = g[0] * ci[0] + g[1] * ci[1] + g[2] * ci[2];
+                            for x in x0..x1 {
+                                let gu = g[0] * s.u[0][x] + g[1] * s.u[1][x] + g[2] * s.u[2][x];
+                                // Force term f⁰ g·(c − u)/θ, kept in `adv` as a source.
+                                s.adv[x] = dt * s.fe[x] * (gc - gu) * s.inv_theta[x];
+                            }
+                        } else {
+                            s.adv[x0..x1].iter_mut().for_each(|a| *a = 0.0);
+                        }
+                        let range = v * px + x0..v * px + x1;
+                        let (hv, fv, fe, src, fl) = (&mut h_row[range.clone()], &f_row[range.clone()], &s.fe[x0..x1], &s.adv[x0..x1], &kind_row[x0..x1]);
                         for x in 0..n {
-                            let fx = fv[x];
-                            rho[x] += fx;
-                            j0[x] += c[0] * fx;
-                            j1[x] += c[1] * fx;
-                            j2[x] += c[2] * fx;
-                            en[x] += hc * fx;
+                            hv[x] = k_f * fv[x] + k_eq * fe[x];
                         }
-                    }
-                    for v in q..nv {
-                        for (e, g) in en.iter_mut().zip(&f_row[v * px + x0..v * px + x1]) {
-                            *e += g;
-                        }
-                    }
-                }
-                for x in x0..x1 {
-                    let inv = 1.0 / s.rho[x];
-                    let u = [j[0][x] * inv, j[1][x] * inv, j[2][x] * inv];
-                    s.u[0][x] = u[0];
-                    s.u[1][x] = u[1];
-                    s.u[2][x] = u[2];
-                    s.theta[x] = (en[x] * inv - 0.5 * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2])) / edh;
-                }
-                let fluid: Vec<bool> = (0..px).map(|x| kind[r * px + x] == NodeKind::Fluid).collect();
-                for x in x0..x1 {
-                    if fluid[x] {
-                        let m = Macro { rho: s.rho[x], u: [s.u[0][x], s.u[1][x], s.u[2][x]], theta: s.theta[x] };
-                        if let Some((qty, val, why)) = check_state(&m, window) {
-                            return Some((r * px + x, qty, val, why));
-                        }
-                    }
-                }
-                s.prepare_equilibrium(eq, x0, x1);
-                for v in 0..nv {
-                    let i = if v < q { v } else { v - q };
-                    s.equilibrium(eq, v, x0, x1);
-                    if has_force {
-                        let ci = eq.cf[i];
-                        let gc = g[0] * ci[0] + g[1] * ci[1] + g[2] * ci[2];
-                        for x in x0..x1 {
-                            let gu = g[0] * s.u[0][x] + g[1] * s.u[1][x] + g[2] * s.u[2][x];
-                            // Force term f⁰ g·(c − u)/θ, kept in `adv` as a source.
-                            s.adv[x] = dt * s.fe[x] * (gc - gu) * s.inv_theta[x];
-                        }
-                    } else {
-                        s.adv[x0..x1].iter_mut().for_each(|a| *a = 0.0);
-                    }
-                    let range = v * px + x0..v * px + x1;
-                    let (hv, fv, fe, src, fl) = (&mut h_row[range.clone()], &f_row[range.clone()], &s.fe[x0..x1], &s.adv[x0..x1], &fluid[x0..x1]);
-                    for x in 0..n {
-                        hv[x] = k_f * fv[x] + k_eq * fe[x];
-                    }
-                    let ov = &mut out_row[range.clone()];
-                    match base {
-                        None => {
-                            for x in 0..n {
-                                let local = fv[x] - dt_tau * (fv[x] - fe[x]) + src[x];
-                                ov[x] = if fl[x] { local } else { ov[x] };
+                        let ov = &mut out_row[range.clone()];
+                        match base {
+                            None => {
+                                for x in 0..n {
+                                    let local = fv[x] - dt_tau * (fv[x] - fe[x]) + src[x];
+                                    ov[x] = if fl[x] == NodeKind::Fluid { local } else { ov[x] };
+                                }
                             }
-                        }
-                        Some(b) => {
-                            let bv = &b[r * px * nv + v * px + x0..r * px * nv + v * px + x1];
-                            for x in 0..n {
-                                let local = 0.5 * (bv[x] + fv[x] - dt_tau * (fv[x] - fe[x]) + src[x]);
-                                ov[x] = if fl[x] { local } else { ov[x] };
+                            Some(b) => {
+                                let bv = &b[r * px * nv + v * px + x0..r * px * nv + v * px + x1];
+                                for x in 0..n {
+                                    let local = 0.5 * (bv[x] + fv[x] - dt_tau * (fv[x] - fe[x]) + src[x]);
+                                    ov[x] = if fl[x] == NodeKind::Fluid { local } else { ov[x] };
+                                }
                             }
                         }
                     }
-                }
-                let fields = [&s.rho, &s.u[0], &s.u[1], &s.u[2], &s.theta];
-                for (k, fld) in fields.iter().enumerate() {
-                    mac_row[k * px + x0..k * px + x1].copy_from_slice(&fld[x0..x1]);
-                }
-                None
-            })
+                    let fields = [&s.rho, &s.u[0], &s.u[1], &s.u[2], &s.theta];
+                    for (k, fld) in fields.iter().enumerate() {
+                        mac_row[k * px + x0..k * px + x1].copy_from_slice(&fld[x0..x1]);
+                    }
+                    None
+                },
+            )
             .reduce(
                 || None,
                 |a, b| match (a, b) {
@@ -528,29 +552,32 @@ impl Kernels<'_> {
         let px = self.pop.px;
         let kind = &self.layout.kind;
         let k = factor * self.params.dt;
-        out.par_chunks_mut(px * nv).enumerate().with_min_len(rows_per_task(px * nv)).for_each(|(r, out_row)| {
-            let Some((x0, x1)) = self.interior(r) else { return };
-            let n = x1 - x0;
-            let fluid: Vec<bool> = (x0..x1).map(|x| kind[r * px + x] == NodeKind::Fluid).collect();
-            let mut adv = vec![0.0; n];
-            for v in 0..nv {
-                let i = if v < q { v } else { v - q };
-                let (centre, taps) = &self.stencil[i];
-                let base = (r * nv + v) * px;
-                for (a, hx) in adv.iter_mut().zip(&h[base + x0..base + x1]) {
-                    *a = centre * hx;
-                }
-                for &(off, c) in taps {
-                    let start = (base as isize + off) as usize;
-                    for (a, hx) in adv.iter_mut().zip(&h[start + x0..start + x1]) {
-                        *a += c * hx;
+        out.par_chunks_mut(px * nv).enumerate().with_min_len(rows_per_task(px * nv)).for_each_init(
+            || vec![0.0; px],
+            |adv_row, (r, out_row)| {
+                let Some((x0, x1)) = self.interior(r) else { return };
+                let n = x1 - x0;
+                let fluid = &kind[r * px + x0..r * px + x1];
+                let adv = &mut adv_row[..n];
+                for v in 0..nv {
+                    let i = if v < q { v } else { v - q };
+                    let (centre, taps) = &self.stencil[i];
+                    let base = (r * nv + v) * px;
+                    for (a, hx) in adv.iter_mut().zip(&h[base + x0..base + x1]) {
+                        *a = centre * hx;
+                    }
+                    for &(off, c) in taps {
+                        let start = (base as isize + off) as usize;
+                        for (a, hx) in adv.iter_mut().zip(&h[start + x0..start + x1]) {
+                            *a += c * hx;
+                        }
+                    }
+                    let ov = &mut out_row[v * px + x0..v * px + x1];
+                    for x in 0..n {
+                        ov[x] = if fluid[x] == NodeKind::Fluid { ov[x] - k * adv[x] } else { ov[x] };
                     }
                 }
-                let ov = &mut out_row[v * px + x0..v * px + x1];
-                for x in 0..n {
-                    ov[x] = if fluid[x] { ov[x] - k * adv[x] } else { ov[x] };
-                }
-            }
-        });
+            },
+        );
     }
 }
