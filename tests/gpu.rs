@@ -6,6 +6,7 @@
 
 use phonation::fluid::layout::NodeKind;
 use phonation::fluid::*;
+use phonation::gpu::fdlb::compare_nodes;
 use phonation::gpu::{GpuArray, GpuContext, GpuFluid};
 use phonation::stages::FDLB_STEP;
 
@@ -62,25 +63,6 @@ fn kind_dim(k: VelocitySetKind) -> usize {
     VelocitySet::new(k).dim
 }
 
-/// max over population v of max |gpu − cpu| / max |cpu| over nodes of the given kinds.
-fn compare(gpu: &[f32], cpu: &FluidSolver, arr: &[f64], kinds: &[NodeKind], nv: usize, layout: phonation::fluid::storage::RowBlocked) -> f64 {
-    let n = cpu.layout.grid.len();
-    let mut vals = vec![0.0; nv];
-    let mut scale = vec![0.0f64; nv];
-    let mut diff = vec![0.0f64; nv];
-    for node in 0..n {
-        if !kinds.contains(&cpu.layout.kind[node]) {
-            continue;
-        }
-        layout.gather(arr, node, &mut vals);
-        for v in 0..nv {
-            scale[v] = scale[v].max(vals[v].abs());
-            diff[v] = diff[v].max((gpu[v * n + node] as f64 - vals[v]).abs());
-        }
-    }
-    (0..nv).map(|v| diff[v] / scale[v].max(1e-30)).fold(0.0, f64::max)
-}
-
 /// f32 rounding of O(1)-weighted sums of ~40 terms: a few 1e-6 relative to each population's scale.
 const KERNEL_TOL: f64 = 2e-5;
 
@@ -92,7 +74,6 @@ fn every_kernel_matches_its_cpu_twin() {
         // Warm up on the CPU so that non-equilibrium parts are present, then copy to the GPU.
         cpu.run(3).unwrap();
         let mut gpu = GpuFluid::from_solver(&ctx, &cpu).unwrap();
-        let nv = cpu.pop.nv;
         let boundary = [NodeKind::Ghost, NodeKind::FaceHalo, NodeKind::Periodic];
         for stage in &FDLB_STEP {
             cpu.run_stage(stage).unwrap();
@@ -105,20 +86,20 @@ fn every_kernel_matches_its_cpu_twin() {
             };
             match stage.kind {
                 phonation::stages::StageKind::MomentsCollide => {
-                    let d_out = compare(&out_gpu, &cpu, out, &[NodeKind::Fluid], nv, cpu.pop);
-                    let d_h = compare(&gpu.download(GpuArray::Advected), &cpu, h, &[NodeKind::Fluid], nv, cpu.pop);
-                    let d_mac = compare(&gpu.download(GpuArray::Macro), &cpu, mac, &[NodeKind::Fluid], 5, cpu.macro_layout);
+                    let d_out = compare_nodes(&out_gpu, &cpu, out, cpu.pop, &[NodeKind::Fluid]);
+                    let d_h = compare_nodes(&gpu.download(GpuArray::Advected), &cpu, h, cpu.pop, &[NodeKind::Fluid]);
+                    let d_mac = compare_nodes(&gpu.download(GpuArray::Macro), &cpu, mac, cpu.macro_layout, &[NodeKind::Fluid]);
                     eprintln!("{label}: out {d_out:e} h {d_h:e} mac {d_mac:e}");
                     assert!(d_out < KERNEL_TOL && d_h < KERNEL_TOL && d_mac < KERNEL_TOL, "{label}: out {d_out:e} h {d_h:e} mac {d_mac:e}");
                 }
                 phonation::stages::StageKind::Boundaries => {
-                    let d_h = compare(&gpu.download(GpuArray::Advected), &cpu, h, &boundary, nv, cpu.pop);
-                    let d_mac = compare(&gpu.download(GpuArray::Macro), &cpu, mac, &boundary, 5, cpu.macro_layout);
+                    let d_h = compare_nodes(&gpu.download(GpuArray::Advected), &cpu, h, cpu.pop, &boundary);
+                    let d_mac = compare_nodes(&gpu.download(GpuArray::Macro), &cpu, mac, cpu.macro_layout, &boundary);
                     eprintln!("{label}: ghost/halo h {d_h:e} mac {d_mac:e}");
                     assert!(d_h < KERNEL_TOL && d_mac < KERNEL_TOL, "{label}: ghost/halo h {d_h:e} mac {d_mac:e}");
                 }
                 phonation::stages::StageKind::Advect => {
-                    let d_out = compare(&out_gpu, &cpu, out, &[NodeKind::Fluid], nv, cpu.pop);
+                    let d_out = compare_nodes(&out_gpu, &cpu, out, cpu.pop, &[NodeKind::Fluid]);
                     eprintln!("{label}: {d_out:e}");
                     assert!(d_out < KERNEL_TOL, "{label}: {d_out:e}");
                 }

@@ -16,6 +16,7 @@
 use super::codegen::{self, Split, WORKGROUP};
 use super::context::{GpuContext, GpuError};
 use crate::fluid::layout::NodeKind;
+use crate::fluid::storage::RowBlocked;
 use crate::fluid::{FaceCondition, FluidSolver};
 use crate::stages::{FDLB_STEP, RkStage, Stage, StageKind};
 use bytemuck::{Pod, Zeroable};
@@ -63,6 +64,12 @@ struct Entry {
     _p1: f32,
 }
 
+const PIPE_MOMENTS: usize = 0;
+const PIPE_ADVECT: usize = 1;
+const PIPE_GHOST: usize = 2;
+const PIPE_FACE: usize = 3;
+const PIPE_PERIODIC: usize = 4;
+
 /// Which node array to read back.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GpuArray {
@@ -109,11 +116,10 @@ pub struct GpuFluid {
     periodic: (wgpu::Buffer, u32),
     params_stage: [wgpu::Buffer; 2],
     params_count: [wgpu::Buffer; 3],
-    moments: wgpu::ComputePipeline,
-    advect: wgpu::ComputePipeline,
-    ghost_fill: wgpu::ComputePipeline,
-    face_fill: wgpu::ComputePipeline,
-    periodic_copy: wgpu::ComputePipeline,
+    /// moments_collide, advect, ghost_fill, face_fill, periodic_copy (the `PIPE_*` indices).
+    pipelines: [wgpu::ComputePipeline; 5],
+    /// Per placement of fⁿ (buffer 0 or 2), per stage, the dispatches with their bind groups.
+    groups: [Vec<Vec<(usize, wgpu::BindGroup, u32)>>; 2],
     pub step_count: u64,
 }
 
@@ -275,12 +281,15 @@ impl GpuFluid {
         ];
 
         let bsrc = codegen::boundaries(eq, split);
-        Ok(GpuFluid {
-            moments: pipeline(&device, "moments_collide", &codegen::moments_collide(eq, split), "main"),
-            advect: pipeline(&device, "advect", &codegen::advect(eq, split), "main"),
-            ghost_fill: pipeline(&device, "ghost_fill", &bsrc, "ghost_fill"),
-            face_fill: pipeline(&device, "face_fill", &bsrc, "face_fill"),
-            periodic_copy: pipeline(&device, "periodic_copy", &bsrc, "periodic_copy"),
+        let mut gpu = GpuFluid {
+            pipelines: [
+                pipeline(&device, "moments_collide", &codegen::moments_collide(eq, split), "main"),
+                pipeline(&device, "advect", &codegen::advect(eq, split), "main"),
+                pipeline(&device, "ghost_fill", &bsrc, "ghost_fill"),
+                pipeline(&device, "face_fill", &bsrc, "face_fill"),
+                pipeline(&device, "periodic_copy", &bsrc, "periodic_copy"),
+            ],
+            groups: [Vec::new(), Vec::new()],
             ghosts: (
                 storage(&device, "ghosts", bytemuck::cast_slice(&ghost_entries)),
                 storage(&device, "images", bytemuck::cast_slice(&images)),
@@ -306,7 +315,9 @@ impl GpuFluid {
             device,
             queue,
             step_count: s.step_count,
-        })
+        };
+        gpu.groups = gpu.stage_groups();
+        Ok(gpu)
     }
 
     /// Bind group of `p` (automatic layout: exactly the bindings its entry point uses).
@@ -342,8 +353,10 @@ impl GpuFluid {
     }
 
     /// Records one stage of [`FDLB_STEP`] into `pass`.
-    fn record_stage(&self, pass: &mut wgpu::ComputePass, stage: &Stage) {
-        let (fn_, f1, fnext) = (&self.f[self.cur], &self.f[1], &self.f[2 - self.cur]);
+    /// The bind groups of one stage: (pipeline, bind group, threads) per dispatch, for fⁿ in
+    /// buffer `cur` (0 or 2). Built once per parity at upload ([`Self::stage_groups`]).
+    fn build_stage(&self, cur: usize, stage: &Stage) -> Vec<(usize, wgpu::BindGroup, u32)> {
+        let (fn_, f1, fnext) = (&self.f[cur], &self.f[1], &self.f[2 - cur]);
         let k = match stage.rk {
             RkStage::First => 0,
             RkStage::Second => 1,
@@ -354,40 +367,65 @@ impl GpuFluid {
             StageKind::MomentsCollide => {
                 let (src, out) = if k == 0 { (fn_, f1) } else { (f1, fnext) };
                 let bg = self.bind(
-                    &self.moments,
+                    &self.pipelines[PIPE_MOMENTS],
                     &[(0, params), (1, &self.kind), (2, &self.mac), (3, &self.status)],
                     &[(10, src), (10 + g, fn_), (10 + 2 * g, &self.h), (10 + 3 * g, out)],
                 );
-                Self::dispatch(pass, &self.moments, &bg, self.interior);
+                vec![(PIPE_MOMENTS, bg, self.interior)]
             }
             StageKind::Boundaries => {
                 let fv = if k == 0 { fn_ } else { f1 };
-                let bg = self.bind(
-                    &self.ghost_fill,
-                    &[(0, &self.params_count[0]), (1, &self.ghosts.0), (2, &self.ghosts.1), (3, &self.mac)],
-                    &[(10, fv), (10 + g, &self.h)],
-                );
-                Self::dispatch(pass, &self.ghost_fill, &bg, self.ghosts.2);
-                let bg = self.bind(&self.face_fill, &[(0, &self.params_count[1]), (1, &self.faces.0), (3, &self.mac)], &[(10, fv), (10 + g, &self.h)]);
-                Self::dispatch(pass, &self.face_fill, &bg, self.faces.1);
-                let bg = self.bind(&self.periodic_copy, &[(0, &self.params_count[2]), (2, &self.periodic.0), (3, &self.mac)], &[(10, fv), (10 + g, &self.h)]);
-                Self::dispatch(pass, &self.periodic_copy, &bg, self.periodic.1);
+                let arrays = [(10, fv), (10 + g, &self.h)];
+                vec![
+                    (
+                        PIPE_GHOST,
+                        self.bind(
+                            &self.pipelines[PIPE_GHOST],
+                            &[(0, &self.params_count[0]), (1, &self.ghosts.0), (2, &self.ghosts.1), (3, &self.mac)],
+                            &arrays,
+                        ),
+                        self.ghosts.2,
+                    ),
+                    (
+                        PIPE_FACE,
+                        self.bind(&self.pipelines[PIPE_FACE], &[(0, &self.params_count[1]), (1, &self.faces.0), (3, &self.mac)], &arrays),
+                        self.faces.1,
+                    ),
+                    (
+                        PIPE_PERIODIC,
+                        self.bind(&self.pipelines[PIPE_PERIODIC], &[(0, &self.params_count[2]), (2, &self.periodic.0), (3, &self.mac)], &arrays),
+                        self.periodic.1,
+                    ),
+                ]
             }
             StageKind::Advect => {
                 let out = if k == 0 { f1 } else { fnext };
-                let bg = self.bind(&self.advect, &[(0, params), (1, &self.kind)], &[(10, &self.h), (10 + g, out)]);
-                Self::dispatch(pass, &self.advect, &bg, self.interior);
+                let bg = self.bind(&self.pipelines[PIPE_ADVECT], &[(0, params), (1, &self.kind)], &[(10, &self.h), (10 + g, out)]);
+                vec![(PIPE_ADVECT, bg, self.interior)]
             }
+        }
+    }
+
+    /// Bind groups of every stage of [`FDLB_STEP`] for both placements of fⁿ.
+    fn stage_groups(&self) -> [Vec<Vec<(usize, wgpu::BindGroup, u32)>>; 2] {
+        [0, 2].map(|cur| FDLB_STEP.iter().map(|st| self.build_stage(cur, st)).collect())
+    }
+
+    /// Records one stage of [`FDLB_STEP`] (index `k`) into `pass`.
+    fn record_stage(&self, pass: &mut wgpu::ComputePass, k: usize) {
+        for (p, bg, threads) in &self.groups[self.cur / 2][k] {
+            Self::dispatch(pass, &self.pipelines[*p], bg, *threads);
         }
     }
 
     /// Runs one stage on its own (for per-kernel parity tests). After the last stage of a step,
     /// call [`Self::finish_step`].
     pub fn run_stage(&mut self, stage: &Stage) {
+        let k = FDLB_STEP.iter().position(|s| s == stage).expect("a stage of FDLB_STEP");
         let mut enc = self.device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
-            self.record_stage(&mut pass, stage);
+            self.record_stage(&mut pass, k);
         }
         self.queue.submit([enc.finish()]);
     }
@@ -416,8 +454,8 @@ impl GpuFluid {
         for _ in 0..n {
             {
                 let mut pass = enc.begin_compute_pass(&Default::default());
-                for stage in &FDLB_STEP {
-                    self.record_stage(&mut pass, stage);
+                for k in 0..FDLB_STEP.len() {
+                    self.record_stage(&mut pass, k);
                 }
             }
             self.finish_step();
@@ -474,7 +512,7 @@ impl GpuFluid {
                     end_of_pass_write_index: Some(2 * k as u32 + 1),
                 };
                 let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(stage.name), timestamp_writes: Some(tw) });
-                self.record_stage(&mut pass, stage);
+                self.record_stage(&mut pass, k);
             }
             enc.resolve_query_set(&qs, 0..count, &resolve, 0);
             self.queue.submit([enc.finish()]);
@@ -550,30 +588,27 @@ impl GpuFluid {
     /// Largest |GPU − CPU| / scale over the fluid nodes of the state, with scale the largest
     /// |CPU value| of each population (the populations span several orders of magnitude).
     pub fn max_relative_difference(&self, cpu: &FluidSolver) -> f64 {
-        let gpu = self.download(GpuArray::State);
-        compare_populations(&gpu, cpu, &cpu.f, self.n_nodes)
+        compare_nodes(&self.download(GpuArray::State), cpu, &cpu.f, cpu.pop, &[NodeKind::Fluid])
     }
 }
 
-/// max_v max_node |gpu − cpu| / max_node |cpu| over fluid nodes; `cpu_arr` in the CPU layout.
-pub fn compare_populations(gpu: &[f32], cpu: &FluidSolver, cpu_arr: &[f64], n: usize) -> f64 {
-    let nv = cpu.pop.nv;
-    let mut worst: f64 = 0.0;
+/// max over value v of (max |gpu − cpu| / max |cpu|) over the nodes whose kind is in `kinds`;
+/// `gpu` as returned by [`GpuFluid::download`], `cpu_arr` an array of `cpu` in `layout`.
+pub fn compare_nodes(gpu: &[f32], cpu: &FluidSolver, cpu_arr: &[f64], layout: RowBlocked, kinds: &[NodeKind]) -> f64 {
+    let n = cpu.layout.grid.len();
+    let nv = layout.nv;
     let mut vals = vec![0.0; nv];
     let mut scale = vec![0.0f64; nv];
     let mut diff = vec![0.0f64; nv];
     for node in 0..n {
-        if cpu.layout.kind[node] != NodeKind::Fluid {
+        if !kinds.contains(&cpu.layout.kind[node]) {
             continue;
         }
-        cpu.pop.gather(cpu_arr, node, &mut vals);
+        layout.gather(cpu_arr, node, &mut vals);
         for v in 0..nv {
             scale[v] = scale[v].max(vals[v].abs());
             diff[v] = diff[v].max((gpu[v * n + node] as f64 - vals[v]).abs());
         }
     }
-    for v in 0..nv {
-        worst = worst.max(diff[v] / scale[v].max(1e-30));
-    }
-    worst
+    (0..nv).map(|v| diff[v] / scale[v].max(1e-30)).fold(0.0, f64::max)
 }
