@@ -8,6 +8,7 @@
 //! | module | what |
 //! |---|---|
 //! | [`fluid`] | FDLB: velocity sets, equilibrium, boundaries, CPU reference solver |
+//! | [`solid`] | MPS orthotropic viscoelastic solid: materials, particles, forces, contact, explicit and implicit steps |
 //! | [`stages`] | the ordered stage list of one step (CPU, GPU, Bevy, timings) |
 //! | [`units`] | physical (cgs / SI) ↔ lattice units, Mach scaling |
 //! | [`scene`] | scene files (TOML), validation of user input, building a solver |
@@ -25,6 +26,7 @@ pub mod output;
 pub mod plugin;
 pub mod run;
 pub mod scene;
+pub mod solid;
 pub mod stages;
 pub mod units;
 pub mod validation;

@@ -60,3 +60,46 @@ impl StageTimings {
         FDLB_STEP.iter().zip(&self.total).map(|(s, d)| (s.name, if all > 0.0 { d.as_secs_f64() / all } else { 0.0 })).collect()
     }
 }
+
+/// Kind of work a stage of the MPS solid does (seed 000 §2.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SolidStageKind {
+    /// Explicit: rotation matrices from the quaternions. Implicit: rotations by Newton–Raphson
+    /// (2.74) and angular velocities (2.73) from the current positions and velocities.
+    Rotations,
+    /// Deformation gradient, co-rotated strain, stress and the gradient-part torque per particle.
+    StrainStress,
+    /// Gradient-model, pair (Laplacian) and viscous forces and torques gathered per particle.
+    BondForces,
+    /// Search grid and distinct-element contact forces (2.22–2.37), loads and gravity.
+    Contact,
+    /// Implicit only: A ΔV = B (2.63–2.66) by preconditioned conjugate gradients.
+    ConjugateGradient,
+    /// Velocities, positions and (explicit) rotations: (2.44)–(2.45), (2.52)–(2.56) or (2.57).
+    Integrate,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct SolidStage {
+    pub kind: SolidStageKind,
+    pub name: &'static str,
+}
+
+/// One explicit step of the solid (seed §2.2.4), in order.
+pub const SOLID_EXPLICIT_STEP: [SolidStage; 5] = [
+    SolidStage { kind: SolidStageKind::Rotations, name: "rotations" },
+    SolidStage { kind: SolidStageKind::StrainStress, name: "strain_stress" },
+    SolidStage { kind: SolidStageKind::BondForces, name: "bond_forces" },
+    SolidStage { kind: SolidStageKind::Contact, name: "contact" },
+    SolidStage { kind: SolidStageKind::Integrate, name: "integrate" },
+];
+
+/// One implicit step of the solid (seed §2.2.5 and §3.1.3), in order.
+pub const SOLID_IMPLICIT_STEP: [SolidStage; 6] = [
+    SolidStage { kind: SolidStageKind::Rotations, name: "rotations" },
+    SolidStage { kind: SolidStageKind::StrainStress, name: "strain_stress" },
+    SolidStage { kind: SolidStageKind::BondForces, name: "bond_forces" },
+    SolidStage { kind: SolidStageKind::Contact, name: "contact" },
+    SolidStage { kind: SolidStageKind::ConjugateGradient, name: "conjugate_gradient" },
+    SolidStage { kind: SolidStageKind::Integrate, name: "integrate" },
+];

@@ -2,7 +2,9 @@
 //! returns its measured figure next to the reference; the tests and the `validate` CLI
 //! subcommand assert the tolerances.
 
+pub mod beam;
 pub mod cavity;
+pub mod contact;
 pub mod channel;
 pub mod cylinder;
 pub mod riemann;
@@ -10,3 +12,4 @@ pub mod sod;
 pub mod sound;
 pub mod suite;
 pub mod taylor_green;
+pub mod waves;

@@ -1,0 +1,183 @@
+//! Contact between bodies and against walls with the distinct-element model of seed 000
+//! §2.2.2 (2.22–2.37): a normal spring on the overlap, a tangential spring anchored at the first
+//! contact point and carried by the particles' rotations, capped by static friction and
+//! replaced by dynamic friction when it slips, and a damping force on the relative velocity.
+//!
+//! Forces act at the contact point, equal and opposite on the two particles, so linear and
+//! angular momentum are conserved. Units: stiffnesses force/length, damping force·time/length.
+
+use super::grid::SearchGrid;
+use glam::{DMat3, DVec3};
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactParams {
+    /// Normal spring k of (2.24).
+    pub normal_stiffness: f64,
+    /// Tangential spring k_s of (2.34).
+    pub tangential_stiffness: f64,
+    /// μ_s of (2.35) and μ_d of (2.36).
+    pub static_friction: f64,
+    pub dynamic_friction: f64,
+    /// Damping coefficient η of (2.37). It acts on the normal relative velocity only: a
+    /// tangential damping would add a viscous drag to Coulomb friction (and make a sliding
+    /// block's acceleration depend on η).
+    #[serde(default)]
+    pub damping: f64,
+}
+
+/// A plane wall {x : n·x = offset}; bodies live on the side n·x > offset.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Wall {
+    pub normal: DVec3,
+    pub offset: f64,
+}
+
+/// Tangential-spring anchors in each particle's own (unrotated) frame, (2.29)–(2.30).
+#[derive(Clone, Copy, Debug)]
+struct Anchor {
+    ri: DVec3,
+    rj: DVec3,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Contacts {
+    pairs: HashMap<(u32, u32), Anchor>,
+    walls: HashMap<(u32, u16), Anchor>,
+    /// Deepest overlap of the last evaluation, as a fraction of the particle diameter l₀.
+    pub max_overlap: f64,
+    /// Active contacts of the last evaluation (pairs, wall contacts) and how many slid.
+    pub active: (usize, usize),
+    pub sliding: usize,
+}
+
+pub struct ContactInput<'a> {
+    pub x: &'a [DVec3],
+    pub v: &'a [DVec3],
+    pub rot: &'a [DMat3],
+    pub body: &'a [u16],
+    pub fixed: &'a [bool],
+    /// Particle diameter l₀ (contact when d_ij < l₀, 2.23).
+    pub diameter: f64,
+}
+
+/// Tangential force of a spring `c_s` capped by friction: (force on i, slid?).
+fn friction(p: &ContactParams, cs: DVec3, fn_mag: f64) -> (DVec3, bool) {
+    let fc = p.tangential_stiffness * cs;
+    let cap = p.static_friction * fn_mag;
+    if fc.length() > cap {
+        let len = cs.length();
+        let dir = if len > 0.0 { cs / len } else { DVec3::ZERO };
+        (p.dynamic_friction * fn_mag * dir, true)
+    } else {
+        (fc, false)
+    }
+}
+
+impl Contacts {
+    /// Adds contact forces and torques to `force`/`torque`.
+    pub fn apply(&mut self, p: &ContactParams, walls: &[Wall], inp: &ContactInput, force: &mut [DVec3], torque: &mut [DVec3]) {
+        let l0 = inp.diameter;
+        let n = inp.x.len();
+        let mut seen: HashMap<(u32, u32), Anchor> = HashMap::with_capacity(self.pairs.len());
+        self.max_overlap = 0.0;
+        self.active = (0, 0);
+        self.sliding = 0;
+        let multi_body = inp.body.iter().any(|&b| b != inp.body[0]);
+        if multi_body {
+            let grid = SearchGrid::build(inp.x, l0, [None; 3]);
+            for i in 0..n {
+                let mut near: Vec<(usize, DVec3)> = Vec::new();
+                grid.for_each_within(inp.x[i], l0, inp.x, |j, d| {
+                    if j > i && inp.body[j] != inp.body[i] {
+                        near.push((j, d));
+                    }
+                });
+                for (j, xij) in near {
+                    let d = xij.length();
+                    if d >= l0 || d == 0.0 {
+                        continue;
+                    }
+                    let nrm = xij / d; // (2.25)
+                    let c = l0 - d; // (2.23)
+                    self.max_overlap = self.max_overlap.max(c / l0);
+                    let fn_vec = -p.normal_stiffness * c * nrm; // (2.24), on i
+                    let (ri, rj) = (inp.rot[i], inp.rot[j]);
+                    let key = (i as u32, j as u32);
+                    let mut anchor = self.pairs.get(&key).copied().unwrap_or_else(|| {
+                        // (2.26)–(2.30)
+                        let cp = 0.5 * (inp.x[i] + inp.x[j]);
+                        Anchor { ri: ri.transpose() * (cp - inp.x[i]), rj: rj.transpose() * (cp - inp.x[j]) }
+                    });
+                    let ai = inp.x[i] + ri * anchor.ri;
+                    let aj = inp.x[j] + rj * anchor.rj;
+                    let cij = aj - ai; // (2.31)
+                    let cs = cij - cij.dot(nrm) * nrm; // (2.32)–(2.33)
+                    let (ft, slid) = friction(p, cs, p.normal_stiffness * c);
+                    if slid {
+                        // Re-anchor j so the spring holds exactly the dynamic force.
+                        let keep = ft.length() / p.tangential_stiffness;
+                        let cs_new = if cs.length() > 0.0 { cs * (keep / cs.length()) } else { DVec3::ZERO };
+                        anchor.rj = rj.transpose() * (aj - (cs - cs_new) - inp.x[j]);
+                        self.sliding += 1;
+                    }
+                    let dv = inp.v[j] - inp.v[i];
+                    let fd = p.damping * dv.dot(nrm) * nrm; // (2.37), normal part
+                    let f = fn_vec + ft + fd;
+                    let cp = 0.5 * (ai + aj);
+                    if !inp.fixed[i] {
+                        force[i] += f;
+                        torque[i] += (cp - inp.x[i]).cross(f);
+                    }
+                    if !inp.fixed[j] {
+                        force[j] -= f;
+                        torque[j] -= (cp - inp.x[j]).cross(f);
+                    }
+                    seen.insert(key, anchor);
+                    self.active.0 += 1;
+                }
+            }
+        }
+        self.pairs = seen;
+        let mut wall_seen: HashMap<(u32, u16), Anchor> = HashMap::new();
+        for (w_idx, wall) in walls.iter().enumerate() {
+            for i in 0..n {
+                if inp.fixed[i] {
+                    continue;
+                }
+                let dist = wall.normal.dot(inp.x[i]) - wall.offset;
+                let c = 0.5 * l0 - dist;
+                if c <= 0.0 {
+                    continue;
+                }
+                self.max_overlap = self.max_overlap.max(c / l0);
+                let key = (i as u32, w_idx as u16);
+                let ri = inp.rot[i];
+                // ri: anchor on the particle (own frame); rj: the fixed wall point (world).
+                let mut anchor = self.walls.get(&key).copied().unwrap_or_else(|| {
+                    let foot = inp.x[i] - dist * wall.normal;
+                    Anchor { ri: ri.transpose() * (foot - inp.x[i]), rj: foot }
+                });
+                let ai = inp.x[i] + ri * anchor.ri;
+                let cij = anchor.rj - ai;
+                let cs = cij - cij.dot(wall.normal) * wall.normal;
+                let fn_mag = p.normal_stiffness * c;
+                let (ft, slid) = friction(p, cs, fn_mag);
+                if slid {
+                    let keep = ft.length() / p.tangential_stiffness;
+                    let cs_new = if cs.length() > 0.0 { cs * (keep / cs.length()) } else { DVec3::ZERO };
+                    anchor.rj -= cs - cs_new;
+                    self.sliding += 1;
+                }
+                let f = fn_mag * wall.normal + ft - p.damping * inp.v[i].dot(wall.normal) * wall.normal;
+                force[i] += f;
+                torque[i] += (ai - inp.x[i]).cross(ft);
+                wall_seen.insert(key, anchor);
+                self.active.1 += 1;
+            }
+        }
+        self.walls = wall_seen;
+    }
+}

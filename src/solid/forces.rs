@@ -1,0 +1,225 @@
+//! Internal forces and torques of the MPS solid — the CPU twins of the GPU kernels
+//! `strain_stress` and `bond_forces`.
+//!
+//! The elastic energy is split as the seed's equation of motion (2.14) is: a pair
+//! (Laplacian-model, 2.16) part that acts on the rotation-free relative displacement averaged
+//! over the pair (2.38), u_ij = r_ij − ½(R_i + R_j) r⁰_ij, with energy ½ k_ij |u_ij|² per bond,
+//! and a gradient-model (2.17) part that carries the rest of the orthotropic stiffness,
+//! C' = C − C_pair (see [`super::bonds::pair_stiffness`]), through the renormalised gradient
+//! F_i = Σ_j r_ij ⊗ g_ij, the co-rotated strain ε_i = sym(R_iᵀ F_i) − I and the energy
+//! V_i ½ ε_i : C'_i : ε_i. F_i uses the second-order least-squares gradient weights g_ij
+//! (exact for quadratic displacement fields, so that the strain of a bent beam is right also at
+//! its surfaces; see [`super::bonds`]). Forces and torques are the exact derivatives of this
+//! energy:
+//!
+//! * gradient part: f_i = Σ_j (Q_i g_ij − Q_j g_ji) with Q = V R σ, and a torque on the
+//!   particle's rotation;
+//! * pair part: f_i = Σ_j k_ij u_ij and the torque ½ k_ij R_i r⁰_ij × u_ij, which is seed (2.51).
+//!
+//! Because the energy is invariant under a rigid rotation of all positions and all particle
+//! rotations, the torques cancel the moments of the pair forces (2.46–2.50): total (orbital +
+//! spin) angular momentum is conserved exactly, and a rigidly rotated body feels no force.
+//!
+//! Viscosity (the η Δ ∂Ψ/∂t term of 2.15) uses the relative velocity with the rigid rotation
+//! removed (2.42–2.43), symmetrised over the pair: v_ij = v_j − v_i − ½(ω_i + ω_j) × r_ij,
+//! force c_ij v_ij and torque ½ c_ij r_ij × v_ij (a Rayleigh dissipation function).
+
+use super::bonds::{Bonds, outer};
+use super::material::{Voigt6, from_voigt, mul6, to_voigt};
+use glam::{DMat3, DVec3};
+use rayon::prelude::*;
+
+/// Static per-particle data of the discretisation.
+#[derive(Clone, Debug, Default)]
+pub struct Discretisation {
+    pub dim: usize,
+    pub bonds: Bonds,
+    /// Gradient-model stiffness C'_i = C − C_pair,i.
+    pub grad_stiffness: Vec<Voigt6>,
+    pub volume: Vec<f64>,
+}
+
+/// Evaluation mode of the force kernels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// The forces at positions x, velocities v (with the reference terms).
+    Full,
+    /// The linear part with the rotations frozen: the fields passed as positions and velocities
+    /// are increments, the result is K p + D q (seed 2.61: ∂f/∂x p + ∂f/∂v q).
+    Linear,
+}
+
+/// Per-particle output of `strain_stress`.
+#[derive(Clone, Debug, Default)]
+pub struct StressField {
+    /// Q_i = V_i R_i σ_i (first Piola stress times volume).
+    pub q: Vec<DMat3>,
+    /// Torque of the gradient part on the particle's rotation.
+    pub torque: Vec<DVec3>,
+    /// Gradient-part energy V ½ ε:C':ε.
+    pub energy: Vec<f64>,
+    /// Co-rotated strain and the total stress C ε (Voigt), for output and tests.
+    pub strain: Vec<[f64; 6]>,
+}
+
+impl StressField {
+    pub fn new(n: usize) -> Self {
+        Self { q: vec![DMat3::ZERO; n], torque: vec![DVec3::ZERO; n], energy: vec![0.0; n], strain: vec![[0.0; 6]; n] }
+    }
+}
+
+/// Kernel 1, `strain_stress`: deformation gradient, co-rotated strain, gradient-model stress,
+/// Q_i and the gradient-part torque of every particle.
+pub fn strain_stress(d: &Discretisation, x: &[DVec3], rot: &[DMat3], mode: Mode, out: &mut StressField) {
+    let b = &d.bonds;
+    let plane = d.dim == 2;
+    (out.q.par_iter_mut(), out.torque.par_iter_mut(), out.energy.par_iter_mut(), out.strain.par_iter_mut()).into_par_iter().enumerate().for_each(
+        |(i, (q, tq, en, st))| {
+            let mut f = DMat3::ZERO;
+            for k in b.of(i) {
+                let j = b.neighbour[k] as usize;
+                let r = match mode {
+                    Mode::Full => x[j] + b.shift[k] - x[i],
+                    Mode::Linear => x[j] - x[i],
+                };
+                f += outer(r, b.grad[k]);
+            }
+            if plane && mode == Mode::Full {
+                f.z_axis.z = 1.0;
+            }
+            let r_i = rot[i];
+            let mut h = r_i.transpose() * f;
+            if mode == Mode::Full {
+                h -= DMat3::IDENTITY;
+            }
+            let eps = 0.5 * (h + h.transpose());
+            let ev = to_voigt(&eps);
+            let sv = mul6(&d.grad_stiffness[i], &ev);
+            let sigma = from_voigt(&sv);
+            let v = d.volume[i];
+            *q = v * r_i * sigma;
+            // τ = V axial(B), B = F σ Rᵀ (derivative of the energy w.r.t. a rotation of R_i).
+            let bm = f * sigma * r_i.transpose();
+            // (In linear mode this torque is of second order at small strain and is dropped.)
+            *tq = if mode == Mode::Full { v * DVec3::new(bm.z_axis.y - bm.y_axis.z, bm.x_axis.z - bm.z_axis.x, bm.y_axis.x - bm.x_axis.y) } else { DVec3::ZERO };
+            *en = 0.5 * v * ev.iter().zip(&sv).map(|(a, b)| a * b).sum::<f64>();
+            *st = ev;
+        },
+    );
+}
+
+/// Per-particle output of `bond_forces`.
+#[derive(Clone, Debug, Default)]
+pub struct ForceField {
+    pub force: Vec<DVec3>,
+    pub torque: Vec<DVec3>,
+    /// Pair-part elastic energy (half of each bond's, so the sum over particles is the total).
+    pub energy: Vec<f64>,
+}
+
+impl ForceField {
+    pub fn new(n: usize) -> Self {
+        Self { force: vec![DVec3::ZERO; n], torque: vec![DVec3::ZERO; n], energy: vec![0.0; n] }
+    }
+}
+
+/// Linearised rotations that follow position (or velocity) increments in the implicit method:
+/// θ_i = J_i⁻¹ Σ_j ŵ_ij (R_i r⁰_ij) × (p_j − p_i) (the derivative of the rotation defined by
+/// (2.74); for velocities it is the angular velocity of (2.73) at the same geometry).
+pub fn rotation_increments(d: &Discretisation, p: &[DVec3], rot: &[DMat3], jinv: &[DMat3], out: &mut [DVec3]) {
+    let b = &d.bonds;
+    out.par_iter_mut().enumerate().for_each(|(i, o)| {
+        let mut s = DVec3::ZERO;
+        for k in b.of(i) {
+            let j = b.neighbour[k] as usize;
+            s += b.w_hat[k] * (rot[i] * b.r0[k]).cross(p[j] - p[i]);
+        }
+        *o = jinv[i] * s;
+    });
+}
+
+/// Chain rule of the implicit method: with the rotations slaved to the positions through
+/// (2.74), the torques τ_i (= −∂E/∂θ_i) become forces f_m += Σ_i (∂θ_i/∂x_m)ᵀ τ_i, i.e. with
+/// λ_i = J_i⁻ᵀ τ_i: f_m −= Σ_j ŵ_mj (λ_j × R_j r⁰_mj + λ_m × R_m r⁰_mj). This makes the
+/// implicit forces the exact gradient of E(x, R(x)) and keeps their linearisation symmetric.
+pub fn rotation_chain(d: &Discretisation, rot: &[DMat3], jinv: &[DMat3], torque: &[DVec3], force: &mut [DVec3]) {
+    let b = &d.bonds;
+    let lambda: Vec<DVec3> = torque.par_iter().zip(jinv).map(|(t, j)| j.transpose() * *t).collect();
+    force.par_iter_mut().enumerate().for_each(|(m, f)| {
+        let mut s = DVec3::ZERO;
+        for k in b.of(m) {
+            let j = b.neighbour[k] as usize;
+            let r0 = b.r0[k];
+            s += b.w_hat[k] * (lambda[j].cross(rot[j] * r0) + lambda[m].cross(rot[m] * r0));
+        }
+        *f -= s;
+    });
+}
+
+/// Kernel 2, `bond_forces`: gathers, per particle, the gradient-model pair forces, the pair
+/// (Laplacian) elastic force and torque and the viscous force and torque, and adds the
+/// gradient-part torque from `stress`. `spin` is ω. In `Mode::Linear`, `follow` carries the
+/// linearised rotations of the increments (θ for the position field, ω for the velocity
+/// field) so that the rigid part of an increment is not penalised.
+#[allow(clippy::too_many_arguments)]
+pub fn bond_forces(
+    d: &Discretisation,
+    x: &[DVec3],
+    v: &[DVec3],
+    spin: Option<&[DVec3]>,
+    rot: &[DMat3],
+    stress: &StressField,
+    mode: Mode,
+    follow: Option<(&[DVec3], &[DVec3])>,
+    out: &mut ForceField,
+) {
+    let b = &d.bonds;
+    (out.force.par_iter_mut(), out.torque.par_iter_mut(), out.energy.par_iter_mut()).into_par_iter().enumerate().for_each(|(i, (fo, to, en))| {
+        let mut f = DVec3::ZERO;
+        let mut t = stress.torque[i];
+        let mut e = 0.0;
+        let r_i = rot[i];
+        let w_i = spin.map_or(DVec3::ZERO, |s| s[i]);
+        for k in b.of(i) {
+            let j = b.neighbour[k] as usize;
+            let r0 = b.r0[k];
+            // gradient model: −∂/∂x_i of Σ V ψ(F) through F_i (g_ij) and F_j (g_ji)
+            f += stress.q[i] * b.grad[k] - stress.q[j] * b.grad[b.reverse[k] as usize];
+            // pair (Laplacian) model on the rotation-free relative displacement (2.38)
+            let (a_i, a_j) = (r_i * r0, rot[j] * r0);
+            let (r, u) = match mode {
+                Mode::Full => {
+                    let r = x[j] + b.shift[k] - x[i];
+                    (r, r - 0.5 * (a_i + a_j))
+                }
+                Mode::Linear => {
+                    let p = x[j] - x[i];
+                    let u = match follow {
+                        Some((th, _)) => p - 0.5 * (th[i].cross(a_i) + th[j].cross(a_j)),
+                        None => p,
+                    };
+                    (0.5 * (a_i + a_j), u)
+                }
+            };
+            let kk = b.stiffness[k];
+            f += kk * u;
+            t += 0.5 * kk * a_i.cross(u);
+            e += 0.25 * kk * u.length_squared();
+            // viscosity on the relative velocity without rigid rotation (2.42–2.43)
+            let c = b.damping[k];
+            if c != 0.0 {
+                let w_bar = match (mode, follow) {
+                    (Mode::Linear, Some((_, om))) => 0.5 * (om[i] + om[j]),
+                    _ => 0.5 * (w_i + spin.map_or(DVec3::ZERO, |s| s[j])),
+                };
+                let vij = v[j] - v[i] - w_bar.cross(r);
+                f += c * vij;
+                t += 0.5 * c * r.cross(vij);
+            }
+        }
+        *fo = f;
+        *to = t;
+        *en = e;
+    });
+}
+

@@ -1,0 +1,147 @@
+//! Preconditioned conjugate gradients for the implicit system A ΔV = B of seed 000
+//! (2.63)–(2.66), matrix-free (the product A p is one evaluation of the linearised force
+//! kernels, as §3.1.3 multiplies only over the neighbour lists), with a block-Jacobi
+//! preconditioner (one 3×3 block per particle). Clamped particles are constrained to ΔV = 0.
+
+use super::forces::Discretisation;
+use super::material::{mul6, to_voigt};
+use super::particles::Particles;
+use glam::{DMat3, DVec3};
+use rayon::prelude::*;
+use serde::Serialize;
+
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct CgReport {
+    pub iterations: usize,
+    /// Final ‖r‖ / ‖B‖.
+    pub relative_residual: f64,
+    pub converged: bool,
+}
+
+/// Inverse diagonal blocks of A = (M + M_a) − Δt D − Δt² K at the reference configuration
+/// (rotations = I): the mass, the pair stiffness and damping Σ_j (Δt² k_ij + Δt c_ij), and the
+/// gradient-model self-stiffness Σ_k V_k (∂ε_k/∂x_i)ᵀ C'_k (∂ε_k/∂x_i).
+#[derive(Clone, Debug)]
+pub struct BlockJacobi {
+    inv: Vec<DMat3>,
+}
+
+impl BlockJacobi {
+    pub fn new(d: &Discretisation, p: &Particles, dt: f64) -> Self {
+        let b = &d.bonds;
+        let n = p.len();
+        // Gradient weights g_ki = ∂F_k/∂x_i direction: F_k changes by δx ⊗ g.
+        let blocks: Vec<DMat3> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let mut kb = DMat3::ZERO;
+                let mut add = |k: usize, g: DVec3| {
+                    let c = &d.grad_stiffness[k];
+                    let e: Vec<[f64; 6]> = (0..3)
+                        .map(|a| {
+                            let mut dx = DVec3::ZERO;
+                            dx[a] = 1.0;
+                            let h = super::bonds::outer(dx, g);
+                            to_voigt(&(0.5 * (h + h.transpose())))
+                        })
+                        .collect();
+                    for a in 0..3 {
+                        let s = mul6(c, &e[a]);
+                        for bb in 0..3 {
+                            let v: f64 = s.iter().zip(&e[bb]).map(|(x, y)| x * y).sum();
+                            kb.col_mut(bb)[a] += d.volume[k] * v;
+                        }
+                    }
+                };
+                let mut self_g = DVec3::ZERO;
+                let mut pair = 0.0;
+                let mut damp = 0.0;
+                for k in b.of(i) {
+                    let j = b.neighbour[k] as usize;
+                    self_g -= b.grad[k];
+                    add(j, b.grad[b.reverse[k] as usize]);
+                    pair += b.stiffness[k];
+                    damp += b.damping[k];
+                }
+                add(i, self_g);
+                let m = p.mass[i] + p.added_mass[i];
+                let a = DMat3::from_diagonal(DVec3::splat(m + dt * damp + dt * dt * pair)) + dt * dt * kb;
+                if p.dim == 2 {
+                    let mut a2 = a;
+                    a2.z_axis = DVec3::new(0.0, 0.0, 1.0);
+                    a2.x_axis.z = 0.0;
+                    a2.y_axis.z = 0.0;
+                    a2.inverse()
+                } else {
+                    a.inverse()
+                }
+            })
+            .collect();
+        Self { inv: blocks }
+    }
+
+    pub fn apply(&self, r: &[DVec3], z: &mut [DVec3]) {
+        z.par_iter_mut().enumerate().for_each(|(i, zi)| *zi = self.inv[i] * r[i]);
+    }
+}
+
+fn dot(a: &[DVec3], b: &[DVec3]) -> f64 {
+    a.par_iter().zip(b).map(|(x, y)| x.dot(*y)).sum()
+}
+
+/// Solves A x = b (A symmetric positive definite, given as `apply(x, out)`), starting from the
+/// content of `x`; stops at ‖r‖ ≤ `tol` ‖b‖ or after `max_iter` iterations.
+pub fn conjugate_gradient(
+    mut apply: impl FnMut(&[DVec3], &mut [DVec3]),
+    pre: &BlockJacobi,
+    b: &[DVec3],
+    x: &mut [DVec3],
+    fixed: &[bool],
+    tol: f64,
+    max_iter: usize,
+) -> CgReport {
+    let n = b.len();
+    let mut r = vec![DVec3::ZERO; n];
+    let mut ap = vec![DVec3::ZERO; n];
+    apply(x, &mut ap);
+    r.par_iter_mut().enumerate().for_each(|(i, ri)| *ri = if fixed[i] { DVec3::ZERO } else { b[i] - ap[i] });
+    let bnorm = dot(b, b).sqrt();
+    if bnorm == 0.0 {
+        x.iter_mut().for_each(|v| *v = DVec3::ZERO);
+        return CgReport { iterations: 0, relative_residual: 0.0, converged: true };
+    }
+    let mut z = vec![DVec3::ZERO; n];
+    pre.apply(&r, &mut z);
+    mask(&mut z, fixed);
+    let mut p = z.clone();
+    let mut rz = dot(&r, &z);
+    let mut rel = dot(&r, &r).sqrt() / bnorm;
+    let mut it = 0;
+    while rel > tol && it < max_iter {
+        apply(&p, &mut ap);
+        let pap = dot(&p, &ap);
+        if pap <= 0.0 {
+            break;
+        }
+        let alpha = rz / pap;
+        x.par_iter_mut().zip(&p).for_each(|(xi, pi)| *xi += alpha * *pi);
+        r.par_iter_mut().zip(&ap).for_each(|(ri, ai)| *ri -= alpha * *ai);
+        pre.apply(&r, &mut z);
+        mask(&mut z, fixed);
+        let rz_new = dot(&r, &z);
+        let beta = rz_new / rz;
+        rz = rz_new;
+        p.par_iter_mut().zip(&z).for_each(|(pi, zi)| *pi = *zi + beta * *pi);
+        it += 1;
+        rel = dot(&r, &r).sqrt() / bnorm;
+    }
+    CgReport { iterations: it, relative_residual: rel, converged: rel <= tol }
+}
+
+fn mask(v: &mut [DVec3], fixed: &[bool]) {
+    v.par_iter_mut().enumerate().for_each(|(i, x)| {
+        if fixed[i] {
+            *x = DVec3::ZERO
+        }
+    });
+}

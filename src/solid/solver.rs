@@ -1,0 +1,374 @@
+//! The MPS solid on the CPU: explicit (seed 000 §2.2.4) and implicit (§2.2.5) steps driven by
+//! the stage lists [`SOLID_EXPLICIT_STEP`] and [`SOLID_IMPLICIT_STEP`].
+
+use super::bonds::{self, Bonds};
+use super::contact::{ContactInput, ContactParams, Contacts, Wall};
+use super::forces::{Discretisation, ForceField, Mode, StressField, bond_forces, rotation_chain, rotation_increments, strain_stress};
+use super::grid::Periods;
+use super::implicit::{BlockJacobi, CgReport, conjugate_gradient};
+use super::material::{Orthotropic, Voigt6, min_mandel_eigenvalue};
+use super::particles::Particles;
+use super::rotation::{advance_quaternion, rotation_jacobians, solve_all_rotations, solve_angular_velocity};
+use super::timestep::stable_time_step;
+use crate::scene::SceneError;
+use crate::stages::{SOLID_EXPLICIT_STEP, SOLID_IMPLICIT_STEP, SolidStage, SolidStageKind};
+use glam::{DMat3, DVec3};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::time::{Duration, Instant};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Integrator {
+    /// Symplectic Euler on translations and rotations, (2.44)–(2.56).
+    Explicit,
+    /// Backward Euler on velocities with linearised pair forces, (2.57)–(2.66), rotations by
+    /// Newton–Raphson (2.73)–(2.76).
+    Implicit,
+}
+
+/// Numerical options of a solid.
+#[derive(Clone, Debug)]
+pub struct SolidOptions {
+    /// r_e / l₀ (the seed's glottis uses 0.00882 / 0.0042 = 2.1).
+    pub influence_ratio: f64,
+    /// Fraction β of the softest stiffness eigenvalue carried by the pair model (0, 1).
+    pub pair_fraction: f64,
+    pub periods: Periods,
+    pub integrator: Integrator,
+    /// Time step; `None` picks `safety` × the estimated explicit stability limit.
+    pub time_step: Option<f64>,
+    pub safety: f64,
+    pub gravity: DVec3,
+    pub contact: Option<ContactParams>,
+    pub walls: Vec<Wall>,
+    /// CG stops when ‖r‖ ≤ tolerance ‖B‖.
+    pub cg_tolerance: f64,
+    pub cg_max_iterations: usize,
+    /// Newton–Raphson tolerance of the implicit rotations (relative moment).
+    pub rotation_tolerance: f64,
+}
+
+impl Default for SolidOptions {
+    fn default() -> Self {
+        Self {
+            influence_ratio: 2.1,
+            pair_fraction: 0.3,
+            periods: [None; 3],
+            integrator: Integrator::Explicit,
+            time_step: None,
+            safety: 0.5,
+            gravity: DVec3::ZERO,
+            contact: None,
+            walls: Vec::new(),
+            cg_tolerance: 1e-8,
+            cg_max_iterations: 2000,
+            rotation_tolerance: 1e-12,
+        }
+    }
+}
+
+/// What the last step did.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StepStats {
+    pub cg: CgReport,
+    pub newton_iterations: u32,
+}
+
+/// Energies of the current state (consistent units of energy; per unit depth in 2D).
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Energies {
+    pub kinetic: f64,
+    pub elastic: f64,
+    /// −Σ (loads + gravity)·(x − X).
+    pub external: f64,
+}
+
+impl Energies {
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.elastic + self.external
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct SolidSolver {
+    pub particles: Particles,
+    pub disc: Discretisation,
+    pub materials: Vec<Orthotropic>,
+    pub options: SolidOptions,
+    pub dt: f64,
+    /// Estimated explicit stability limit (whatever the integrator).
+    pub explicit_limit: f64,
+    pub time: f64,
+    pub steps: u64,
+    pub last: StepStats,
+    pub timings: Vec<(SolidStage, Duration)>,
+    rot: Vec<DMat3>,
+    stress: StressField,
+    forces: ForceField,
+    contacts: Contacts,
+    total_force: Vec<DVec3>,
+    total_torque: Vec<DVec3>,
+    precond: Option<BlockJacobi>,
+    /// Implicit only: J_i⁻¹ of (2.74) at the current state.
+    jinv: Vec<DMat3>,
+}
+
+impl SolidSolver {
+    /// Checks the materials, builds the neighbour lists, the per-particle stiffness split and
+    /// the time step. Errors name the field and the reason.
+    pub fn new(particles: Particles, materials: Vec<Orthotropic>, options: SolidOptions) -> Result<Self, SceneError> {
+        let err = |f: &str, r: String| Err(SceneError { field: f.into(), reason: r });
+        if particles.is_empty() {
+            return err("solid.bodies", "no particles: every body is empty at this spacing".into());
+        }
+        if !(options.influence_ratio > 1.0 && options.influence_ratio <= 4.0) {
+            return err("solid.numerics.influence_ratio", format!("r_e/l₀ must be in (1, 4], got {}", options.influence_ratio));
+        }
+        if !(options.pair_fraction > 0.0 && options.pair_fraction < 1.0) {
+            return err("solid.numerics.pair_fraction", format!("must be in (0, 1), got {}", options.pair_fraction));
+        }
+        let mut stiff: Vec<Voigt6> = Vec::new();
+        for (k, m) in materials.iter().enumerate() {
+            stiff.push(m.stiffness(&format!("solid.materials[{k}]"))?);
+        }
+        let n = particles.len();
+        let mu_p: Vec<f64> = stiff.iter().map(|c| options.pair_fraction * min_mandel_eigenvalue(c)).collect();
+        let pm: Vec<f64> = particles.material.iter().map(|&m| mu_p[m as usize]).collect();
+        let eta: Vec<f64> = particles.material.iter().map(|&m| materials[m as usize].viscosity).collect();
+        let re = options.influence_ratio * particles.spacing;
+        let bonds: Bonds = bonds::build(&particles, re, options.periods, &pm, &eta);
+        let grad_stiffness: Vec<Voigt6> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let cp = bonds::pair_stiffness(&bonds, i, particles.volume[i]);
+                let c = stiff[particles.material[i] as usize];
+                std::array::from_fn(|p| std::array::from_fn(|q| c[p][q] - cp[p][q]))
+            })
+            .collect();
+        let disc = Discretisation { dim: particles.dim, bonds, grad_stiffness, volume: particles.volume.clone() };
+        let mut s = Self {
+            disc,
+            materials,
+            dt: 0.0,
+            explicit_limit: 0.0,
+            time: 0.0,
+            steps: 0,
+            last: StepStats::default(),
+            timings: Vec::new(),
+            rot: vec![DMat3::IDENTITY; n],
+            stress: StressField::new(n),
+            forces: ForceField::new(n),
+            contacts: Contacts::default(),
+            total_force: vec![DVec3::ZERO; n],
+            total_torque: vec![DVec3::ZERO; n],
+            precond: None,
+            jinv: vec![DMat3::ZERO; n],
+            particles,
+            options,
+        };
+        s.explicit_limit = stable_time_step(&s.disc, &s.particles, s.options.contact.as_ref());
+        s.dt = match s.options.time_step {
+            Some(dt) => {
+                if !(dt.is_finite() && dt > 0.0) {
+                    return err("solid.numerics.time_step", format!("must be finite and > 0, got {dt}"));
+                }
+                if s.options.integrator == Integrator::Explicit && dt > s.explicit_limit {
+                    return err(
+                        "solid.numerics.time_step",
+                        format!("{dt:.3e} exceeds the explicit stability limit {:.3e} (use a smaller step or the implicit integrator)", s.explicit_limit),
+                    );
+                }
+                dt
+            }
+            None => s.options.safety * s.explicit_limit,
+        };
+        s.timings = s.stage_list().iter().map(|st| (*st, Duration::ZERO)).collect();
+        Ok(s)
+    }
+
+    pub fn stage_list(&self) -> &'static [SolidStage] {
+        match self.options.integrator {
+            Integrator::Explicit => &SOLID_EXPLICIT_STEP,
+            Integrator::Implicit => &SOLID_IMPLICIT_STEP,
+        }
+    }
+
+    /// Rotation matrices of the particles (as of the last `Rotations` stage).
+    pub fn rotations(&self) -> &[DMat3] {
+        &self.rot
+    }
+
+    pub fn stress(&self) -> &StressField {
+        &self.stress
+    }
+
+    /// Net force (internal + contact + external) of the last evaluation.
+    pub fn net_force(&self) -> &[DVec3] {
+        &self.total_force
+    }
+
+    pub fn net_torque(&self) -> &[DVec3] {
+        &self.total_torque
+    }
+
+    pub fn contacts(&self) -> &Contacts {
+        &self.contacts
+    }
+
+    /// Evaluates the forces of the current state without advancing (for diagnostics/tests).
+    pub fn evaluate_forces(&mut self) {
+        for st in self.stage_list().iter().filter(|s| s.kind != SolidStageKind::Integrate && s.kind != SolidStageKind::ConjugateGradient) {
+            self.run_stage(st.kind);
+        }
+    }
+
+    /// Advances one step.
+    pub fn step(&mut self) {
+        for k in 0..self.timings.len() {
+            let st = self.timings[k].0;
+            let t0 = Instant::now();
+            self.run_stage(st.kind);
+            self.timings[k].1 += t0.elapsed();
+        }
+        self.time += self.dt;
+        self.steps += 1;
+    }
+
+    fn run_stage(&mut self, kind: SolidStageKind) {
+        let implicit = self.options.integrator == Integrator::Implicit;
+        let p = &mut self.particles;
+        match kind {
+            SolidStageKind::Rotations => {
+                if implicit {
+                    let (b, dim) = (&self.disc.bonds, p.dim);
+                    self.last.newton_iterations = solve_all_rotations(b, &p.position, &mut p.rotation, &p.fixed, dim, self.options.rotation_tolerance);
+                    let (x, v) = (&p.position, &p.velocity);
+                    p.spin.par_iter_mut().enumerate().for_each(|(i, w)| *w = solve_angular_velocity(b, i, x, v, dim));
+                }
+                self.rot.par_iter_mut().zip(&p.rotation).for_each(|(r, q)| *r = DMat3::from_quat(*q));
+                if implicit {
+                    rotation_jacobians(&self.disc.bonds, &p.position, &self.rot, &p.fixed, p.dim, &mut self.jinv);
+                }
+            }
+            SolidStageKind::StrainStress => strain_stress(&self.disc, &p.position, &self.rot, Mode::Full, &mut self.stress),
+            SolidStageKind::BondForces => {
+                bond_forces(&self.disc, &p.position, &p.velocity, Some(&p.spin), &self.rot, &self.stress, Mode::Full, None, &mut self.forces);
+                if implicit {
+                    // rotations slaved to positions (2.74): torques become forces
+                    rotation_chain(&self.disc, &self.rot, &self.jinv, &self.forces.torque, &mut self.forces.force);
+                }
+                self.total_force.copy_from_slice(&self.forces.force);
+                self.total_torque.copy_from_slice(&self.forces.torque);
+            }
+            SolidStageKind::Contact => {
+                let g = self.options.gravity;
+                for i in 0..p.len() {
+                    self.total_force[i] += p.load[i] + p.mass[i] * g;
+                }
+                if let Some(cp) = &self.options.contact {
+                    let inp = ContactInput { x: &p.position, v: &p.velocity, rot: &self.rot, body: &p.body, fixed: &p.fixed, diameter: p.spacing };
+                    self.contacts.apply(cp, &self.options.walls, &inp, &mut self.total_force, &mut self.total_torque);
+                }
+            }
+            SolidStageKind::ConjugateGradient => self.implicit_solve(),
+            SolidStageKind::Integrate => {
+                let dt = self.dt;
+                let (f, t) = (&self.total_force, &self.total_torque);
+                let p = &mut self.particles;
+                let Particles { position, velocity, rotation, spin, mass, inertia, fixed, .. } = p;
+                (position.par_iter_mut(), velocity.par_iter_mut(), rotation.par_iter_mut(), spin.par_iter_mut()).into_par_iter().enumerate().for_each(
+                    |(i, (x, v, q, w))| {
+                        if fixed[i] {
+                            *v = DVec3::ZERO;
+                            *w = DVec3::ZERO;
+                            return;
+                        }
+                        if !implicit {
+                            // (2.44)–(2.45), (2.52)–(2.56)
+                            *v += dt * f[i] / mass[i];
+                            *w += dt * t[i] / inertia[i];
+                            *q = advance_quaternion(*q, *w, dt);
+                        }
+                        // implicit: v already holds vⁿ + ΔV (2.57)
+                        *x += dt * *v;
+                    },
+                );
+            }
+        }
+    }
+
+    /// A ΔV = B with A = (M + M_a) − Δt ∂f/∂v − Δt² ∂f/∂x and B = Δt (f + Δt ∂f/∂x v),
+    /// seed (2.63)–(2.66), matrix-free with the linear mode of the force kernels; the added mass
+    /// M_a is the hook for the momentum-conserving coupling (2.129). Contact, loads and gravity
+    /// enter B explicitly.
+    fn implicit_solve(&mut self) {
+        let n = self.particles.len();
+        let dt = self.dt;
+        if self.precond.is_none() {
+            self.precond = Some(BlockJacobi::new(&self.disc, &self.particles, dt));
+        }
+        let p = &self.particles;
+        let disc = &self.disc;
+        let rot = &self.rot;
+        let jinv = &self.jinv;
+        let mut lin_s = StressField::new(n);
+        let mut lin_f = ForceField::new(n);
+        let mut th_x = vec![DVec3::ZERO; n];
+        let mut th_v = vec![DVec3::ZERO; n];
+        // K p + D q with the rotations following the increments (θ(p), ω(q) from (2.74)/(2.73))
+        let mut linear = |x: &[DVec3], v: &[DVec3], s: &mut StressField, f: &mut ForceField| {
+            strain_stress(disc, x, rot, Mode::Linear, s);
+            rotation_increments(disc, x, rot, jinv, &mut th_x);
+            rotation_increments(disc, v, rot, jinv, &mut th_v);
+            bond_forces(disc, x, v, None, rot, s, Mode::Linear, Some((&th_x, &th_v)), f);
+            rotation_chain(disc, rot, jinv, &f.torque, &mut f.force);
+        };
+        // B = Δt (f + Δt K v)
+        let zero = vec![DVec3::ZERO; n];
+        linear(&p.velocity, &zero, &mut lin_s, &mut lin_f);
+        let rhs: Vec<DVec3> = (0..n).map(|i| if p.fixed[i] { DVec3::ZERO } else { dt * (self.total_force[i] + dt * lin_f.force[i]) }).collect();
+        let mass: Vec<f64> = (0..n).map(|i| p.mass[i] + p.added_mass[i]).collect();
+        let fixed = &p.fixed;
+        let mut q = vec![DVec3::ZERO; n];
+        let mut apply = |x: &[DVec3], out: &mut [DVec3], s: &mut StressField, f: &mut ForceField| {
+            q.par_iter_mut().zip(x).for_each(|(qi, xi)| *qi = *xi / dt);
+            linear(x, &q, s, f);
+            out.par_iter_mut().enumerate().for_each(|(i, o)| *o = if fixed[i] { DVec3::ZERO } else { mass[i] * x[i] - dt * dt * f.force[i] });
+        };
+        let mut dv = vec![DVec3::ZERO; n];
+        let report = conjugate_gradient(
+            |x, out| apply(x, out, &mut lin_s, &mut lin_f),
+            self.precond.as_ref().unwrap(),
+            &rhs,
+            &mut dv,
+            fixed,
+            self.options.cg_tolerance,
+            self.options.cg_max_iterations,
+        );
+        self.last.cg = report;
+        let p = &mut self.particles;
+        p.velocity.par_iter_mut().zip(&dv).for_each(|(v, d)| *v += *d);
+    }
+
+    /// Energies of the current state (runs the force kernels on it).
+    pub fn energies(&mut self) -> Energies {
+        self.evaluate_forces();
+        let p = &self.particles;
+        let elastic: f64 = self.stress.energy.iter().sum::<f64>() + self.forces.energy.iter().sum::<f64>();
+        let external: f64 = -(0..p.len()).map(|i| (p.load[i] + p.mass[i] * self.options.gravity).dot(p.position[i] - p.reference[i])).sum::<f64>();
+        Energies { kinetic: p.kinetic_energy(), elastic, external }
+    }
+
+    /// Mean stage shares of the wall time so far.
+    pub fn stage_shares(&self) -> Vec<(&'static str, f64)> {
+        let all: f64 = self.timings.iter().map(|(_, d)| d.as_secs_f64()).sum();
+        self.timings.iter().map(|(s, d)| (s.name, if all > 0.0 { d.as_secs_f64() / all } else { 0.0 })).collect()
+    }
+
+    /// First particle whose state is not finite, if any.
+    pub fn non_finite(&self) -> Option<usize> {
+        let p = &self.particles;
+        (0..p.len()).find(|&i| !(p.position[i].is_finite() && p.velocity[i].is_finite()))
+    }
+}
