@@ -86,6 +86,8 @@ pub struct BenchReport {
     pub triad_bandwidth_gb_s: f64,
     pub lattices: Vec<LatticeSpeed>,
     pub speed_vs_error: Vec<TaylorGreenResult>,
+    /// MPS solid, explicit and implicit, at 10⁵ (and 10⁶ unless quick) particles.
+    pub solid: Vec<crate::solid::bench::SolidSpeed>,
 }
 
 /// The full CPU benchmark. `quick` shrinks grids for a smoke run.
@@ -102,5 +104,11 @@ pub fn run(quick: bool) -> BenchReport {
             c.run()
         })
         .collect();
-    BenchReport { threads: rayon::current_num_threads(), triad_bandwidth_gb_s: bw / 1e9, lattices, speed_vs_error }
+    use crate::solid::{Integrator, bench::solid_speed};
+    let mut solid = Vec::new();
+    for side in if quick { vec![20] } else { vec![46, 100] } {
+        solid.push(solid_speed(side, Integrator::Explicit, if quick { 3 } else { 5 }, bw));
+        solid.push(solid_speed(side, Integrator::Implicit, if quick { 2 } else { 3 }, bw));
+    }
+    BenchReport { threads: rayon::current_num_threads(), triad_bandwidth_gb_s: bw / 1e9, lattices, speed_vs_error, solid }
 }

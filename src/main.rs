@@ -84,7 +84,23 @@ fn main() -> anyhow::Result<()> {
     match cli.command.unwrap_or(Command::Run { scene: None, out: None, steps: None, backend: Backend::Auto }) {
         Command::Run { scene: name, out, steps, backend } => {
             let name = name.unwrap_or_else(|| scene::DEFAULT_SCENE.to_string());
-            let sc = scene::load(&scene_text(&name)?)?;
+            let text = scene_text(&name)?;
+            if phonation::solid::scene::is_solid_scene(&text) {
+                let sc = phonation::solid::scene::SolidScene::parse(&text)?;
+                let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.file.name));
+                eprintln!("solid scene {}: about {} particles, {:?} integrator (backend: CPU)", sc.file.name, sc.estimated_particles, sc.file.solid.integrator);
+                let r = phonation::solid::scene::run_solid_scene(&sc, &dir, steps)?;
+                eprintln!(
+                    "{} particles, {} bonds, Δt = {:.3e} (explicit limit {:.3e}), {} steps, {:.4e} s simulated in {:.1} s wall ({:.3e} particle updates/s), energy drift {:.2e}",
+                    r.particles, r.bonds, r.dt, r.explicit_limit, r.steps, r.simulated_time, r.wall_s, r.particle_updates_per_s, r.energy_drift
+                );
+                eprintln!("outputs in {}", dir.display());
+                if let Some(d) = r.instability {
+                    bail!("run stopped: {d} (outputs written so far are kept in {})", dir.display());
+                }
+                return Ok(());
+            }
+            let sc = scene::load(&text)?;
             let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.file.name));
             let sum = sc.summary();
             eprintln!(
@@ -112,13 +128,27 @@ fn main() -> anyhow::Result<()> {
             }
         }
         Command::Check { scene: name } => {
-            let sc = scene::load(&scene_text(&name)?)?;
+            let text = scene_text(&name)?;
+            if phonation::solid::scene::is_solid_scene(&text) {
+                let sc = phonation::solid::scene::SolidScene::parse(&text)?;
+                let s = sc.build()?;
+                println!(
+                    "{}",
+                    serde_json::json!({"name": sc.file.name, "particles": s.particles.len(), "bonds": s.disc.bonds.len(), "dt": s.dt, "explicit_limit": s.explicit_limit, "integrator": s.options.integrator})
+                );
+                return Ok(());
+            }
+            let sc = scene::load(&text)?;
             println!("{}", serde_json::to_string_pretty(&sc.summary())?);
         }
         Command::Scenes => {
             for (n, t) in scene::BUILTIN {
                 let d = scene::parse(t).map(|s| s.description).unwrap_or_default();
-                println!("{n:16} {d}");
+                println!("{n:18} {d}");
+            }
+            for (n, t) in scene::SOLID_BUILTIN {
+                let d = phonation::solid::scene::SolidScene::parse(t).map(|s| s.file.description).unwrap_or_default();
+                println!("{n:18} [solid] {d}");
             }
         }
         Command::Bench { quick, backend, json } => {
@@ -145,6 +175,26 @@ fn main() -> anyhow::Result<()> {
                 println!("{:>6} {:>14} {:>16}", "n", "wall s / t.u.", "decay-rate error");
                 for t in &r.speed_vs_error {
                     println!("{:>6} {:>14.3e} {:>15.3}%", t.n, t.wall_per_time_unit, 100.0 * t.relative_error);
+                }
+                println!("MPS solid (3D, r_e = 2.1 l0):");
+                println!(
+                    "{:9} {:>10} {:>10} {:>14} {:>9} {:>8} {:>9} {:>8}",
+                    "step", "particles", "bonds", "updates/s", "B/update", "of b/w", "CG it.", "Δt/lim"
+                );
+                for v in &r.solid {
+                    println!(
+                        "{:9} {:>10} {:>10} {:>14.3e} {:>9.0} {:>7.1}% {:>9.1} {:>8.1}",
+                        format!("{:?}", v.integrator),
+                        v.particles,
+                        v.bonds,
+                        v.particle_updates_per_s,
+                        v.bytes_per_update,
+                        100.0 * v.bandwidth_fraction,
+                        v.cg_iterations,
+                        v.time_step_over_explicit_limit
+                    );
+                    let st: Vec<String> = v.stage_shares.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
+                    println!("          stages: {}", st.join(", "));
                 }
                 report.insert("cpu".into(), serde_json::to_value(&r)?);
             }

@@ -14,10 +14,18 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("glottal_jet", include_str!("../../assets/scenes/glottal_jet.toml")),
 ];
 
+/// Built-in solid scenes (MPS solid only).
+pub const SOLID_BUILTIN: &[(&str, &str)] = &[
+    ("cantilever", include_str!("../../assets/scenes/solid/cantilever.toml")),
+    ("oscillating_plate", include_str!("../../assets/scenes/solid/oscillating_plate.toml")),
+    ("orthotropic_block", include_str!("../../assets/scenes/solid/orthotropic_block.toml")),
+    ("two_blocks", include_str!("../../assets/scenes/solid/two_blocks.toml")),
+];
+
 /// The scene `cargo run --release` runs when no scene is given.
 pub const DEFAULT_SCENE: &str = "cylinder_wake";
 
 /// Text of a built-in scene by name.
 pub fn builtin(name: &str) -> Option<&'static str> {
-    BUILTIN.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
+    BUILTIN.iter().chain(SOLID_BUILTIN).find(|(n, _)| *n == name).map(|(_, t)| *t)
 }

@@ -170,11 +170,7 @@ fn invert_moment(m: DMat3, dim: usize) -> DMat3 {
 
 /// 3×6 map B with ε r = B ε_V (Voigt with engineering shear).
 fn strain_to_stretch(r: DVec3) -> [[f64; 6]; 3] {
-    [
-        [r.x, 0.0, 0.0, 0.0, 0.5 * r.z, 0.5 * r.y],
-        [0.0, r.y, 0.0, 0.5 * r.z, 0.0, 0.5 * r.x],
-        [0.0, 0.0, r.z, 0.5 * r.y, 0.5 * r.x, 0.0],
-    ]
+    [[r.x, 0.0, 0.0, 0.0, 0.5 * r.z, 0.5 * r.y], [0.0, r.y, 0.0, 0.5 * r.z, 0.0, 0.5 * r.x], [0.0, 0.0, r.z, 0.5 * r.y, 0.5 * r.x, 0.0]]
 }
 
 /// The stiffness that particle i's half of its pair bonds adds for a uniform strain:

@@ -101,7 +101,8 @@ pub fn strain_stress(d: &Discretisation, x: &[DVec3], rot: &[DMat3], mode: Mode,
             // τ = V axial(B), B = F σ Rᵀ (derivative of the energy w.r.t. a rotation of R_i).
             let bm = f * sigma * r_i.transpose();
             // (In linear mode this torque is of second order at small strain and is dropped.)
-            *tq = if mode == Mode::Full { v * DVec3::new(bm.z_axis.y - bm.y_axis.z, bm.x_axis.z - bm.z_axis.x, bm.y_axis.x - bm.x_axis.y) } else { DVec3::ZERO };
+            *tq =
+                if mode == Mode::Full { v * DVec3::new(bm.z_axis.y - bm.y_axis.z, bm.x_axis.z - bm.z_axis.x, bm.y_axis.x - bm.x_axis.y) } else { DVec3::ZERO };
             *en = 0.5 * v * ev.iter().zip(&sv).map(|(a, b)| a * b).sum::<f64>();
             *st = ev;
         },
@@ -222,4 +223,3 @@ pub fn bond_forces(
         *en = e;
     });
 }
-

@@ -14,7 +14,7 @@
 //! | [`timestep`] | explicit stability limit | — |
 //! | [`solver`] | explicit and implicit steps driven by the solid stage lists | 2.44–2.66 |
 
-
+pub mod bench;
 pub mod bonds;
 pub mod contact;
 pub mod forces;
@@ -23,6 +23,7 @@ pub mod implicit;
 pub mod material;
 pub mod particles;
 pub mod rotation;
+pub mod scene;
 pub mod solver;
 pub mod timestep;
 

@@ -123,10 +123,10 @@ impl SolidSolver {
             return err("solid.bodies", "no particles: every body is empty at this spacing".into());
         }
         if !(options.influence_ratio > 1.0 && options.influence_ratio <= 4.0) {
-            return err("solid.numerics.influence_ratio", format!("r_e/l₀ must be in (1, 4], got {}", options.influence_ratio));
+            return err("solid.influence_ratio", format!("r_e/l₀ must be in (1, 4], got {}", options.influence_ratio));
         }
         if !(options.pair_fraction > 0.0 && options.pair_fraction < 1.0) {
-            return err("solid.numerics.pair_fraction", format!("must be in (0, 1), got {}", options.pair_fraction));
+            return err("solid.pair_fraction", format!("must be in (0, 1), got {}", options.pair_fraction));
         }
         let mut stiff: Vec<Voigt6> = Vec::new();
         for (k, m) in materials.iter().enumerate() {
@@ -171,11 +171,11 @@ impl SolidSolver {
         s.dt = match s.options.time_step {
             Some(dt) => {
                 if !(dt.is_finite() && dt > 0.0) {
-                    return err("solid.numerics.time_step", format!("must be finite and > 0, got {dt}"));
+                    return err("solid.time_step", format!("must be finite and > 0, got {dt}"));
                 }
                 if s.options.integrator == Integrator::Explicit && dt > s.explicit_limit {
                     return err(
-                        "solid.numerics.time_step",
+                        "solid.time_step",
                         format!("{dt:.3e} exceeds the explicit stability limit {:.3e} (use a smaller step or the implicit integrator)", s.explicit_limit),
                     );
                 }

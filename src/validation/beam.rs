@@ -26,17 +26,7 @@ impl Cantilever {
     /// A steel-like slab in cgs with L/h = 10: h = `cells` particles thick.
     pub fn slender(dim: usize, cells: usize) -> Self {
         let h = 1.0;
-        Self {
-            dim,
-            length: 10.0 * h,
-            thickness: h,
-            width: h,
-            spacing: h / cells as f64,
-            clamp_layers: 3,
-            young: 1.0e7,
-            poisson: 0.3,
-            density: 1.0,
-        }
+        Self { dim, length: 10.0 * h, thickness: h, width: h, spacing: h / cells as f64, clamp_layers: 3, young: 1.0e7, poisson: 0.3, density: 1.0 }
     }
 
     pub fn material(&self) -> Orthotropic {
@@ -124,7 +114,17 @@ pub fn static_tip_deflection(c: &Cantilever, load_fraction_of_h: f64) -> (f64, f
 /// H = 0.02 m, ρ = 1000 kg/m³, E = 2 MPa, ν = 0.3975, plane strain, clamped at x = 0, released
 /// with the first-mode velocity profile v_y = V_f c f(x)/f(L), V_f = 0.01, c = √(E/ρ).
 pub fn oscillating_plate(cells: usize) -> Cantilever {
-    Cantilever { dim: 2, length: 0.2, thickness: 0.02, width: 0.0, spacing: 0.02 / cells as f64, clamp_layers: 3, young: 2.0e6, poisson: 0.3975, density: 1000.0 }
+    Cantilever {
+        dim: 2,
+        length: 0.2,
+        thickness: 0.02,
+        width: 0.0,
+        spacing: 0.02 / cells as f64,
+        clamp_layers: 3,
+        young: 2.0e6,
+        poisson: 0.3975,
+        density: 1000.0,
+    }
 }
 
 /// First-mode shape of a clamped–free beam (β L = 1.875104).

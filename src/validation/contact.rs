@@ -91,7 +91,8 @@ pub fn block_on_slope(angle_deg: f64, settle: f64, time: f64) -> Slope {
     let mass = m.density * l0 * l0;
     cp.damping = (cp.normal_stiffness * mass).sqrt();
     let walls = vec![Wall { normal: DVec3::Y, offset: 0.0 }];
-    let mut s = SolidSolver::new(p, vec![m], SolidOptions { contact: Some(cp), walls, gravity: DVec3::new(0.0, -g0, 0.0), ..Default::default() }).expect("valid slope");
+    let mut s =
+        SolidSolver::new(p, vec![m], SolidOptions { contact: Some(cp), walls, gravity: DVec3::new(0.0, -g0, 0.0), ..Default::default() }).expect("valid slope");
     while s.time < settle {
         s.step();
     }

@@ -4,8 +4,8 @@
 
 pub mod beam;
 pub mod cavity;
-pub mod contact;
 pub mod channel;
+pub mod contact;
 pub mod cylinder;
 pub mod riemann;
 pub mod sod;

@@ -36,7 +36,8 @@ pub fn wave_speed(mat: &Orthotropic, axis: usize, pol: usize, long: usize, cross
     for (i, m) in modes.iter().enumerate() {
         s.particles.position[i][pol] += amp * m;
     }
-    let amplitude = |s: &SolidSolver| (0..s.particles.len()).map(|i| (s.particles.position[i][pol] - s.particles.reference[i][pol]) * modes[i]).sum::<f64>() / norm;
+    let amplitude =
+        |s: &SolidSolver| (0..s.particles.len()).map(|i| (s.particles.position[i][pol] - s.particles.reference[i][pol]) * modes[i]).sum::<f64>() / norm;
     // zero crossings of cos(ωt): T/4 (down) and 3T/4 (up)
     let mut prev = amplitude(&s);
     let mut crossings = Vec::new();

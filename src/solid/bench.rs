@@ -1,0 +1,73 @@
+//! Particle updates per second of the MPS solid (explicit and implicit steps) and the fraction
+//! of the measured memory bandwidth they reach.
+//!
+//! Bytes per particle update (explicit), a lower bound of the traffic of the two force kernels
+//! and the integration: per bond the neighbour index (4), reverse index (4), r⁰ (24), shift
+//! (24), ŵ (8), k (8), c (8), g (24) read twice (strain_stress and bond_forces, 2 × 104 B, the
+//! neighbour's state mostly from cache), plus per particle the 6×6 stiffness (288), x, v, ω,
+//! q, f, τ, Q and strain (≈ 400 B).
+
+use super::particles::{Particles, sample_box};
+use super::{Integrator, Orthotropic, SolidOptions, SolidSolver};
+use glam::DVec3;
+use serde::Serialize;
+use std::time::Instant;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SolidSpeed {
+    pub integrator: Integrator,
+    pub particles: usize,
+    pub bonds: usize,
+    pub particle_updates_per_s: f64,
+    pub bytes_per_update: f64,
+    pub bandwidth_fraction: f64,
+    /// Mean CG iterations per implicit step (0 for explicit).
+    pub cg_iterations: f64,
+    pub time_step_over_explicit_limit: f64,
+    pub stage_shares: Vec<(&'static str, f64)>,
+    pub setup_s: f64,
+}
+
+/// A cube of `side`³ particles of the orthotropic test material, clamped on one face and
+/// released from a small shear (so that CG has work to do).
+pub fn solid_speed(side: usize, integrator: Integrator, steps: u64, bandwidth: f64) -> SolidSpeed {
+    let t0 = Instant::now();
+    let mat = Orthotropic { young: [1.0e6, 3.0e6, 2.0e6], poisson: [0.2, 0.25, 0.3], shear: [4.0e5, 5.0e5, 6.0e5], density: 1.0, viscosity: 1.0 };
+    let l0 = 0.1;
+    let mut p = Particles::new(3, l0);
+    for x in sample_box(3, DVec3::ZERO, DVec3::splat(side as f64 * l0), l0) {
+        p.push(x, 1.0, 0, 0, x.x < l0);
+    }
+    for i in 0..p.len() {
+        p.velocity[i] = DVec3::new(0.0, 0.1 * p.reference[i].x, 0.0);
+    }
+    let mut s = SolidSolver::new(p, vec![mat], SolidOptions { integrator, ..Default::default() }).expect("valid benchmark block");
+    if integrator == Integrator::Implicit {
+        s.dt = 10.0 * s.explicit_limit;
+    }
+    let setup = t0.elapsed().as_secs_f64();
+    s.step();
+    let t = Instant::now();
+    let mut iters = 0usize;
+    for _ in 0..steps {
+        s.step();
+        iters += s.last.cg.iterations;
+    }
+    let wall = t.elapsed().as_secs_f64();
+    let n = s.particles.len();
+    let bonds = s.disc.bonds.len();
+    let ups = n as f64 * steps as f64 / wall;
+    let bytes = 2.0 * 104.0 * bonds as f64 / n as f64 + 700.0;
+    SolidSpeed {
+        integrator,
+        particles: n,
+        bonds,
+        particle_updates_per_s: ups,
+        bytes_per_update: bytes,
+        bandwidth_fraction: ups * bytes / bandwidth,
+        cg_iterations: iters as f64 / steps as f64,
+        time_step_over_explicit_limit: s.dt / s.explicit_limit,
+        stage_shares: s.stage_shares(),
+        setup_s: setup,
+    }
+}

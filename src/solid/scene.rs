@@ -1,0 +1,531 @@
+//! Solid scene files (TOML): bodies sampled from boxes, material layers, clamps, loads, walls,
+//! contact, the integrator; and the headless run that writes `solid.csv` (energies, momenta,
+//! probe displacements, CG iterations), particle snapshots as VTK and `summary.json`.
+//! Every check runs before anything is allocated; errors name the field and the reason.
+
+use super::particles::sample_box;
+use super::solver::{Integrator, SolidOptions, SolidSolver};
+use super::{ContactParams, Orthotropic, Particles, Wall};
+use crate::scene::SceneError;
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolidSceneFile {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    /// Informational: "cgs" or "si" (the solver is unit-agnostic; use one system throughout).
+    pub units: crate::scene::schema::UnitSystem,
+    pub solid: SolidSpec,
+    pub run: SolidRun,
+    #[serde(default)]
+    pub probes: Vec<RegionProbe>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolidSpec {
+    /// 2 (plane strain) or 3.
+    pub dimension: usize,
+    /// Particle spacing l₀.
+    pub spacing: f64,
+    #[serde(default = "default_integrator")]
+    pub integrator: Integrator,
+    pub time_step: Option<f64>,
+    pub influence_ratio: Option<f64>,
+    pub pair_fraction: Option<f64>,
+    pub safety: Option<f64>,
+    #[serde(default)]
+    pub gravity: Vec<f64>,
+    pub cg_tolerance: Option<f64>,
+    pub materials: Vec<MaterialSpec>,
+    pub bodies: Vec<BodySpec>,
+    #[serde(default)]
+    pub layers: Vec<Region>,
+    #[serde(default)]
+    pub clamps: Vec<Region>,
+    #[serde(default)]
+    pub loads: Vec<LoadSpec>,
+    #[serde(default)]
+    pub walls: Vec<WallSpec>,
+    pub contact: Option<ContactParams>,
+}
+
+fn default_integrator() -> Integrator {
+    Integrator::Explicit
+}
+
+/// A material: `kind = "isotropic" | "orthotropic" | "transversely_isotropic"`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum MaterialSpec {
+    Isotropic {
+        young: f64,
+        poisson: f64,
+        density: f64,
+        #[serde(default)]
+        viscosity: f64,
+    },
+    Orthotropic {
+        young: [f64; 3],
+        poisson: [f64; 3],
+        shear: [f64; 3],
+        density: f64,
+        #[serde(default)]
+        viscosity: f64,
+    },
+    TransverselyIsotropic {
+        e_plane: f64,
+        e_fibre: f64,
+        nu_plane: f64,
+        nu_fibre_plane: f64,
+        g_fibre: f64,
+        density: f64,
+        #[serde(default)]
+        viscosity: f64,
+    },
+}
+
+impl MaterialSpec {
+    pub fn material(&self) -> Orthotropic {
+        match *self {
+            MaterialSpec::Isotropic { young, poisson, density, viscosity } => Orthotropic::isotropic(young, poisson, density, viscosity),
+            MaterialSpec::Orthotropic { young, poisson, shear, density, viscosity } => Orthotropic { young, poisson, shear, density, viscosity },
+            MaterialSpec::TransverselyIsotropic { e_plane, e_fibre, nu_plane, nu_fibre_plane, g_fibre, density, viscosity } => {
+                Orthotropic::transversely_isotropic(e_plane, e_fibre, nu_plane, nu_fibre_plane, g_fibre, density, viscosity)
+            }
+        }
+    }
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    pub min: Vec<f64>,
+    pub max: Vec<f64>,
+    #[serde(default)]
+    pub material: usize,
+    #[serde(default)]
+    pub velocity: Vec<f64>,
+    /// Release in the first clamped–free bending mode along x (clamp at x = 0): tip speed.
+    pub first_mode_tip_speed: Option<f64>,
+}
+
+/// An axis-aligned box; `material` is used by layers.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Region {
+    pub min: Vec<f64>,
+    pub max: Vec<f64>,
+    #[serde(default)]
+    pub material: usize,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoadSpec {
+    pub min: Vec<f64>,
+    pub max: Vec<f64>,
+    /// Total force shared equally by the particles in the box (per unit depth in 2D).
+    pub total_force: Vec<f64>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WallSpec {
+    pub normal: Vec<f64>,
+    pub offset: f64,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolidRun {
+    pub duration: f64,
+    /// CSV row every this many steps (default 10).
+    pub output_every: Option<u64>,
+    /// Particle VTK snapshots (default 10 over the run).
+    pub snapshots: Option<u64>,
+}
+
+/// Mean displacement of the particles inside a box, written to the CSV.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegionProbe {
+    pub name: String,
+    pub min: Vec<f64>,
+    pub max: Vec<f64>,
+}
+
+fn err<T>(field: impl Into<String>, reason: impl Into<String>) -> Result<T, SceneError> {
+    Err(SceneError { field: field.into(), reason: reason.into() })
+}
+
+fn vec3(field: &str, v: &[f64], dim: usize, allow_empty: bool) -> Result<DVec3, SceneError> {
+    if v.is_empty() && allow_empty {
+        return Ok(DVec3::ZERO);
+    }
+    if v.len() != dim {
+        return err(field, format!("needs {dim} components (dimension = {dim}), got {}", v.len()));
+    }
+    if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+        return err(field, format!("component {x} is not finite"));
+    }
+    Ok(DVec3::new(v[0], v[1], if dim == 3 { v[2] } else { 0.0 }))
+}
+
+fn inside(x: DVec3, min: DVec3, max: DVec3, dim: usize) -> bool {
+    (0..dim).all(|a| x[a] >= min[a] && x[a] <= max[a])
+}
+
+/// A validated solid scene, ready to allocate.
+#[derive(Clone, Debug)]
+pub struct SolidScene {
+    pub file: SolidSceneFile,
+    pub materials: Vec<Orthotropic>,
+    pub estimated_particles: usize,
+    pub steps: Option<u64>,
+}
+
+/// Largest particle count a scene may ask for.
+pub const MAX_PARTICLES: f64 = 5.0e7;
+
+impl SolidScene {
+    pub fn parse(text: &str) -> Result<Self, SceneError> {
+        let file: SolidSceneFile = toml::from_str(text).map_err(|e| {
+            let msg = e.message().to_string();
+            let field = msg.split('`').nth(1).map(|s| format!("solid: {s}")).unwrap_or_else(|| "solid".into());
+            SceneError { field, reason: msg }
+        })?;
+        Self::new(file)
+    }
+
+    pub fn new(file: SolidSceneFile) -> Result<Self, SceneError> {
+        let s = &file.solid;
+        let dim = s.dimension;
+        if dim != 2 && dim != 3 {
+            return err("solid.dimension", format!("must be 2 or 3, got {dim}"));
+        }
+        if !(s.spacing.is_finite() && s.spacing > 0.0) {
+            return err("solid.spacing", format!("must be finite and > 0, got {}", s.spacing));
+        }
+        if s.materials.is_empty() {
+            return err("solid.materials", "at least one material is needed");
+        }
+        let materials: Vec<Orthotropic> = s.materials.iter().map(|m| m.material()).collect();
+        for (k, m) in materials.iter().enumerate() {
+            m.stiffness(&format!("solid.materials[{k}]"))?;
+        }
+        if s.bodies.is_empty() {
+            return err("solid.bodies", "at least one body is needed");
+        }
+        let mut count = 0.0;
+        for (k, b) in s.bodies.iter().enumerate() {
+            let f = format!("solid.bodies[{k}]");
+            let (lo, hi) = (vec3(&format!("{f}.min"), &b.min, dim, false)?, vec3(&format!("{f}.max"), &b.max, dim, false)?);
+            for a in 0..dim {
+                if hi[a] - lo[a] < s.spacing {
+                    return err(format!("{f}.max"), format!("the box is thinner than one particle spacing along axis {a} ({} < {})", hi[a] - lo[a], s.spacing));
+                }
+            }
+            if b.material >= materials.len() {
+                return err(format!("{f}.material"), format!("no material {} (there are {})", b.material, materials.len()));
+            }
+            vec3(&format!("{f}.velocity"), &b.velocity, dim, true)?;
+            count += (0..dim).map(|a| ((hi[a] - lo[a]) / s.spacing).floor()).product::<f64>();
+        }
+        if count > MAX_PARTICLES {
+            return err("solid.spacing", format!("{count:.3e} particles exceed the limit {MAX_PARTICLES:.0e}"));
+        }
+        for (k, r) in s.layers.iter().enumerate() {
+            vec3(&format!("solid.layers[{k}].min"), &r.min, dim, false)?;
+            vec3(&format!("solid.layers[{k}].max"), &r.max, dim, false)?;
+            if r.material >= materials.len() {
+                return err(format!("solid.layers[{k}].material"), format!("no material {} (there are {})", r.material, materials.len()));
+            }
+        }
+        for (k, r) in s.clamps.iter().enumerate() {
+            vec3(&format!("solid.clamps[{k}].min"), &r.min, dim, false)?;
+            vec3(&format!("solid.clamps[{k}].max"), &r.max, dim, false)?;
+        }
+        for (k, l) in s.loads.iter().enumerate() {
+            vec3(&format!("solid.loads[{k}].min"), &l.min, dim, false)?;
+            vec3(&format!("solid.loads[{k}].max"), &l.max, dim, false)?;
+            vec3(&format!("solid.loads[{k}].total_force"), &l.total_force, dim, false)?;
+        }
+        for (k, w) in s.walls.iter().enumerate() {
+            let n = vec3(&format!("solid.walls[{k}].normal"), &w.normal, dim, false)?;
+            if n.length() == 0.0 {
+                return err(format!("solid.walls[{k}].normal"), "must not be zero");
+            }
+        }
+        if let Some(c) = &s.contact {
+            for (f, v) in [("normal_stiffness", c.normal_stiffness), ("tangential_stiffness", c.tangential_stiffness)] {
+                if !(v.is_finite() && v > 0.0) {
+                    return err(format!("solid.contact.{f}"), format!("must be finite and > 0, got {v}"));
+                }
+            }
+            for (f, v) in [("static_friction", c.static_friction), ("dynamic_friction", c.dynamic_friction), ("damping", c.damping)] {
+                if !(v.is_finite() && v >= 0.0) {
+                    return err(format!("solid.contact.{f}"), format!("must be finite and ≥ 0, got {v}"));
+                }
+            }
+            if c.dynamic_friction > c.static_friction {
+                return err("solid.contact.dynamic_friction", format!("μ_d = {} exceeds μ_s = {}", c.dynamic_friction, c.static_friction));
+            }
+        } else if !s.walls.is_empty() {
+            return err("solid.contact", "walls need contact parameters");
+        }
+        vec3("solid.gravity", &s.gravity, dim, true)?;
+        if !(file.run.duration.is_finite() && file.run.duration > 0.0) {
+            return err("run.duration", format!("must be finite and > 0, got {}", file.run.duration));
+        }
+        for (k, p) in file.probes.iter().enumerate() {
+            vec3(&format!("probes[{k}].min"), &p.min, dim, false)?;
+            vec3(&format!("probes[{k}].max"), &p.max, dim, false)?;
+        }
+        Ok(Self { file, materials, estimated_particles: count as usize, steps: None })
+    }
+
+    /// Samples the particles and builds the solver (checks the time step).
+    pub fn build(&self) -> Result<SolidSolver, SceneError> {
+        let s = &self.file.solid;
+        let dim = s.dimension;
+        let v3 = |v: &[f64]| vec3("", v, dim, true).expect("validated");
+        let mut p = Particles::new(dim, s.spacing);
+        let mut first_mode = Vec::new();
+        for (k, b) in s.bodies.iter().enumerate() {
+            let (lo, hi) = (v3(&b.min), v3(&b.max));
+            let start = p.len();
+            for x in sample_box(dim, lo, hi, s.spacing) {
+                let mat = s.layers.iter().rev().find(|r| inside(x, v3(&r.min), v3(&r.max), dim)).map_or(b.material, |r| r.material);
+                let fixed = s.clamps.iter().any(|r| inside(x, v3(&r.min), v3(&r.max), dim));
+                p.push(x, self.materials[mat].density, mat as u16, k as u16, fixed);
+                let i = p.len() - 1;
+                p.mass[i] = self.materials[mat].density * p.volume[i];
+                p.inertia[i] = p.mass[i] * s.spacing * s.spacing / 6.0;
+                if !fixed {
+                    p.velocity[i] = v3(&b.velocity);
+                }
+            }
+            if let Some(v) = b.first_mode_tip_speed {
+                first_mode.push((start..p.len(), hi.x, v));
+            }
+        }
+        for (range, length, v) in first_mode {
+            let fl = crate::validation::beam::first_mode_shape(length, length);
+            for i in range {
+                if !p.fixed[i] && p.reference[i].x >= 0.0 {
+                    p.velocity[i] = DVec3::new(0.0, v * crate::validation::beam::first_mode_shape(p.reference[i].x, length) / fl, 0.0);
+                }
+            }
+        }
+        for (k, l) in s.loads.iter().enumerate() {
+            let sel: Vec<usize> = (0..p.len()).filter(|&i| inside(p.reference[i], v3(&l.min), v3(&l.max), dim)).collect();
+            if sel.is_empty() {
+                return err(format!("solid.loads[{k}]"), "the box contains no particle");
+            }
+            for &i in &sel {
+                p.load[i] += v3(&l.total_force) / sel.len() as f64;
+            }
+        }
+        let d = SolidOptions::default();
+        let opts = SolidOptions {
+            influence_ratio: s.influence_ratio.unwrap_or(d.influence_ratio),
+            pair_fraction: s.pair_fraction.unwrap_or(d.pair_fraction),
+            integrator: s.integrator,
+            time_step: s.time_step,
+            safety: s.safety.unwrap_or(d.safety),
+            gravity: v3(&s.gravity),
+            contact: s.contact.clone(),
+            walls: s.walls.iter().map(|w| Wall { normal: v3(&w.normal).normalize(), offset: w.offset }).collect(),
+            cg_tolerance: s.cg_tolerance.unwrap_or(d.cg_tolerance),
+            ..d
+        };
+        SolidSolver::new(p, self.materials.clone(), opts)
+    }
+}
+
+/// Outcome of a solid run.
+#[derive(Clone, Debug, Serialize)]
+pub struct SolidReport {
+    pub name: String,
+    pub particles: usize,
+    pub bonds: usize,
+    pub integrator: Integrator,
+    pub dt: f64,
+    pub explicit_limit: f64,
+    pub steps: u64,
+    pub simulated_time: f64,
+    pub wall_s: f64,
+    pub particle_updates_per_s: f64,
+    pub stage_shares: Vec<(&'static str, f64)>,
+    /// max |E(t) − E(0)| / max (kinetic + elastic): conservation for undamped, unloaded
+    /// scenes; the work of damping, loads and contact otherwise.
+    pub energy_drift: f64,
+    /// None when the run finished; else what went wrong, where and when.
+    pub instability: Option<String>,
+    pub files: Vec<PathBuf>,
+}
+
+/// Legacy VTK polydata of the particles (positions, displacement, velocity, material, stress).
+pub fn write_vtk(s: &SolidSolver, path: &Path) -> std::io::Result<()> {
+    let p = &s.particles;
+    let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+    writeln!(w, "# vtk DataFile Version 3.0\nphonation solid particles t = {:.6e}\nASCII\nDATASET POLYDATA\nPOINTS {} double", s.time, p.len())?;
+    for x in &p.position {
+        writeln!(w, "{} {} {}", x.x, x.y, x.z)?;
+    }
+    writeln!(w, "VERTICES {} {}", p.len(), 2 * p.len())?;
+    for i in 0..p.len() {
+        writeln!(w, "1 {i}")?;
+    }
+    writeln!(w, "POINT_DATA {}\nVECTORS displacement double", p.len())?;
+    for i in 0..p.len() {
+        let d = p.position[i] - p.reference[i];
+        writeln!(w, "{} {} {}", d.x, d.y, d.z)?;
+    }
+    writeln!(w, "VECTORS velocity double")?;
+    for v in &p.velocity {
+        writeln!(w, "{} {} {}", v.x, v.y, v.z)?;
+    }
+    writeln!(w, "SCALARS material int 1\nLOOKUP_TABLE default")?;
+    for m in &p.material {
+        writeln!(w, "{m}")?;
+    }
+    writeln!(w, "SCALARS fixed int 1\nLOOKUP_TABLE default")?;
+    for f in &p.fixed {
+        writeln!(w, "{}", *f as u8)?;
+    }
+    writeln!(w, "SCALARS strain_xx double 1\nLOOKUP_TABLE default")?;
+    for e in &s.stress().strain {
+        writeln!(w, "{}", e[0])?;
+    }
+    w.flush()
+}
+
+/// Runs a solid scene, writing `solid.csv` (flushed per row), VTK snapshots and
+/// `summary.json` into `dir`. A non-finite state stops the run with a diagnosis; everything
+/// written so far is kept (plus a final snapshot).
+pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>) -> anyhow::Result<SolidReport> {
+    std::fs::create_dir_all(dir)?;
+    let mut s = sc.build()?;
+    let dim = sc.file.solid.dimension;
+    let total = steps.unwrap_or((sc.file.run.duration / s.dt).ceil() as u64).max(1);
+    let every = sc.file.run.output_every.unwrap_or(10).max(1);
+    let snaps = sc.file.run.snapshots.unwrap_or(10).max(1);
+    let snap_every = (total / snaps).max(1);
+    let probes: Vec<(String, Vec<usize>)> = sc
+        .file
+        .probes
+        .iter()
+        .map(|pr| {
+            let (lo, hi) = (vec3("", &pr.min, dim, false).unwrap(), vec3("", &pr.max, dim, false).unwrap());
+            (pr.name.clone(), (0..s.particles.len()).filter(|&i| inside(s.particles.reference[i], lo, hi, dim)).collect())
+        })
+        .collect();
+    let mut files = vec![dir.join("solid.csv")];
+    let mut csv = std::io::BufWriter::new(std::fs::File::create(dir.join("solid.csv"))?);
+    let mut header = "step,time,kinetic,elastic,external,total,px,py,pz,lx,ly,lz,cg_iterations,cg_residual,max_overlap".to_string();
+    for (n, _) in &probes {
+        header += &format!(",{n}_ux,{n}_uy,{n}_uz");
+    }
+    writeln!(csv, "{header}")?;
+    let row = |s: &mut SolidSolver, csv: &mut std::io::BufWriter<std::fs::File>| -> anyhow::Result<f64> {
+        let e = s.energies();
+        let (pm, am) = (s.particles.linear_momentum(), s.particles.angular_momentum());
+        let mut line = format!(
+            "{},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{},{:.3e},{:.4e}",
+            s.steps,
+            s.time,
+            e.kinetic,
+            e.elastic,
+            e.external,
+            e.total(),
+            pm.x,
+            pm.y,
+            pm.z,
+            am.x,
+            am.y,
+            am.z,
+            s.last.cg.iterations,
+            s.last.cg.relative_residual,
+            s.contacts().max_overlap
+        );
+        for (_, idx) in &probes {
+            let u: DVec3 = idx.iter().map(|&i| s.particles.position[i] - s.particles.reference[i]).sum::<DVec3>() / idx.len().max(1) as f64;
+            line += &format!(",{:.9e},{:.9e},{:.9e}", u.x, u.y, u.z);
+        }
+        writeln!(csv, "{line}")?;
+        csv.flush()?;
+        Ok(e.total())
+    };
+    let e0 = row(&mut s, &mut csv)?;
+    let mut drift: f64 = 0.0;
+    let mut scale = s.energies();
+    let mut scale_e = scale.kinetic + scale.elastic;
+    let snap = |s: &SolidSolver, k: u64, files: &mut Vec<PathBuf>| -> std::io::Result<()> {
+        let f = dir.join(format!("particles_{k:04}.vtk"));
+        write_vtk(s, &f)?;
+        files.push(f);
+        Ok(())
+    };
+    snap(&s, 0, &mut files)?;
+    let t0 = Instant::now();
+    let bar = indicatif::ProgressBar::new(total);
+    bar.set_style(indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} steps {eta}").unwrap());
+    let mut instability = None;
+    for k in 1..=total {
+        s.step();
+        if let Some(i) = s.non_finite() {
+            let x = s.particles.reference[i];
+            instability = Some(format!(
+                "non-finite state of particle {i} (reference position [{:.4e}, {:.4e}, {:.4e}]) at step {} (t = {:.4e}): Δt = {:.3e} vs explicit limit {:.3e}",
+                x.x, x.y, x.z, s.steps, s.time, s.dt, s.explicit_limit
+            ));
+            snap(&s, 999, &mut files)?;
+            break;
+        }
+        if k % every == 0 || k == total {
+            let e = row(&mut s, &mut csv)?;
+            scale = s.energies();
+            scale_e = scale_e.max(scale.kinetic + scale.elastic);
+            if scale_e > 0.0 {
+                drift = drift.max((e - e0).abs() / scale_e);
+            }
+        }
+        if k % snap_every == 0 {
+            snap(&s, k / snap_every, &mut files)?;
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let wall = t0.elapsed().as_secs_f64();
+    let report = SolidReport {
+        name: sc.file.name.clone(),
+        particles: s.particles.len(),
+        bonds: s.disc.bonds.len(),
+        integrator: s.options.integrator,
+        dt: s.dt,
+        explicit_limit: s.explicit_limit,
+        steps: s.steps,
+        simulated_time: s.time,
+        wall_s: wall,
+        particle_updates_per_s: s.particles.len() as f64 * s.steps as f64 / wall.max(1e-9),
+        stage_shares: s.stage_shares(),
+        energy_drift: drift,
+        instability,
+        files: files.clone(),
+    };
+    std::fs::write(dir.join("summary.json"), serde_json::to_string_pretty(&report)?)?;
+    Ok(report)
+}
+
+/// Is this scene text a solid scene (has a `[solid]` table)?
+pub fn is_solid_scene(text: &str) -> bool {
+    toml::from_str::<toml::Table>(text).map(|t| t.contains_key("solid")).unwrap_or(false)
+}
