@@ -220,3 +220,134 @@ fn split_bindings_give_the_same_steps() {
     eprintln!("split-binding parity after 50 steps: {d:e}");
     assert!(d < 1e-4, "{d:e}");
 }
+
+// ------------------------------------------------------------------ MPS solid (issue 4)
+
+use glam::{DMat3, DQuat, DVec3};
+use phonation::gpu::solid::{GpuSolid, SolidArray};
+use phonation::solid::particles::sample_box;
+use phonation::solid::{Integrator, Orthotropic, Particles, SolidOptions, SolidSolver};
+use phonation::stages::{SOLID_EXPLICIT_STEP, SOLID_IMPLICIT_STEP};
+
+/// A clamped orthotropic viscoelastic block with a perturbed state (displacements, velocities,
+/// spins, rotations), loads and added mass: every path of the solid kernels.
+fn solid(dim: usize, integrator: Integrator) -> SolidSolver {
+    let mat = Orthotropic { young: [1.0e6, 3.0e6, 2.0e6], poisson: [0.2, 0.25, 0.3], shear: [4.0e5, 5.0e5, 6.0e5], density: 1.0, viscosity: 2.0 };
+    let l0 = 0.1;
+    let mut p = Particles::new(dim, l0);
+    let max = if dim == 3 { DVec3::new(1.2, 0.6, 0.5) } else { DVec3::new(2.0, 0.8, 0.0) };
+    for x in sample_box(dim, DVec3::ZERO, max, l0) {
+        p.push(x, 1.0, 0, 0, x.x < 0.2);
+    }
+    for i in 0..p.len() {
+        let x = p.reference[i];
+        let h = |k: f64| ((x.x * 12.9898 + x.y * 78.233 + x.z * 37.719 + k).sin() * 43758.5453).fract();
+        let z = if dim == 3 { 1.0 } else { 0.0 };
+        if !p.fixed[i] {
+            p.position[i] = x + 0.002 * DVec3::new(h(1.0), h(2.0), z * h(3.0)) + DVec3::new(0.0, 0.01 * x.x * x.x, 0.0);
+            p.velocity[i] = DVec3::new(h(4.0), h(5.0), z * h(6.0));
+            p.spin[i] = if dim == 3 { DVec3::new(h(7.0), h(8.0), h(9.0)) } else { DVec3::new(0.0, 0.0, h(9.0)) };
+            p.rotation[i] =
+                if dim == 3 { DQuat::from_scaled_axis(0.01 * DVec3::new(h(10.0), h(11.0), h(12.0))) } else { DQuat::from_rotation_z(0.01 * h(10.0)) };
+            p.added_mass[i] = 0.5 * p.mass[i];
+        }
+        if x.x > max.x - l0 {
+            p.load[i] = DVec3::new(0.0, -50.0, 0.0);
+        }
+    }
+    let mut s = SolidSolver::new(p, vec![mat], SolidOptions { integrator, gravity: DVec3::new(0.0, -981.0, 0.0), ..Default::default() }).unwrap();
+    if integrator == Integrator::Implicit {
+        s.dt = 10.0 * s.explicit_limit;
+        s.options.cg_tolerance = 1e-10;
+    }
+    s
+}
+
+fn rel_vec(a: &[DVec3], b: &[DVec3]) -> f64 {
+    let scale = b.iter().map(|v| v.length()).fold(0.0, f64::max).max(1e-300);
+    a.iter().zip(b).map(|(x, y)| (*x - *y).length()).fold(0.0, f64::max) / scale
+}
+
+fn rel_mat(a: &[DMat3], b: &[DMat3]) -> f64 {
+    let norm = |m: &DMat3| m.to_cols_array().iter().map(|x| x.abs()).fold(0.0, f64::max);
+    let scale = b.iter().map(norm).fold(0.0, f64::max).max(1e-300);
+    a.iter().zip(b).map(|(x, y)| norm(&(*x - *y))).fold(0.0, f64::max) / scale
+}
+
+#[test]
+fn solid_kernels_match_their_cpu_twins() {
+    let Some(ctx) = context() else { return };
+    for dim in [2, 3] {
+        for integrator in [Integrator::Explicit, Integrator::Implicit] {
+            let mut cpu = solid(dim, integrator);
+            let mut gpu = GpuSolid::from_solver(&ctx, &mut cpu).unwrap();
+            gpu.cg_tolerance = 1e-6;
+            let list = if integrator == Integrator::Explicit { &SOLID_EXPLICIT_STEP[..] } else { &SOLID_IMPLICIT_STEP[..] };
+            let x0: Vec<DVec3> = cpu.particles.position.clone();
+            let v0: Vec<DVec3> = cpu.particles.velocity.clone();
+            for st in list {
+                cpu.run_single_stage(st.kind);
+                gpu.run_stage(st.kind);
+                let (what, err, bound) = match st.kind {
+                    phonation::stages::SolidStageKind::Rotations => {
+                        ("rotation matrices", rel_mat(&gpu.download_matrices(SolidArray::Rotation), cpu.rotations()), 1e-5)
+                    }
+                    phonation::stages::SolidStageKind::StrainStress => {
+                        let q: Vec<DMat3> = cpu.stress().q.clone();
+                        // σ comes from ε = sym(RᵀF) − I with |ε| ~ 1e-3 here: the f32 cancellation of F − I
+                        // alone is ~1e-7 / 1e-3 = 1e-4 of the largest stress
+                        ("V R σ", rel_mat(&gpu.download_matrices(SolidArray::Q), &q), 2e-4)
+                    }
+                    phonation::stages::SolidStageKind::BondForces => {
+                        // the CPU adds loads and gravity in its Contact stage: compare internal forces
+                        let f = cpu.net_force().to_vec();
+                        ("forces", rel_vec(&gpu.download_vectors(SolidArray::Force), &f), 1e-4)
+                    }
+                    phonation::stages::SolidStageKind::Contact => continue,
+                    phonation::stages::SolidStageKind::ConjugateGradient => {
+                        // the CPU stage adds ΔV to v, the GPU keeps ΔV for its integrate kernel
+                        let dv: Vec<DVec3> = (0..cpu.particles.len()).map(|i| cpu.particles.velocity[i] - v0[i]).collect();
+                        ("ΔV (CG)", rel_vec(&gpu.download_vectors(SolidArray::DeltaV), &dv), 1e-4)
+                    }
+                    phonation::stages::SolidStageKind::Integrate => {
+                        let u_c: Vec<DVec3> = (0..cpu.particles.len()).map(|i| cpu.particles.position[i] - x0[i]).collect();
+                        let u_g: Vec<DVec3> = gpu.download_vectors(SolidArray::Position).iter().zip(&x0).map(|(a, b)| *a - *b).collect();
+                        // f32 positions of size ~1 round at ~1e-7, the step moves them by ~1e-4
+                        ("step displacement", rel_vec(&u_g, &u_c), 2e-3)
+                    }
+                };
+                println!("{dim}D {integrator:?} {:20} {what:18}: max relative difference {err:.2e} (bound {bound:.0e})", st.name);
+                assert!(err < bound, "{dim}D {integrator:?} {}: {err}", st.name);
+            }
+            if integrator == Integrator::Implicit {
+                println!(
+                    "{dim}D implicit: GPU CG {} iterations to {:.1e}; CPU {} to {:.1e}",
+                    gpu.last_cg.0, gpu.last_cg.1, cpu.last.cg.iterations, cpu.last.cg.relative_residual
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn solid_whole_steps_match_the_cpu_backend() {
+    let Some(ctx) = context() else { return };
+    for dim in [2, 3] {
+        for (integrator, steps) in [(Integrator::Explicit, 200u64), (Integrator::Implicit, 10)] {
+            let mut cpu = solid(dim, integrator);
+            let mut gpu = GpuSolid::from_solver(&ctx, &mut cpu).unwrap();
+            gpu.cg_tolerance = 1e-6;
+            let x0 = cpu.particles.position.clone();
+            for _ in 0..steps {
+                cpu.step();
+            }
+            gpu.run(steps);
+            let u_c: Vec<DVec3> = (0..cpu.particles.len()).map(|i| cpu.particles.position[i] - x0[i]).collect();
+            let u_g: Vec<DVec3> = gpu.download_vectors(SolidArray::Position).iter().zip(&x0).map(|(a, b)| *a - *b).collect();
+            let err = rel_vec(&u_g, &u_c);
+            let verr = rel_vec(&gpu.download_vectors(SolidArray::Velocity), &cpu.particles.velocity);
+            println!("{dim}D {integrator:?}, {steps} steps: displacement difference {err:.2e}, velocity {verr:.2e} (relative to the largest)");
+            assert!(err < 1e-3 && verr < 1e-3);
+        }
+    }
+}

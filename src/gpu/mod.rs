@@ -6,6 +6,7 @@ pub mod bench;
 pub mod codegen;
 pub mod context;
 pub mod fdlb;
+pub mod solid;
 
 pub use context::{GpuContext, GpuError};
 pub use fdlb::{GpuArray, GpuFluid};

@@ -80,6 +80,11 @@ impl BlockJacobi {
         Self { inv: blocks }
     }
 
+    /// The inverse 3×3 blocks (uploaded by the GPU backend).
+    pub fn blocks(&self) -> &[DMat3] {
+        &self.inv
+    }
+
     pub fn apply(&self, r: &[DVec3], z: &mut [DVec3]) {
         z.par_iter_mut().enumerate().for_each(|(i, zi)| *zi = self.inv[i] * r[i]);
     }

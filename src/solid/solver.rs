@@ -212,6 +212,24 @@ impl SolidSolver {
         &self.total_torque
     }
 
+    /// The implicit method's preconditioner (built on first use).
+    pub fn preconditioner(&mut self) -> &BlockJacobi {
+        if self.precond.is_none() {
+            self.precond = Some(BlockJacobi::new(&self.disc, &self.particles, self.dt));
+        }
+        self.precond.as_ref().unwrap()
+    }
+
+    /// J_i⁻¹ of (2.74) from the last implicit `Rotations` stage.
+    pub fn rotation_jacobian_inverses(&self) -> &[DMat3] {
+        &self.jinv
+    }
+
+    /// Runs one stage alone (for kernel-by-kernel parity tests).
+    pub fn run_single_stage(&mut self, kind: SolidStageKind) {
+        self.run_stage(kind);
+    }
+
     pub fn contacts(&self) -> &Contacts {
         &self.contacts
     }

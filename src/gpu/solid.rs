@@ -1,0 +1,490 @@
+//! The MPS solid on the GPU (shaders/solid.wgsl, f32): the same stage lists as the CPU solver
+//! ([`crate::stages::SOLID_EXPLICIT_STEP`], [`crate::stages::SOLID_IMPLICIT_STEP`]), each stage a
+//! few dispatches of kernels whose CPU twins live in `src/solid/`. The implicit step runs
+//! preconditioned CG entirely on the GPU (matrix-free products over the bond lists, dot
+//! products by workgroup tree reductions) and reads back one residual every few iterations.
+//!
+//! Not on the GPU yet: contact (the `Contact` stage adds nothing here; scenes with contact
+//! run on the CPU).
+//!
+//! Bytes per particle: state 5 × 16, rotation and Q 2 × 48, forces/torques 4 × 16, stiffness
+//! 144, per bond 3 × 16 + 12.
+
+use super::context::{GpuContext, GpuError};
+use crate::solid::{Integrator, SolidSolver};
+use crate::stages::SolidStageKind;
+use glam::{DMat3, DQuat, DVec3};
+use std::collections::HashMap;
+use wgpu::util::DeviceExt;
+
+const SHADER: &str = include_str!("../../shaders/solid.wgsl");
+
+fn v4(v: DVec3, w: f64) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, w as f32]
+}
+
+fn m3(m: &DMat3) -> [f32; 12] {
+    let c = m.to_cols_array();
+    [c[0] as f32, c[1] as f32, c[2] as f32, 0.0, c[3] as f32, c[4] as f32, c[5] as f32, 0.0, c[6] as f32, c[7] as f32, c[8] as f32, 0.0]
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    n: u32,
+    dim: u32,
+    contact: u32,
+    pad: u32,
+    dt: f32,
+    p: [f32; 3],
+    gravity: [f32; 4],
+}
+
+/// Buffers that can be read back.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SolidArray {
+    Position,
+    Velocity,
+    Spin,
+    Quaternion,
+    Force,
+    Torque,
+    StressTorque,
+    Q,
+    Rotation,
+    /// ΔV of the last implicit solve (the CG solution).
+    DeltaV,
+}
+
+pub struct GpuSolid {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    pub n: usize,
+    pub dim: usize,
+    pub integrator: Integrator,
+    pub dt: f64,
+    buffers: HashMap<&'static str, wgpu::Buffer>,
+    pipelines: HashMap<&'static str, wgpu::ComputePipeline>,
+    groups: [wgpu::BindGroup; 2],
+    pub cg_tolerance: f64,
+    pub cg_max_iterations: usize,
+    /// Iterations and relative residual of the last CG solve.
+    pub last_cg: (usize, f64),
+    pub steps: u64,
+}
+
+const G0: [(&str, bool); 21] = [
+    ("params", false),
+    ("offs", true),
+    ("nbr", true),
+    ("rev", true),
+    ("bond_r0", true),
+    ("bond_shift", true),
+    ("bond_grad", true),
+    ("cstiff", true),
+    ("pinfo", true),
+    ("pos", false),
+    ("vel", false),
+    ("spin", false),
+    ("quat", false),
+    ("load", true),
+    ("rot", false),
+    ("qmat", false),
+    ("torque_g", false),
+    ("force", false),
+    ("torque", false),
+    ("extra_force", false),
+    ("extra_torque", false),
+];
+
+const G1: [(&str, bool); 9] = [
+    ("lin_x", false),
+    ("lin_v", false),
+    ("theta", false),
+    ("jinv", false),
+    ("lambda", false),
+    ("cg", false),
+    ("precond", true),
+    ("partials", false),
+    ("scalars", false),
+];
+
+const ENTRIES: [&str; 20] = [
+    "rotation_matrices",
+    "strain_stress_full",
+    "strain_stress_linear",
+    "bond_forces_full",
+    "bond_forces_linear",
+    "integrate_explicit",
+    "solve_rotations",
+    "rotation_increments",
+    "chain_lambda",
+    "chain_forces",
+    "cg_rhs",
+    "cg_apply",
+    "cg_dots",
+    "cg_sum",
+    "cg_update",
+    "cg_direction",
+    "cg_keep",
+    "integrate_implicit",
+    "angular_velocity",
+    "prepare_kv",
+];
+
+impl GpuSolid {
+    /// Uploads a CPU solver's discretisation and state. The implicit method's preconditioner is
+    /// taken from the CPU solver (built at the reference configuration).
+    pub fn from_solver(ctx: &GpuContext, s: &mut SolidSolver) -> Result<Self, GpuError> {
+        let device = ctx.device.clone();
+        let n = s.particles.len();
+        let pre: Vec<[f32; 12]> =
+            if s.options.integrator == Integrator::Implicit { s.preconditioner().blocks().iter().map(m3).collect() } else { vec![[0f32; 12]; n] };
+        let b = &s.disc.bonds;
+        let nb = b.len();
+        let limit = ctx.limits.max_storage_buffer_binding_size as u64;
+        for (what, bytes) in [("bond arrays", 16 * nb as u64), ("stiffness array", 144 * n as u64), ("CG vectors", 96 * n as u64)] {
+            if bytes > limit {
+                return Err(GpuError::TooLarge { what, bytes, limit });
+            }
+        }
+        let storage = |label: &str, data: &[u8]| {
+            let data: &[u8] = if data.is_empty() { &[0u8; 64] } else { data };
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: data,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            })
+        };
+        let p = &s.particles;
+        let zeros4 = vec![[0f32; 4]; n];
+        let zeros12 = vec![[0f32; 12]; n];
+        let mut bufs: HashMap<&'static str, wgpu::Buffer> = HashMap::new();
+        let params = Params { n: n as u32, dim: p.dim as u32, contact: 0, pad: 0, dt: s.dt as f32, p: [0.0; 3], gravity: v4(s.options.gravity, 0.0) };
+        bufs.insert(
+            "params",
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("solid params"),
+                contents: bytemuck::bytes_of(&params),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            }),
+        );
+        bufs.insert("offs", storage("offs", bytemuck::cast_slice(&b.offset)));
+        bufs.insert("nbr", storage("nbr", bytemuck::cast_slice(&b.neighbour)));
+        bufs.insert("rev", storage("rev", bytemuck::cast_slice(&b.reverse)));
+        let r0: Vec<[f32; 4]> = (0..nb).map(|k| v4(b.r0[k], b.w_hat[k])).collect();
+        let sh: Vec<[f32; 4]> = (0..nb).map(|k| v4(b.shift[k], b.stiffness[k])).collect();
+        let gr: Vec<[f32; 4]> = (0..nb).map(|k| v4(b.grad[k], b.damping[k])).collect();
+        bufs.insert("bond_r0", storage("bond_r0", bytemuck::cast_slice(&r0)));
+        bufs.insert("bond_shift", storage("bond_shift", bytemuck::cast_slice(&sh)));
+        bufs.insert("bond_grad", storage("bond_grad", bytemuck::cast_slice(&gr)));
+        let cs: Vec<f32> = s.disc.grad_stiffness.iter().flat_map(|c| c.iter().flat_map(|row| row.iter().map(|x| *x as f32))).collect();
+        bufs.insert("cstiff", storage("cstiff", bytemuck::cast_slice(&cs)));
+        let info: Vec<[f32; 4]> = (0..n).map(|i| [p.mass[i] as f32, p.inertia[i] as f32, p.volume[i] as f32, if p.fixed[i] { 1.0 } else { 0.0 }]).collect();
+        bufs.insert("pinfo", storage("pinfo", bytemuck::cast_slice(&info)));
+        for name in ["pos", "vel", "spin", "quat", "load", "torque_g", "force", "torque", "extra_force", "extra_torque"] {
+            bufs.insert(name, storage(name, bytemuck::cast_slice(&zeros4)));
+        }
+        for name in ["rot", "qmat"] {
+            bufs.insert(name, storage(name, bytemuck::cast_slice(&zeros12)));
+        }
+        for name in ["lin_x", "lin_v", "lambda"] {
+            bufs.insert(name, storage(name, bytemuck::cast_slice(&zeros4)));
+        }
+        bufs.insert("theta", storage("theta", bytemuck::cast_slice(&vec![[0f32; 4]; 2 * n])));
+        bufs.insert("cg", storage("cg", bytemuck::cast_slice(&vec![[0f32; 4]; 6 * n])));
+        bufs.insert("jinv", storage("jinv", bytemuck::cast_slice(&zeros12)));
+        bufs.insert("precond", storage("precond", bytemuck::cast_slice(&pre)));
+        bufs.insert("partials", storage("partials", bytemuck::cast_slice(&vec![0f32; 4 * n.div_ceil(256) + 4])));
+        bufs.insert("scalars", storage("scalars", bytemuck::cast_slice(&[0f32; 8])));
+
+        let layout_of = |g: &[(&str, bool)]| {
+            let entries: Vec<wgpu::BindGroupLayoutEntry> = g
+                .iter()
+                .enumerate()
+                .map(|(k, (name, ro))| wgpu::BindGroupLayoutEntry {
+                    binding: k as u32,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: if *name == "params" { wgpu::BufferBindingType::Uniform } else { wgpu::BufferBindingType::Storage { read_only: *ro } },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                })
+                .collect();
+            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("solid"), entries: &entries })
+        };
+        let l0 = layout_of(&G0);
+        let l1 = layout_of(&G1);
+        let group = |layout: &wgpu::BindGroupLayout, g: &[(&str, bool)]| {
+            let entries: Vec<wgpu::BindGroupEntry> =
+                g.iter().enumerate().map(|(k, (name, _))| wgpu::BindGroupEntry { binding: k as u32, resource: bufs[name].as_entire_binding() }).collect();
+            device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("solid"), layout, entries: &entries })
+        };
+        let groups = [group(&l0, &G0), group(&l1, &G1)];
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("solid"),
+            bind_group_layouts: &[Some(&l0), Some(&l1)],
+            immediate_size: 0,
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("solid.wgsl"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
+        let pipelines = ENTRIES
+            .iter()
+            .map(|e| {
+                (
+                    *e,
+                    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                        label: Some(e),
+                        layout: Some(&pl),
+                        module: &module,
+                        entry_point: Some(e),
+                        compilation_options: Default::default(),
+                        cache: None,
+                    }),
+                )
+            })
+            .collect();
+        let mut g = Self {
+            device,
+            queue: ctx.queue.clone(),
+            n,
+            dim: p.dim,
+            integrator: s.options.integrator,
+            dt: s.dt,
+            buffers: bufs,
+            pipelines,
+            groups,
+            cg_tolerance: 1e-5,
+            cg_max_iterations: s.options.cg_max_iterations,
+            last_cg: (0, 0.0),
+            steps: 0,
+        };
+        g.upload_state(s);
+        Ok(g)
+    }
+
+    /// Writes positions, velocities, spins, quaternions, loads (+ added mass) and rotation
+    /// matrices of a CPU solver.
+    pub fn upload_state(&mut self, s: &SolidSolver) {
+        let p = &s.particles;
+        let w = |name: &str, data: Vec<[f32; 4]>| self.queue.write_buffer(&self.buffers[name], 0, bytemuck::cast_slice(&data));
+        w("pos", p.position.iter().map(|x| v4(*x, 0.0)).collect());
+        w("vel", p.velocity.iter().map(|x| v4(*x, 0.0)).collect());
+        w("spin", p.spin.iter().map(|x| v4(*x, 0.0)).collect());
+        w("quat", p.rotation.iter().map(|q| [q.x as f32, q.y as f32, q.z as f32, q.w as f32]).collect());
+        w("load", (0..p.len()).map(|i| v4(p.load[i], p.added_mass[i])).collect());
+        let rot: Vec<[f32; 12]> = s.rotations().iter().map(m3).collect();
+        self.queue.write_buffer(&self.buffers["rot"], 0, bytemuck::cast_slice(&rot));
+        self.steps = s.steps;
+    }
+
+    fn dispatch(&self, pass: &mut wgpu::ComputePass, entry: &str) {
+        pass.set_pipeline(&self.pipelines[entry]);
+        pass.set_bind_group(0, &self.groups[0], &[]);
+        pass.set_bind_group(1, &self.groups[1], &[]);
+        match entry {
+            "cg_dots" => pass.dispatch_workgroups((self.n as u32).div_ceil(256).max(1), 1, 1),
+            "cg_sum" | "cg_keep" => pass.dispatch_workgroups(1, 1, 1),
+            _ => {
+                let w = (self.n as u32).div_ceil(64).max(1);
+                if w <= 65_535 { pass.dispatch_workgroups(w, 1, 1) } else { pass.dispatch_workgroups(65_535, w.div_ceil(65_535), 1) }
+            }
+        }
+    }
+
+    fn submit(&self, entries: &[&str]) {
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            for e in entries {
+                self.dispatch(&mut pass, e);
+            }
+        }
+        self.queue.submit([enc.finish()]);
+    }
+
+    /// The linear operator K p + D q of the implicit method with the rotations following the
+    /// increments (reads lin_x / lin_v, writes `force`).
+    const LINEAR: [&'static str; 5] = ["strain_stress_linear", "rotation_increments", "bond_forces_linear", "chain_lambda", "chain_forces"];
+
+    /// Runs one stage of the step (the kernels of that stage, one submission).
+    pub fn run_stage(&mut self, kind: SolidStageKind) {
+        let implicit = self.integrator == Integrator::Implicit;
+        match kind {
+            SolidStageKind::Rotations => {
+                if implicit {
+                    self.submit(&["solve_rotations", "angular_velocity"])
+                } else {
+                    self.submit(&["rotation_matrices"])
+                }
+            }
+            SolidStageKind::StrainStress => self.submit(&["strain_stress_full"]),
+            SolidStageKind::BondForces => {
+                if implicit {
+                    self.submit(&["bond_forces_full", "chain_lambda", "chain_forces"])
+                } else {
+                    self.submit(&["bond_forces_full"])
+                }
+            }
+            SolidStageKind::Contact => {}
+            SolidStageKind::ConjugateGradient => self.conjugate_gradient(),
+            SolidStageKind::Integrate => self.submit(&[if implicit { "integrate_implicit" } else { "integrate_explicit" }]),
+        }
+    }
+
+    fn conjugate_gradient(&mut self) {
+        // full force of the state → extra_force; K v → force; then B, r, z, p
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        let bytes = self.buffers["force"].size();
+        enc.copy_buffer_to_buffer(&self.buffers["force"], 0, &self.buffers["extra_force"], 0, bytes);
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            self.dispatch(&mut pass, "prepare_kv");
+            for e in Self::LINEAR {
+                self.dispatch(&mut pass, e);
+            }
+            self.dispatch(&mut pass, "cg_rhs");
+        }
+        self.queue.submit([enc.finish()]);
+        let mut it = 0;
+        let mut rel = f64::INFINITY;
+        let check_every = 8;
+        while it < self.cg_max_iterations {
+            let mut enc = self.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                for _ in 0..check_every {
+                    for e in Self::LINEAR {
+                        self.dispatch(&mut pass, e);
+                    }
+                    for e in ["cg_apply", "cg_dots", "cg_sum", "cg_keep", "cg_update", "cg_dots", "cg_sum", "cg_direction"] {
+                        self.dispatch(&mut pass, e);
+                    }
+                }
+            }
+            self.queue.submit([enc.finish()]);
+            it += check_every;
+            let sc = self.read_f32("scalars");
+            rel = (sc[2] as f64).max(0.0).sqrt() / (sc[3] as f64).sqrt().max(1e-300);
+            if sc[3] == 0.0 {
+                rel = 0.0;
+            }
+            if rel <= self.cg_tolerance || !rel.is_finite() {
+                break;
+            }
+        }
+        // leave `extra_force` zero for the explicit stages and the next step
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        enc.clear_buffer(&self.buffers["extra_force"], 0, None);
+        self.queue.submit([enc.finish()]);
+        self.last_cg = (it, rel);
+    }
+
+    /// One whole step, stage by stage in the order of the solid's stage list.
+    pub fn step(&mut self) {
+        let list = match self.integrator {
+            Integrator::Explicit => &crate::stages::SOLID_EXPLICIT_STEP[..],
+            Integrator::Implicit => &crate::stages::SOLID_IMPLICIT_STEP[..],
+        };
+        for st in list {
+            self.run_stage(st.kind);
+        }
+        self.steps += 1;
+    }
+
+    /// Runs `n` explicit steps with one submission per 32 steps (implicit: step by step).
+    pub fn run(&mut self, n: u64) {
+        if self.integrator == Integrator::Implicit {
+            for _ in 0..n {
+                self.step();
+            }
+            return;
+        }
+        let mut done = 0;
+        while done < n {
+            let batch = (n - done).min(32);
+            let mut enc = self.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                for _ in 0..batch {
+                    for e in ["rotation_matrices", "strain_stress_full", "bond_forces_full", "integrate_explicit"] {
+                        self.dispatch(&mut pass, e);
+                    }
+                }
+            }
+            self.queue.submit([enc.finish()]);
+            done += batch;
+            self.steps += batch;
+        }
+    }
+
+    pub fn wait(&self) {
+        let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
+    }
+
+    fn read_f32(&self, name: &str) -> Vec<f32> {
+        let b = &self.buffers[name];
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: b.size(),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(b, 0, &staging, 0, b.size());
+        self.queue.submit([enc.finish()]);
+        let slice = staging.slice(..);
+        slice.map_async(wgpu::MapMode::Read, |r| r.expect("map readback buffer"));
+        self.wait();
+        let out = bytemuck::cast_slice(&slice.get_mapped_range()).to_vec();
+        staging.unmap();
+        out
+    }
+
+    /// A per-particle vector array as f64.
+    pub fn download_vectors(&self, which: SolidArray) -> Vec<DVec3> {
+        let name = match which {
+            SolidArray::Position => "pos",
+            SolidArray::Velocity => "vel",
+            SolidArray::Spin => "spin",
+            SolidArray::Force => "force",
+            SolidArray::Torque => "torque",
+            SolidArray::StressTorque => "torque_g",
+            SolidArray::DeltaV => "cg",
+            _ => panic!("{which:?} is not a vector array"),
+        };
+        self.read_f32(name).chunks(4).take(self.n).map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)).collect()
+    }
+
+    /// A per-particle matrix array (Q or the rotation matrices) as f64.
+    pub fn download_matrices(&self, which: SolidArray) -> Vec<DMat3> {
+        let name = match which {
+            SolidArray::Q => "qmat",
+            SolidArray::Rotation => "rot",
+            _ => panic!("{which:?} is not a matrix array"),
+        };
+        self.read_f32(name)
+            .chunks(12)
+            .take(self.n)
+            .map(|c| {
+                DMat3::from_cols(
+                    DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64),
+                    DVec3::new(c[4] as f64, c[5] as f64, c[6] as f64),
+                    DVec3::new(c[8] as f64, c[9] as f64, c[10] as f64),
+                )
+            })
+            .collect()
+    }
+
+    /// Copies the GPU state (positions, velocities, spins, quaternions) into a CPU solver.
+    pub fn download_into(&self, s: &mut SolidSolver) {
+        s.particles.position = self.download_vectors(SolidArray::Position);
+        s.particles.velocity = self.download_vectors(SolidArray::Velocity);
+        s.particles.spin = self.download_vectors(SolidArray::Spin);
+        s.particles.rotation =
+            self.read_f32("quat").chunks(4).take(self.n).map(|c| DQuat::from_xyzw(c[0] as f64, c[1] as f64, c[2] as f64, c[3] as f64)).collect();
+        s.steps = self.steps;
+        s.time = self.steps as f64 * self.dt;
+    }
+}
