@@ -265,7 +265,7 @@ fn integrate_explicit(@builtin(global_invocation_id) gid: vec3<u32>) {
 @group(1) @binding(2) var<storage, read_write> theta: array<vec4<f32>>;
 @group(1) @binding(3) var<storage, read_write> jinv: array<mat3x3<f32>>;
 @group(1) @binding(4) var<storage, read_write> lambda: array<vec4<f32>>;
-// CG vectors, n each: x (ΔV), r, z, p, Ap, b
+// CG vectors, n each: x (ΔV), r, z, p, Ap, b, and the internal force of the state
 @group(1) @binding(5) var<storage, read_write> cg: array<vec4<f32>>;
 // block-Jacobi inverse blocks
 @group(1) @binding(6) var<storage, read> precond: array<mat3x3<f32>>;
@@ -391,14 +391,15 @@ fn chain_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
     force[m] = vec4<f32>(force[m].xyz - s, 0.0);
 }
 
-// B = Δt (f + Δt K v): `force` holds K v, `extra_force` the full force of the state
+// B = Δt (f + Δt K v): `force` holds K v, cg[6n + i] the internal force of the state,
+// `extra_force` the contact force
 @compute @workgroup_size(64)
 fn cg_rhs(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = idx(gid);
     if i >= P.n { return; }
     var b = vec3<f32>(0.0);
     if pinfo[i].w < 0.5 {
-        b = P.dt * (extra_force[i].xyz + load[i].xyz + pinfo[i].x * P.gravity.xyz + P.dt * force[i].xyz);
+        b = P.dt * (cg[6u * P.n + i].xyz + extra_force[i].xyz + load[i].xyz + pinfo[i].x * P.gravity.xyz + P.dt * force[i].xyz);
     }
     cg[5u * P.n + i] = vec4<f32>(b, 0.0);
     cg[i] = vec4<f32>(0.0);

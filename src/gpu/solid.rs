@@ -4,8 +4,9 @@
 //! preconditioned CG entirely on the GPU (matrix-free products over the bond lists, dot
 //! products by workgroup tree reductions) and reads back one residual every few iterations.
 //!
-//! Not on the GPU yet: contact (the `Contact` stage adds nothing here; scenes with contact
-//! run on the CPU).
+//! Contact (shaders/solid_contact.wgsl): a uniform grid rebuilt every step by a counting sort
+//! with atomics, then a gather of pair and wall contacts with anchors kept in per-particle
+//! slots ([`CONTACT_SLOTS`] per particle, double-buffered).
 //!
 //! Bytes per particle: state 5 × 16, rotation and Q 2 × 48, forces/torques 4 × 16, stiffness
 //! 144, per bond 3 × 16 + 12.
@@ -18,6 +19,38 @@ use std::collections::HashMap;
 use wgpu::util::DeviceExt;
 
 const SHADER: &str = include_str!("../../shaders/solid.wgsl");
+const CONTACT_SHADER: &str = include_str!("../../shaders/solid_contact.wgsl");
+
+/// Contacts remembered per particle (pairs and walls).
+pub const CONTACT_SLOTS: u32 = 16;
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ContactUniform {
+    kn: f32,
+    kt: f32,
+    mu_s: f32,
+    mu_d: f32,
+    damping: f32,
+    l0: f32,
+    n_walls: u32,
+    multi_body: u32,
+    origin: [f32; 4],
+    dims: [u32; 4],
+    walls: [[f32; 4]; 4],
+    n: u32,
+    dim: u32,
+    slots: u32,
+    cells: u32,
+}
+
+struct GpuContact {
+    pipelines: HashMap<&'static str, wgpu::ComputePipeline>,
+    /// Ping-pong of the anchor history.
+    groups: [wgpu::BindGroup; 2],
+    cur: usize,
+    cell_count: wgpu::Buffer,
+}
 
 fn v4(v: DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
@@ -54,6 +87,8 @@ pub enum SolidArray {
     Rotation,
     /// ΔV of the last implicit solve (the CG solution).
     DeltaV,
+    /// Contact force of the last contact stage.
+    ContactForce,
 }
 
 pub struct GpuSolid {
@@ -71,6 +106,7 @@ pub struct GpuSolid {
     /// Iterations and relative residual of the last CG solve.
     pub last_cg: (usize, f64),
     pub steps: u64,
+    contact: Option<GpuContact>,
 }
 
 const G0: [(&str, bool); 21] = [
@@ -143,7 +179,7 @@ impl GpuSolid {
         let b = &s.disc.bonds;
         let nb = b.len();
         let limit = ctx.limits.max_storage_buffer_binding_size as u64;
-        for (what, bytes) in [("bond arrays", 16 * nb as u64), ("stiffness array", 144 * n as u64), ("CG vectors", 96 * n as u64)] {
+        for (what, bytes) in [("bond arrays", 16 * nb as u64), ("stiffness array", 144 * n as u64), ("CG vectors", 112 * n as u64)] {
             if bytes > limit {
                 return Err(GpuError::TooLarge { what, bytes, limit });
             }
@@ -192,7 +228,7 @@ impl GpuSolid {
             bufs.insert(name, storage(name, bytemuck::cast_slice(&zeros4)));
         }
         bufs.insert("theta", storage("theta", bytemuck::cast_slice(&vec![[0f32; 4]; 2 * n])));
-        bufs.insert("cg", storage("cg", bytemuck::cast_slice(&vec![[0f32; 4]; 6 * n])));
+        bufs.insert("cg", storage("cg", bytemuck::cast_slice(&vec![[0f32; 4]; 7 * n])));
         bufs.insert("jinv", storage("jinv", bytemuck::cast_slice(&zeros12)));
         bufs.insert("precond", storage("precond", bytemuck::cast_slice(&pre)));
         bufs.insert("partials", storage("partials", bytemuck::cast_slice(&vec![0f32; 4 * n.div_ceil(256) + 4])));
@@ -259,9 +295,167 @@ impl GpuSolid {
             cg_max_iterations: s.options.cg_max_iterations,
             last_cg: (0, 0.0),
             steps: 0,
+            contact: None,
         };
+        if let Some(cp) = &s.options.contact {
+            if s.options.walls.len() > 4 {
+                return Err(GpuError::Device(format!("the GPU contact kernel takes at most 4 walls, the scene has {}", s.options.walls.len())));
+            }
+            g.contact = Some(g.build_contact(s, cp));
+        }
         g.upload_state(s);
         Ok(g)
+    }
+
+    fn build_contact(&self, s: &SolidSolver, cp: &crate::solid::ContactParams) -> GpuContact {
+        let device = &self.device;
+        let p = &s.particles;
+        let n = p.len();
+        let l0 = p.spacing;
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for x in &p.reference {
+            lo = lo.min(*x);
+            hi = hi.max(*x);
+        }
+        // the grid covers the bodies' box grown by its size on every side (beyond: edge cells)
+        let ext = (hi - lo).max(DVec3::splat(2.0 * l0));
+        let origin = lo - ext;
+        let mut dims = [1u32; 3];
+        for a in 0..p.dim {
+            dims[a] = ((3.0 * ext[a]) / l0).ceil() as u32 + 1;
+        }
+        let cells = dims[0] * dims[1] * dims[2];
+        let mut walls = [[0f32; 4]; 4];
+        for (k, w) in s.options.walls.iter().enumerate() {
+            walls[k] = v4(w.normal, w.offset);
+        }
+        let uni = ContactUniform {
+            kn: cp.normal_stiffness as f32,
+            kt: cp.tangential_stiffness as f32,
+            mu_s: cp.static_friction as f32,
+            mu_d: cp.dynamic_friction as f32,
+            damping: cp.damping as f32,
+            l0: l0 as f32,
+            n_walls: s.options.walls.len() as u32,
+            multi_body: p.body.iter().any(|&b| b != p.body[0]) as u32,
+            origin: v4(origin, 0.0),
+            dims: [dims[0], dims[1], dims[2], 0],
+            walls,
+            n: n as u32,
+            dim: p.dim as u32,
+            slots: CONTACT_SLOTS,
+            cells,
+        };
+        let init = |label: &str, data: &[u8], usage: wgpu::BufferUsages| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: data, usage })
+        };
+        let st = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
+        let uniform = init("contact uniform", bytemuck::bytes_of(&uni), wgpu::BufferUsages::UNIFORM);
+        let body: Vec<u32> = p.body.iter().map(|&b| b as u32).collect();
+        let body = init("body", bytemuck::cast_slice(&body), st);
+        let cell_of = init("cell_of", bytemuck::cast_slice(&vec![0u32; n]), st);
+        let cell_count = init("cell_count", bytemuck::cast_slice(&vec![0u32; cells as usize]), st);
+        let cell_start = init("cell_start", bytemuck::cast_slice(&vec![0u32; cells as usize + 1]), st);
+        let sorted = init("sorted", bytemuck::cast_slice(&vec![0u32; n]), st);
+        let empty: Vec<[f32; 4]> = (0..2 * n * CONTACT_SLOTS as usize).map(|_| [0.0, 0.0, 0.0, f32::from_bits(u32::MAX)]).collect();
+        let hist = [init("hist a", bytemuck::cast_slice(&empty), st), init("hist b", bytemuck::cast_slice(&empty), st)];
+        // (uniform?, read-only?) per binding of shaders/solid_contact.wgsl
+        let kinds: [(bool, bool); 14] = [
+            (true, true),
+            (false, true),
+            (false, true),
+            (false, true),
+            (false, true),
+            (false, true),
+            (false, false),
+            (false, false),
+            (false, false),
+            (false, false),
+            (false, false),
+            (false, false),
+            (false, true),
+            (false, false),
+        ];
+        let entries: Vec<wgpu::BindGroupLayoutEntry> = kinds
+            .iter()
+            .enumerate()
+            .map(|(k, (uni, ro))| wgpu::BindGroupLayoutEntry {
+                binding: k as u32,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: if *uni { wgpu::BufferBindingType::Uniform } else { wgpu::BufferBindingType::Storage { read_only: *ro } },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            })
+            .collect();
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("contact"), entries: &entries });
+        let b = &self.buffers;
+        let group = |inp: &wgpu::Buffer, out: &wgpu::Buffer| {
+            let res = [
+                &uniform,
+                &b["pos"],
+                &b["vel"],
+                &b["rot"],
+                &b["pinfo"],
+                &body,
+                &b["extra_force"],
+                &b["extra_torque"],
+                &cell_of,
+                &cell_count,
+                &cell_start,
+                &sorted,
+                inp,
+                out,
+            ];
+            let entries: Vec<wgpu::BindGroupEntry> =
+                res.iter().enumerate().map(|(k, buf)| wgpu::BindGroupEntry { binding: k as u32, resource: buf.as_entire_binding() }).collect();
+            device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("contact"), layout: &layout, entries: &entries })
+        };
+        let groups = [group(&hist[0], &hist[1]), group(&hist[1], &hist[0])];
+        let pl =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("contact"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
+        let module = device
+            .create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("solid_contact.wgsl"), source: wgpu::ShaderSource::Wgsl(CONTACT_SHADER.into()) });
+        let pipelines = ["grid_count", "grid_scan", "grid_scatter", "contact_forces"]
+            .iter()
+            .map(|e| {
+                (
+                    *e,
+                    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                        label: Some(e),
+                        layout: Some(&pl),
+                        module: &module,
+                        entry_point: Some(e),
+                        compilation_options: Default::default(),
+                        cache: None,
+                    }),
+                )
+            })
+            .collect();
+        GpuContact { pipelines, groups, cur: 0, cell_count }
+    }
+
+    /// Records the contact stage (grid rebuild and contact forces) into `enc`.
+    fn record_contact(&mut self, enc: &mut wgpu::CommandEncoder) {
+        let n = self.n as u32;
+        let Some(c) = self.contact.as_mut() else { return };
+        let w = n.div_ceil(64).max(1);
+        let (wx, wy) = if w <= 65_535 { (w, 1) } else { (65_535, w.div_ceil(65_535)) };
+        let run = |enc: &mut wgpu::CommandEncoder, c: &GpuContact, entries: &[&str]| {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            for e in entries {
+                pass.set_pipeline(&c.pipelines[e]);
+                pass.set_bind_group(0, &c.groups[c.cur], &[]);
+                if *e == "grid_scan" { pass.dispatch_workgroups(1, 1, 1) } else { pass.dispatch_workgroups(wx, wy, 1) }
+            }
+        };
+        enc.clear_buffer(&c.cell_count, 0, None);
+        run(enc, c, &["grid_count", "grid_scan"]);
+        enc.clear_buffer(&c.cell_count, 0, None);
+        run(enc, c, &["grid_scatter", "contact_forces"]);
+        c.cur = 1 - c.cur;
     }
 
     /// Writes positions, velocities, spins, quaternions, loads (+ added mass) and rotation
@@ -327,17 +521,21 @@ impl GpuSolid {
                     self.submit(&["bond_forces_full"])
                 }
             }
-            SolidStageKind::Contact => {}
+            SolidStageKind::Contact => {
+                let mut enc = self.device.create_command_encoder(&Default::default());
+                self.record_contact(&mut enc);
+                self.queue.submit([enc.finish()]);
+            }
             SolidStageKind::ConjugateGradient => self.conjugate_gradient(),
             SolidStageKind::Integrate => self.submit(&[if implicit { "integrate_implicit" } else { "integrate_explicit" }]),
         }
     }
 
     fn conjugate_gradient(&mut self) {
-        // full force of the state → extra_force; K v → force; then B, r, z, p
+        // internal force of the state → cg[6n..7n); K v → force; then B, r, z, p
         let mut enc = self.device.create_command_encoder(&Default::default());
         let bytes = self.buffers["force"].size();
-        enc.copy_buffer_to_buffer(&self.buffers["force"], 0, &self.buffers["extra_force"], 0, bytes);
+        enc.copy_buffer_to_buffer(&self.buffers["force"], 0, &self.buffers["cg"], 6 * bytes, bytes);
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
             self.dispatch(&mut pass, "prepare_kv");
@@ -374,10 +572,6 @@ impl GpuSolid {
                 break;
             }
         }
-        // leave `extra_force` zero for the explicit stages and the next step
-        let mut enc = self.device.create_command_encoder(&Default::default());
-        enc.clear_buffer(&self.buffers["extra_force"], 0, None);
-        self.queue.submit([enc.finish()]);
         self.last_cg = (it, rel);
     }
 
@@ -405,13 +599,16 @@ impl GpuSolid {
         while done < n {
             let batch = (n - done).min(32);
             let mut enc = self.device.create_command_encoder(&Default::default());
-            {
-                let mut pass = enc.begin_compute_pass(&Default::default());
-                for _ in 0..batch {
-                    for e in ["rotation_matrices", "strain_stress_full", "bond_forces_full", "integrate_explicit"] {
+            for _ in 0..batch {
+                {
+                    let mut pass = enc.begin_compute_pass(&Default::default());
+                    for e in ["rotation_matrices", "strain_stress_full", "bond_forces_full"] {
                         self.dispatch(&mut pass, e);
                     }
                 }
+                self.record_contact(&mut enc);
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                self.dispatch(&mut pass, "integrate_explicit");
             }
             self.queue.submit([enc.finish()]);
             done += batch;
@@ -452,6 +649,7 @@ impl GpuSolid {
             SolidArray::Torque => "torque",
             SolidArray::StressTorque => "torque_g",
             SolidArray::DeltaV => "cg",
+            SolidArray::ContactForce => "extra_force",
             _ => panic!("{which:?} is not a vector array"),
         };
         self.read_f32(name).chunks(4).take(self.n).map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)).collect()

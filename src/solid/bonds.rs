@@ -99,7 +99,8 @@ pub fn build(p: &Particles, re: f64, periods: Periods, pair_modulus: &[f64], vis
     for i in 0..n {
         list.clear();
         grid.for_each_within(p.reference[i], re, &p.reference, |j, r| {
-            if j != i && r.length_squared() > 0.0 {
+            // bonds join particles of the same body only (bodies interact through contact)
+            if j != i && r.length_squared() > 0.0 && p.body[j] == p.body[i] {
                 list.push((j, r));
             }
         });
