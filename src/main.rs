@@ -88,8 +88,9 @@ fn main() -> anyhow::Result<()> {
             if phonation::solid::scene::is_solid_scene(&text) {
                 let sc = phonation::solid::scene::SolidScene::parse(&text)?;
                 let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.file.name));
-                eprintln!("solid scene {}: about {} particles, {:?} integrator (backend: CPU)", sc.file.name, sc.estimated_particles, sc.file.solid.integrator);
-                let r = phonation::solid::scene::run_solid_scene(&sc, &dir, steps)?;
+                eprintln!("solid scene {}: about {} particles, {:?} integrator", sc.file.name, sc.estimated_particles, sc.file.solid.integrator);
+                let r = phonation::solid::scene::run_solid_scene(&sc, &dir, steps, backend)?;
+                eprintln!("backend: {}", r.backend);
                 eprintln!(
                     "{} particles, {} bonds, Δt = {:.3e} (explicit limit {:.3e}), {} steps, {:.4e} s simulated in {:.1} s wall ({:.3e} particle updates/s), energy drift {:.2e}",
                     r.particles, r.bonds, r.dt, r.explicit_limit, r.steps, r.simulated_time, r.wall_s, r.particle_updates_per_s, r.energy_drift
@@ -238,7 +239,53 @@ fn main() -> anyhow::Result<()> {
                     }
                     gpu.push(l);
                 }
-                report.insert("gpu".into(), serde_json::json!({ "adapter": ctx.describe(), "copy_bandwidth_gb_s": bw / 1e9, "lattices": gpu }));
+                let cpu_solid: Vec<(String, f64)> = report
+                    .get("cpu")
+                    .and_then(|c| c.get("solid"))
+                    .and_then(|s| s.as_array())
+                    .map(|a| {
+                        a.iter()
+                            .map(|v| {
+                                (format!("{}/{}", v["integrator"].as_str().unwrap_or(""), v["particles"]), v["particle_updates_per_s"].as_f64().unwrap_or(0.0))
+                            })
+                            .collect()
+                    })
+                    .unwrap_or_default();
+                let mut gpu_solid = Vec::new();
+                println!("GPU MPS solid:");
+                for side in if quick { vec![20usize] } else { vec![46, 100] } {
+                    for (integ, steps) in [
+                        (phonation::solid::Integrator::Explicit, if quick { 10 } else { 50 }),
+                        (phonation::solid::Integrator::Implicit, if quick { 2 } else { 5 }),
+                    ] {
+                        match phonation::gpu::solid::solid_speed(&ctx, side, integ, steps, bw) {
+                            Ok(v) => {
+                                let key = format!("{:?}/{}", v.integrator, v.particles).to_lowercase();
+                                let vs = cpu_solid
+                                    .iter()
+                                    .find(|(k, _)| *k == key)
+                                    .map(|(_, c)| format!("  {:.2}× the CPU", v.particle_updates_per_s / c))
+                                    .unwrap_or_default();
+                                println!(
+                                    "{:9} {:>10} {:>10} {:>14.3e} {:>9.0} {:>7.1}% {:>9.1}{vs}",
+                                    format!("{:?}", v.integrator),
+                                    v.particles,
+                                    v.bonds,
+                                    v.particle_updates_per_s,
+                                    v.bytes_per_update,
+                                    100.0 * v.bandwidth_fraction,
+                                    v.cg_iterations
+                                );
+                                gpu_solid.push(v);
+                            }
+                            Err(e) => println!("{:?} {side}³ skipped: {e}", integ),
+                        }
+                    }
+                }
+                report.insert(
+                    "gpu".into(),
+                    serde_json::json!({ "adapter": ctx.describe(), "copy_bandwidth_gb_s": bw / 1e9, "lattices": gpu, "solid": gpu_solid }),
+                );
             }
             if let Some(p) = json {
                 std::fs::write(p, serde_json::to_string_pretty(&report)?)?;

@@ -137,3 +137,34 @@ fn gpu_stepping_in_the_render_world_matches_the_cpu() {
         }
     }
 }
+
+#[test]
+fn plugin_steps_the_solid_exactly_like_the_direct_solver() {
+    use phonation::plugin::{SolidDiagnostics, SolidSimulation};
+    use phonation::solid::scene::SolidScene;
+    let sc = SolidScene::parse(scene::builtin("oscillating_plate").unwrap()).unwrap();
+    let mut app = app();
+    app.insert_resource(SimulationControl { paused: false, steps_per_frame: 20, single_steps: 0 });
+    let e = app.world_mut().spawn(SolidSimulation { solver: sc.build().unwrap() }).id();
+    for _ in 0..10 {
+        app.update();
+    }
+    let mut direct = sc.build().unwrap();
+    for _ in 0..200 {
+        direct.step();
+    }
+    let sim = app.world().get::<SolidSimulation>(e).unwrap();
+    assert_eq!(sim.solver.steps, 200);
+    let same = sim
+        .solver
+        .particles
+        .position
+        .iter()
+        .zip(&direct.particles.position)
+        .all(|(a, b)| a.to_array().iter().zip(b.to_array()).all(|(x, y)| x.to_bits() == y.to_bits()));
+    assert!(same, "positions differ");
+    let d = app.world().get::<SolidDiagnostics>(e).unwrap();
+    println!("solid through the plugin: {} steps, energies {:?}", d.steps, d.energies);
+    assert_eq!(d.steps, 200);
+    assert!(d.energies.kinetic > 0.0 && d.energies.elastic > 0.0);
+}

@@ -686,3 +686,23 @@ impl GpuSolid {
         s.time = self.steps as f64 * self.dt;
     }
 }
+
+/// Particle updates per second of the GPU solid on the benchmark block of
+/// [`crate::solid::bench::benchmark_block`]; `bandwidth` is the device's copy bandwidth (B/s).
+pub fn solid_speed(ctx: &GpuContext, side: usize, integrator: Integrator, steps: u64, bandwidth: f64) -> Result<crate::solid::bench::SolidSpeed, GpuError> {
+    let t0 = std::time::Instant::now();
+    let mut s = crate::solid::bench::benchmark_block(side, integrator);
+    let mut g = GpuSolid::from_solver(ctx, &mut s)?;
+    let setup = t0.elapsed().as_secs_f64();
+    g.run(1);
+    g.wait();
+    let t = std::time::Instant::now();
+    let mut iters = 0;
+    for _ in 0..(if integrator == Integrator::Implicit { steps } else { 1 }) {
+        g.run(if integrator == Integrator::Implicit { 1 } else { steps });
+        iters += g.last_cg.0;
+    }
+    g.wait();
+    let wall = t.elapsed().as_secs_f64();
+    Ok(crate::solid::bench::speed_of(&s, steps, wall, iters, setup, Vec::new(), bandwidth))
+}

@@ -15,13 +15,17 @@ use crate::units::Units;
 use bevy::prelude::*;
 
 pub mod gpu;
+pub mod solid;
 pub use gpu::{GpuFluidHandle, GpuProbes, GpuStepping, PhonationGpuPlugin};
+pub use solid::{SolidDiagnostics, SolidSimulation, SolidStatus};
 
 /// System sets, in order, of one frame of the simulation.
 #[derive(SystemSet, Debug, Clone, PartialEq, Eq, Hash)]
 pub enum PhonationSystems {
     /// Advances every simulation by `steps_per_frame` steps of [`crate::stages::FDLB_STEP`].
     Step,
+    /// Advances every [`SolidSimulation`] by the same number of steps of its solid stage list.
+    SolidStep,
     /// Updates [`FluidDiagnostics`].
     Diagnostics,
 }
@@ -95,9 +99,10 @@ impl Plugin for PhonationPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<SimulationControl>()
             .init_resource::<StepsThisFrame>()
-            .configure_sets(Update, (PhonationSystems::Step, PhonationSystems::Diagnostics).chain())
+            .configure_sets(Update, (PhonationSystems::Step, PhonationSystems::SolidStep, PhonationSystems::Diagnostics).chain())
             .add_systems(Update, (plan_steps, step_simulations).chain().in_set(PhonationSystems::Step))
             .add_systems(Update, update_diagnostics.in_set(PhonationSystems::Diagnostics));
+        solid::build(app);
     }
 }
 

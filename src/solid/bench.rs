@@ -32,6 +32,41 @@ pub struct SolidSpeed {
 /// released from a small shear (so that CG has work to do).
 pub fn solid_speed(side: usize, integrator: Integrator, steps: u64, bandwidth: f64) -> SolidSpeed {
     let t0 = Instant::now();
+    let mut s = benchmark_block(side, integrator);
+    let setup = t0.elapsed().as_secs_f64();
+    s.step();
+    let t = Instant::now();
+    let mut iters = 0usize;
+    for _ in 0..steps {
+        s.step();
+        iters += s.last.cg.iterations;
+    }
+    let wall = t.elapsed().as_secs_f64();
+    speed_of(&s, steps, wall, iters, setup, s.stage_shares(), bandwidth)
+}
+
+/// The figures of `steps` steps that took `wall` seconds (and `iters` CG iterations in all).
+pub fn speed_of(s: &SolidSolver, steps: u64, wall: f64, iters: usize, setup: f64, stage_shares: Vec<(&'static str, f64)>, bandwidth: f64) -> SolidSpeed {
+    let n = s.particles.len();
+    let bonds = s.disc.bonds.len();
+    let ups = n as f64 * steps as f64 / wall;
+    let bytes = 2.0 * 104.0 * bonds as f64 / n as f64 + 700.0;
+    SolidSpeed {
+        integrator: s.options.integrator,
+        particles: n,
+        bonds,
+        particle_updates_per_s: ups,
+        bytes_per_update: bytes,
+        bandwidth_fraction: ups * bytes / bandwidth,
+        cg_iterations: iters as f64 / steps as f64,
+        time_step_over_explicit_limit: s.dt / s.explicit_limit,
+        stage_shares,
+        setup_s: setup,
+    }
+}
+
+/// The benchmark body: a `side`³ cube, clamped on one face, released from a small shear.
+pub fn benchmark_block(side: usize, integrator: Integrator) -> SolidSolver {
     let mat = Orthotropic { young: [1.0e6, 3.0e6, 2.0e6], poisson: [0.2, 0.25, 0.3], shear: [4.0e5, 5.0e5, 6.0e5], density: 1.0, viscosity: 1.0 };
     let l0 = 0.1;
     let mut p = Particles::new(3, l0);
@@ -45,29 +80,5 @@ pub fn solid_speed(side: usize, integrator: Integrator, steps: u64, bandwidth: f
     if integrator == Integrator::Implicit {
         s.dt = 10.0 * s.explicit_limit;
     }
-    let setup = t0.elapsed().as_secs_f64();
-    s.step();
-    let t = Instant::now();
-    let mut iters = 0usize;
-    for _ in 0..steps {
-        s.step();
-        iters += s.last.cg.iterations;
-    }
-    let wall = t.elapsed().as_secs_f64();
-    let n = s.particles.len();
-    let bonds = s.disc.bonds.len();
-    let ups = n as f64 * steps as f64 / wall;
-    let bytes = 2.0 * 104.0 * bonds as f64 / n as f64 + 700.0;
-    SolidSpeed {
-        integrator,
-        particles: n,
-        bonds,
-        particle_updates_per_s: ups,
-        bytes_per_update: bytes,
-        bandwidth_fraction: ups * bytes / bandwidth,
-        cg_iterations: iters as f64 / steps as f64,
-        time_step_over_explicit_limit: s.dt / s.explicit_limit,
-        stage_shares: s.stage_shares(),
-        setup_s: setup,
-    }
+    s
 }

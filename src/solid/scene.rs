@@ -354,6 +354,7 @@ impl SolidScene {
 #[derive(Clone, Debug, Serialize)]
 pub struct SolidReport {
     pub name: String,
+    pub backend: String,
     pub particles: usize,
     pub bonds: usize,
     pub integrator: Integrator,
@@ -411,9 +412,28 @@ pub fn write_vtk(s: &SolidSolver, path: &Path) -> std::io::Result<()> {
 /// Runs a solid scene, writing `solid.csv` (flushed per row), VTK snapshots and
 /// `summary.json` into `dir`. A non-finite state stops the run with a diagnosis; everything
 /// written so far is kept (plus a final snapshot).
-pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>) -> anyhow::Result<SolidReport> {
+pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend: crate::engine::Backend) -> anyhow::Result<SolidReport> {
+    use crate::engine::Backend;
     std::fs::create_dir_all(dir)?;
     let mut s = sc.build()?;
+    // GPU: the CPU solver mirrors the GPU state at every output (rows, snapshots)
+    let mut gpu: Option<crate::gpu::solid::GpuSolid> = None;
+    let mut backend_name = format!("cpu ({} threads)", rayon::current_num_threads());
+    if backend != Backend::Cpu {
+        match crate::gpu::GpuContext::new() {
+            Ok(ctx) => {
+                let real = matches!(ctx.info.device_type, wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::IntegratedGpu);
+                if backend == Backend::Gpu || real {
+                    gpu = Some(crate::gpu::solid::GpuSolid::from_solver(&ctx, &mut s)?);
+                    backend_name = format!("gpu: {}", ctx.describe());
+                } else {
+                    backend_name = format!("cpu ({} threads; adapter {} is not a hardware GPU)", rayon::current_num_threads(), ctx.describe());
+                }
+            }
+            Err(e) if backend == Backend::Gpu => return Err(e.into()),
+            Err(_) => {}
+        }
+    }
     let dim = sc.file.solid.dimension;
     let total = steps.unwrap_or((sc.file.run.duration / s.dt).ceil() as u64).max(1);
     let every = sc.file.run.output_every.unwrap_or(10).max(1);
@@ -479,8 +499,26 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>) -> anyho
     let bar = indicatif::ProgressBar::new(total);
     bar.set_style(indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} steps {eta}").unwrap());
     let mut instability = None;
-    for k in 1..=total {
-        s.step();
+    let mut k = 0;
+    while k < total {
+        // advance to the next output / snapshot step
+        let next = ((k / every + 1) * every).min((k / snap_every + 1) * snap_every).min(total);
+        match gpu.as_mut() {
+            Some(g) => {
+                g.run(next - k);
+                g.download_into(&mut s);
+            }
+            None => {
+                for _ in k..next {
+                    s.step();
+                    if s.non_finite().is_some() {
+                        break;
+                    }
+                }
+            }
+        }
+        bar.inc(next - k);
+        k = next;
         if let Some(i) = s.non_finite() {
             let x = s.particles.reference[i];
             instability = Some(format!(
@@ -501,12 +539,12 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>) -> anyho
         if k % snap_every == 0 {
             snap(&s, k / snap_every, &mut files)?;
         }
-        bar.inc(1);
     }
     bar.finish_and_clear();
     let wall = t0.elapsed().as_secs_f64();
     let report = SolidReport {
         name: sc.file.name.clone(),
+        backend: backend_name,
         particles: s.particles.len(),
         bonds: s.disc.bonds.len(),
         integrator: s.options.integrator,
