@@ -64,6 +64,21 @@ enum Command {
     },
 }
 
+/// One table row of a solid speed measurement (`extra` appended, e.g. a ratio to the CPU).
+fn solid_row(v: &phonation::solid::bench::SolidSpeed, extra: &str) {
+    println!(
+        "{:9} {:>10} {:>10} {:>14.3e} {:>9.0} {:>7.1}% {:>9.1} {:>8.1}{extra}",
+        format!("{:?}", v.integrator),
+        v.particles,
+        v.bonds,
+        v.particle_updates_per_s,
+        v.bytes_per_update,
+        100.0 * v.bandwidth_fraction,
+        v.cg_iterations,
+        v.time_step_over_explicit_limit
+    );
+}
+
 fn scene_text(arg: &str) -> anyhow::Result<String> {
     if let Some(t) = scene::builtin(arg) {
         return Ok(t.to_string());
@@ -183,17 +198,7 @@ fn main() -> anyhow::Result<()> {
                     "step", "particles", "bonds", "updates/s", "B/update", "of b/w", "CG it.", "Δt/lim"
                 );
                 for v in &r.solid {
-                    println!(
-                        "{:9} {:>10} {:>10} {:>14.3e} {:>9.0} {:>7.1}% {:>9.1} {:>8.1}",
-                        format!("{:?}", v.integrator),
-                        v.particles,
-                        v.bonds,
-                        v.particle_updates_per_s,
-                        v.bytes_per_update,
-                        100.0 * v.bandwidth_fraction,
-                        v.cg_iterations,
-                        v.time_step_over_explicit_limit
-                    );
+                    solid_row(v, "");
                     let st: Vec<String> = v.stage_shares.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
                     println!("          stages: {}", st.join(", "));
                 }
@@ -266,16 +271,7 @@ fn main() -> anyhow::Result<()> {
                                     .find(|(k, _)| *k == key)
                                     .map(|(_, c)| format!("  {:.2}× the CPU", v.particle_updates_per_s / c))
                                     .unwrap_or_default();
-                                println!(
-                                    "{:9} {:>10} {:>10} {:>14.3e} {:>9.0} {:>7.1}% {:>9.1}{vs}",
-                                    format!("{:?}", v.integrator),
-                                    v.particles,
-                                    v.bonds,
-                                    v.particle_updates_per_s,
-                                    v.bytes_per_update,
-                                    100.0 * v.bandwidth_fraction,
-                                    v.cg_iterations
-                                );
+                                solid_row(&v, &vs);
                                 gpu_solid.push(v);
                             }
                             Err(e) => println!("{:?} {side}³ skipped: {e}", integ),

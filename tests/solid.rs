@@ -221,14 +221,16 @@ fn oscillating_plate_keeps_its_period_and_energy_over_ten_periods() {
 
 #[test]
 fn cantilever_3d_first_frequency_matches_beam_theory() {
-    let c = Cantilever::slender(3, 6);
+    // h/l₀ = 8 (at 6 the error is −4.9 %: discretisation −2.5 %, the sampled section's second
+    // moment (1 − (l₀/h)²) −1.4 %, shear and rotary inertia −0.7 %)
+    let c = Cantilever::slender(3, 8);
     let mut s = c.solver(SolidOptions::default());
     release_in_first_mode(&mut s, &c, 1e-3 * (c.young / c.density).sqrt());
     let v = free_vibration(&mut s, &c, 1, 1.0, 1000);
     let f = 1.0 / v.period;
     let err = (f - c.first_frequency()) / c.first_frequency();
     println!(
-        "3D cantilever h/l0 = 6: f1 = {f:.4} Hz, beam theory {:.4} Hz, error {:+.2}% ({} particles, {} steps, {:.1} s)",
+        "3D cantilever h/l0 = 8: f1 = {f:.4} Hz, beam theory {:.4} Hz, error {:+.2}% ({} particles, {} steps, {:.1} s)",
         c.first_frequency(),
         100.0 * err,
         s.particles.len(),

@@ -68,3 +68,64 @@ impl GpuContext {
         format!("{} ({:?}, {:?})", self.info.name, self.info.backend, self.info.device_type)
     }
 }
+
+/// Copies a storage buffer into a mappable one and reads it back (blocks until done).
+pub fn read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buffer) -> Vec<u8> {
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: b.size(),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut enc = device.create_command_encoder(&Default::default());
+    enc.copy_buffer_to_buffer(b, 0, &staging, 0, b.size());
+    queue.submit([enc.finish()]);
+    let slice = staging.slice(..);
+    slice.map_async(wgpu::MapMode::Read, |r| r.expect("map readback buffer"));
+    let _ = device.poll(wgpu::PollType::wait_indefinitely());
+    let out = slice.get_mapped_range().to_vec();
+    staging.unmap();
+    out
+}
+
+/// Compute pipelines for the named entry points of one module, sharing a pipeline layout.
+pub fn compute_pipelines(
+    device: &wgpu::Device,
+    module: &wgpu::ShaderModule,
+    layout: &wgpu::PipelineLayout,
+    entries: &[&'static str],
+) -> std::collections::HashMap<&'static str, wgpu::ComputePipeline> {
+    entries
+        .iter()
+        .map(|e| {
+            let desc = wgpu::ComputePipelineDescriptor {
+                label: Some(e),
+                layout: Some(layout),
+                module,
+                entry_point: Some(e),
+                compilation_options: Default::default(),
+                cache: None,
+            };
+            (*e, device.create_compute_pipeline(&desc))
+        })
+        .collect()
+}
+
+/// A bind-group layout of buffers for compute: per binding (uniform?, read-only storage?).
+pub fn buffer_layout(device: &wgpu::Device, label: &str, kinds: &[(bool, bool)]) -> wgpu::BindGroupLayout {
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = kinds
+        .iter()
+        .enumerate()
+        .map(|(k, (uniform, ro))| wgpu::BindGroupLayoutEntry {
+            binding: k as u32,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: if *uniform { wgpu::BufferBindingType::Uniform } else { wgpu::BufferBindingType::Storage { read_only: *ro } },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        })
+        .collect();
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries: &entries })
+}

@@ -537,21 +537,7 @@ impl GpuFluid {
     }
 
     fn read_buffer(&self, b: &wgpu::Buffer) -> Vec<u8> {
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: b.size(),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut enc = self.device.create_command_encoder(&Default::default());
-        enc.copy_buffer_to_buffer(b, 0, &staging, 0, b.size());
-        self.queue.submit([enc.finish()]);
-        let slice = staging.slice(..);
-        slice.map_async(wgpu::MapMode::Read, |r| r.expect("map readback buffer"));
-        self.wait();
-        let out = slice.get_mapped_range().to_vec();
-        staging.unmap();
-        out
+        super::context::read_buffer(&self.device, &self.queue, b)
     }
 
     /// Reads an array back: structure of arrays, value v of node at `v·N + node` with N the

@@ -235,21 +235,8 @@ impl GpuSolid {
         bufs.insert("scalars", storage("scalars", bytemuck::cast_slice(&[0f32; 8])));
 
         let layout_of = |g: &[(&str, bool)]| {
-            let entries: Vec<wgpu::BindGroupLayoutEntry> = g
-                .iter()
-                .enumerate()
-                .map(|(k, (name, ro))| wgpu::BindGroupLayoutEntry {
-                    binding: k as u32,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: if *name == "params" { wgpu::BufferBindingType::Uniform } else { wgpu::BufferBindingType::Storage { read_only: *ro } },
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                })
-                .collect();
-            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("solid"), entries: &entries })
+            let kinds: Vec<(bool, bool)> = g.iter().map(|(name, ro)| (*name == "params", *ro)).collect();
+            super::context::buffer_layout(&device, "solid", &kinds)
         };
         let l0 = layout_of(&G0);
         let l1 = layout_of(&G1);
@@ -265,22 +252,7 @@ impl GpuSolid {
             immediate_size: 0,
         });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("solid.wgsl"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
-        let pipelines = ENTRIES
-            .iter()
-            .map(|e| {
-                (
-                    *e,
-                    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                        label: Some(e),
-                        layout: Some(&pl),
-                        module: &module,
-                        entry_point: Some(e),
-                        compilation_options: Default::default(),
-                        cache: None,
-                    }),
-                )
-            })
-            .collect();
+        let pipelines = super::context::compute_pipelines(&device, &module, &pl, &ENTRIES);
         let mut g = Self {
             device,
             queue: ctx.queue.clone(),
@@ -376,21 +348,7 @@ impl GpuSolid {
             (false, true),
             (false, false),
         ];
-        let entries: Vec<wgpu::BindGroupLayoutEntry> = kinds
-            .iter()
-            .enumerate()
-            .map(|(k, (uni, ro))| wgpu::BindGroupLayoutEntry {
-                binding: k as u32,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: if *uni { wgpu::BufferBindingType::Uniform } else { wgpu::BufferBindingType::Storage { read_only: *ro } },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            })
-            .collect();
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("contact"), entries: &entries });
+        let layout = super::context::buffer_layout(device, "contact", &kinds);
         let b = &self.buffers;
         let group = |inp: &wgpu::Buffer, out: &wgpu::Buffer| {
             let res = [
@@ -418,22 +376,7 @@ impl GpuSolid {
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("contact"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
         let module = device
             .create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("solid_contact.wgsl"), source: wgpu::ShaderSource::Wgsl(CONTACT_SHADER.into()) });
-        let pipelines = ["grid_count", "grid_scan", "grid_scatter", "contact_forces"]
-            .iter()
-            .map(|e| {
-                (
-                    *e,
-                    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                        label: Some(e),
-                        layout: Some(&pl),
-                        module: &module,
-                        entry_point: Some(e),
-                        compilation_options: Default::default(),
-                        cache: None,
-                    }),
-                )
-            })
-            .collect();
+        let pipelines = super::context::compute_pipelines(device, &module, &pl, &["grid_count", "grid_scan", "grid_scatter", "contact_forces"]);
         GpuContact { pipelines, groups, cur: 0, cell_count }
     }
 
@@ -621,22 +564,7 @@ impl GpuSolid {
     }
 
     fn read_f32(&self, name: &str) -> Vec<f32> {
-        let b = &self.buffers[name];
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: b.size(),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut enc = self.device.create_command_encoder(&Default::default());
-        enc.copy_buffer_to_buffer(b, 0, &staging, 0, b.size());
-        self.queue.submit([enc.finish()]);
-        let slice = staging.slice(..);
-        slice.map_async(wgpu::MapMode::Read, |r| r.expect("map readback buffer"));
-        self.wait();
-        let out = bytemuck::cast_slice(&slice.get_mapped_range()).to_vec();
-        staging.unmap();
-        out
+        bytemuck::cast_slice(&super::context::read_buffer(&self.device, &self.queue, &self.buffers[name])).to_vec()
     }
 
     /// A per-particle vector array as f64.
