@@ -8,6 +8,7 @@
 //! | module | what |
 //! |---|---|
 //! | [`fluid`] | FDLB: velocity sets, equilibrium, boundaries, CPU reference solver |
+//! | [`lattice_gas`] | FCHC integer lattice gas (second fluid backend): velocities, collision table (in progress) |
 //! | [`solid`] | MPS orthotropic viscoelastic solid: materials, particles, forces, contact, explicit and implicit steps |
 //! | [`stages`] | the ordered stage list of one step (CPU, GPU, Bevy, timings) |
 //! | [`units`] | physical (cgs / SI) ↔ lattice units, Mach scaling |
@@ -21,6 +22,7 @@ pub mod bench;
 pub mod engine;
 pub mod fluid;
 pub mod gpu;
+pub mod lattice_gas;
 pub mod output;
 #[cfg(feature = "bevy")]
 pub mod plugin;
