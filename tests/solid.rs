@@ -364,6 +364,11 @@ fn solid_scenes_validate_and_bad_input_names_the_field() {
     let e = SolidScene::parse(&base.replacen("gravity = ", "time_step = 1.0e-3\ngravity = ", 1)).unwrap().build().unwrap_err();
     println!("{e}");
     assert_eq!(e.field, "solid.time_step");
+    // a periodic box shorter than two influence radii is refused
+    let m = Orthotropic::isotropic(1.0e6, 0.3, 1.0, 0.0);
+    let e = SolidSolver::new(block(3, [4, 4, 4], 0.1, &m), vec![m], SolidOptions { periods: [Some(0.4), None, None], ..Default::default() }).unwrap_err();
+    println!("{e}");
+    assert_eq!(e.field, "solid.periods");
     // a short run writes the CSV (one row per output, probes), snapshots and the summary
     let dir = std::env::temp_dir().join("phonation_solid_scene_test");
     let _ = std::fs::remove_dir_all(&dir);

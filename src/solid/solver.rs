@@ -128,6 +128,17 @@ impl SolidSolver {
         if !(options.pair_fraction > 0.0 && options.pair_fraction < 1.0) {
             return err("solid.pair_fraction", format!("must be in (0, 1), got {}", options.pair_fraction));
         }
+        let re = options.influence_ratio * particles.spacing;
+        for (a, period) in options.periods.iter().enumerate() {
+            if let Some(l) = period {
+                if !(l.is_finite() && *l > 2.0 * re) {
+                    return err(
+                        "solid.periods",
+                        format!("the period {l} along axis {a} must exceed 2 r_e = {:.4} (each bond needs one nearest image)", 2.0 * re),
+                    );
+                }
+            }
+        }
         let mut stiff: Vec<Voigt6> = Vec::new();
         for (k, m) in materials.iter().enumerate() {
             stiff.push(m.stiffness(&format!("solid.materials[{k}]"))?);
@@ -136,7 +147,6 @@ impl SolidSolver {
         let mu_p: Vec<f64> = stiff.iter().map(|c| options.pair_fraction * min_mandel_eigenvalue(c)).collect();
         let pm: Vec<f64> = particles.material.iter().map(|&m| mu_p[m as usize]).collect();
         let eta: Vec<f64> = particles.material.iter().map(|&m| materials[m as usize].viscosity).collect();
-        let re = options.influence_ratio * particles.spacing;
         let bonds: Bonds = bonds::build(&particles, re, options.periods, &pm, &eta);
         let grad_stiffness: Vec<Voigt6> = (0..n)
             .into_par_iter()
