@@ -17,6 +17,28 @@ pub enum Backend {
     Auto,
 }
 
+/// The GPU context a run should use for `backend` (None: run on the CPU), and a line saying
+/// what was chosen. `Auto` takes the GPU only when the adapter is a hardware GPU; `Gpu` fails
+/// when there is no adapter.
+pub fn pick_gpu(backend: Backend) -> Result<(Option<GpuContext>, String), GpuError> {
+    let threads = rayon::current_num_threads();
+    if backend != Backend::Cpu {
+        match GpuContext::new() {
+            Ok(ctx) => {
+                let real = matches!(ctx.info.device_type, wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::IntegratedGpu);
+                if backend == Backend::Gpu || real {
+                    let name = format!("gpu: {}", ctx.describe());
+                    return Ok((Some(ctx), name));
+                }
+                return Ok((None, format!("cpu ({threads} threads; adapter {} is not a hardware GPU)", ctx.describe())));
+            }
+            Err(e) if backend == Backend::Gpu => return Err(e),
+            Err(_) => {}
+        }
+    }
+    Ok((None, format!("cpu ({threads} threads)")))
+}
+
 /// The solver a run advances: the CPU reference, or the GPU with a CPU mirror that receives
 /// the GPU state whenever outputs are written.
 pub enum Engine {
@@ -27,22 +49,10 @@ pub enum Engine {
 impl Engine {
     /// Picks the backend and uploads `s` to the GPU when it is chosen; also says what was chosen.
     pub fn new(backend: Backend, s: &FluidSolver) -> Result<(Engine, String), GpuError> {
-        let want_gpu = backend != Backend::Cpu;
-        if want_gpu {
-            match GpuContext::new() {
-                Ok(ctx) => {
-                    let real = matches!(ctx.info.device_type, wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::IntegratedGpu);
-                    if backend == Backend::Gpu || real {
-                        let name = ctx.describe();
-                        return Ok((Engine::Gpu(Box::new(GpuFluid::from_solver(&ctx, s)?)), format!("gpu: {name}")));
-                    }
-                    return Ok((Engine::Cpu, format!("cpu ({} threads; adapter {} is not a hardware GPU)", rayon::current_num_threads(), ctx.describe())));
-                }
-                Err(e) if backend == Backend::Gpu => return Err(e),
-                Err(_) => {}
-            }
-        }
-        Ok((Engine::Cpu, format!("cpu ({} threads)", rayon::current_num_threads())))
+        Ok(match pick_gpu(backend)? {
+            (Some(ctx), name) => (Engine::Gpu(Box::new(GpuFluid::from_solver(&ctx, s)?)), name),
+            (None, name) => (Engine::Cpu, name),
+        })
     }
 
     /// Advances `n` steps; on the GPU, copies the state back into `s` afterwards.

@@ -89,12 +89,13 @@ fn finite_positive(field: &str, v: f64) -> Result<f64, SceneError> {
     if v.is_finite() && v > 0.0 { Ok(v) } else { err(field, format!("must be positive and finite, got {v}")) }
 }
 
-fn vector(field: &str, v: &[f64], dim: usize, allow_empty: bool) -> Result<[f64; 3], SceneError> {
+/// A `dim`-component vector of a scene file (z = 0 in 2D); `allow_empty`: [] means zero.
+pub(crate) fn vector(field: &str, v: &[f64], dim: usize, allow_empty: bool) -> Result<[f64; 3], SceneError> {
     if v.is_empty() && allow_empty {
         return Ok([0.0; 3]);
     }
     if v.len() != dim {
-        return err(field, format!("needs {dim} components for a {dim}D lattice, got {}", v.len()));
+        return err(field, format!("needs {dim} components in a {dim}D scene, got {}", v.len()));
     }
     if let Some(x) = v.iter().find(|x| !x.is_finite()) {
         return err(field, format!("component {x} is not finite"));

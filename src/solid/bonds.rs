@@ -35,8 +35,6 @@ pub struct Bonds {
     /// force × time / length).
     pub stiffness: Vec<f64>,
     pub damping: Vec<f64>,
-    /// Renormalisation L_i (first-order correction, used for the rotations' weights).
-    pub correction: Vec<DMat3>,
     /// Gradient weight g_ij of the second-order (least-squares, LSMPS) gradient model:
     /// ∇φ_i = Σ_j (φ_j − φ_i) g_ij exactly for polynomials of degree ≤ 2.
     pub grad: Vec<DVec3>,
@@ -130,16 +128,6 @@ pub fn build(p: &Particles, re: f64, periods: Periods, pair_modulus: &[f64], vis
         })
         .collect();
     b.grad = (0..n).flat_map(|i| second_order_weights(&b, i, p.dim)).collect();
-    b.correction = (0..n)
-        .map(|i| {
-            let mut m = DMat3::ZERO;
-            for k in b.of(i) {
-                let r = b.r0[k];
-                m += b.w_hat[k] * outer(r, r);
-            }
-            invert_moment(m, p.dim)
-        })
-        .collect();
     b
 }
 

@@ -19,10 +19,13 @@ pub fn advance_quaternion(q: DQuat, omega: DVec3, dt: f64) -> DQuat {
 /// Implicit rotation, seed (2.74)–(2.76): the rotation R_i that makes the weighted moment
 /// Σ_j ŵ_ij r_ij × R_i r⁰_ij vanish (the rotation that best aligns the reference bonds with the
 /// current ones), found by Newton–Raphson on a rotation-vector increment from the warm start
-/// `q` (the previous step's rotation). Returns the rotation and the iterations used.
-pub fn solve_rotation(b: &Bonds, i: usize, x: &[DVec3], q: DQuat, dim: usize, tol: f64) -> (DQuat, u32) {
+/// `q` (the previous step's rotation). Returns the rotation, the iterations used and J⁻¹ of
+/// (2.74) at the solution, J = Σ_j ŵ [(r·a) I − a rᵀ] with a = R r⁰ (only zz in 2D): the
+/// linearised rotation under position increments p is θ = J⁻¹ Σ_j ŵ a × (p_j − p_i).
+pub fn solve_rotation(b: &Bonds, i: usize, x: &[DVec3], q: DQuat, dim: usize, tol: f64) -> (DQuat, u32, DMat3) {
     let mut q = q;
     let scale: f64 = b.of(i).map(|k| b.w_hat[k] * b.r0[k].length_squared()).sum::<f64>().max(1e-300);
+    let mut last_jac = DMat3::ZERO;
     for it in 1..=60 {
         let r_m = DMat3::from_quat(q);
         let mut g = DVec3::ZERO;
@@ -39,7 +42,7 @@ pub fn solve_rotation(b: &Bonds, i: usize, x: &[DVec3], q: DQuat, dim: usize, to
             jac += w * (DMat3::from_diagonal(DVec3::splat(r.dot(a))) - super::bonds::outer(a, r));
         }
         if g.length() <= tol * scale {
-            return (q, it);
+            return (q, it, invert_jacobian(jac, dim));
         }
         // Far from the solution (the Jacobian is not that of a maximum) take the robust
         // fixed-point step of Müller et al. (2016), θ = −g / |Σ ŵ r·R r⁰|; near it, Newton.
@@ -61,11 +64,26 @@ pub fn solve_rotation(b: &Bonds, i: usize, x: &[DVec3], q: DQuat, dim: usize, to
         });
         let ang = delta.length();
         if ang < 1e-15 {
-            return (q, it);
+            return (q, it, invert_jacobian(jac, dim));
         }
         q = (DQuat::from_axis_angle(delta / ang, ang.min(0.5)) * q).normalize();
+        last_jac = jac;
     }
-    (q, 60)
+    (q, 60, invert_jacobian(last_jac, dim))
+}
+
+fn invert_jacobian(jac: DMat3, dim: usize) -> DMat3 {
+    if dim == 2 {
+        let mut m = DMat3::ZERO;
+        if jac.z_axis.z.abs() > 0.0 {
+            m.z_axis.z = 1.0 / jac.z_axis.z;
+        }
+        m
+    } else if jac.determinant().abs() > 0.0 {
+        jac.inverse()
+    } else {
+        DMat3::ZERO
+    }
 }
 
 /// Angular velocity of the implicit method, seed (2.73): Σ_j ŵ r_ij × (v_j − v_i − ω × r_ij) = 0,
@@ -93,48 +111,22 @@ pub fn solve_angular_velocity(b: &Bonds, i: usize, x: &[DVec3], v: &[DVec3], dim
     a.inverse() * rhs
 }
 
-/// All rotations of the implicit method at once; returns the largest Newton iteration count.
-pub fn solve_all_rotations(b: &Bonds, x: &[DVec3], q: &mut [DQuat], fixed: &[bool], dim: usize, tol: f64) -> u32 {
+/// All rotations of the implicit method at once, with J⁻¹ of each (zero for clamped
+/// particles); returns the largest Newton iteration count.
+pub fn solve_all_rotations(b: &Bonds, x: &[DVec3], q: &mut [DQuat], jinv: &mut [DMat3], fixed: &[bool], dim: usize, tol: f64) -> u32 {
     q.par_iter_mut()
+        .zip(jinv.par_iter_mut())
         .enumerate()
-        .map(|(i, qi)| {
+        .map(|(i, (qi, ji))| {
             if fixed[i] {
+                *ji = DMat3::ZERO;
                 return 0;
             }
-            let (n, it) = solve_rotation(b, i, x, *qi, dim, tol);
+            let (n, it, inv) = solve_rotation(b, i, x, *qi, dim, tol);
             *qi = n;
+            *ji = inv;
             it
         })
         .max()
         .unwrap_or(0)
-}
-
-/// Inverse Jacobians J_i⁻¹ of (2.74) at the current state, J_i = Σ_j ŵ [(r·a) I − a rᵀ] with
-/// a = R_i r⁰_ij: the linearised rotation of particle i under position increments p is
-/// θ_i = J_i⁻¹ Σ_j ŵ a × (p_j − p_i). In 2D only the zz entry is used.
-pub fn rotation_jacobians(b: &Bonds, x: &[DVec3], rot: &[DMat3], fixed: &[bool], dim: usize, out: &mut [DMat3]) {
-    out.par_iter_mut().enumerate().for_each(|(i, o)| {
-        if fixed[i] {
-            *o = DMat3::ZERO;
-            return;
-        }
-        let mut jac = DMat3::ZERO;
-        for k in b.of(i) {
-            let j = b.neighbour[k] as usize;
-            let r = x[j] + b.shift[k] - x[i];
-            let a = rot[i] * b.r0[k];
-            jac += b.w_hat[k] * (DMat3::from_diagonal(DVec3::splat(r.dot(a))) - super::bonds::outer(a, r));
-        }
-        *o = if dim == 2 {
-            let mut m = DMat3::ZERO;
-            if jac.z_axis.z.abs() > 0.0 {
-                m.z_axis.z = 1.0 / jac.z_axis.z;
-            }
-            m
-        } else if jac.determinant().abs() > 0.0 {
-            jac.inverse()
-        } else {
-            DMat3::ZERO
-        };
-    });
 }

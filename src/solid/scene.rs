@@ -166,16 +166,7 @@ fn err<T>(field: impl Into<String>, reason: impl Into<String>) -> Result<T, Scen
 }
 
 fn vec3(field: &str, v: &[f64], dim: usize, allow_empty: bool) -> Result<DVec3, SceneError> {
-    if v.is_empty() && allow_empty {
-        return Ok(DVec3::ZERO);
-    }
-    if v.len() != dim {
-        return err(field, format!("needs {dim} components (dimension = {dim}), got {}", v.len()));
-    }
-    if let Some(x) = v.iter().find(|x| !x.is_finite()) {
-        return err(field, format!("component {x} is not finite"));
-    }
-    Ok(DVec3::new(v[0], v[1], if dim == 3 { v[2] } else { 0.0 }))
+    crate::scene::build::vector(field, v, dim, allow_empty).map(DVec3::from_array)
 }
 
 fn inside(x: DVec3, min: DVec3, max: DVec3, dim: usize) -> bool {
@@ -305,11 +296,8 @@ impl SolidScene {
                 let mat = s.layers.iter().rev().find(|r| inside(x, v3(&r.min), v3(&r.max), dim)).map_or(b.material, |r| r.material);
                 let fixed = s.clamps.iter().any(|r| inside(x, v3(&r.min), v3(&r.max), dim));
                 p.push(x, self.materials[mat].density, mat as u16, k as u16, fixed);
-                let i = p.len() - 1;
-                p.mass[i] = self.materials[mat].density * p.volume[i];
-                p.inertia[i] = p.mass[i] * s.spacing * s.spacing / 6.0;
                 if !fixed {
-                    p.velocity[i] = v3(&b.velocity);
+                    *p.velocity.last_mut().unwrap() = v3(&b.velocity);
                 }
             }
             if let Some(v) = b.first_mode_tip_speed {
@@ -413,27 +401,14 @@ pub fn write_vtk(s: &SolidSolver, path: &Path) -> std::io::Result<()> {
 /// `summary.json` into `dir`. A non-finite state stops the run with a diagnosis; everything
 /// written so far is kept (plus a final snapshot).
 pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend: crate::engine::Backend) -> anyhow::Result<SolidReport> {
-    use crate::engine::Backend;
     std::fs::create_dir_all(dir)?;
     let mut s = sc.build()?;
     // GPU: the CPU solver mirrors the GPU state at every output (rows, snapshots)
-    let mut gpu: Option<crate::gpu::solid::GpuSolid> = None;
-    let mut backend_name = format!("cpu ({} threads)", rayon::current_num_threads());
-    if backend != Backend::Cpu {
-        match crate::gpu::GpuContext::new() {
-            Ok(ctx) => {
-                let real = matches!(ctx.info.device_type, wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::IntegratedGpu);
-                if backend == Backend::Gpu || real {
-                    gpu = Some(crate::gpu::solid::GpuSolid::from_solver(&ctx, &mut s)?);
-                    backend_name = format!("gpu: {}", ctx.describe());
-                } else {
-                    backend_name = format!("cpu ({} threads; adapter {} is not a hardware GPU)", rayon::current_num_threads(), ctx.describe());
-                }
-            }
-            Err(e) if backend == Backend::Gpu => return Err(e.into()),
-            Err(_) => {}
-        }
-    }
+    let (ctx, backend_name) = crate::engine::pick_gpu(backend)?;
+    let mut gpu = match ctx {
+        Some(ctx) => Some(crate::gpu::solid::GpuSolid::from_solver(&ctx, &mut s)?),
+        None => None,
+    };
     let dim = sc.file.solid.dimension;
     let total = steps.unwrap_or((sc.file.run.duration / s.dt).ceil() as u64).max(1);
     let every = sc.file.run.output_every.unwrap_or(10).max(1);
@@ -455,7 +430,7 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend:
         header += &format!(",{n}_ux,{n}_uy,{n}_uz");
     }
     writeln!(csv, "{header}")?;
-    let row = |s: &mut SolidSolver, csv: &mut std::io::BufWriter<std::fs::File>| -> anyhow::Result<f64> {
+    let row = |s: &mut SolidSolver, csv: &mut std::io::BufWriter<std::fs::File>| -> anyhow::Result<super::Energies> {
         let e = s.energies();
         let (pm, am) = (s.particles.linear_momentum(), s.particles.angular_momentum());
         let mut line = format!(
@@ -482,12 +457,12 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend:
         }
         writeln!(csv, "{line}")?;
         csv.flush()?;
-        Ok(e.total())
+        Ok(e)
     };
-    let e0 = row(&mut s, &mut csv)?;
+    let first = row(&mut s, &mut csv)?;
+    let e0 = first.total();
     let mut drift: f64 = 0.0;
-    let mut scale = s.energies();
-    let mut scale_e = scale.kinetic + scale.elastic;
+    let mut scale_e = first.kinetic + first.elastic;
     let snap = |s: &SolidSolver, k: u64, files: &mut Vec<PathBuf>| -> std::io::Result<()> {
         let f = dir.join(format!("particles_{k:04}.vtk"));
         write_vtk(s, &f)?;
@@ -530,10 +505,9 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend:
         }
         if k % every == 0 || k == total {
             let e = row(&mut s, &mut csv)?;
-            scale = s.energies();
-            scale_e = scale_e.max(scale.kinetic + scale.elastic);
+            scale_e = scale_e.max(e.kinetic + e.elastic);
             if scale_e > 0.0 {
-                drift = drift.max((e - e0).abs() / scale_e);
+                drift = drift.max((e.total() - e0).abs() / scale_e);
             }
         }
         if k % snap_every == 0 {

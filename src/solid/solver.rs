@@ -8,7 +8,7 @@ use super::grid::Periods;
 use super::implicit::{BlockJacobi, CgReport, conjugate_gradient};
 use super::material::{Orthotropic, Voigt6, min_mandel_eigenvalue};
 use super::particles::Particles;
-use super::rotation::{advance_quaternion, rotation_jacobians, solve_all_rotations, solve_angular_velocity};
+use super::rotation::{advance_quaternion, solve_all_rotations, solve_angular_velocity};
 use super::timestep::stable_time_step;
 use crate::scene::SceneError;
 use crate::stages::{SOLID_EXPLICIT_STEP, SOLID_IMPLICIT_STEP, SolidStage, SolidStageKind};
@@ -270,14 +270,12 @@ impl SolidSolver {
             SolidStageKind::Rotations => {
                 if implicit {
                     let (b, dim) = (&self.disc.bonds, p.dim);
-                    self.last.newton_iterations = solve_all_rotations(b, &p.position, &mut p.rotation, &p.fixed, dim, self.options.rotation_tolerance);
+                    self.last.newton_iterations =
+                        solve_all_rotations(b, &p.position, &mut p.rotation, &mut self.jinv, &p.fixed, dim, self.options.rotation_tolerance);
                     let (x, v) = (&p.position, &p.velocity);
                     p.spin.par_iter_mut().enumerate().for_each(|(i, w)| *w = solve_angular_velocity(b, i, x, v, dim));
                 }
                 self.rot.par_iter_mut().zip(&p.rotation).for_each(|(r, q)| *r = DMat3::from_quat(*q));
-                if implicit {
-                    rotation_jacobians(&self.disc.bonds, &p.position, &self.rot, &p.fixed, p.dim, &mut self.jinv);
-                }
             }
             SolidStageKind::StrainStress => strain_stress(&self.disc, &p.position, &self.rot, Mode::Full, &mut self.stress),
             SolidStageKind::BondForces => {
