@@ -103,3 +103,32 @@ pub const SOLID_IMPLICIT_STEP: [SolidStage; 6] = [
     SolidStage { kind: SolidStageKind::ConjugateGradient, name: "conjugate_gradient" },
     SolidStage { kind: SolidStageKind::Integrate, name: "integrate" },
 ];
+
+/// Kind of work a stage of the integer lattice gas does (seed 002 §3.3–3.5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum LatticeGasStageKind {
+    /// Every fluid site's 24 bits replaced by a member of their (mass, 4-momentum) class; every
+    /// obstacle site's particles reversed (bounce-back).
+    Collide,
+    /// The interference operation on the departing particles, with probability p per (cell, velocity).
+    Interfere,
+    /// Every particle moved by its velocity (bit shifts; periodic wrap).
+    Propagate,
+    /// Channel scenes: zero-gradient outlet (copy) and +X injection at the inlet.
+    Boundaries,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct LatticeGasStage {
+    pub kind: LatticeGasStageKind,
+    pub name: &'static str,
+}
+
+/// One lattice-gas step, in order (the CPU backend runs it, the GPU backend records one kernel
+/// per stage).
+pub const LATTICE_GAS_STEP: [LatticeGasStage; 4] = [
+    LatticeGasStage { kind: LatticeGasStageKind::Collide, name: "collide" },
+    LatticeGasStage { kind: LatticeGasStageKind::Interfere, name: "interfere" },
+    LatticeGasStage { kind: LatticeGasStageKind::Propagate, name: "propagate" },
+    LatticeGasStage { kind: LatticeGasStageKind::Boundaries, name: "boundaries" },
+];

@@ -3,62 +3,89 @@
 //! class chosen by a counter-based random number of (seed, step, site) — reproducible, and the
 //! same on the CPU and the GPU. Mass and momentum are conserved exactly by construction.
 //!
-//! The table is built once per process by a counting sort over the class keys (≈ 0.2 s) and
-//! shared: `class_of` (2²⁴ × u32) and the members in class order (2²⁴ × u32), 128 MiB in all.
+//! A state's class is a function of its mass and momentum, so the table needs no entry per
+//! state: the class key (mass, p_X, p_Y, p_Z, p_R) is computed from popcounts of the state
+//! (each momentum component lies in −6..=6), a dense key table (25 · 13⁴ entries) gives the class,
+//! and the members of every class lie contiguously in `members` (2²⁴ × u32 = 64 MiB), classes in
+//! order of increasing mass — so the states of a gas at moderate density touch a few MiB of it.
+//! Built once per process (≈ 0.3 s) and shared; the GPU uploads the same three arrays.
 
-use super::velocities::{Q, moments};
+use super::velocities::{Q, VELOCITIES, moments};
 use std::sync::OnceLock;
 
 /// Number of states of a site.
 pub const STATES: usize = 1 << Q;
 
+/// Values of one momentum component (−6..=6).
+const SPAN: usize = 13;
+/// Number of class keys: mass 0..=24 times four momentum components.
+pub const KEYS: usize = 25 * SPAN * SPAN * SPAN * SPAN;
+
+/// Bits of the velocities with c_a = +1 (`[0][a]`) and c_a = −1 (`[1][a]`).
+pub const AXIS_MASKS: [[u32; 4]; 2] = axis_masks();
+
+const fn axis_masks() -> [[u32; 4]; 2] {
+    let mut m = [[0u32; 4]; 2];
+    let mut k = 0;
+    while k < Q {
+        let mut a = 0;
+        while a < 4 {
+            if VELOCITIES[k][a] > 0 {
+                m[0][a] |= 1 << k;
+            } else if VELOCITIES[k][a] < 0 {
+                m[1][a] |= 1 << k;
+            }
+            a += 1;
+        }
+        k += 1;
+    }
+    m
+}
+
+/// The class key of a state: mass and the four momentum components, from nine popcounts.
+#[inline]
+pub fn class_key(state: u32) -> usize {
+    let mut key = state.count_ones() as usize;
+    for a in 0..4 {
+        let p = (state & AXIS_MASKS[0][a]).count_ones() as i32 - (state & AXIS_MASKS[1][a]).count_ones() as i32;
+        key = key * SPAN + (p + 6) as usize;
+    }
+    key
+}
+
 pub struct CollisionTable {
-    /// Class index of every state.
-    pub class_of: Vec<u32>,
+    /// Class index of every key (`u32::MAX` for keys no state has).
+    pub key_class: Vec<u32>,
     /// Class c holds `members[start[c]..start[c + 1]]` (states in increasing order).
     pub start: Vec<u32>,
     pub members: Vec<u32>,
 }
 
-/// (mass, momentum) → a dense key: mass 0..=24, each momentum component −12..=12.
-fn key(state: u32) -> usize {
-    let (m, p) = moments(state);
-    let mut k = m as usize;
-    for c in p {
-        k = k * 25 + (c + 12) as usize;
-    }
-    k
-}
-
-const KEYS: usize = 25 * 25 * 25 * 25 * 25;
-
 impl CollisionTable {
     /// Builds the table (a counting sort of the states by class key).
     pub fn build() -> Self {
-        let keys: Vec<u32> = (0..STATES as u32).map(|s| key(s) as u32).collect();
+        let keys: Vec<u32> = (0..STATES as u32).map(|s| class_key(s) as u32).collect();
         let mut count = vec![0u32; KEYS];
         for &k in &keys {
             count[k as usize] += 1;
         }
-        // dense class ids in key order
-        let mut class_id = vec![u32::MAX; KEYS];
+        // dense class ids in key order (mass first)
+        let mut key_class = vec![u32::MAX; KEYS];
         let mut start = vec![0u32];
         for (k, &c) in count.iter().enumerate() {
             if c > 0 {
-                class_id[k] = (start.len() - 1) as u32;
+                key_class[k] = (start.len() - 1) as u32;
                 start.push(start.last().unwrap() + c);
             }
         }
         let mut fill: Vec<u32> = start[..start.len() - 1].to_vec();
         let mut members = vec![0u32; STATES];
-        let mut class_of = vec![0u32; STATES];
         for (s, &k) in keys.iter().enumerate() {
-            let c = class_id[k as usize];
-            class_of[s] = c;
+            let c = key_class[k as usize];
             members[fill[c as usize] as usize] = s as u32;
             fill[c as usize] += 1;
         }
-        Self { class_of, start, members }
+        Self { key_class, start, members }
     }
 
     /// The shared table of this process.
@@ -75,10 +102,17 @@ impl CollisionTable {
         self.start[c + 1] - self.start[c]
     }
 
+    /// The class of a state.
+    #[inline]
+    pub fn class_of(&self, state: u32) -> usize {
+        self.key_class[class_key(state)] as usize
+    }
+
     /// The output of a collision of `state` with the random number `r` ("uniform within the
     /// class": member r mod |class|; the modulo bias is below |class| / 2³² < 3e-6).
+    #[inline]
     pub fn collide(&self, state: u32, r: u32) -> u32 {
-        let c = self.class_of[state as usize] as usize;
+        let c = self.class_of(state);
         let size = self.start[c + 1] - self.start[c];
         self.members[(self.start[c] + r % size) as usize]
     }
@@ -93,6 +127,11 @@ pub const fn mix32(mut x: u32) -> u32 {
     x ^= x >> 16;
     x
 }
+
+/// Salt of the interference stream (seed ^ salt, step, 24·cell + k).
+pub const INTERFERENCE_STREAM: u32 = 0x9e37_79b9;
+/// Salt of the inlet stream (seed ^ salt, 24·step + k, 16·cell + v).
+pub const INLET_STREAM: u32 = 0x85eb_ca6b;
 
 /// The random number of a site at a step: a counter-based stream, identical on every backend.
 pub const fn site_random(seed: u32, step: u32, site: u32) -> u32 {
@@ -117,7 +156,7 @@ mod tests {
             for &s in &t.members[t.start[c] as usize..t.start[c + 1] as usize] {
                 assert!(!seen[s as usize]);
                 seen[s as usize] = true;
-                assert_eq!(t.class_of[s as usize] as usize, c);
+                assert_eq!(t.class_of(s), c);
                 assert_eq!(moments(s), first);
             }
         }
@@ -132,7 +171,7 @@ mod tests {
         // distinct outputs on average (2847 for n = 3975)
         let probe = 0x00F0F0u32;
         let outs: std::collections::HashSet<u32> = (0..5000).map(|r| t.collide(probe, site_random(3, r, 11))).collect();
-        let size = t.class_size(t.class_of[probe as usize] as usize) as usize;
+        let size = t.class_size(t.class_of(probe)) as usize;
         println!("state {probe:#x}: class of {size}, {} distinct outputs in 5000 draws", outs.len());
         let expected = size as f64 * (1.0 - (-5000.0 / size as f64).exp());
         assert!((outs.len() as f64 / expected - 1.0).abs() < 0.03, "{} vs {expected}", outs.len());

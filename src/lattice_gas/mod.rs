@@ -1,19 +1,26 @@
 //! Integer lattice gas on the 4D face-centred hyper-cubic lattice (seed 002, DESIGN §2.5): the
-//! second fluid backend. So far (CPU, periodic boxes): the velocity set, the collision that
-//! conserves mass and 4-momentum exactly (a precomputed table of the 2²⁴ states grouped into
-//! classes), the interference operation, propagation by bit operations, and the shear-wave
-//! viscosity measurement. Still to come (issue 5): 64-bit packing of four cells per word,
-//! inlet/outlet/obstacle boundaries, coarse-graining and the cylinder-wake scene, the GPU twin
-//! with bit-exact parity, the viscosity table/plot over density and p, and the benchmark.
+//! second fluid backend. The velocity set, the collision that conserves mass and 4-momentum
+//! exactly (a precomputed table of the 2²⁴ states grouped into classes), the interference
+//! operation that lowers the viscosity, propagation by bit operations on u64 words (four cells
+//! each), channel boundaries and a cylinder obstacle, coarse-graining into a velocity field, the
+//! shear-wave viscosity measurement, scene files, and the GPU twin (`crate::gpu::lattice_gas`).
 //!
 //! | module | what | seed 002 |
 //! |---|---|---|
 //! | [`velocities`] | the 24 FCHC velocities (permutations of (±1, ±1, 0, 0)) | §3.3 |
 //! | [`collision`] | classes of equal mass and momentum; a seeded, counter-based choice in the class | §3.3 |
-//! | [`viscosity`] | kinematic viscosity from the decay of a shear wave | (issue 5) |
-//! | [`lattice`] | bit storage (16 sites of a cell per word), collision pass, interference, propagation | §3.1–3.4 |
+//! | [`bits`] | vertex bits of a cell, lane-wise flips, propagation moves, interference on a lane | §3.2–3.4 |
+//! | [`lattice`] | the state: blocks of 24 u64 words (4 cells), obstacle cells, inlet, fill | §3.1–3.2, 3.5 |
+//! | [`step`] | collide, interfere, propagate, boundaries — [`crate::stages::LATTICE_GAS_STEP`] | §3.3–3.5 |
+//! | [`coarse`] | momentum coarse-grained over blocks of cells → velocity field (CSV, VTK, PNG) | §3.5 |
+//! | [`viscosity`] | kinematic viscosity from the decay of a shear wave; tables over density and p | (issue 5) |
+//! | [`scene`] | TOML scene files (`[lattice_gas]`), validation, the cylinder-wake run | §3.5 |
 
+pub mod bits;
+pub mod coarse;
 pub mod collision;
 pub mod lattice;
+pub mod scene;
+pub mod step;
 pub mod velocities;
 pub mod viscosity;

@@ -1,0 +1,101 @@
+//! Bit layout of a cell (seed 002 §3.2): the 16 vertex sites of a 4D cell are bits of one 16-bit
+//! lane, vertex v = b_X | b_Y << 1 | b_Z << 2 | b_R << 3 (b = 1 for the offset +ℓ/2). Words hold
+//! several lanes — four cells along X in a u64 on the CPU, two in a u32 on the GPU — and every
+//! operation below acts lane by lane, so the same masks serve both (replicated per lane).
+
+use super::velocities::VELOCITIES;
+
+/// Bits of a lane whose vertex has coordinate bit `axis` = 0.
+pub const LOW: [u16; 4] = [0x5555, 0x3333, 0x0F0F, 0x00FF];
+
+/// A lane mask repeated in every lane of a u64.
+#[inline]
+pub const fn replicate64(m: u16) -> u64 {
+    m as u64 * 0x0001_0001_0001_0001
+}
+
+/// The word with every vertex v moved to v ^ (1 << axis), in every lane.
+#[inline]
+pub fn flip(w: u64, axis: usize) -> u64 {
+    let s = 1 << axis;
+    let low = replicate64(LOW[axis]);
+    ((w & low) << s) | ((w >> s) & low)
+}
+
+/// Vertices of a lane whose coordinate bits (a, b) equal (ba, bb).
+#[inline]
+pub const fn vertex_mask(a: usize, ba: bool, b: usize, bb: bool) -> u16 {
+    let ma = if ba { !LOW[a] } else { LOW[a] };
+    let mb = if bb { !LOW[b] } else { LOW[b] };
+    ma & mb
+}
+
+/// The two nonzero axes of velocity k with their signs.
+pub const fn axes(k: usize) -> ((usize, i8), (usize, i8)) {
+    let c = VELOCITIES[k];
+    let mut first = 4;
+    let mut a = 0;
+    while a < 4 {
+        if c[a] != 0 {
+            if first == 4 {
+                first = a;
+            } else {
+                return ((first, c[first]), (a, c[a]));
+            }
+        }
+        a += 1;
+    }
+    panic!("a velocity has two nonzero components")
+}
+
+/// The four moves of velocity k's particles, one per quadrant of source vertices: the quadrant's
+/// lane mask (source bits (ba, bb) on the velocity's axes) and the cell offset (X, Y, Z) of the
+/// source relative to the destination (−1, 0, +1). A particle at a vertex with bit b on an axis
+/// of sign s leaves its cell when s > 0 and b = 1, or s < 0 and b = 0; its vertex bits on both
+/// axes flip.
+pub fn propagation_moves(k: usize) -> [(u16, [i64; 3]); 4] {
+    let ((a, sa), (b, sb)) = axes(k);
+    [(false, false), (false, true), (true, false), (true, true)].map(|(ba, bb)| {
+        let mut offset = [0i64; 3];
+        for (axis, sign, bit) in [(a, sa, ba), (b, sb, bb)] {
+            if axis < 3 {
+                let leaves = if sign > 0 && bit {
+                    1
+                } else if sign < 0 && !bit {
+                    -1
+                } else {
+                    0
+                };
+                offset[axis] = -leaves;
+            }
+        }
+        (vertex_mask(a, ba, b, bb), offset)
+    })
+}
+
+/// The two sides of the interference operation for velocity k (seed 002 §3.4, Fig. 2): in each
+/// of the cell's 4 squares parallel to the plane of c_k's axes (a, b), the diagonal perpendicular
+/// to c_k joins the vertex at (+s_a/2, −s_b/2) (side A) to the one at (−s_a/2, +s_b/2) (side B).
+/// Returns the lane masks of sides A and B.
+pub const fn interference_sides(k: usize) -> (u16, u16) {
+    let ((a, sa), (b, sb)) = axes(k);
+    (vertex_mask(a, sa > 0, b, sb < 0), vertex_mask(a, sa < 0, b, sb > 0))
+}
+
+/// The interference operation on one lane (16 sites) of velocity k's word: side B is moved onto
+/// side A's positions (flip on both axes); the sparser side gets the AND of each pair, the denser
+/// the OR (equal counts: unchanged). Particle number and momentum are conserved pair by pair.
+#[inline]
+pub fn interfere_lane(w: u16, k: usize) -> u16 {
+    let ((a, _), (b, _)) = axes(k);
+    let (mask_a, mask_b) = interference_sides(k);
+    let u = w & mask_a;
+    let v = flip(flip((w & mask_b) as u64, a), b) as u16;
+    let (na, nb) = (u.count_ones(), v.count_ones());
+    if na == nb {
+        return w;
+    }
+    let (and, or) = (u & v, u | v);
+    let (new_a, new_b) = if na < nb { (and, or) } else { (or, and) };
+    (w & !(mask_a | mask_b)) | new_a | flip(flip(new_b as u64, a), b) as u16
+}

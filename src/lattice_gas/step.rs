@@ -1,0 +1,279 @@
+//! One step of the lattice gas on the CPU, stage by stage as [`crate::stages::LATTICE_GAS_STEP`]
+//! lists them: collision (seed 002 §3.3), interference (§3.4), propagation by bit shifts (§3.3)
+//! and the channel boundaries (§3.5). Blocks are processed in parallel (rayon).
+
+use super::bits::{flip, interfere_lane, propagation_moves, replicate64};
+use super::collision::{CollisionTable, INLET_STREAM, INTERFERENCE_STREAM, site_random};
+use super::lattice::{Block, LANES, LatticeGas, probability_threshold};
+use super::velocities::{Q, opposite};
+use crate::stages::{LATTICE_GAS_STEP, LatticeGasStageKind};
+use rayon::prelude::*;
+use std::time::{Duration, Instant};
+
+/// Accumulated wall time per stage of [`LATTICE_GAS_STEP`].
+#[derive(Clone, Debug, Default)]
+pub struct LatticeGasTimings {
+    pub total: [Duration; LATTICE_GAS_STEP.len()],
+    pub steps: u64,
+}
+
+impl LatticeGasTimings {
+    pub fn report(&self) -> Vec<(&'static str, f64)> {
+        let all: f64 = self.total.iter().map(|d| d.as_secs_f64()).sum();
+        LATTICE_GAS_STEP.iter().zip(&self.total).map(|(s, d)| (s.name, if all > 0.0 { d.as_secs_f64() / all } else { 0.0 })).collect()
+    }
+}
+
+/// The 24-bit state of site `bit` (0..64) of a block.
+#[inline]
+fn gather(block: &Block, bit: usize) -> u32 {
+    let mut s = 0u32;
+    for (k, w) in block.iter().enumerate() {
+        s |= ((w >> bit) & 1) as u32 * (1 << k);
+    }
+    s
+}
+
+impl LatticeGas {
+    /// Collision at every site (seed 002 §3.3): a fluid site's 24 bits are replaced by a member
+    /// of their class chosen by the counter-based stream of (seed, step, site = 16·cell + v); an
+    /// obstacle site reverses every particle (bounce-back: no-slip on the obstacle).
+    pub fn collide(&mut self, table: &CollisionTable) {
+        let (seed, step, solid) = (self.seed, self.step, &self.solid);
+        self.blocks.par_iter_mut().enumerate().for_each(|(bi, block)| {
+            let mut out: Block = [0; Q];
+            for lane in 0..LANES {
+                let cell = bi * LANES + lane;
+                if solid[cell] {
+                    let m = 0xFFFFu64 << (16 * lane);
+                    for k in 0..Q {
+                        out[opposite(k)] |= block[k] & m;
+                    }
+                    continue;
+                }
+                for v in 0..16 {
+                    let bit = 16 * lane + v;
+                    let s = gather(block, bit);
+                    let t = table.collide(s, site_random(seed, step, (cell * 16 + v) as u32));
+                    for (k, o) in out.iter_mut().enumerate() {
+                        *o |= ((t >> k) & 1) as u64 * (1 << bit);
+                    }
+                }
+            }
+            *block = out;
+        });
+    }
+
+    /// The interference operation (seed 002 §3.4, Fig. 2; see [`super::bits::interfere_lane`]) on
+    /// every fluid cell and velocity, each with probability p drawn from the stream of
+    /// (seed ^ [`INTERFERENCE_STREAM`], step, 24·cell + k).
+    pub fn interfere(&mut self) {
+        if self.interference <= 0.0 {
+            return;
+        }
+        let threshold = probability_threshold(self.interference);
+        let (seed, step, solid) = (self.seed ^ INTERFERENCE_STREAM, self.step, &self.solid);
+        self.blocks.par_iter_mut().enumerate().for_each(|(bi, block)| {
+            for lane in 0..LANES {
+                let cell = bi * LANES + lane;
+                if solid[cell] {
+                    continue;
+                }
+                let shift = 16 * lane;
+                for (k, w) in block.iter_mut().enumerate() {
+                    if site_random(seed, step, (cell * Q + k) as u32) >= threshold {
+                        continue;
+                    }
+                    let new = interfere_lane((*w >> shift) as u16, k);
+                    *w = (*w & !(0xFFFF << shift)) | ((new as u64) << shift);
+                }
+            }
+        });
+    }
+
+    /// Propagation by bit operations (seed 002 §3.3): every particle moves by c_k; crossing a
+    /// face of its cell it enters the neighbouring cell (periodic in X, Y, Z), along R it stays in
+    /// the cell. Pull form: each destination block gathers, per velocity and quadrant of source
+    /// vertices, the source row's word — shifted by one lane (16 bits) when the move crosses X.
+    pub fn propagate(&mut self) {
+        let [nx, ny, nz] = self.dims;
+        let nb = nx / LANES;
+        let moves: [[(u64, [i64; 3]); 4]; Q] = std::array::from_fn(|k| propagation_moves(k).map(|(m, o)| (replicate64(m), o)));
+        let axes: [(usize, usize); Q] = std::array::from_fn(|k| {
+            let ((a, _), (b, _)) = super::bits::axes(k);
+            (a, b)
+        });
+        let old = std::mem::take(&mut self.blocks);
+        let mut new = vec![[0u64; Q]; old.len()];
+        new.par_iter_mut().enumerate().for_each(|(bi, out)| {
+            let (xb, y, z) = (bi % nb, (bi / nb) % ny, bi / (nb * ny));
+            for k in 0..Q {
+                let (a, b) = axes[k];
+                let mut acc = 0u64;
+                for &(mask, off) in &moves[k] {
+                    let sy = (y as i64 + off[1]).rem_euclid(ny as i64) as usize;
+                    let sz = (z as i64 + off[2]).rem_euclid(nz as i64) as usize;
+                    let row = (sz * ny + sy) * nb;
+                    let here = old[row + xb][k];
+                    let src = match off[0] {
+                        0 => here,
+                        // sources one cell to the −X side: lanes move up, lane 0 from the previous word
+                        -1 => (here << 16) | (old[row + (xb + nb - 1) % nb][k] >> 48),
+                        _ => (here >> 16) | (old[row + (xb + 1) % nb][k] << 48),
+                    };
+                    acc |= flip(flip(src & mask, a), b);
+                }
+                out[k] = acc;
+            }
+        });
+        self.blocks = new;
+    }
+
+    /// Channel boundaries (seed 002 §3.5), after propagation: the last cell of every X row copies
+    /// the one before it (zero-gradient outlet), and the first cell is refilled with the inlet's
+    /// equilibrium (bits drawn from the stream of (seed ^ [`INLET_STREAM`], 24·step + k,
+    /// 16·cell + v)). Nothing in periodic boxes.
+    pub fn boundaries(&mut self) {
+        let Some(inlet) = self.inlet else { return };
+        let nb = self.dims[0] / LANES;
+        let (seed, step, nx) = (self.seed ^ INLET_STREAM, self.step, self.dims[0]);
+        self.blocks.par_chunks_mut(nb).enumerate().for_each(|(row, blocks)| {
+            for w in blocks[nb - 1].iter_mut() {
+                *w = (*w & 0x0000_FFFF_FFFF_FFFF) | ((*w & 0x0000_FFFF_0000_0000) << 16);
+            }
+            let cell = row * nx;
+            for (k, w) in blocks[0].iter_mut().enumerate() {
+                let mut lane = 0u64;
+                for v in 0..16 {
+                    if site_random(seed, step.wrapping_mul(Q as u32).wrapping_add(k as u32), (cell * 16 + v) as u32) < inlet.thresholds[k] {
+                        lane |= 1 << v;
+                    }
+                }
+                *w = (*w & !0xFFFF) | lane;
+            }
+        });
+    }
+
+    /// Runs one stage of [`LATTICE_GAS_STEP`].
+    pub fn run_stage(&mut self, kind: LatticeGasStageKind, table: &CollisionTable) {
+        match kind {
+            LatticeGasStageKind::Collide => self.collide(table),
+            LatticeGasStageKind::Interfere => self.interfere(),
+            LatticeGasStageKind::Propagate => self.propagate(),
+            LatticeGasStageKind::Boundaries => self.boundaries(),
+        }
+    }
+
+    /// One step: the stages of [`LATTICE_GAS_STEP`] in order, then the step counter.
+    pub fn advance(&mut self, table: &CollisionTable) {
+        for s in LATTICE_GAS_STEP {
+            self.run_stage(s.kind, table);
+        }
+        self.step = self.step.wrapping_add(1);
+    }
+
+    /// [`Self::advance`] with each stage's wall time added to `timings`.
+    pub fn advance_timed(&mut self, table: &CollisionTable, timings: &mut LatticeGasTimings) {
+        for (i, s) in LATTICE_GAS_STEP.iter().enumerate() {
+            let t0 = Instant::now();
+            self.run_stage(s.kind, table);
+            timings.total[i] += t0.elapsed();
+        }
+        timings.steps += 1;
+        self.step = self.step.wrapping_add(1);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::velocities::VELOCITIES;
+    use super::*;
+
+    #[test]
+    fn every_operation_conserves_particles_and_momentum_exactly() {
+        let table = CollisionTable::shared();
+        let mut g = LatticeGas::new([8, 4, 5], 17, 0.3);
+        g.fill(0.2, |x| [0.1 * (x[1] * 0.7).sin(), 0.05, -0.08 * (x[0] * 0.3).cos(), 0.0], 5);
+        let start = g.invariants();
+        println!("{start:?}");
+        assert!(start.particles > 0 && start.momentum.iter().any(|&m| m != 0));
+        for _ in 0..1000 {
+            g.collide(table);
+            assert_eq!(g.invariants(), start, "collision");
+            g.interfere();
+            assert_eq!(g.invariants(), start, "interference");
+            g.propagate();
+            assert_eq!(g.invariants(), start, "propagation");
+            g.step += 1;
+        }
+    }
+
+    #[test]
+    fn propagation_moves_a_particle_by_its_velocity() {
+        // a lone particle returns to its site after crossing a periodic box, and passes the
+        // 4D positions x + t c_k on the way (crossing u64 word boundaries along X)
+        for k in 0..Q {
+            let mut g = LatticeGas::new([8, 3, 5], 0, 0.0);
+            let c = g.cell_index(3, 2, 1);
+            g.set(k, c, 0b0110, true);
+            let pos = |g: &LatticeGas| {
+                let cell = (0..g.cells()).find(|&c| g.cell_word(k, c) != 0).unwrap();
+                let v = g.cell_word(k, cell).trailing_zeros() as usize;
+                assert_eq!(g.invariants().particles, 1);
+                let c = g.coords(cell);
+                [0, 1, 2, 3].map(|a| (if a < 3 { 2 * c[a] as i64 } else { 0 }) + if v >> a & 1 == 1 { 1 } else { 0 })
+            };
+            let p0 = pos(&g);
+            for t in 1..=60i64 {
+                g.propagate();
+                let p = pos(&g);
+                for a in 0..4 {
+                    let period = if a < 3 { 2 * g.dims[a] as i64 } else { 2 };
+                    assert_eq!((p[a] - p0[a] - t * VELOCITIES[k][a] as i64).rem_euclid(period), 0, "velocity {k} axis {a} step {t}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn obstacle_cells_reverse_every_particle_and_channel_boundaries_inject_and_copy() {
+        let table = CollisionTable::shared();
+        // bounce-back: the particles of an obstacle cell reverse, count unchanged
+        let mut g = LatticeGas::new([4, 2, 2], 3, 0.0);
+        g.solid[1] = true;
+        g.set(0, 1, 5, true);
+        g.set(7, 1, 9, true);
+        g.collide(table);
+        assert!(g.get(opposite(0), 1, 5) && g.get(opposite(7), 1, 9));
+        assert_eq!(g.invariants().particles, 2);
+        // channel: the inlet cells hold the equilibrium d (1 + 2 c_kX U) per link, the last cell
+        // equals the one before it
+        let (d, u) = (0.2, 0.15);
+        let mut g = LatticeGas::new([8, 16, 16], 9, 0.0);
+        g.inlet = Some(super::super::lattice::Inlet::new(d, u));
+        g.fill(d, |_| [0.0; 4], 1);
+        let (mut plus, mut minus, mut zero, mut n) = (0u64, 0u64, 0u64, 0u64);
+        for _ in 0..20 {
+            g.advance(table);
+            for y in 0..16 {
+                for z in 0..16 {
+                    for k in 0..Q {
+                        let c = g.cell_word(k, g.cell_index(0, y, z)).count_ones() as u64;
+                        match VELOCITIES[k][0] {
+                            1 => plus += c,
+                            -1 => minus += c,
+                            _ => zero += c,
+                        }
+                        assert_eq!(g.cell_word(k, g.cell_index(7, y, z)), g.cell_word(k, g.cell_index(6, y, z)));
+                    }
+                }
+            }
+            n += 16 * 16 * 16 * 6;
+        }
+        let (fp, fm, f0) = (plus as f64 / n as f64, minus as f64 / n as f64, zero as f64 / (2 * n) as f64);
+        println!("inlet occupation: +X {fp:.4} (expected {:.4}), −X {fm:.4} ({:.4}), 0 {f0:.4} ({d})", d * (1.0 + 2.0 * u), d * (1.0 - 2.0 * u));
+        // binomial standard error √(f(1−f)/n) ≈ 1.4e-3 for n = 122,880 links: 4σ bounds
+        let tol = 4.0 * (0.3 * 0.7 / n as f64).sqrt();
+        assert!((fp - d * (1.0 + 2.0 * u)).abs() < tol && (fm - d * (1.0 - 2.0 * u)).abs() < tol && (f0 - d).abs() < tol);
+    }
+}
