@@ -6,6 +6,8 @@ pub mod bench;
 pub mod codegen;
 pub mod context;
 pub mod fdlb;
+pub mod lattice_gas;
+pub mod lattice_gas_codegen;
 pub mod solid;
 
 pub use context::{GpuContext, GpuError};

@@ -10,7 +10,7 @@
 //! order of increasing mass — so the states of a gas at moderate density touch a few MiB of it.
 //! Built once per process (≈ 0.3 s) and shared; the GPU uploads the same three arrays.
 
-use super::velocities::{Q, VELOCITIES, moments};
+use super::velocities::{Q, VELOCITIES};
 use std::sync::OnceLock;
 
 /// Number of states of a site.
@@ -140,6 +140,7 @@ pub const fn site_random(seed: u32, step: u32, site: u32) -> u32 {
 
 #[cfg(test)]
 mod tests {
+    use super::super::velocities::moments;
     use super::*;
 
     #[test]

@@ -1,0 +1,238 @@
+//! The lattice gas on the GPU (wgpu, u32 words of two cells): one compute kernel per stage of
+//! [`LATTICE_GAS_STEP`] plus a one-thread kernel that advances the step counter, so that many
+//! steps are recorded in one submission. Bit-identical to the CPU twin
+//! ([`crate::lattice_gas::step`]): the same tables, the same counter-based random streams.
+//!
+//! Buffers: the state twice (the propagation reads one and writes the other), the obstacle bits
+//! per word, and the collision table as the CPU builds it (key → class, class starts, members:
+//! 2.9 MB + 0.3 MB + 64 MiB).
+
+use super::context::{GpuContext, GpuError, buffer_layout, compute_pipelines, read_buffer};
+use crate::lattice_gas::collision::CollisionTable;
+use crate::lattice_gas::lattice::{LatticeGas, probability_threshold};
+use crate::lattice_gas::velocities::Q;
+use crate::stages::{LATTICE_GAS_STEP, LatticeGasStageKind};
+use wgpu::util::DeviceExt;
+
+const WG: u32 = 64;
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    row_words: u32,
+    ny: u32,
+    nz: u32,
+    words: u32,
+    seed: u32,
+    interference: u32,
+    inlet: u32,
+    groups_x: u32,
+    inlet_thresholds: [u32; Q],
+}
+
+pub struct GpuLatticeGas {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    dims: [usize; 3],
+    words: u32,
+    /// Bind groups with (src, dst) = (state 0, state 1) and (state 1, state 0).
+    groups: [wgpu::BindGroup; 2],
+    states: [wgpu::Buffer; 2],
+    step_buffer: wgpu::Buffer,
+    pipelines: std::collections::HashMap<&'static str, wgpu::ComputePipeline>,
+    /// Which state buffer holds the current state.
+    cur: usize,
+    pub step: u32,
+}
+
+/// Converts velocity-major cell words (u16) into GPU words (two cells per u32).
+fn pack(cell_words: &[u16]) -> Vec<u32> {
+    cell_words.chunks(2).map(|p| p[0] as u32 | (p[1] as u32) << 16).collect()
+}
+
+fn entry_of(kind: LatticeGasStageKind) -> &'static str {
+    match kind {
+        LatticeGasStageKind::Collide => "collide",
+        LatticeGasStageKind::Interfere => "interfere",
+        LatticeGasStageKind::Propagate => "propagate",
+        LatticeGasStageKind::Boundaries => "boundaries",
+    }
+}
+
+fn dispatch_size(threads: u32) -> (u32, u32) {
+    let groups = threads.div_ceil(WG).max(1);
+    if groups <= 65_535 { (groups, 1) } else { (65_535, groups.div_ceil(65_535)) }
+}
+
+impl GpuLatticeGas {
+    /// Uploads the gas (state, obstacle, parameters) and the collision table.
+    pub fn new(ctx: &GpuContext, g: &LatticeGas, table: &CollisionTable) -> Result<Self, GpuError> {
+        let device = ctx.device.clone();
+        let cells = g.cells();
+        let words = (cells / 2) as u32;
+        let state_bytes = (Q * cells * 2) as u64;
+        let limit = ctx.limits.max_storage_buffer_binding_size as u64;
+        for (what, bytes) in [("lattice gas state", state_bytes), ("collision table members", 4 * table.members.len() as u64)] {
+            if bytes > limit {
+                return Err(GpuError::TooLarge { what, bytes, limit });
+            }
+        }
+        let init = |label: &str, data: &[u8], usage: wgpu::BufferUsages| device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: data, usage });
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let packed = pack(&g.cell_words());
+        let states = [init("lattice gas state 0", bytemuck::cast_slice(&packed), storage), init("lattice gas state 1", bytemuck::cast_slice(&packed), storage)];
+        let solid: Vec<u32> = g.solid.chunks(2).map(|p| p[0] as u32 | (p[1] as u32) << 1).collect();
+        let solid = init("obstacle bits", bytemuck::cast_slice(&solid), wgpu::BufferUsages::STORAGE);
+        let step_buffer = init("step counter", bytemuck::cast_slice(&[g.step]), storage);
+        let rows = (g.dims[1] * g.dims[2]) as u32;
+        let params = Params {
+            row_words: (g.dims[0] / 2) as u32,
+            ny: g.dims[1] as u32,
+            nz: g.dims[2] as u32,
+            words,
+            seed: g.seed,
+            interference: if g.interference > 0.0 { probability_threshold(g.interference) } else { 0 },
+            inlet: g.inlet.is_some() as u32,
+            groups_x: dispatch_size(words.max(rows)).0,
+            inlet_thresholds: g.inlet.map(|i| i.thresholds).unwrap_or([0; Q]),
+        };
+        let params = init("lattice gas params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
+        let key_class = init("class of key", bytemuck::cast_slice(&table.key_class), wgpu::BufferUsages::STORAGE);
+        let start = init("class starts", bytemuck::cast_slice(&table.start), wgpu::BufferUsages::STORAGE);
+        let members = init("class members", bytemuck::cast_slice(&table.members), wgpu::BufferUsages::STORAGE);
+        let layout = buffer_layout(&device, "lattice gas", &[(true, true), (false, false), (false, false), (false, false), (false, true), (false, true), (false, true), (false, true)]);
+        let groups = [0usize, 1].map(|s| {
+            let bufs = [&params, &step_buffer, &states[s], &states[1 - s], &solid, &key_class, &start, &members];
+            let entries: Vec<wgpu::BindGroupEntry> = bufs.iter().enumerate().map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() }).collect();
+            device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("lattice gas"), layout: &layout, entries: &entries })
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("lattice gas"),
+            source: wgpu::ShaderSource::Wgsl(super::lattice_gas_codegen::shader().into()),
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("lattice gas"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
+        let pipelines = compute_pipelines(&device, &module, &pl, &["collide", "interfere", "propagate", "boundaries", "advance_step"]);
+        Ok(Self { device, queue: ctx.queue.clone(), dims: g.dims, words, groups, states, step_buffer, pipelines, cur: 0, step: g.step })
+    }
+
+    fn record_stage(&self, pass: &mut wgpu::ComputePass, kind: LatticeGasStageKind) {
+        pass.set_pipeline(&self.pipelines[entry_of(kind)]);
+        pass.set_bind_group(0, &self.groups[self.cur], &[]);
+        let threads = if kind == LatticeGasStageKind::Boundaries { (self.dims[1] * self.dims[2]) as u32 } else { self.words };
+        // every kernel flattens (x, y) with the same groups_x (that of the larger count)
+        let gx = dispatch_size(self.words.max((self.dims[1] * self.dims[2]) as u32)).0;
+        pass.dispatch_workgroups(gx, threads.div_ceil(WG).div_ceil(gx).max(1), 1);
+    }
+
+    fn record_step(&mut self, enc: &mut wgpu::CommandEncoder) {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        // collide and interfere work on `src` in place, propagate writes `dst`, and the
+        // boundaries kernel edits `dst`, which becomes the current state below
+        for s in LATTICE_GAS_STEP {
+            self.record_stage(&mut pass, s.kind);
+        }
+        pass.set_pipeline(&self.pipelines["advance_step"]);
+        pass.dispatch_workgroups(1, 1, 1);
+        drop(pass);
+        self.cur = 1 - self.cur;
+        self.step = self.step.wrapping_add(1);
+    }
+
+    /// Runs one stage's kernel on the current state and waits (kernel parity tests); the
+    /// propagation's output becomes the current state, the step counter is not advanced.
+    pub fn run_single_stage(&mut self, kind: LatticeGasStageKind) {
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            if kind == LatticeGasStageKind::Boundaries {
+                // the boundaries kernel edits `dst`: run it on the current state as `dst`
+                pass.set_pipeline(&self.pipelines["boundaries"]);
+                pass.set_bind_group(0, &self.groups[1 - self.cur], &[]);
+                let rows = (self.dims[1] * self.dims[2]) as u32;
+                let gx = dispatch_size(self.words.max(rows)).0;
+                pass.dispatch_workgroups(gx, rows.div_ceil(WG).div_ceil(gx).max(1), 1);
+            } else {
+                self.record_stage(&mut pass, kind);
+            }
+        }
+        self.queue.submit([enc.finish()]);
+        if kind == LatticeGasStageKind::Propagate {
+            self.cur = 1 - self.cur;
+        }
+        self.wait();
+    }
+
+    /// Records and submits `n` steps (in submissions of at most 200 steps), without waiting.
+    pub fn advance(&mut self, n: u64) {
+        let mut left = n;
+        while left > 0 {
+            let chunk = left.min(200);
+            let mut enc = self.device.create_command_encoder(&Default::default());
+            for _ in 0..chunk {
+                self.record_step(&mut enc);
+            }
+            self.queue.submit([enc.finish()]);
+            left -= chunk;
+        }
+    }
+
+    /// Blocks until the queue is idle.
+    pub fn wait(&self) {
+        let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
+    }
+
+    /// The current state as velocity-major cell words (as [`LatticeGas::cell_words`]).
+    pub fn cell_words(&self) -> Vec<u16> {
+        let raw: Vec<u32> = bytemuck::cast_slice(&read_buffer(&self.device, &self.queue, &self.states[self.cur])).to_vec();
+        raw.iter().flat_map(|w| [*w as u16, (*w >> 16) as u16]).collect()
+    }
+
+    /// Copies the GPU state and step into a CPU gas of the same scene.
+    pub fn download_into(&self, g: &mut LatticeGas) {
+        g.set_cell_words(&self.cell_words());
+        g.step = self.step;
+        let on_gpu: Vec<u32> = bytemuck::cast_slice(&read_buffer(&self.device, &self.queue, &self.step_buffer)).to_vec();
+        debug_assert_eq!(on_gpu[0], self.step);
+    }
+
+    /// Runs `steps` steps with every stage in its own compute pass bracketed by timestamps and
+    /// returns the GPU seconds per stage of [`LATTICE_GAS_STEP`] summed over the steps, or
+    /// `None` without timestamp queries.
+    pub fn profile_stages(&mut self, ctx: &GpuContext, steps: u64) -> Option<Vec<(&'static str, f64)>> {
+        if !ctx.timestamps {
+            return None;
+        }
+        let count = 2 * LATTICE_GAS_STEP.len() as u32;
+        let qs = self.device.create_query_set(&wgpu::QuerySetDescriptor { label: Some("stage timestamps"), ty: wgpu::QueryType::Timestamp, count });
+        let resolve = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamps"),
+            size: 8 * count as u64,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let period = self.queue.get_timestamp_period() as f64 * 1e-9;
+        let mut total = vec![0.0; LATTICE_GAS_STEP.len()];
+        for _ in 0..steps {
+            let mut enc = self.device.create_command_encoder(&Default::default());
+            for (i, s) in LATTICE_GAS_STEP.iter().enumerate() {
+                let tw = wgpu::ComputePassTimestampWrites { query_set: &qs, beginning_of_pass_write_index: Some(2 * i as u32), end_of_pass_write_index: Some(2 * i as u32 + 1) };
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(s.name), timestamp_writes: Some(tw) });
+                self.record_stage(&mut pass, s.kind);
+            }
+            {
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&self.pipelines["advance_step"]);
+                pass.dispatch_workgroups(1, 1, 1);
+            }
+            enc.resolve_query_set(&qs, 0..count, &resolve, 0);
+            self.queue.submit([enc.finish()]);
+            self.cur = 1 - self.cur;
+            self.step = self.step.wrapping_add(1);
+            let ts: Vec<u64> = bytemuck::cast_slice(&read_buffer(&self.device, &self.queue, &resolve)).to_vec();
+            for i in 0..LATTICE_GAS_STEP.len() {
+                total[i] += ts[2 * i + 1].saturating_sub(ts[2 * i]) as f64 * period;
+            }
+        }
+        Some(LATTICE_GAS_STEP.iter().zip(total).map(|(s, t)| (s.name, t)).collect())
+    }
+}

@@ -1,0 +1,113 @@
+//! Generates the per-velocity parts of `shaders/lattice_gas.wgsl` (DESIGN §7: unrolled WGSL for
+//! the lattice kernels): the class key from popcounts, the collision's bit gather / scatter over
+//! the 24 words, the interference masks and the propagation moves — all from the same tables as
+//! the CPU twin ([`crate::lattice_gas::bits`], [`crate::lattice_gas::collision::AXIS_MASKS`]).
+
+use crate::lattice_gas::bits::{axes, interference_sides, propagation_moves};
+use crate::lattice_gas::collision::{AXIS_MASKS, INTERFERENCE_STREAM, INLET_STREAM};
+use crate::lattice_gas::velocities::{Q, opposite};
+use std::fmt::Write;
+
+const TEMPLATE: &str = include_str!("../../shaders/lattice_gas.wgsl");
+
+fn replicate32(m: u16) -> u32 {
+    m as u32 * 0x0001_0001
+}
+
+fn class_key() -> String {
+    let mut s = String::from("fn class_key(s: u32) -> u32 {\n    var key = countOneBits(s);\n");
+    for a in 0..4 {
+        let _ = writeln!(
+            s,
+            "    key = key * 13u + u32(i32(countOneBits(s & {:#010x}u)) - i32(countOneBits(s & {:#010x}u)) + 6);",
+            AXIS_MASKS[0][a], AXIS_MASKS[1][a]
+        );
+    }
+    s + "    return key;\n}\n"
+}
+
+fn collide() -> String {
+    let mut s = String::new();
+    for k in 0..Q {
+        let _ = writeln!(s, "    let i{k} = src[{k}u * W + w];\n    var o{k} = 0u;");
+    }
+    s += "    for (var lane = 0u; lane < 2u; lane++) {\n        let cell = 2u * w + lane;\n";
+    s += "        if (((sol >> lane) & 1u) == 1u) {\n            let m = 0xFFFFu << (16u * lane);\n";
+    for k in 0..Q {
+        let _ = writeln!(s, "            o{} |= i{k} & m;", opposite(k));
+    }
+    s += "            continue;\n        }\n        for (var v = 0u; v < 16u; v++) {\n            let bit = 16u * lane + v;\n";
+    s += "            let s = ((i0 >> bit) & 1u)";
+    for k in 1..Q {
+        let _ = write!(s, "\n                | (((i{k} >> bit) & 1u) << {k}u)");
+    }
+    s += ";\n            let t = collide_state(s, mix32((cell * 16u + v) ^ h));\n";
+    for k in 0..Q {
+        let _ = writeln!(s, "            o{k} |= ((t >> {k}u) & 1u) << bit;");
+    }
+    s += "        }\n    }\n";
+    for k in 0..Q {
+        let _ = writeln!(s, "    src[{k}u * W + w] = o{k};");
+    }
+    s
+}
+
+fn interfere() -> String {
+    let mut s = String::new();
+    for k in 0..Q {
+        let ((a, _), (b, _)) = axes(k);
+        let (ma, mb) = interference_sides(k);
+        let _ = writeln!(
+            s,
+            "        if (mix32((cell * 24u + {k}u) ^ h) < P.interference) {{\n            let x = src[{k}u * W + w];\n            let n = interfere_lane((x >> shift) & 0xFFFFu, {a}u, {b}u, {ma:#06x}u, {mb:#06x}u);\n            src[{k}u * W + w] = (x & ~(0xFFFFu << shift)) | (n << shift);\n        }}"
+        );
+    }
+    s
+}
+
+fn propagate() -> String {
+    let mut s = String::new();
+    // the rows of the 9 (Y, Z) offsets
+    for oy in -1i64..=1 {
+        for oz in -1i64..=1 {
+            let ey = match oy {
+                -1 => "(y + P.ny - 1u) % P.ny",
+                0 => "y",
+                _ => "(y + 1u) % P.ny",
+            };
+            let ez = match oz {
+                -1 => "(z + P.nz - 1u) % P.nz",
+                0 => "z",
+                _ => "(z + 1u) % P.nz",
+            };
+            let _ = writeln!(s, "    let row_{}_{} = (({ez}) * P.ny + {ey}) * rw;", oy + 1, oz + 1);
+        }
+    }
+    for k in 0..Q {
+        let ((a, _), (b, _)) = axes(k);
+        let _ = writeln!(s, "    {{\n        var acc = 0u;");
+        for (mask, off) in propagation_moves(k) {
+            let row = format!("{k}u * W + row_{}_{}", off[1] + 1, off[2] + 1);
+            let src = match off[0] {
+                0 => format!("src[{row} + xw]"),
+                -1 => format!("(src[{row} + xw] << 16u) | (src[{row} + xm] >> 16u)"),
+                _ => format!("(src[{row} + xw] >> 16u) | (src[{row} + xp] << 16u)"),
+            };
+            let _ = writeln!(s, "        acc |= flip(flip(({src}) & {:#010x}u, {a}u), {b}u);", replicate32(mask));
+        }
+        let _ = writeln!(s, "        dst[{k}u * W + w] = acc;\n    }}");
+    }
+    s
+}
+
+/// The complete lattice-gas shader.
+pub fn shader() -> String {
+    // the template's stream salts must be the CPU's
+    assert!(TEMPLATE.contains(&format!("INTERFERENCE_STREAM: u32 = {INTERFERENCE_STREAM:#010x}u")));
+    assert!(TEMPLATE.contains(&format!("INLET_STREAM: u32 = {INLET_STREAM:#010x}u")));
+    TEMPLATE
+        .replace("//@CLASS_KEY", &class_key())
+        .replace("//@COLLIDE", &collide())
+        .replace("//@INTERFERE", &interfere())
+        .replace("//@PROPAGATE", &propagate())
+}
