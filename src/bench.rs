@@ -88,14 +88,25 @@ pub struct BenchReport {
     pub speed_vs_error: Vec<TaylorGreenResult>,
     /// MPS solid, explicit and implicit, at 10⁵ (and 10⁶ unless quick) particles.
     pub solid: Vec<crate::solid::bench::SolidSpeed>,
+    /// FCHC lattice gas (periodic box, fill 0.2, p = 0.1).
+    pub lattice_gas: Vec<crate::lattice_gas::bench::LatticeGasSpeed>,
 }
 
-/// The full CPU benchmark. `quick` shrinks grids for a smoke run.
-pub fn run(quick: bool) -> BenchReport {
+/// Parts of the benchmark, for `bench --only`.
+pub const SUITES: [&str; 3] = ["fdlb", "solid", "lattice_gas"];
+
+/// The CPU benchmark (every suite of [`SUITES`], or only `only`). `quick` shrinks grids for a
+/// smoke run.
+pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
+    let wants = |suite: &str| only.is_none_or(|o| o == suite);
     let bw = triad_bandwidth(if quick { 1 << 22 } else { 1 << 25 }, 10);
     let (n2, n3, st) = if quick { (128, 32, 3) } else { (512, 96, 10) };
-    let lattices = vec![lattice_speed(VelocitySetKind::D2q21, [n2, n2, 1], st, bw), lattice_speed(VelocitySetKind::D3q39, [n3, n3, n3], st.min(5), bw)];
-    let speed_vs_error = [32usize, 64, 128]
+    let lattices = if wants("fdlb") {
+        vec![lattice_speed(VelocitySetKind::D2q21, [n2, n2, 1], st, bw), lattice_speed(VelocitySetKind::D3q39, [n3, n3, n3], st.min(5), bw)]
+    } else {
+        Vec::new()
+    };
+    let speed_vs_error = if wants("fdlb") { [32usize, 64, 128].as_slice() } else { &[] }
         .iter()
         .map(|&n| {
             let mut c = TaylorGreenCase::new(VelocitySetKind::D2q21, n);
@@ -106,9 +117,15 @@ pub fn run(quick: bool) -> BenchReport {
         .collect();
     use crate::solid::{Integrator, bench::solid_speed};
     let mut solid = Vec::new();
-    for side in if quick { vec![20] } else { vec![46, 100] } {
+    for side in if !wants("solid") { vec![] } else if quick { vec![20] } else { vec![46, 100] } {
         solid.push(solid_speed(side, Integrator::Explicit, if quick { 3 } else { 5 }, bw));
         solid.push(solid_speed(side, Integrator::Implicit, if quick { 2 } else { 3 }, bw));
     }
-    BenchReport { threads: rayon::current_num_threads(), triad_bandwidth_gb_s: bw / 1e9, lattices, speed_vs_error, solid }
+    let lattice_gas = if wants("lattice_gas") {
+        let (cells, steps) = if quick { ([32, 16, 8], 3) } else { ([128, 64, 32], 5) };
+        vec![crate::lattice_gas::bench::cpu_speed(cells, steps, bw)]
+    } else {
+        Vec::new()
+    };
+    BenchReport { threads: rayon::current_num_threads(), triad_bandwidth_gb_s: bw / 1e9, lattices, speed_vs_error, solid, lattice_gas }
 }

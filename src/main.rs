@@ -52,6 +52,29 @@ enum Command {
         /// Also write the report as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
+        /// Only one suite: fdlb, solid or lattice_gas.
+        #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(phonation::bench::SUITES))]
+        only: Option<String>,
+    },
+    /// Lattice-gas viscosity from shear-wave decay over fill densities and interference
+    /// probabilities: a table (CSV, JSON) and a plot (SVG).
+    Viscosity {
+        /// Fill densities (particles per link).
+        #[arg(long, value_delimiter = ',', default_value = "0.1,0.2,0.3,0.4")]
+        densities: Vec<f64>,
+        /// Interference probabilities p.
+        #[arg(long, value_delimiter = ',', default_value = "0,0.1,0.2,0.3,0.4,0.5,0.6,0.8,1")]
+        interference: Vec<f64>,
+        /// Box of nx × n × n cells (nx a multiple of 4); the shear wave spans X.
+        #[arg(long, default_value_t = 32)]
+        nx: usize,
+        #[arg(long, default_value_t = 8)]
+        n: usize,
+        #[arg(long, default_value_t = 600)]
+        steps: u32,
+        /// Output directory.
+        #[arg(long, default_value = "out/viscosity")]
+        out: PathBuf,
     },
     /// Run the validation cases against their references; exits non-zero if any fails.
     Validate {
@@ -79,6 +102,27 @@ fn solid_row(v: &phonation::solid::bench::SolidSpeed, extra: &str) {
     );
 }
 
+fn lattice_gas_header() {
+    println!("FCHC lattice gas (fill 0.2, p = 0.1; seed's run = 512×256×128 cells × 39,000 steps):");
+    println!("{:>16} {:>14} {:>9} {:>8} {:>14}", "cells", "site upd./s", "B/site", "of b/w", "seed's run");
+}
+
+/// One table row of a lattice-gas speed measurement (`extra` appended, e.g. a ratio to the CPU).
+fn lattice_gas_row(v: &phonation::lattice_gas::bench::LatticeGasSpeed, extra: &str) {
+    println!(
+        "{:>16} {:>14.3e} {:>9.0} {:>7.1}% {:>12.0} s{extra}",
+        format!("{:?}", v.cells),
+        v.site_updates_per_s,
+        v.bytes_per_site_update,
+        100.0 * v.bandwidth_fraction,
+        v.projected_seed_run_s
+    );
+    if !v.stage_shares.is_empty() {
+        let st: Vec<String> = v.stage_shares.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
+        println!("{:>16} stages: {}", "", st.join(", "));
+    }
+}
+
 fn scene_text(arg: &str) -> anyhow::Result<String> {
     if let Some(t) = scene::builtin(arg) {
         return Ok(t.to_string());
@@ -100,6 +144,25 @@ fn main() -> anyhow::Result<()> {
         Command::Run { scene: name, out, steps, backend } => {
             let name = name.unwrap_or_else(|| scene::DEFAULT_SCENE.to_string());
             let text = scene_text(&name)?;
+            if phonation::lattice_gas::scene::is_lattice_gas_scene(&text) {
+                let sc = phonation::lattice_gas::scene::LatticeGasScene::parse(&text)?;
+                let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.file.name));
+                let lg = &sc.file.lattice_gas;
+                eprintln!("lattice-gas scene {}: {:?} cells, fill {}, p = {}", sc.file.name, lg.cells, lg.density, lg.interference);
+                let r = phonation::lattice_gas::scene::run_lattice_gas_scene(&sc, &dir, steps, backend)?;
+                eprintln!("backend: {}", r.backend);
+                eprintln!(
+                    "{} steps in {:.1} s ({:.3e} site updates/s); particles {} → {}",
+                    r.steps, r.wall_s, r.site_updates_per_s, r.particles_start, r.particles_end
+                );
+                match (r.wake_peak, r.strouhal) {
+                    (Some(p), Some(st)) => eprintln!("wake: periodic shedding, f = {:.4e} /step ({:.1} periods), St = {st:.3}", p.frequency, p.periods),
+                    (Some(p), None) => eprintln!("wake: no periodic shedding (peak prominence {:.1}, {:.1} periods)", p.prominence, p.periods),
+                    _ => {}
+                }
+                eprintln!("outputs in {}", dir.display());
+                return Ok(());
+            }
             if phonation::solid::scene::is_solid_scene(&text) {
                 let sc = phonation::solid::scene::SolidScene::parse(&text)?;
                 let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.file.name));
@@ -145,6 +208,16 @@ fn main() -> anyhow::Result<()> {
         }
         Command::Check { scene: name } => {
             let text = scene_text(&name)?;
+            if phonation::lattice_gas::scene::is_lattice_gas_scene(&text) {
+                let sc = phonation::lattice_gas::scene::LatticeGasScene::parse(&text)?;
+                let lg = &sc.file.lattice_gas;
+                let cells: usize = lg.cells.iter().product();
+                println!(
+                    "{}",
+                    serde_json::json!({"name": sc.file.name, "cells": lg.cells, "sites": 16 * cells, "state_bytes": 48 * cells, "density": lg.density, "interference": lg.interference, "steps": lg.steps, "probe": sc.probe})
+                );
+                return Ok(());
+            }
             if phonation::solid::scene::is_solid_scene(&text) {
                 let sc = phonation::solid::scene::SolidScene::parse(&text)?;
                 let s = sc.build()?;
@@ -162,18 +235,47 @@ fn main() -> anyhow::Result<()> {
                 let d = scene::parse(t).map(|s| s.description).unwrap_or_default();
                 println!("{n:18} {d}");
             }
+            for (n, t) in scene::LATTICE_GAS_BUILTIN {
+                let d = phonation::lattice_gas::scene::LatticeGasScene::parse(t).map(|s| s.file.description).unwrap_or_default();
+                println!("{n:18} [lattice gas] {d}");
+            }
             for (n, t) in scene::SOLID_BUILTIN {
                 let d = phonation::solid::scene::SolidScene::parse(t).map(|s| s.file.description).unwrap_or_default();
                 println!("{n:18} [solid] {d}");
             }
         }
-        Command::Bench { quick, backend, json } => {
+        Command::Viscosity { densities, interference, nx, n, steps, out } => {
+            use phonation::lattice_gas::viscosity::{viscosity_table, write_table};
+            if nx < 8 || nx % 4 != 0 || n == 0 {
+                bail!("--nx must be a multiple of 4 and at least 8, --n at least 1 (got {nx}, {n})");
+            }
+            if let Some(d) = densities.iter().find(|d| !(**d > 0.0 && **d < 1.0)) {
+                bail!("--densities: {d} must lie in (0, 1)");
+            }
+            if let Some(p) = interference.iter().find(|p| !(0.0..=1.0).contains(*p)) {
+                bail!("--interference: {p} must lie in [0, 1]");
+            }
+            let rows = viscosity_table(&densities, &interference, nx, n, steps, 11);
+            let files = write_table(&out, &rows)?;
+            println!("{:>8} {:>6} {:>10}", "density", "p", "ν (ℓ²/step)");
+            for r in &rows {
+                println!("{:>8.3} {:>6.3} {:>10.4}", r.density, r.interference, r.viscosity);
+            }
+            for f in files {
+                println!("wrote {}", f.display());
+            }
+        }
+        Command::Bench { quick, backend, json, only } => {
+            let wants = |suite: &str| only.as_deref().is_none_or(|o| o == suite);
             let mut report = serde_json::Map::new();
             let mut cpu_speeds = Vec::new();
+            let mut cpu_gas: Option<f64> = None;
             if backend != BenchBackend::Gpu {
-                let r = phonation::bench::run(quick);
+                let r = phonation::bench::run(quick, only.as_deref());
                 println!("CPU: {} threads, STREAM-like triad bandwidth {:.2} GB/s", r.threads, r.triad_bandwidth_gb_s);
-                println!("{:8} {:>16} {:>16} {:>10} {:>10}", "lattice", "nodes", "updates/s", "B/update", "of b/w");
+                if !r.lattices.is_empty() {
+                    println!("{:8} {:>16} {:>16} {:>10} {:>10}", "lattice", "nodes", "updates/s", "B/update", "of b/w");
+                }
                 for l in &r.lattices {
                     println!(
                         "{:8} {:>16} {:>16.3e} {:>10.0} {:>9.1}%",
@@ -187,20 +289,31 @@ fn main() -> anyhow::Result<()> {
                     println!("         stages: {}", st.join(", "));
                     cpu_speeds.push((l.lattice.clone(), l.node_updates_per_s));
                 }
-                println!("speed vs error, Taylor–Green D2Q21 (Re = 10):");
-                println!("{:>6} {:>14} {:>16}", "n", "wall s / t.u.", "decay-rate error");
+                if !r.speed_vs_error.is_empty() {
+                    println!("speed vs error, Taylor–Green D2Q21 (Re = 10):");
+                    println!("{:>6} {:>14} {:>16}", "n", "wall s / t.u.", "decay-rate error");
+                }
                 for t in &r.speed_vs_error {
                     println!("{:>6} {:>14.3e} {:>15.3}%", t.n, t.wall_per_time_unit, 100.0 * t.relative_error);
                 }
-                println!("MPS solid (3D, r_e = 2.1 l0):");
-                println!(
-                    "{:9} {:>10} {:>10} {:>14} {:>9} {:>8} {:>9} {:>8}",
-                    "step", "particles", "bonds", "updates/s", "B/update", "of b/w", "CG it.", "Δt/lim"
-                );
+                if !r.solid.is_empty() {
+                    println!("MPS solid (3D, r_e = 2.1 l0):");
+                    println!(
+                        "{:9} {:>10} {:>10} {:>14} {:>9} {:>8} {:>9} {:>8}",
+                        "step", "particles", "bonds", "updates/s", "B/update", "of b/w", "CG it.", "Δt/lim"
+                    );
+                }
                 for v in &r.solid {
                     solid_row(v, "");
                     let st: Vec<String> = v.stage_shares.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
                     println!("          stages: {}", st.join(", "));
+                }
+                if !r.lattice_gas.is_empty() {
+                    lattice_gas_header();
+                }
+                for v in &r.lattice_gas {
+                    lattice_gas_row(v, "");
+                    cpu_gas = Some(v.site_updates_per_s);
                 }
                 report.insert("cpu".into(), serde_json::to_value(&r)?);
             }
@@ -208,7 +321,9 @@ fn main() -> anyhow::Result<()> {
                 let ctx = phonation::gpu::GpuContext::new()?;
                 let bw = phonation::gpu::bench::copy_bandwidth(&ctx, if quick { 64 << 20 } else { 1 << 30 }, 10);
                 println!("GPU: {}, copy-kernel bandwidth {:.2} GB/s", ctx.describe(), bw / 1e9);
-                let sizes: Vec<(phonation::fluid::VelocitySetKind, [usize; 3])> = if quick {
+                let sizes: Vec<(phonation::fluid::VelocitySetKind, [usize; 3])> = if !wants("fdlb") {
+                    vec![]
+                } else if quick {
                     vec![(phonation::fluid::VelocitySetKind::D2q21, [256, 256, 1]), (phonation::fluid::VelocitySetKind::D3q39, [32, 32, 32])]
                 } else {
                     vec![
@@ -257,8 +372,10 @@ fn main() -> anyhow::Result<()> {
                     })
                     .unwrap_or_default();
                 let mut gpu_solid = Vec::new();
-                println!("GPU MPS solid:");
-                for side in if quick { vec![20usize] } else { vec![46, 100] } {
+                if wants("solid") {
+                    println!("GPU MPS solid:");
+                }
+                for side in if !wants("solid") { vec![] } else if quick { vec![20usize] } else { vec![46, 100] } {
                     for (integ, steps) in [
                         (phonation::solid::Integrator::Explicit, if quick { 10 } else { 50 }),
                         (phonation::solid::Integrator::Implicit, if quick { 2 } else { 5 }),
@@ -278,9 +395,24 @@ fn main() -> anyhow::Result<()> {
                         }
                     }
                 }
+                let mut gpu_gas = Vec::new();
+                if wants("lattice_gas") {
+                    lattice_gas_header();
+                    let sizes: Vec<[usize; 3]> = if quick { vec![[32, 16, 8]] } else { vec![[128, 64, 32], [512, 256, 128]] };
+                    for cells in sizes {
+                        match phonation::gpu::lattice_gas::lattice_gas_speed(&ctx, cells, if quick { 5 } else { 100 }, bw) {
+                            Ok(v) => {
+                                let vs = cpu_gas.map(|c| format!("  {:.1}× the CPU", v.site_updates_per_s / c)).unwrap_or_default();
+                                lattice_gas_row(&v, &vs);
+                                gpu_gas.push(v);
+                            }
+                            Err(e) => println!("lattice gas {cells:?} skipped: {e}"),
+                        }
+                    }
+                }
                 report.insert(
                     "gpu".into(),
-                    serde_json::json!({ "adapter": ctx.describe(), "copy_bandwidth_gb_s": bw / 1e9, "lattices": gpu, "solid": gpu_solid }),
+                    serde_json::json!({ "adapter": ctx.describe(), "copy_bandwidth_gb_s": bw / 1e9, "lattices": gpu, "solid": gpu_solid, "lattice_gas": gpu_gas }),
                 );
             }
             if let Some(p) = json {

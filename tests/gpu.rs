@@ -477,4 +477,5 @@ fn lattice_gas_gpu_is_bit_identical_to_the_cpu_after_100_steps() {
     let mut mirror = cpu.clone();
     gpu.download_into(&mut mirror);
     assert_eq!(mirror.step, cpu.step);
+    assert_eq!(gpu.device_step(), cpu.step);
 }

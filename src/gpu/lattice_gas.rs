@@ -191,8 +191,11 @@ impl GpuLatticeGas {
     pub fn download_into(&self, g: &mut LatticeGas) {
         g.set_cell_words(&self.cell_words());
         g.step = self.step;
-        let on_gpu: Vec<u32> = bytemuck::cast_slice(&read_buffer(&self.device, &self.queue, &self.step_buffer)).to_vec();
-        debug_assert_eq!(on_gpu[0], self.step);
+    }
+
+    /// The step counter as the GPU holds it (advanced by the `advance_step` kernel).
+    pub fn device_step(&self) -> u32 {
+        bytemuck::cast_slice::<u8, u32>(&read_buffer(&self.device, &self.queue, &self.step_buffer))[0]
     }
 
     /// Runs `steps` steps with every stage in its own compute pass bracketed by timestamps and
@@ -235,4 +238,26 @@ impl GpuLatticeGas {
         }
         Some(LATTICE_GAS_STEP.iter().zip(total).map(|(s, t)| (s.name, t)).collect())
     }
+}
+
+/// Times `steps` GPU steps of [`crate::lattice_gas::bench::benchmark_gas`] (after a warm-up),
+/// with per-stage shares from timestamp queries when the adapter has them.
+pub fn lattice_gas_speed(ctx: &GpuContext, cells: [usize; 3], steps: u64, bandwidth: f64) -> Result<crate::lattice_gas::bench::LatticeGasSpeed, GpuError> {
+    let table = CollisionTable::shared();
+    let g = crate::lattice_gas::bench::benchmark_gas(cells);
+    let mut gpu = GpuLatticeGas::new(ctx, &g, table)?;
+    gpu.advance(2);
+    gpu.wait();
+    let t0 = std::time::Instant::now();
+    gpu.advance(steps);
+    gpu.wait();
+    let s = t0.elapsed().as_secs_f64();
+    let shares = match gpu.profile_stages(ctx, 3) {
+        Some(t) => {
+            let all: f64 = t.iter().map(|(_, x)| x).sum();
+            t.into_iter().map(|(n, x)| (n.to_string(), x / all.max(1e-30))).collect()
+        }
+        None => Vec::new(),
+    };
+    Ok(crate::lattice_gas::bench::speed_of(ctx.describe(), &g, steps, s, bandwidth, shares))
 }

@@ -16,11 +16,13 @@
 //! | [`viscosity`] | kinematic viscosity from the decay of a shear wave; tables over density and p | (issue 5) |
 //! | [`scene`] | TOML scene files (`[lattice_gas]`), validation, the cylinder-wake run | §3.5 |
 
+pub mod bench;
 pub mod bits;
 pub mod coarse;
 pub mod collision;
 pub mod lattice;
 pub mod scene;
+pub mod spectrum;
 pub mod step;
 pub mod velocities;
 pub mod viscosity;

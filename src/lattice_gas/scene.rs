@@ -1,0 +1,435 @@
+//! Lattice-gas scene files (a `[lattice_gas]` table; seed 002 §3.5): the box of cells, the fill,
+//! the interference probability, an optional channel inlet and cylinder, the outputs. Every value
+//! is checked, with the field and the reason, before anything is allocated. The run writes the
+//! coarse-grained velocity (CSV, VTK, PNG), a wake probe and a summary with the Strouhal number.
+//!
+//! Units: lengths in ℓ (site spacing; cell centres every 2ℓ), velocities in ℓ per step.
+
+use super::coarse::{coarse_grain, write_csv, write_pngs, write_vtk};
+use super::collision::CollisionTable;
+use super::lattice::{Inlet, LANES, LatticeGas};
+use super::spectrum::{Peak, dominant_frequency};
+use super::velocities::{Q, VELOCITIES};
+use crate::scene::SceneError;
+use serde::{Deserialize, Serialize};
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LatticeGasSceneFile {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    pub lattice_gas: LatticeGasSection,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LatticeGasSection {
+    /// Cells along X, Y, Z (X a multiple of 4).
+    pub cells: [usize; 3],
+    /// Initial fill: particles per link, in (0, 1); at rest, random directions.
+    pub density: f64,
+    /// Probability p of the interference operation, in [0, 1].
+    #[serde(default)]
+    pub interference: f64,
+    #[serde(default = "default_seed")]
+    pub seed: u32,
+    pub steps: u64,
+    /// Channel: +X injection at X = 0 and a zero-gradient outlet; absent: periodic in X.
+    pub inlet: Option<InletSection>,
+    pub cylinder: Option<CylinderSection>,
+    #[serde(default)]
+    pub output: OutputSection,
+}
+
+fn default_seed() -> u32 {
+    1
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct InletSection {
+    /// Inflow velocity along +X (ℓ/step); the inlet density is the fill's.
+    pub velocity: f64,
+}
+
+/// An infinite cylinder along Z.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CylinderSection {
+    /// Axis position (X, Y) in ℓ.
+    pub center: [f64; 2],
+    /// Radius in ℓ.
+    pub radius: f64,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSection {
+    /// Cells per coarse-graining block edge (4 in the seed).
+    pub coarse_block: usize,
+    /// Steps between coarse-grained snapshots.
+    pub every: u64,
+    /// Steps between probe samples.
+    pub probe_every: u64,
+    /// Probe position (X, Y) in ℓ; default: two diameters behind the cylinder's axis.
+    pub probe: Option<[f64; 2]>,
+}
+
+impl Default for OutputSection {
+    fn default() -> Self {
+        Self { coarse_block: 4, every: 1000, probe_every: 10, probe: None }
+    }
+}
+
+/// Most cells a scene may have (site indices 24 · cell + k must fit in 32 bits).
+pub const MAX_CELLS: usize = (u32::MAX / Q as u32) as usize;
+
+#[derive(Clone, Debug)]
+pub struct LatticeGasScene {
+    pub file: LatticeGasSceneFile,
+    /// Probe position in ℓ, if the scene has one.
+    pub probe: Option<[f64; 2]>,
+}
+
+fn err<T>(field: &str, reason: impl Into<String>) -> Result<T, SceneError> {
+    Err(SceneError { field: format!("lattice_gas.{field}"), reason: reason.into() })
+}
+
+impl LatticeGasScene {
+    pub fn parse(text: &str) -> Result<Self, SceneError> {
+        let file: LatticeGasSceneFile = toml::from_str(text).map_err(|e| {
+            let msg = e.message().to_string();
+            let field = msg.split('`').nth(1).map(|s| format!("lattice_gas: {s}")).unwrap_or_else(|| "lattice_gas".into());
+            SceneError { field, reason: msg }
+        })?;
+        Self::new(file)
+    }
+
+    /// Validates every value (nothing is allocated).
+    pub fn new(file: LatticeGasSceneFile) -> Result<Self, SceneError> {
+        let s = &file.lattice_gas;
+        let [nx, ny, nz] = s.cells;
+        if nx < 8 || nx % LANES != 0 {
+            return err("cells", format!("X = {nx} cells: must be a multiple of {LANES} and at least 8 (four cells per 64-bit word)"));
+        }
+        if ny == 0 || nz == 0 {
+            return err("cells", format!("Y and Z must be at least 1 cell, got {ny} × {nz}"));
+        }
+        let cells = nx.checked_mul(ny).and_then(|c| c.checked_mul(nz)).unwrap_or(usize::MAX);
+        if cells > MAX_CELLS {
+            return err("cells", format!("{cells} cells exceed the limit of {MAX_CELLS} (32-bit site indices of the random streams)"));
+        }
+        if !(s.density > 0.0 && s.density < 1.0) {
+            return err("density", format!("fill {} must lie in (0, 1) particles per link", s.density));
+        }
+        if !(0.0..=1.0).contains(&s.interference) {
+            return err("interference", format!("probability {} must lie in [0, 1]", s.interference));
+        }
+        if s.steps == 0 {
+            return err("steps", "must be at least 1");
+        }
+        if let Some(inlet) = &s.inlet {
+            let u = inlet.velocity;
+            if !(u >= 0.0) || s.density * (1.0 + 2.0 * u) > 1.0 || u >= 0.5 {
+                return err(
+                    "inlet.velocity",
+                    format!("{u} ℓ/step: must be ≥ 0 and below 0.5 with density·(1 + 2u) ≤ 1 (the inlet's +X links fill with d(1 + 2u)); the sound speed is 1/√2"),
+                );
+            }
+        }
+        let (lx, ly) = (2.0 * nx as f64, 2.0 * ny as f64);
+        if let Some(c) = &s.cylinder {
+            if !(c.radius > 0.0) {
+                return err("cylinder.radius", format!("{} ℓ must be positive", c.radius));
+            }
+            // inside the box, clear of the inlet cell and the two outlet cells
+            let (x0, x1) = if s.inlet.is_some() { (2.0, lx - 5.0) } else { (0.0, lx - 1.0) };
+            if c.center[0] - c.radius < x0 || c.center[0] + c.radius > x1 || c.center[1] - c.radius < 0.0 || c.center[1] + c.radius > ly - 1.0 {
+                return err(
+                    "cylinder",
+                    format!(
+                        "centre {:?} ℓ, radius {} ℓ: the cylinder must lie inside the domain, X in [{x0}, {x1}] and Y in [0, {}] ℓ (cell centres at 2·index)",
+                        c.center,
+                        c.radius,
+                        ly - 1.0
+                    ),
+                );
+            }
+        }
+        let o = &s.output;
+        if o.coarse_block == 0 || o.coarse_block > nx.min(ny) {
+            return err("output.coarse_block", format!("{} cells: must be at least 1 and at most the box's X and Y", o.coarse_block));
+        }
+        if o.every == 0 || o.probe_every == 0 {
+            return err("output", "every and probe_every must be at least 1 step");
+        }
+        let probe = o.probe.or_else(|| s.cylinder.as_ref().map(|c| [c.center[0] + 4.0 * c.radius, c.center[1]]));
+        if let Some(p) = probe {
+            if !(p[0] >= 0.0 && p[0] <= lx - 1.0 && p[1] >= 0.0 && p[1] <= ly - 1.0) {
+                return err("output.probe", format!("{p:?} ℓ lies outside the domain [0, {}] × [0, {}] ℓ", lx - 1.0, ly - 1.0));
+            }
+        }
+        Ok(Self { file, probe })
+    }
+
+    /// Allocates and fills the gas (at rest, density d per link), with its cylinder and inlet.
+    pub fn build(&self) -> LatticeGas {
+        let s = &self.file.lattice_gas;
+        let mut g = LatticeGas::new(s.cells, s.seed, s.interference);
+        if let Some(c) = &s.cylinder {
+            g.add_cylinder(c.center, c.radius);
+        }
+        g.inlet = s.inlet.as_ref().map(|i| Inlet::new(s.density, i.velocity));
+        g.fill(s.density, |_| [0.0; 4], s.seed.wrapping_add(0x5bd1_e995));
+        g
+    }
+}
+
+/// Is this scene text a lattice-gas scene (has a `[lattice_gas]` table)?
+pub fn is_lattice_gas_scene(text: &str) -> bool {
+    toml::from_str::<toml::Table>(text).map(|t| t.contains_key("lattice_gas")).unwrap_or(false)
+}
+
+/// Mean velocity (X, Y; ℓ/step) of the fluid sites of the cells within a square of half-width
+/// `half` ℓ around `at` (ℓ), over all Z.
+pub fn region_velocity(g: &LatticeGas, at: [f64; 2], half: f64) -> [f64; 2] {
+    let (mut n, mut j) = (0u64, [0i64; 2]);
+    let x0 = ((at[0] - half) / 2.0).ceil().max(0.0) as usize;
+    let x1 = (((at[0] + half) / 2.0).floor() as usize).min(g.dims[0] - 1);
+    let y0 = ((at[1] - half) / 2.0).ceil().max(0.0) as usize;
+    let y1 = (((at[1] + half) / 2.0).floor() as usize).min(g.dims[1] - 1);
+    for z in 0..g.dims[2] {
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let cell = g.cell_index(x, y, z);
+                if g.solid[cell] {
+                    continue;
+                }
+                for k in 0..Q {
+                    let c = g.cell_word(k, cell).count_ones() as u64;
+                    n += c;
+                    j[0] += VELOCITIES[k][0] as i64 * c as i64;
+                    j[1] += VELOCITIES[k][1] as i64 * c as i64;
+                }
+            }
+        }
+    }
+    if n == 0 { [0.0; 2] } else { j.map(|v| v as f64 / n as f64) }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct LatticeGasReport {
+    pub name: String,
+    pub backend: String,
+    pub cells: [usize; 3],
+    pub sites: u64,
+    pub density: f64,
+    pub interference: f64,
+    pub steps: u64,
+    pub wall_s: f64,
+    pub site_updates_per_s: f64,
+    /// Wall-time share per stage (CPU backend only).
+    pub stage_shares: Vec<(String, f64)>,
+    pub particles_start: u64,
+    pub particles_end: u64,
+    /// Inflow velocity (ℓ/step) set at the inlet, and measured upstream of the cylinder (mean of
+    /// the last half of the samples).
+    pub inlet_velocity: Option<f64>,
+    pub upstream_velocity: Option<f64>,
+    /// Cylinder diameter (ℓ).
+    pub diameter: Option<f64>,
+    /// Spectral peak of the probe's transverse velocity over the last half of the run.
+    pub wake_peak: Option<Peak>,
+    /// Whether the wake sheds periodically: a prominent peak (≥ 20× the mean power) with at least
+    /// three periods in the window.
+    pub shedding_periodic: bool,
+    /// St = f D / U (U the inlet velocity), when shedding is periodic.
+    pub strouhal: Option<f64>,
+    pub files: Vec<String>,
+}
+
+/// Runs a lattice-gas scene into `dir`: `probe.csv` (step, u_X, u_Y at the probe, u_X
+/// upstream), `coarse_NNNNNNN.{csv,vtk}` and `coarse_NNNNNNN_{speed,uy}.png` every
+/// `output.every` steps, and `summary.json`. The GPU backend mirrors its state to the CPU at
+/// every sample.
+pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, steps: Option<u64>, backend: crate::engine::Backend) -> anyhow::Result<LatticeGasReport> {
+    std::fs::create_dir_all(dir)?;
+    let s = &sc.file.lattice_gas;
+    let table = CollisionTable::shared();
+    let mut g = sc.build();
+    let (ctx, backend_name) = crate::engine::pick_gpu(backend)?;
+    let mut gpu = match &ctx {
+        Some(ctx) => Some(crate::gpu::lattice_gas::GpuLatticeGas::new(ctx, &g, table)?),
+        None => None,
+    };
+    let total = steps.unwrap_or(s.steps).max(1);
+    let o = &s.output;
+    let upstream = s.cylinder.as_ref().map(|c| [(c.center[0] - c.radius) * 0.5, c.center[1]]);
+    let mut probe_csv = std::io::BufWriter::new(std::fs::File::create(dir.join("probe.csv"))?);
+    writeln!(probe_csv, "step,u_x,u_y,upstream_u_x")?;
+    let mut files = vec!["probe.csv".to_string()];
+    let particles_start = g.invariants().particles;
+    let mut samples = Vec::new();
+    let mut timings = super::step::LatticeGasTimings::default();
+    let mut done = 0u64;
+    let mut wall = 0.0;
+    let bar = indicatif::ProgressBar::new(total);
+    while done < total {
+        let next = [total, (done / o.probe_every + 1) * o.probe_every, (done / o.every + 1) * o.every].into_iter().min().unwrap();
+        let t0 = Instant::now();
+        match gpu.as_mut() {
+            Some(gg) => {
+                gg.advance(next - done);
+                gg.download_into(&mut g);
+            }
+            None => {
+                for _ in done..next {
+                    g.advance_timed(table, &mut timings);
+                }
+            }
+        }
+        wall += t0.elapsed().as_secs_f64();
+        done = next;
+        bar.set_position(done);
+        if done % o.probe_every == 0 {
+            if let Some(p) = sc.probe {
+                let u = region_velocity(&g, p, 2.0 * o.coarse_block as f64);
+                let up = upstream.map(|a| region_velocity(&g, a, 2.0 * o.coarse_block as f64)[0]);
+                writeln!(probe_csv, "{done},{:.6},{:.6},{}", u[0], u[1], up.map(|v| format!("{v:.6}")).unwrap_or_default())?;
+                samples.push((u[1], up));
+            }
+        }
+        if done % o.every == 0 || done == total {
+            probe_csv.flush()?;
+            let f = coarse_grain(&g, o.coarse_block);
+            let stem = format!("coarse_{done:07}");
+            write_csv(&dir.join(format!("{stem}.csv")), &f)?;
+            write_vtk(&dir.join(format!("{stem}.vtk")), &f, &format!("{} step {done}", sc.file.name))?;
+            write_pngs(&dir.join(format!("{stem}_speed.png")), &dir.join(format!("{stem}_uy.png")), &f)?;
+            files.extend([format!("{stem}.csv"), format!("{stem}.vtk"), format!("{stem}_speed.png"), format!("{stem}_uy.png")]);
+        }
+    }
+    bar.finish_and_clear();
+    probe_csv.flush()?;
+    let last_half = &samples[samples.len() / 2..];
+    let wake_peak = dominant_frequency(&last_half.iter().map(|s| s.0).collect::<Vec<_>>(), o.probe_every as f64);
+    let upstream_velocity = {
+        let v: Vec<f64> = last_half.iter().filter_map(|s| s.1).collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
+    let diameter = s.cylinder.as_ref().map(|c| 2.0 * c.radius);
+    let inlet_velocity = s.inlet.as_ref().map(|i| i.velocity);
+    let shedding_periodic = wake_peak.is_some_and(|p| p.prominence >= 20.0 && p.periods >= 3.0);
+    let strouhal = match (shedding_periodic, wake_peak, diameter, inlet_velocity) {
+        (true, Some(p), Some(d), Some(u)) if u > 0.0 => Some(p.frequency * d / u),
+        _ => None,
+    };
+    let sites = 16 * g.cells() as u64;
+    let report = LatticeGasReport {
+        name: sc.file.name.clone(),
+        backend: backend_name,
+        cells: s.cells,
+        sites,
+        density: s.density,
+        interference: s.interference,
+        steps: done,
+        wall_s: wall,
+        site_updates_per_s: sites as f64 * done as f64 / wall.max(1e-12),
+        stage_shares: timings.report().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
+        particles_start,
+        particles_end: g.invariants().particles,
+        inlet_velocity,
+        upstream_velocity,
+        diameter,
+        wake_peak,
+        shedding_periodic,
+        strouhal,
+        files,
+    };
+    std::fs::write(dir.join("summary.json"), serde_json::to_string_pretty(&report)?)?;
+    Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SMALL: &str = r#"
+name = "small_wake"
+[lattice_gas]
+cells = [32, 16, 2]
+density = 0.2
+interference = 0.1
+steps = 60
+[lattice_gas.inlet]
+velocity = 0.2
+[lattice_gas.cylinder]
+center = [20.0, 16.0]
+radius = 4.0
+[lattice_gas.output]
+coarse_block = 4
+every = 30
+probe_every = 5
+"#;
+
+    fn with(replace: &str, by: &str) -> Result<LatticeGasScene, SceneError> {
+        assert!(SMALL.contains(replace), "{replace}");
+        LatticeGasScene::parse(&SMALL.replace(replace, by))
+    }
+
+    #[test]
+    fn bad_input_is_refused_with_the_field_and_the_reason() {
+        assert!(LatticeGasScene::parse(SMALL).is_ok());
+        for (name, text) in crate::scene::LATTICE_GAS_BUILTIN {
+            assert!(is_lattice_gas_scene(text));
+            LatticeGasScene::parse(text).unwrap_or_else(|e| panic!("{name}: {e}"));
+        }
+        assert!(!is_lattice_gas_scene(crate::scene::BUILTIN[0].1));
+        let cases = [
+            ("interference = 0.1", "interference = 1.5", "lattice_gas.interference", "[0, 1]"),
+            ("interference = 0.1", "interference = -0.01", "lattice_gas.interference", "[0, 1]"),
+            ("density = 0.2", "density = 0.0", "lattice_gas.density", "(0, 1)"),
+            ("density = 0.2", "density = 1.0", "lattice_gas.density", "(0, 1)"),
+            ("center = [20.0, 16.0]", "center = [20.0, 40.0]", "lattice_gas.cylinder", "inside the domain"),
+            ("center = [20.0, 16.0]", "center = [62.0, 16.0]", "lattice_gas.cylinder", "inside the domain"),
+            ("radius = 4.0", "radius = 0.0", "lattice_gas.cylinder.radius", "positive"),
+            ("cells = [32, 16, 2]", "cells = [30, 16, 2]", "lattice_gas.cells", "multiple of 4"),
+            ("cells = [32, 16, 2]", "cells = [4000, 4000, 4000]", "lattice_gas.cells", "exceed"),
+            ("velocity = 0.2", "velocity = 0.6", "lattice_gas.inlet.velocity", "below 0.5"),
+            ("coarse_block = 4", "coarse_block = 0", "lattice_gas.output.coarse_block", "at least 1"),
+            ("steps = 60", "steps = 60\nviscosity = 2", "lattice_gas: viscosity", "unknown field"),
+        ];
+        for (a, b, field, reason) in cases {
+            let e = with(a, b).expect_err(b);
+            println!("{b}: {e}");
+            assert_eq!(e.field, field, "{b}");
+            assert!(e.reason.contains(reason), "{b}: {}", e.reason);
+        }
+    }
+
+    #[test]
+    fn a_small_wake_runs_and_writes_its_outputs() {
+        let sc = LatticeGasScene::parse(SMALL).unwrap();
+        let dir = std::env::temp_dir().join(format!("phonation_lg_{}", std::process::id()));
+        let r = run_lattice_gas_scene(&sc, &dir, None, crate::engine::Backend::Cpu).unwrap();
+        println!("{}", serde_json::to_string(&r).unwrap());
+        assert_eq!(r.steps, 60);
+        assert_eq!(r.sites, 32 * 16 * 2 * 16);
+        for f in ["probe.csv", "summary.json", "coarse_0000030.csv", "coarse_0000060.vtk", "coarse_0000060_speed.png", "coarse_0000060_uy.png"] {
+            assert!(dir.join(f).is_file(), "{f}");
+        }
+        let probe = std::fs::read_to_string(dir.join("probe.csv")).unwrap();
+        assert_eq!(probe.lines().count(), 1 + 12);
+        // after 60 steps the injected flow has reached the upstream probe (inlet at 0.2 ℓ/step)
+        let last: Vec<f64> = probe.lines().last().unwrap().split(',').map(|v| v.parse().unwrap()).collect();
+        assert!(last[3] > 0.05 && last[3] < 0.3, "upstream u_x {}", last[3]);
+        // the coarse CSV holds 8 × 4 × 1 blocks
+        let csv = std::fs::read_to_string(dir.join("coarse_0000060.csv")).unwrap();
+        assert_eq!(csv.lines().count(), 1 + 32);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

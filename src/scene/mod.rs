@@ -14,6 +14,9 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("glottal_jet", include_str!("../../assets/scenes/glottal_jet.toml")),
 ];
 
+/// Built-in lattice-gas scenes (seed 002).
+pub const LATTICE_GAS_BUILTIN: &[(&str, &str)] = &[("lattice_gas_wake", include_str!("../../assets/scenes/lattice_gas/cylinder_wake.toml"))];
+
 /// Built-in solid scenes (MPS solid only).
 pub const SOLID_BUILTIN: &[(&str, &str)] = &[
     ("cantilever", include_str!("../../assets/scenes/solid/cantilever.toml")),
@@ -27,5 +30,5 @@ pub const DEFAULT_SCENE: &str = "cylinder_wake";
 
 /// Text of a built-in scene by name.
 pub fn builtin(name: &str) -> Option<&'static str> {
-    BUILTIN.iter().chain(SOLID_BUILTIN).find(|(n, _)| *n == name).map(|(_, t)| *t)
+    BUILTIN.iter().chain(SOLID_BUILTIN).chain(LATTICE_GAS_BUILTIN).find(|(n, _)| *n == name).map(|(_, t)| *t)
 }

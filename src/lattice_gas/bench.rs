@@ -1,0 +1,77 @@
+//! Lattice-gas speed: site updates per second, the fraction of the memory bandwidth measured in
+//! the same process, and the projected time of the seed's run (seed 002 §3.5: 512 × 256 × 128
+//! cells, ~39,000 steps, ~55 minutes on 32 SX-ACE nodes).
+
+use super::collision::CollisionTable;
+use super::lattice::LatticeGas;
+use super::step::LatticeGasTimings;
+use super::velocities::Q;
+use serde::Serialize;
+use std::time::Instant;
+
+/// Sites of the seed's run (512 × 256 × 128 cells × 16 sites).
+pub const SEED_RUN_SITES: f64 = 512.0 * 256.0 * 128.0 * 16.0;
+/// Steps of the seed's run.
+pub const SEED_RUN_STEPS: f64 = 39_000.0;
+
+/// Bytes of memory traffic per site update with one pass per stage: collision, interference
+/// and propagation each read and write the 24 bits of every site (24 · 2 · 3 / 8 = 18 B); the
+/// boundaries touch only the X ends.
+pub const BYTES_PER_SITE_UPDATE: f64 = Q as f64 * 2.0 * 3.0 / 8.0;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct LatticeGasSpeed {
+    pub backend: String,
+    pub cells: [usize; 3],
+    pub density: f64,
+    pub interference: f64,
+    pub steps: u64,
+    pub site_updates_per_s: f64,
+    pub bytes_per_site_update: f64,
+    /// Of the bandwidth measured in the same process (CPU triad, GPU copy kernel).
+    pub bandwidth_fraction: f64,
+    /// Share of the step time per stage.
+    pub stage_shares: Vec<(String, f64)>,
+    /// The seed's 512 × 256 × 128-cell, 39,000-step run at this speed (s).
+    pub projected_seed_run_s: f64,
+}
+
+/// The periodic box the benchmarks time: fill 0.2 with a shear wave, interference p = 0.1.
+pub fn benchmark_gas(cells: [usize; 3]) -> LatticeGas {
+    let mut g = LatticeGas::new(cells, 7, 0.1);
+    let k = 2.0 * std::f64::consts::PI / (2.0 * cells[0] as f64);
+    g.fill(0.2, |x| [0.0, 0.1 * (k * x[0]).sin(), 0.0, 0.0], 3);
+    g
+}
+
+/// Fills in the derived figures of a measurement.
+pub fn speed_of(backend: String, g: &LatticeGas, steps: u64, seconds: f64, bandwidth: f64, stage_shares: Vec<(String, f64)>) -> LatticeGasSpeed {
+    let rate = 16.0 * g.cells() as f64 * steps as f64 / seconds.max(1e-12);
+    LatticeGasSpeed {
+        backend,
+        cells: g.dims,
+        density: 0.2,
+        interference: g.interference,
+        steps,
+        site_updates_per_s: rate,
+        bytes_per_site_update: BYTES_PER_SITE_UPDATE,
+        bandwidth_fraction: rate * BYTES_PER_SITE_UPDATE / bandwidth,
+        stage_shares,
+        projected_seed_run_s: SEED_RUN_SITES * SEED_RUN_STEPS / rate,
+    }
+}
+
+/// Times `steps` CPU steps (after one warm-up step) of [`benchmark_gas`].
+pub fn cpu_speed(cells: [usize; 3], steps: u64, bandwidth: f64) -> LatticeGasSpeed {
+    let table = CollisionTable::shared();
+    let mut g = benchmark_gas(cells);
+    g.advance(table);
+    let mut t = LatticeGasTimings::default();
+    let t0 = Instant::now();
+    for _ in 0..steps {
+        g.advance_timed(table, &mut t);
+    }
+    let s = t0.elapsed().as_secs_f64();
+    let shares = t.report().into_iter().map(|(n, f)| (n.to_string(), f)).collect();
+    speed_of(format!("CPU, {} threads", rayon::current_num_threads()), &g, steps, s, bandwidth, shares)
+}
