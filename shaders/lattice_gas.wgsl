@@ -18,6 +18,11 @@ struct Params {
     inlet: u32,
     // workgroups along x of a 2D dispatch
     groups_x: u32,
+    // outlet: 0 copy (zero gradient), 1 free stream (refilled like the inlet)
+    outlet: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
     inlet_thresholds: array<vec4<u32>, 6>,
 }
 
@@ -114,7 +119,7 @@ fn propagate(@builtin(global_invocation_id) gid: vec3<u32>) {
 //@PROPAGATE
 }
 
-// one thread per X row: outlet copy (cell n_x − 1 ← n_x − 2), inlet refill of cell 0
+// one thread per X row: outlet (cell n_x − 1 ← n_x − 2, or free stream), inlet refill of cell 0
 @compute @workgroup_size(64)
 fn boundaries(@builtin(global_invocation_id) gid: vec3<u32>) {
     let row = gid.x + gid.y * P.groups_x * WG;
@@ -126,11 +131,20 @@ fn boundaries(@builtin(global_invocation_id) gid: vec3<u32>) {
     let cell = 2u * first;
     let step = step_counter[0];
     let hs = mix32(P.seed ^ INLET_STREAM);
+    let last_cell = cell + 2u * rw - 1u;
     for (var k = 0u; k < 24u; k++) {
-        let x = dst[k * W + last];
-        dst[k * W + last] = (x & 0xFFFFu) | (x << 16u);
         let h = mix32((step * 24u + k) ^ hs);
         let t = P.inlet_thresholds[k / 4u][k % 4u];
+        let x = dst[k * W + last];
+        var out = x & 0xFFFFu;
+        if (P.outlet == 1u) {
+            for (var v = 0u; v < 16u; v++) {
+                if (mix32((last_cell * 16u + v) ^ h) < t) { out |= 1u << (16u + v); }
+            }
+        } else {
+            out |= x << 16u;
+        }
+        dst[k * W + last] = out;
         var lane = 0u;
         for (var v = 0u; v < 16u; v++) {
             if (mix32((cell * 16u + v) ^ h) < t) { lane |= 1u << v; }

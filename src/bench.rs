@@ -117,7 +117,13 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
         .collect();
     use crate::solid::{Integrator, bench::solid_speed};
     let mut solid = Vec::new();
-    for side in if !wants("solid") { vec![] } else if quick { vec![20] } else { vec![46, 100] } {
+    for side in if !wants("solid") {
+        vec![]
+    } else if quick {
+        vec![20]
+    } else {
+        vec![46, 100]
+    } {
         solid.push(solid_speed(side, Integrator::Explicit, if quick { 3 } else { 5 }, bw));
         solid.push(solid_speed(side, Integrator::Implicit, if quick { 2 } else { 3 }, bw));
     }

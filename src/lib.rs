@@ -8,7 +8,7 @@
 //! | module | what |
 //! |---|---|
 //! | [`fluid`] | FDLB: velocity sets, equilibrium, boundaries, CPU reference solver |
-//! | [`lattice_gas`] | FCHC integer lattice gas (second fluid backend, in progress): collision table, interference, propagation, shear-wave viscosity |
+//! | [`lattice_gas`] | FCHC integer lattice gas (second fluid backend, seed 002): collision classes, interference, bit-parallel propagation, channel and cylinder, coarse-graining, viscosity tables, scenes; GPU twin in [`gpu::lattice_gas`] |
 //! | [`solid`] | MPS orthotropic viscoelastic solid: materials, particles, forces, contact, explicit and implicit steps |
 //! | [`stages`] | the ordered stage list of one step (CPU, GPU, Bevy, timings) |
 //! | [`units`] | physical (cgs / SI) ↔ lattice units, Mach scaling |

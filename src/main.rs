@@ -72,6 +72,9 @@ enum Command {
         n: usize,
         #[arg(long, default_value_t = 600)]
         steps: u32,
+        /// Independent seeds per point (mean and standard error).
+        #[arg(long, default_value_t = 4)]
+        seeds: usize,
         /// Output directory.
         #[arg(long, default_value = "out/viscosity")]
         out: PathBuf,
@@ -244,7 +247,7 @@ fn main() -> anyhow::Result<()> {
                 println!("{n:18} [solid] {d}");
             }
         }
-        Command::Viscosity { densities, interference, nx, n, steps, out } => {
+        Command::Viscosity { densities, interference, nx, n, steps, seeds, out } => {
             use phonation::lattice_gas::viscosity::{viscosity_table, write_table};
             if nx < 8 || nx % 4 != 0 || n == 0 {
                 bail!("--nx must be a multiple of 4 and at least 8, --n at least 1 (got {nx}, {n})");
@@ -255,11 +258,20 @@ fn main() -> anyhow::Result<()> {
             if let Some(p) = interference.iter().find(|p| !(0.0..=1.0).contains(*p)) {
                 bail!("--interference: {p} must lie in [0, 1]");
             }
-            let rows = viscosity_table(&densities, &interference, nx, n, steps, 11);
+            if seeds == 0 {
+                bail!("--seeds must be at least 1");
+            }
+            let rows = viscosity_table(&densities, &interference, nx, n, steps, seeds);
             let files = write_table(&out, &rows)?;
-            println!("{:>8} {:>6} {:>10}", "density", "p", "ν (ℓ²/step)");
+            println!("{:>8} {:>6} {:>12} {:>10}", "density", "p", "ν (ℓ²/step)", "± s.e.");
             for r in &rows {
-                println!("{:>8.3} {:>6.3} {:>10.4}", r.density, r.interference, r.viscosity);
+                println!("{:>8.3} {:>6.3} {:>12.4} {:>10.4}", r.density, r.interference, r.viscosity, r.standard_error);
+            }
+            for d in &densities {
+                match phonation::lattice_gas::viscosity::zero_crossing(&rows, *d) {
+                    Some(p) => println!("fill {d}: ν turns negative at p ≈ {p:.3}"),
+                    None => println!("fill {d}: ν stays positive over the p measured"),
+                }
             }
             for f in files {
                 println!("wrote {}", f.display());
@@ -375,7 +387,13 @@ fn main() -> anyhow::Result<()> {
                 if wants("solid") {
                     println!("GPU MPS solid:");
                 }
-                for side in if !wants("solid") { vec![] } else if quick { vec![20usize] } else { vec![46, 100] } {
+                for side in if !wants("solid") {
+                    vec![]
+                } else if quick {
+                    vec![20usize]
+                } else {
+                    vec![46, 100]
+                } {
                     for (integ, steps) in [
                         (phonation::solid::Integrator::Explicit, if quick { 10 } else { 50 }),
                         (phonation::solid::Integrator::Implicit, if quick { 2 } else { 5 }),

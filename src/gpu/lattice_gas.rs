@@ -27,6 +27,8 @@ struct Params {
     interference: u32,
     inlet: u32,
     groups_x: u32,
+    outlet: u32,
+    pad: [u32; 3],
     inlet_thresholds: [u32; Q],
 }
 
@@ -77,7 +79,9 @@ impl GpuLatticeGas {
                 return Err(GpuError::TooLarge { what, bytes, limit });
             }
         }
-        let init = |label: &str, data: &[u8], usage: wgpu::BufferUsages| device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: data, usage });
+        let init = |label: &str, data: &[u8], usage: wgpu::BufferUsages| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: data, usage })
+        };
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let packed = pack(&g.cell_words());
         let states = [init("lattice gas state 0", bytemuck::cast_slice(&packed), storage), init("lattice gas state 1", bytemuck::cast_slice(&packed), storage)];
@@ -94,23 +98,34 @@ impl GpuLatticeGas {
             interference: if g.interference > 0.0 { probability_threshold(g.interference) } else { 0 },
             inlet: g.inlet.is_some() as u32,
             groups_x: dispatch_size(words.max(rows)).0,
+            outlet: g.inlet.is_some_and(|i| i.outlet == crate::lattice_gas::lattice::Outlet::FreeStream) as u32,
+            pad: [0; 3],
             inlet_thresholds: g.inlet.map(|i| i.thresholds).unwrap_or([0; Q]),
         };
         let params = init("lattice gas params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
         let key_class = init("class of key", bytemuck::cast_slice(&table.key_class), wgpu::BufferUsages::STORAGE);
         let start = init("class starts", bytemuck::cast_slice(&table.start), wgpu::BufferUsages::STORAGE);
         let members = init("class members", bytemuck::cast_slice(&table.members), wgpu::BufferUsages::STORAGE);
-        let layout = buffer_layout(&device, "lattice gas", &[(true, true), (false, false), (false, false), (false, false), (false, true), (false, true), (false, true), (false, true)]);
+        let layout = buffer_layout(
+            &device,
+            "lattice gas",
+            &[(true, true), (false, false), (false, false), (false, false), (false, true), (false, true), (false, true), (false, true)],
+        );
         let groups = [0usize, 1].map(|s| {
             let bufs = [&params, &step_buffer, &states[s], &states[1 - s], &solid, &key_class, &start, &members];
-            let entries: Vec<wgpu::BindGroupEntry> = bufs.iter().enumerate().map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() }).collect();
+            let entries: Vec<wgpu::BindGroupEntry> =
+                bufs.iter().enumerate().map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() }).collect();
             device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("lattice gas"), layout: &layout, entries: &entries })
         });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("lattice gas"),
             source: wgpu::ShaderSource::Wgsl(super::lattice_gas_codegen::shader().into()),
         });
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("lattice gas"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("lattice gas"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
         let pipelines = compute_pipelines(&device, &module, &pl, &["collide", "interfere", "propagate", "boundaries", "advance_step"]);
         Ok(Self { device, queue: ctx.queue.clone(), dims: g.dims, words, groups, states, step_buffer, pipelines, cur: 0, step: g.step })
     }
@@ -218,13 +233,18 @@ impl GpuLatticeGas {
         for _ in 0..steps {
             let mut enc = self.device.create_command_encoder(&Default::default());
             for (i, s) in LATTICE_GAS_STEP.iter().enumerate() {
-                let tw = wgpu::ComputePassTimestampWrites { query_set: &qs, beginning_of_pass_write_index: Some(2 * i as u32), end_of_pass_write_index: Some(2 * i as u32 + 1) };
+                let tw = wgpu::ComputePassTimestampWrites {
+                    query_set: &qs,
+                    beginning_of_pass_write_index: Some(2 * i as u32),
+                    end_of_pass_write_index: Some(2 * i as u32 + 1),
+                };
                 let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(s.name), timestamp_writes: Some(tw) });
                 self.record_stage(&mut pass, s.kind);
             }
             {
                 let mut pass = enc.begin_compute_pass(&Default::default());
                 pass.set_pipeline(&self.pipelines["advance_step"]);
+                pass.set_bind_group(0, &self.groups[self.cur], &[]);
                 pass.dispatch_workgroups(1, 1, 1);
             }
             enc.resolve_query_set(&qs, 0..count, &resolve, 0);

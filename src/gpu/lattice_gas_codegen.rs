@@ -4,7 +4,7 @@
 //! the CPU twin ([`crate::lattice_gas::bits`], [`crate::lattice_gas::collision::AXIS_MASKS`]).
 
 use crate::lattice_gas::bits::{axes, interference_sides, propagation_moves};
-use crate::lattice_gas::collision::{AXIS_MASKS, INTERFERENCE_STREAM, INLET_STREAM};
+use crate::lattice_gas::collision::{AXIS_MASKS, INLET_STREAM, INTERFERENCE_STREAM};
 use crate::lattice_gas::velocities::{Q, opposite};
 use std::fmt::Write;
 
@@ -105,9 +105,5 @@ pub fn shader() -> String {
     // the template's stream salts must be the CPU's
     assert!(TEMPLATE.contains(&format!("INTERFERENCE_STREAM: u32 = {INTERFERENCE_STREAM:#010x}u")));
     assert!(TEMPLATE.contains(&format!("INLET_STREAM: u32 = {INLET_STREAM:#010x}u")));
-    TEMPLATE
-        .replace("//@CLASS_KEY", &class_key())
-        .replace("//@COLLIDE", &collide())
-        .replace("//@INTERFERE", &interfere())
-        .replace("//@PROPAGATE", &propagate())
+    TEMPLATE.replace("//@CLASS_KEY", &class_key()).replace("//@COLLIDE", &collide()).replace("//@INTERFERE", &interfere()).replace("//@PROPAGATE", &propagate())
 }

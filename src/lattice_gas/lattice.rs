@@ -16,8 +16,22 @@ pub const LANES: usize = 4;
 /// The 24 words (one per velocity) of four consecutive cells along X.
 pub type Block = [u64; Q];
 
+/// The outlet of a channel (the last cell of every X row), applied after propagation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Outlet {
+    /// Zero gradient: a copy of the cell before it (seed 002 §3.5). Fixes no pressure level:
+    /// with the inlet fixing only the incoming populations, the mean density can drift.
+    #[default]
+    Copy,
+    /// Refilled with the inlet's free-stream equilibrium, like the inlet: pins the density (and
+    /// so the pressure) at both ends, at the price of forcing the wake back to the free stream in
+    /// the last cell.
+    FreeStream,
+}
+
 /// Inflow of a channel scene (seed 002 §3.5): the inlet cells (X = 0) are refilled every step
-/// with the equilibrium at this density and +X velocity; the last cells copy their neighbours.
+/// with the equilibrium at this density and +X velocity; the last cells follow [`Outlet`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Inlet {
     /// Particles per link.
@@ -26,12 +40,13 @@ pub struct Inlet {
     pub velocity: f64,
     /// Per velocity, the threshold t_k with P(bit) = t_k / 2³² = d (1 + 2 c_kX U).
     pub thresholds: [u32; Q],
+    pub outlet: Outlet,
 }
 
 impl Inlet {
-    pub fn new(density: f64, velocity: f64) -> Self {
+    pub fn new(density: f64, velocity: f64, outlet: Outlet) -> Self {
         let thresholds = std::array::from_fn(|k| probability_threshold(density * (1.0 + 2.0 * VELOCITIES[k][0] as f64 * velocity)));
-        Self { density, velocity, thresholds }
+        Self { density, velocity, thresholds, outlet }
     }
 }
 

@@ -7,7 +7,7 @@
 
 use super::coarse::{coarse_grain, write_csv, write_pngs, write_vtk};
 use super::collision::CollisionTable;
-use super::lattice::{Inlet, LANES, LatticeGas};
+use super::lattice::{Inlet, LANES, LatticeGas, Outlet};
 use super::spectrum::{Peak, dominant_frequency};
 use super::velocities::{Q, VELOCITIES};
 use crate::scene::SceneError;
@@ -54,6 +54,9 @@ fn default_seed() -> u32 {
 pub struct InletSection {
     /// Inflow velocity along +X (ℓ/step); the inlet density is the fill's.
     pub velocity: f64,
+    /// `copy` (zero gradient, the seed's) or `free_stream` (refilled like the inlet).
+    #[serde(default)]
+    pub outlet: Outlet,
 }
 
 /// An infinite cylinder along Z.
@@ -137,7 +140,9 @@ impl LatticeGasScene {
             if !(u >= 0.0) || s.density * (1.0 + 2.0 * u) > 1.0 || u >= 0.5 {
                 return err(
                     "inlet.velocity",
-                    format!("{u} ℓ/step: must be ≥ 0 and below 0.5 with density·(1 + 2u) ≤ 1 (the inlet's +X links fill with d(1 + 2u)); the sound speed is 1/√2"),
+                    format!(
+                        "{u} ℓ/step: must be ≥ 0 and below 0.5 with density·(1 + 2u) ≤ 1 (the inlet's +X links fill with d(1 + 2u)); the sound speed is 1/√2"
+                    ),
                 );
             }
         }
@@ -183,7 +188,7 @@ impl LatticeGasScene {
         if let Some(c) = &s.cylinder {
             g.add_cylinder(c.center, c.radius);
         }
-        g.inlet = s.inlet.as_ref().map(|i| Inlet::new(s.density, i.velocity));
+        g.inlet = s.inlet.as_ref().map(|i| Inlet::new(s.density, i.velocity, i.outlet));
         g.fill(s.density, |_| [0.0; 4], s.seed.wrapping_add(0x5bd1_e995));
         g
     }
@@ -244,8 +249,8 @@ pub struct LatticeGasReport {
     pub diameter: Option<f64>,
     /// Spectral peak of the probe's transverse velocity over the last half of the run.
     pub wake_peak: Option<Peak>,
-    /// Whether the wake sheds periodically: a prominent peak (≥ 20× the mean power) with at least
-    /// three periods in the window.
+    /// Whether the wake sheds periodically: a prominent peak (≥ 50× the mean power; white noise
+    /// gives 5–10) with at least three periods in the window.
     pub shedding_periodic: bool,
     /// St = f D / U (U the inlet velocity), when shedding is periodic.
     pub strouhal: Option<f64>,
@@ -323,7 +328,7 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, steps: Option<u64
     };
     let diameter = s.cylinder.as_ref().map(|c| 2.0 * c.radius);
     let inlet_velocity = s.inlet.as_ref().map(|i| i.velocity);
-    let shedding_periodic = wake_peak.is_some_and(|p| p.prominence >= 20.0 && p.periods >= 3.0);
+    let shedding_periodic = wake_peak.is_some_and(|p| p.prominence >= 50.0 && p.periods >= 3.0);
     let strouhal = match (shedding_periodic, wake_peak, diameter, inlet_velocity) {
         (true, Some(p), Some(d), Some(u)) if u > 0.0 => Some(p.frequency * d / u),
         _ => None,

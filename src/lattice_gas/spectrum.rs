@@ -26,8 +26,7 @@ pub fn dominant_frequency(samples: &[f64], dt: f64) -> Option<Peak> {
         return None;
     }
     let mean = samples.iter().sum::<f64>() / n as f64;
-    let windowed: Vec<f64> =
-        samples.iter().enumerate().map(|(i, s)| (s - mean) * (std::f64::consts::PI * i as f64 / (n - 1) as f64).sin().powi(2)).collect();
+    let windowed: Vec<f64> = samples.iter().enumerate().map(|(i, s)| (s - mean) * (std::f64::consts::PI * i as f64 / (n - 1) as f64).sin().powi(2)).collect();
     let m = OVERSAMPLE * n;
     let power: Vec<f64> = (0..=m / 2)
         .map(|j| {

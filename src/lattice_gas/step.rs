@@ -129,27 +129,36 @@ impl LatticeGas {
         self.blocks = new;
     }
 
-    /// Channel boundaries (seed 002 §3.5), after propagation: the last cell of every X row copies
-    /// the one before it (zero-gradient outlet), and the first cell is refilled with the inlet's
-    /// equilibrium (bits drawn from the stream of (seed ^ [`INLET_STREAM`], 24·step + k,
-    /// 16·cell + v)). Nothing in periodic boxes.
+    /// Channel boundaries (seed 002 §3.5), after propagation: the last cell of every X row
+    /// copies the one before it (zero-gradient outlet) or is refilled with the free stream
+    /// ([`super::lattice::Outlet`]), and the first cell is refilled with the inlet's equilibrium
+    /// (bits drawn from the stream of (seed ^ [`INLET_STREAM`], 24·step + k, 16·cell + v)).
+    /// Nothing in periodic boxes.
     pub fn boundaries(&mut self) {
         let Some(inlet) = self.inlet else { return };
         let nb = self.dims[0] / LANES;
         let (seed, step, nx) = (self.seed ^ INLET_STREAM, self.step, self.dims[0]);
-        self.blocks.par_chunks_mut(nb).enumerate().for_each(|(row, blocks)| {
-            for w in blocks[nb - 1].iter_mut() {
-                *w = (*w & 0x0000_FFFF_FFFF_FFFF) | ((*w & 0x0000_FFFF_0000_0000) << 16);
-            }
-            let cell = row * nx;
-            for (k, w) in blocks[0].iter_mut().enumerate() {
-                let mut lane = 0u64;
-                for v in 0..16 {
-                    if site_random(seed, step.wrapping_mul(Q as u32).wrapping_add(k as u32), (cell * 16 + v) as u32) < inlet.thresholds[k] {
-                        lane |= 1 << v;
-                    }
+        // the free-stream equilibrium of one cell, as a 16-bit lane per velocity
+        let draw = |cell: usize, k: usize| {
+            let mut lane = 0u64;
+            for v in 0..16 {
+                if site_random(seed, step.wrapping_mul(Q as u32).wrapping_add(k as u32), (cell * 16 + v) as u32) < inlet.thresholds[k] {
+                    lane |= 1 << v;
                 }
-                *w = (*w & !0xFFFF) | lane;
+            }
+            lane
+        };
+        self.blocks.par_chunks_mut(nb).enumerate().for_each(|(row, blocks)| {
+            let last = row * nx + nx - 1;
+            for (k, w) in blocks[nb - 1].iter_mut().enumerate() {
+                let lane = match inlet.outlet {
+                    super::lattice::Outlet::Copy => (*w >> 32) & 0xFFFF,
+                    super::lattice::Outlet::FreeStream => draw(last, k),
+                };
+                *w = (*w & 0x0000_FFFF_FFFF_FFFF) | (lane << 48);
+            }
+            for (k, w) in blocks[0].iter_mut().enumerate() {
+                *w = (*w & !0xFFFF) | draw(row * nx, k);
             }
         });
     }
@@ -250,7 +259,7 @@ mod tests {
         // equals the one before it
         let (d, u) = (0.2, 0.15);
         let mut g = LatticeGas::new([8, 16, 16], 9, 0.0);
-        g.inlet = Some(super::super::lattice::Inlet::new(d, u));
+        g.inlet = Some(super::super::lattice::Inlet::new(d, u, super::super::lattice::Outlet::Copy));
         g.fill(d, |_| [0.0; 4], 1);
         let (mut plus, mut minus, mut zero, mut n) = (0u64, 0u64, 0u64, 0u64);
         for _ in 0..20 {

