@@ -129,3 +129,52 @@ pub fn buffer_layout(device: &wgpu::Device, label: &str, kinds: &[(bool, bool)])
         .collect();
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries: &entries })
 }
+
+/// Timestamp queries around the compute passes of one step's stages (per-stage GPU timings):
+/// pass i writes its start and end into slots 2i and 2i + 1.
+pub struct StageTimestamps {
+    queries: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    stages: usize,
+    /// Seconds per timestamp tick.
+    period: f64,
+    /// Summed GPU seconds per stage.
+    pub total: Vec<f64>,
+}
+
+impl StageTimestamps {
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, stages: usize) -> Self {
+        let count = 2 * stages as u32;
+        let queries = device.create_query_set(&wgpu::QuerySetDescriptor { label: Some("stage timestamps"), ty: wgpu::QueryType::Timestamp, count });
+        let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamps"),
+            size: 8 * count as u64,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        Self { queries, resolve, stages, period: queue.get_timestamp_period() as f64 * 1e-9, total: vec![0.0; stages] }
+    }
+
+    /// The pass descriptor of stage i.
+    pub fn pass(&self, i: usize, label: &'static str) -> wgpu::ComputePassDescriptor<'_> {
+        let tw = wgpu::ComputePassTimestampWrites {
+            query_set: &self.queries,
+            beginning_of_pass_write_index: Some(2 * i as u32),
+            end_of_pass_write_index: Some(2 * i as u32 + 1),
+        };
+        wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: Some(tw) }
+    }
+
+    /// Records the copy of the step's timestamps (after the stages' passes).
+    pub fn resolve(&self, enc: &mut wgpu::CommandEncoder) {
+        enc.resolve_query_set(&self.queries, 0..2 * self.stages as u32, &self.resolve, 0);
+    }
+
+    /// After the step's submission: reads the timestamps back and adds each stage's time.
+    pub fn accumulate(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) {
+        let ts: Vec<u64> = bytemuck::cast_slice(&read_buffer(device, queue, &self.resolve)).to_vec();
+        for (i, t) in self.total.iter_mut().enumerate() {
+            *t += ts[2 * i + 1].saturating_sub(ts[2 * i]) as f64 * self.period;
+        }
+    }
+}

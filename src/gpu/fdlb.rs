@@ -493,36 +493,19 @@ impl GpuFluid {
         if !ctx.timestamps {
             return None;
         }
-        let count = 2 * FDLB_STEP.len() as u32;
-        let qs = self.device.create_query_set(&wgpu::QuerySetDescriptor { label: Some("stage timestamps"), ty: wgpu::QueryType::Timestamp, count });
-        let resolve = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("timestamps"),
-            size: 8 * count as u64,
-            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let period = self.queue.get_timestamp_period() as f64 * 1e-9;
-        let mut total = vec![0.0; FDLB_STEP.len()];
+        let mut timer = super::context::StageTimestamps::new(&self.device, &self.queue, FDLB_STEP.len());
         for _ in 0..steps {
             let mut enc = self.device.create_command_encoder(&Default::default());
             for (k, stage) in FDLB_STEP.iter().enumerate() {
-                let tw = wgpu::ComputePassTimestampWrites {
-                    query_set: &qs,
-                    beginning_of_pass_write_index: Some(2 * k as u32),
-                    end_of_pass_write_index: Some(2 * k as u32 + 1),
-                };
-                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(stage.name), timestamp_writes: Some(tw) });
+                let mut pass = enc.begin_compute_pass(&timer.pass(k, stage.name));
                 self.record_stage(&mut pass, k);
             }
-            enc.resolve_query_set(&qs, 0..count, &resolve, 0);
+            timer.resolve(&mut enc);
             self.queue.submit([enc.finish()]);
             self.finish_step();
-            let ts: Vec<u64> = bytemuck::cast_slice(&self.read_buffer(&resolve)).to_vec();
-            for k in 0..FDLB_STEP.len() {
-                total[k] += ts[2 * k + 1].saturating_sub(ts[2 * k]) as f64 * period;
-            }
+            timer.accumulate(&self.device, &self.queue);
         }
-        Some(FDLB_STEP.iter().zip(total).map(|(s, t)| (s.name, t)).collect())
+        Some(FDLB_STEP.iter().zip(timer.total).map(|(s, t)| (s.name, t)).collect())
     }
 
     /// First inadmissible node and its code (1 density, 2 velocity, 3 temperature), if any.

@@ -220,25 +220,11 @@ impl GpuLatticeGas {
         if !ctx.timestamps {
             return None;
         }
-        let count = 2 * LATTICE_GAS_STEP.len() as u32;
-        let qs = self.device.create_query_set(&wgpu::QuerySetDescriptor { label: Some("stage timestamps"), ty: wgpu::QueryType::Timestamp, count });
-        let resolve = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("timestamps"),
-            size: 8 * count as u64,
-            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let period = self.queue.get_timestamp_period() as f64 * 1e-9;
-        let mut total = vec![0.0; LATTICE_GAS_STEP.len()];
+        let mut timer = super::context::StageTimestamps::new(&self.device, &self.queue, LATTICE_GAS_STEP.len());
         for _ in 0..steps {
             let mut enc = self.device.create_command_encoder(&Default::default());
             for (i, s) in LATTICE_GAS_STEP.iter().enumerate() {
-                let tw = wgpu::ComputePassTimestampWrites {
-                    query_set: &qs,
-                    beginning_of_pass_write_index: Some(2 * i as u32),
-                    end_of_pass_write_index: Some(2 * i as u32 + 1),
-                };
-                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(s.name), timestamp_writes: Some(tw) });
+                let mut pass = enc.begin_compute_pass(&timer.pass(i, s.name));
                 self.record_stage(&mut pass, s.kind);
             }
             {
@@ -247,16 +233,13 @@ impl GpuLatticeGas {
                 pass.set_bind_group(0, &self.groups[self.cur], &[]);
                 pass.dispatch_workgroups(1, 1, 1);
             }
-            enc.resolve_query_set(&qs, 0..count, &resolve, 0);
+            timer.resolve(&mut enc);
             self.queue.submit([enc.finish()]);
             self.cur = 1 - self.cur;
             self.step = self.step.wrapping_add(1);
-            let ts: Vec<u64> = bytemuck::cast_slice(&read_buffer(&self.device, &self.queue, &resolve)).to_vec();
-            for i in 0..LATTICE_GAS_STEP.len() {
-                total[i] += ts[2 * i + 1].saturating_sub(ts[2 * i]) as f64 * period;
-            }
+            timer.accumulate(&self.device, &self.queue);
         }
-        Some(LATTICE_GAS_STEP.iter().zip(total).map(|(s, t)| (s.name, t)).collect())
+        Some(LATTICE_GAS_STEP.iter().zip(timer.total).map(|(s, t)| (s.name, t)).collect())
     }
 }
 
