@@ -131,8 +131,13 @@ impl GpuLatticeGas {
     }
 
     fn record_stage(&self, pass: &mut wgpu::ComputePass, kind: LatticeGasStageKind) {
+        self.record_stage_on(pass, kind, self.cur);
+    }
+
+    /// Records a stage with the bind group whose `src` is state buffer `group`.
+    fn record_stage_on(&self, pass: &mut wgpu::ComputePass, kind: LatticeGasStageKind, group: usize) {
         pass.set_pipeline(&self.pipelines[entry_of(kind)]);
-        pass.set_bind_group(0, &self.groups[self.cur], &[]);
+        pass.set_bind_group(0, &self.groups[group], &[]);
         let threads = if kind == LatticeGasStageKind::Boundaries { (self.dims[1] * self.dims[2]) as u32 } else { self.words };
         // every kernel flattens (x, y) with the same groups_x (that of the larger count)
         let gx = dispatch_size(self.words.max((self.dims[1] * self.dims[2]) as u32)).0;
@@ -159,16 +164,9 @@ impl GpuLatticeGas {
         let mut enc = self.device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
-            if kind == LatticeGasStageKind::Boundaries {
-                // the boundaries kernel edits `dst`: run it on the current state as `dst`
-                pass.set_pipeline(&self.pipelines["boundaries"]);
-                pass.set_bind_group(0, &self.groups[1 - self.cur], &[]);
-                let rows = (self.dims[1] * self.dims[2]) as u32;
-                let gx = dispatch_size(self.words.max(rows)).0;
-                pass.dispatch_workgroups(gx, rows.div_ceil(WG).div_ceil(gx).max(1), 1);
-            } else {
-                self.record_stage(&mut pass, kind);
-            }
+            // the boundaries kernel edits `dst`: bind the current state as `dst`
+            let group = if kind == LatticeGasStageKind::Boundaries { 1 - self.cur } else { self.cur };
+            self.record_stage_on(&mut pass, kind, group);
         }
         self.queue.submit([enc.finish()]);
         if kind == LatticeGasStageKind::Propagate {

@@ -60,7 +60,7 @@ mod tests {
         // 2 % of the true frequency (bin width 1/7.3 = 14 %), prominent; pure noise is not
         let dt = 10.0;
         let f = 7.3 / (400.0 * dt);
-        let noise = |i: usize| (crate::lattice_gas::collision::mix32(i as u32) as f64 / 4_294_967_296.0 - 0.5);
+        let noise = |i: usize| crate::lattice_gas::collision::mix32(i as u32) as f64 / 4_294_967_296.0 - 0.5;
         let s: Vec<f64> = (0..400).map(|i| 0.2 + (2.0 * std::f64::consts::PI * f * i as f64 * dt).sin() + noise(i)).collect();
         let p = dominant_frequency(&s, dt).unwrap();
         println!("{p:?} (true {f:.3e})");
