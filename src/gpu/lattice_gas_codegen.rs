@@ -46,8 +46,24 @@ fn collide() -> String {
         let _ = writeln!(s, "            o{k} |= ((t >> {k}u) & 1u) << bit;");
     }
     s += "        }\n    }\n";
+    s
+}
+
+/// Writes the collided words o0..o23 back.
+fn store() -> String {
+    (0..Q).map(|k| format!("    src[{k}u * W + w] = o{k};\n")).collect()
+}
+
+/// The interference applied to the collided words o0..o23 held in registers (fused kernel).
+fn interfere_registers() -> String {
+    let mut s = String::new();
     for k in 0..Q {
-        let _ = writeln!(s, "    src[{k}u * W + w] = o{k};");
+        let ((a, _), (b, _)) = axes(k);
+        let (ma, mb) = interference_sides(k);
+        let _ = writeln!(
+            s,
+            "            if (mix32((cell * 24u + {k}u) ^ hi) < P.interference) {{\n                let n = interfere_lane((o{k} >> shift) & 0xFFFFu, {a}u, {b}u, {ma:#06x}u, {mb:#06x}u);\n                o{k} = (o{k} & ~(0xFFFFu << shift)) | (n << shift);\n            }}"
+        );
     }
     s
 }
@@ -105,5 +121,13 @@ pub fn shader() -> String {
     // the template's stream salts must be the CPU's
     assert!(TEMPLATE.contains(&format!("INTERFERENCE_STREAM: u32 = {INTERFERENCE_STREAM:#010x}u")));
     assert!(TEMPLATE.contains(&format!("INLET_STREAM: u32 = {INLET_STREAM:#010x}u")));
-    TEMPLATE.replace("//@CLASS_KEY", &class_key()).replace("//@COLLIDE", &collide()).replace("//@INTERFERE", &interfere()).replace("//@PROPAGATE", &propagate())
+    let wgsl = TEMPLATE
+        .replace("//@CLASS_KEY", &class_key())
+        .replace("//@COLLIDE", &collide())
+        .replace("//@STORE", &store())
+        .replace("//@REGISTER_INTERFERENCE", &interfere_registers())
+        .replace("//@INTERFERE", &interfere())
+        .replace("//@PROPAGATE", &propagate());
+    assert!(!wgsl.contains("//@"), "a marker of shaders/lattice_gas.wgsl was left unfilled");
+    wgsl
 }

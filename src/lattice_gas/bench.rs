@@ -14,10 +14,12 @@ pub const SEED_RUN_SITES: f64 = 512.0 * 256.0 * 128.0 * 16.0;
 /// Steps of the seed's run.
 pub const SEED_RUN_STEPS: f64 = 39_000.0;
 
-/// Bytes of memory traffic per site update with one pass per stage: collision, interference
-/// and propagation each read and write the 24 bits of every site (24 · 2 · 3 / 8 = 18 B); the
-/// boundaries touch only the X ends.
-pub const BYTES_PER_SITE_UPDATE: f64 = Q as f64 * 2.0 * 3.0 / 8.0;
+/// Bytes of memory traffic per site update on the CPU, one pass per stage: collision,
+/// interference and propagation each read and write the 24 bits of every site (24 · 2 · 3 / 8 =
+/// 18 B); the boundaries touch only the X ends.
+pub const CPU_BYTES_PER_SITE_UPDATE: f64 = Q as f64 * 2.0 * 3.0 / 8.0;
+/// On the GPU collision and interference are one kernel: two passes (12 B).
+pub const GPU_BYTES_PER_SITE_UPDATE: f64 = Q as f64 * 2.0 * 2.0 / 8.0;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct LatticeGasSpeed {
@@ -45,7 +47,15 @@ pub fn benchmark_gas(cells: [usize; 3]) -> LatticeGas {
 }
 
 /// Fills in the derived figures of a measurement.
-pub fn speed_of(backend: String, g: &LatticeGas, steps: u64, seconds: f64, bandwidth: f64, stage_shares: Vec<(String, f64)>) -> LatticeGasSpeed {
+pub fn speed_of(
+    backend: String,
+    g: &LatticeGas,
+    steps: u64,
+    seconds: f64,
+    bytes_per_site_update: f64,
+    bandwidth: f64,
+    stage_shares: Vec<(String, f64)>,
+) -> LatticeGasSpeed {
     let rate = 16.0 * g.cells() as f64 * steps as f64 / seconds.max(1e-12);
     LatticeGasSpeed {
         backend,
@@ -54,8 +64,8 @@ pub fn speed_of(backend: String, g: &LatticeGas, steps: u64, seconds: f64, bandw
         interference: g.interference,
         steps,
         site_updates_per_s: rate,
-        bytes_per_site_update: BYTES_PER_SITE_UPDATE,
-        bandwidth_fraction: rate * BYTES_PER_SITE_UPDATE / bandwidth,
+        bytes_per_site_update,
+        bandwidth_fraction: rate * bytes_per_site_update / bandwidth,
         stage_shares,
         projected_seed_run_s: SEED_RUN_SITES * SEED_RUN_STEPS / rate,
     }
@@ -73,5 +83,5 @@ pub fn cpu_speed(cells: [usize; 3], steps: u64, bandwidth: f64) -> LatticeGasSpe
     }
     let s = t0.elapsed().as_secs_f64();
     let shares = t.report().into_iter().map(|(n, f)| (n.to_string(), f)).collect();
-    speed_of(format!("CPU, {} threads", rayon::current_num_threads()), &g, steps, s, bandwidth, shares)
+    speed_of(format!("CPU, {} threads", rayon::current_num_threads()), &g, steps, s, CPU_BYTES_PER_SITE_UPDATE, bandwidth, shares)
 }
