@@ -54,28 +54,17 @@ fn store() -> String {
     (0..Q).map(|k| format!("    src[{k}u * W + w] = o{k};\n")).collect()
 }
 
-/// The interference applied to the collided words o0..o23 held in registers (fused kernel).
-fn interfere_registers() -> String {
+/// The interference of every velocity on one lane (`cell`, `shift` in scope), with the random
+/// hash `hash`; `word(k)` is the expression of velocity k's word, read and assigned in place.
+fn interference_blocks(hash: &str, word: impl Fn(usize) -> String) -> String {
     let mut s = String::new();
     for k in 0..Q {
         let ((a, _), (b, _)) = axes(k);
         let (ma, mb) = interference_sides(k);
+        let x = word(k);
         let _ = writeln!(
             s,
-            "            if (mix32((cell * 24u + {k}u) ^ hi) < P.interference) {{\n                let n = interfere_lane((o{k} >> shift) & 0xFFFFu, {a}u, {b}u, {ma:#06x}u, {mb:#06x}u);\n                o{k} = (o{k} & ~(0xFFFFu << shift)) | (n << shift);\n            }}"
-        );
-    }
-    s
-}
-
-fn interfere() -> String {
-    let mut s = String::new();
-    for k in 0..Q {
-        let ((a, _), (b, _)) = axes(k);
-        let (ma, mb) = interference_sides(k);
-        let _ = writeln!(
-            s,
-            "        if (mix32((cell * 24u + {k}u) ^ h) < P.interference) {{\n            let x = src[{k}u * W + w];\n            let n = interfere_lane((x >> shift) & 0xFFFFu, {a}u, {b}u, {ma:#06x}u, {mb:#06x}u);\n            src[{k}u * W + w] = (x & ~(0xFFFFu << shift)) | (n << shift);\n        }}"
+            "            if (mix32((cell * 24u + {k}u) ^ {hash}) < P.interference) {{\n                let x = {x};\n                let n = interfere_lane((x >> shift) & 0xFFFFu, {a}u, {b}u, {ma:#06x}u, {mb:#06x}u);\n                {x} = (x & ~(0xFFFFu << shift)) | (n << shift);\n            }}"
         );
     }
     s
@@ -125,8 +114,9 @@ pub fn shader() -> String {
         .replace("//@CLASS_KEY", &class_key())
         .replace("//@COLLIDE", &collide())
         .replace("//@STORE", &store())
-        .replace("//@REGISTER_INTERFERENCE", &interfere_registers())
-        .replace("//@INTERFERE", &interfere())
+        // the fused kernel works on the collided words in registers, `interfere` on memory
+        .replace("//@REGISTER_INTERFERENCE", &interference_blocks("hi", |k| format!("o{k}")))
+        .replace("//@INTERFERE", &interference_blocks("h", |k| format!("src[{k}u * W + w]")))
         .replace("//@PROPAGATE", &propagate());
     assert!(!wgsl.contains("//@"), "a marker of shaders/lattice_gas.wgsl was left unfilled");
     wgsl
