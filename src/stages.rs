@@ -114,7 +114,7 @@ pub enum LatticeGasStageKind {
     Interfere,
     /// Every particle moved by its velocity (bit shifts; periodic wrap).
     Propagate,
-    /// Channel scenes: zero-gradient outlet (copy) and +X injection at the inlet.
+    /// Channel scenes: the outlet (zero-gradient copy or free stream) and +X injection at the inlet.
     Boundaries,
 }
 

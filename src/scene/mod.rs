@@ -15,7 +15,10 @@ pub const BUILTIN: &[(&str, &str)] = &[
 ];
 
 /// Built-in lattice-gas scenes (seed 002).
-pub const LATTICE_GAS_BUILTIN: &[(&str, &str)] = &[("lattice_gas_wake", include_str!("../../assets/scenes/lattice_gas/cylinder_wake.toml"))];
+pub const LATTICE_GAS_BUILTIN: &[(&str, &str)] = &[
+    ("lattice_gas_wake", include_str!("../../assets/scenes/lattice_gas/cylinder_wake.toml")),
+    ("lattice_gas_wake_large", include_str!("../../assets/scenes/lattice_gas/cylinder_wake_large.toml")),
+];
 
 /// Built-in solid scenes (MPS solid only).
 pub const SOLID_BUILTIN: &[(&str, &str)] = &[
