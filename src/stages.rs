@@ -54,10 +54,16 @@ pub struct StageTimings {
     pub steps: u64,
 }
 
+/// Each stage's share of the summed wall time (zeros before any time was measured).
+pub fn time_shares<'a>(stages: impl IntoIterator<Item = (&'static str, &'a Duration)>) -> Vec<(&'static str, f64)> {
+    let stages: Vec<(&'static str, f64)> = stages.into_iter().map(|(n, d)| (n, d.as_secs_f64())).collect();
+    let all: f64 = stages.iter().map(|(_, t)| t).sum();
+    stages.into_iter().map(|(n, t)| (n, if all > 0.0 { t / all } else { 0.0 })).collect()
+}
+
 impl StageTimings {
     pub fn report(&self) -> Vec<(&'static str, f64)> {
-        let all: f64 = self.total.iter().map(|d| d.as_secs_f64()).sum();
-        FDLB_STEP.iter().zip(&self.total).map(|(s, d)| (s.name, if all > 0.0 { d.as_secs_f64() / all } else { 0.0 })).collect()
+        time_shares(FDLB_STEP.iter().map(|s| s.name).zip(&self.total))
     }
 }
 

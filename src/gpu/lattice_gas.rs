@@ -42,6 +42,8 @@ pub struct GpuLatticeGas {
     states: [wgpu::Buffer; 2],
     step_buffer: wgpu::Buffer,
     pipelines: std::collections::HashMap<&'static str, wgpu::ComputePipeline>,
+    /// Workgroups along x of every dispatch (as uploaded in the parameters).
+    groups_x: u32,
     /// Which state buffer holds the current state.
     cur: usize,
     pub step: u32,
@@ -89,6 +91,8 @@ impl GpuLatticeGas {
         let solid = init("obstacle bits", bytemuck::cast_slice(&solid), wgpu::BufferUsages::STORAGE);
         let step_buffer = init("step counter", bytemuck::cast_slice(&[g.step]), storage);
         let rows = (g.dims[1] * g.dims[2]) as u32;
+        // every kernel flattens (x, y) with the same groups_x (that of the larger count)
+        let groups_x = dispatch_size(words.max(rows)).0;
         let params = Params {
             row_words: (g.dims[0] / 2) as u32,
             ny: g.dims[1] as u32,
@@ -97,7 +101,7 @@ impl GpuLatticeGas {
             seed: g.seed,
             interference: if g.interference > 0.0 { probability_threshold(g.interference) } else { 0 },
             inlet: g.inlet.is_some() as u32,
-            groups_x: dispatch_size(words.max(rows)).0,
+            groups_x,
             outlet: g.inlet.is_some_and(|i| i.outlet == crate::lattice_gas::lattice::Outlet::FreeStream) as u32,
             pad: [0; 3],
             inlet_thresholds: g.inlet.map(|i| i.thresholds).unwrap_or([0; Q]),
@@ -127,7 +131,7 @@ impl GpuLatticeGas {
             immediate_size: 0,
         });
         let pipelines = compute_pipelines(&device, &module, &pl, &["collide", "interfere", "collide_interfere", "propagate", "boundaries", "advance_step"]);
-        Ok(Self { device, queue: ctx.queue.clone(), dims: g.dims, words, groups, states, step_buffer, pipelines, cur: 0, step: g.step })
+        Ok(Self { device, queue: ctx.queue.clone(), dims: g.dims, words, groups, states, step_buffer, pipelines, groups_x, cur: 0, step: g.step })
     }
 
     fn record_stage(&self, pass: &mut wgpu::ComputePass, kind: LatticeGasStageKind) {
@@ -136,12 +140,22 @@ impl GpuLatticeGas {
 
     /// Records a stage with the bind group whose `src` is state buffer `group`.
     fn record_stage_on(&self, pass: &mut wgpu::ComputePass, kind: LatticeGasStageKind, group: usize) {
-        pass.set_pipeline(&self.pipelines[entry_of(kind)]);
-        pass.set_bind_group(0, &self.groups[group], &[]);
         let threads = if kind == LatticeGasStageKind::Boundaries { (self.dims[1] * self.dims[2]) as u32 } else { self.words };
-        // every kernel flattens (x, y) with the same groups_x (that of the larger count)
-        let gx = dispatch_size(self.words.max((self.dims[1] * self.dims[2]) as u32)).0;
-        pass.dispatch_workgroups(gx, threads.div_ceil(WG).div_ceil(gx).max(1), 1);
+        self.dispatch(pass, entry_of(kind), group, threads);
+    }
+
+    /// Dispatches kernel `entry` over `threads` threads with bind group `group`.
+    fn dispatch(&self, pass: &mut wgpu::ComputePass, entry: &str, group: usize, threads: u32) {
+        pass.set_pipeline(&self.pipelines[entry]);
+        pass.set_bind_group(0, &self.groups[group], &[]);
+        pass.dispatch_workgroups(self.groups_x, threads.div_ceil(WG).div_ceil(self.groups_x).max(1), 1);
+    }
+
+    /// Advances the GPU's step counter (one thread).
+    fn record_advance_step(&self, pass: &mut wgpu::ComputePass) {
+        pass.set_pipeline(&self.pipelines["advance_step"]);
+        pass.set_bind_group(0, &self.groups[self.cur], &[]);
+        pass.dispatch_workgroups(1, 1, 1);
     }
 
     fn record_step(&mut self, enc: &mut wgpu::CommandEncoder) {
@@ -151,18 +165,12 @@ impl GpuLatticeGas {
         // `dst`, which becomes the current state below
         for s in LATTICE_GAS_STEP {
             match s.kind {
-                LatticeGasStageKind::Collide => {
-                    pass.set_pipeline(&self.pipelines["collide_interfere"]);
-                    pass.set_bind_group(0, &self.groups[self.cur], &[]);
-                    let gx = dispatch_size(self.words.max((self.dims[1] * self.dims[2]) as u32)).0;
-                    pass.dispatch_workgroups(gx, self.words.div_ceil(WG).div_ceil(gx).max(1), 1);
-                }
+                LatticeGasStageKind::Collide => self.dispatch(&mut pass, "collide_interfere", self.cur, self.words),
                 LatticeGasStageKind::Interfere => {}
                 _ => self.record_stage(&mut pass, s.kind),
             }
         }
-        pass.set_pipeline(&self.pipelines["advance_step"]);
-        pass.dispatch_workgroups(1, 1, 1);
+        self.record_advance_step(&mut pass);
         drop(pass);
         self.cur = 1 - self.cur;
         self.step = self.step.wrapping_add(1);
@@ -235,12 +243,7 @@ impl GpuLatticeGas {
                 let mut pass = enc.begin_compute_pass(&timer.pass(i, s.name));
                 self.record_stage(&mut pass, s.kind);
             }
-            {
-                let mut pass = enc.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&self.pipelines["advance_step"]);
-                pass.set_bind_group(0, &self.groups[self.cur], &[]);
-                pass.dispatch_workgroups(1, 1, 1);
-            }
+            self.record_advance_step(&mut enc.begin_compute_pass(&Default::default()));
             timer.resolve(&mut enc);
             self.queue.submit([enc.finish()]);
             self.cur = 1 - self.cur;

@@ -38,11 +38,15 @@ pub struct LatticeGasSpeed {
     pub projected_seed_run_s: f64,
 }
 
-/// The periodic box the benchmarks time: fill 0.2 with a shear wave, interference p = 0.1.
+/// Fill (particles per link) of the benchmark box.
+pub const BENCHMARK_FILL: f64 = 0.2;
+
+/// The periodic box the benchmarks time: fill [`BENCHMARK_FILL`] with a shear wave,
+/// interference p = 0.1.
 pub fn benchmark_gas(cells: [usize; 3]) -> LatticeGas {
     let mut g = LatticeGas::new(cells, 7, 0.1);
     let k = 2.0 * std::f64::consts::PI / (2.0 * cells[0] as f64);
-    g.fill(0.2, |x| [0.0, 0.1 * (k * x[0]).sin(), 0.0, 0.0], 3);
+    g.fill(BENCHMARK_FILL, |x| [0.0, 0.1 * (k * x[0]).sin(), 0.0, 0.0], 3);
     g
 }
 
@@ -60,7 +64,7 @@ pub fn speed_of(
     LatticeGasSpeed {
         backend,
         cells: g.dims,
-        density: 0.2,
+        density: BENCHMARK_FILL,
         interference: g.interference,
         steps,
         site_updates_per_s: rate,

@@ -6,7 +6,7 @@
 //! particles per link (0..1).
 
 use super::lattice::LatticeGas;
-use super::velocities::{Q, VELOCITIES};
+use super::velocities::Q;
 use crate::output::fields::Slice;
 use crate::output::png_map::write_png;
 use rayon::prelude::*;
@@ -54,12 +54,10 @@ pub fn coarse_grain(g: &LatticeGas, block: usize) -> CoarseField {
                             continue;
                         }
                         cells += 1;
-                        for k in 0..Q {
-                            let c = g.cell_word(k, cell).count_ones() as u64;
-                            n += c;
-                            for a in 0..3 {
-                                j[a] += VELOCITIES[k][a] as i64 * c as i64;
-                            }
+                        let (cn, cj) = g.cell_moments(cell);
+                        n += cn;
+                        for a in 0..3 {
+                            j[a] += cj[a];
                         }
                     }
                 }

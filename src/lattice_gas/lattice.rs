@@ -159,17 +159,28 @@ impl LatticeGas {
         Invariants { particles: counts.iter().sum(), momentum }
     }
 
+    /// Particle count and 4-momentum of one cell (integers).
+    #[inline]
+    pub fn cell_moments(&self, cell: usize) -> (u64, [i64; 4]) {
+        let (mut n, mut j) = (0u64, [0i64; 4]);
+        for k in 0..Q {
+            let c = self.cell_word(k, cell).count_ones() as i64;
+            n += c as u64;
+            for a in 0..4 {
+                j[a] += VELOCITIES[k][a] as i64 * c;
+            }
+        }
+        (n, j)
+    }
+
     /// Momentum density (4D, per site) of every X column of cells, summed over the Y–Z plane and
     /// divided by its sites.
     pub fn momentum_profile_x(&self) -> Vec<[f64; 4]> {
         let mut out = vec![[0f64; 4]; self.dims[0]];
         for cell in 0..self.cells() {
-            let x = cell % self.dims[0];
-            for k in 0..Q {
-                let cnt = self.cell_word(k, cell).count_ones() as f64;
-                for a in 0..4 {
-                    out[x][a] += VELOCITIES[k][a] as f64 * cnt;
-                }
+            let j = self.cell_moments(cell).1;
+            for a in 0..4 {
+                out[cell % self.dims[0]][a] += j[a] as f64;
             }
         }
         let sites = (16 * self.dims[1] * self.dims[2]) as f64;

@@ -9,7 +9,7 @@ use super::coarse::{coarse_grain, write_csv, write_pngs, write_vtk};
 use super::collision::CollisionTable;
 use super::lattice::{Inlet, LANES, LatticeGas, Outlet};
 use super::spectrum::{Peak, dominant_frequency};
-use super::velocities::{Q, VELOCITIES};
+use super::velocities::Q;
 use crate::scene::SceneError;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
@@ -104,11 +104,7 @@ fn err<T>(field: &str, reason: impl Into<String>) -> Result<T, SceneError> {
 
 impl LatticeGasScene {
     pub fn parse(text: &str) -> Result<Self, SceneError> {
-        let file: LatticeGasSceneFile = toml::from_str(text).map_err(|e| {
-            let msg = e.message().to_string();
-            let field = msg.split('`').nth(1).map(|s| format!("lattice_gas: {s}")).unwrap_or_else(|| "lattice_gas".into());
-            SceneError { field, reason: msg }
-        })?;
+        let file: LatticeGasSceneFile = toml::from_str(text).map_err(|e| SceneError::from_toml("lattice_gas", &e))?;
         Self::new(file)
     }
 
@@ -214,12 +210,10 @@ pub fn region_velocity(g: &LatticeGas, at: [f64; 2], half: f64) -> [f64; 2] {
                 if g.solid[cell] {
                     continue;
                 }
-                for k in 0..Q {
-                    let c = g.cell_word(k, cell).count_ones() as u64;
-                    n += c;
-                    j[0] += VELOCITIES[k][0] as i64 * c as i64;
-                    j[1] += VELOCITIES[k][1] as i64 * c as i64;
-                }
+                let (cn, cj) = g.cell_moments(cell);
+                n += cn;
+                j[0] += cj[0];
+                j[1] += cj[1];
             }
         }
     }

@@ -19,8 +19,7 @@ pub struct LatticeGasTimings {
 
 impl LatticeGasTimings {
     pub fn report(&self) -> Vec<(&'static str, f64)> {
-        let all: f64 = self.total.iter().map(|d| d.as_secs_f64()).sum();
-        LATTICE_GAS_STEP.iter().zip(&self.total).map(|(s, d)| (s.name, if all > 0.0 { d.as_secs_f64() / all } else { 0.0 })).collect()
+        crate::stages::time_shares(LATTICE_GAS_STEP.iter().map(|s| s.name).zip(&self.total))
     }
 }
 

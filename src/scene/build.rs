@@ -16,6 +16,16 @@ pub struct SceneError {
     pub reason: String,
 }
 
+impl SceneError {
+    /// A TOML parse error of a scene whose table is `section`: the key the message names (in
+    /// backticks) becomes the field, `section: key`.
+    pub fn from_toml(section: &str, e: &toml::de::Error) -> Self {
+        let msg = e.message().to_string();
+        let field = msg.split('`').nth(1).map(|s| format!("{section}: {s}")).unwrap_or_else(|| section.into());
+        SceneError { field, reason: msg }
+    }
+}
+
 fn err<T>(field: impl Into<String>, reason: impl Into<String>) -> Result<T, SceneError> {
     Err(SceneError { field: field.into(), reason: reason.into() })
 }

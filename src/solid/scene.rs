@@ -187,11 +187,7 @@ pub const MAX_PARTICLES: f64 = 5.0e7;
 
 impl SolidScene {
     pub fn parse(text: &str) -> Result<Self, SceneError> {
-        let file: SolidSceneFile = toml::from_str(text).map_err(|e| {
-            let msg = e.message().to_string();
-            let field = msg.split('`').nth(1).map(|s| format!("solid: {s}")).unwrap_or_else(|| "solid".into());
-            SceneError { field, reason: msg }
-        })?;
+        let file: SolidSceneFile = toml::from_str(text).map_err(|e| SceneError::from_toml("solid", &e))?;
         Self::new(file)
     }
 

@@ -388,8 +388,7 @@ impl SolidSolver {
 
     /// Mean stage shares of the wall time so far.
     pub fn stage_shares(&self) -> Vec<(&'static str, f64)> {
-        let all: f64 = self.timings.iter().map(|(_, d)| d.as_secs_f64()).sum();
-        self.timings.iter().map(|(s, d)| (s.name, if all > 0.0 { d.as_secs_f64() / all } else { 0.0 })).collect()
+        crate::stages::time_shares(self.timings.iter().map(|(s, d)| (s.name, d)))
     }
 
     /// First particle whose state is not finite, if any.
