@@ -79,6 +79,30 @@ enum Command {
         #[arg(long, default_value = "out/viscosity")]
         out: PathBuf,
     },
+    /// Lattice gas at rest: equilibrium noise and the isotropy of the velocity families over
+    /// time, per interference probability: a table (CSV, JSON) and a plot (SVG).
+    Isotropy {
+        /// Fill density (particles per link).
+        #[arg(long, default_value_t = 0.2)]
+        density: f64,
+        /// Interference probabilities p.
+        #[arg(long, value_delimiter = ',', default_value = "0,0.01,0.02,0.05,0.1,0.2,0.4,1")]
+        interference: Vec<f64>,
+        /// Box of n³ cells (n a multiple of 4).
+        #[arg(long, default_value_t = 8)]
+        n: usize,
+        #[arg(long, default_value_t = 8000)]
+        steps: u32,
+        /// Sample every this many steps.
+        #[arg(long, default_value_t = 50)]
+        every: u32,
+        /// Independent seeds per p.
+        #[arg(long, default_value_t = 4)]
+        seeds: usize,
+        /// Output directory.
+        #[arg(long, default_value = "out/isotropy")]
+        out: PathBuf,
+    },
     /// Run the validation cases against their references; exits non-zero if any fails.
     Validate {
         /// Only cases whose name contains this.
@@ -263,15 +287,51 @@ fn main() -> anyhow::Result<()> {
             }
             let rows = viscosity_table(&densities, &interference, nx, n, steps, seeds);
             let files = write_table(&out, &rows)?;
-            println!("{:>8} {:>6} {:>12} {:>10}", "density", "p", "ν (ℓ²/step)", "± s.e.");
+            println!("{:>8} {:>6} {:>12} {:>10} {:>11} {:>15}", "density", "p", "ν (ℓ²/step)", "± s.e.", "mean field", "smallest share");
             for r in &rows {
-                println!("{:>8.3} {:>6.3} {:>12.4} {:>10.4}", r.density, r.interference, r.viscosity, r.standard_error);
+                let mean_field = phonation::lattice_gas::viscosity::mean_field_line(&rows, r.density, r.interference).map_or("-".into(), |v| format!("{v:.4}"));
+                println!(
+                    "{:>8.3} {:>6.3} {:>12.4} {:>10.4} {:>11} {:>15.3}",
+                    r.density, r.interference, r.viscosity, r.standard_error, mean_field, r.smallest_share
+                );
             }
             for d in &densities {
                 match phonation::lattice_gas::viscosity::zero_crossing(&rows, *d) {
                     Some(p) => println!("fill {d}: ν turns negative at p ≈ {p:.3}"),
                     None => println!("fill {d}: ν stays positive over the p measured"),
                 }
+            }
+            for f in files {
+                println!("wrote {}", f.display());
+            }
+        }
+        Command::Isotropy { density, interference, n, steps, every, seeds, out } => {
+            use phonation::lattice_gas::isotropy::{isotropy_table, write_isotropy};
+            if n < 4 || n % 4 != 0 {
+                bail!("--n must be a multiple of 4 and at least 4 (got {n})");
+            }
+            if !(density > 0.0 && density < 1.0) {
+                bail!("--density: {density} must lie in (0, 1)");
+            }
+            if let Some(p) = interference.iter().find(|p| !(0.0..=1.0).contains(*p)) {
+                bail!("--interference: {p} must lie in [0, 1]");
+            }
+            if seeds == 0 || every == 0 || steps < every {
+                bail!("--seeds and --every must be at least 1 and --steps at least --every (got {seeds}, {every}, {steps})");
+            }
+            let runs = isotropy_table(density, &interference, n, steps, every, seeds);
+            let files = write_isotropy(&out, &runs)?;
+            println!("{:>6} {:>6} {:>12} {:>14} {:>16}", "p", "seed", "onset step", "growth /step", "smallest share");
+            for r in &runs {
+                let last = r.history.last().expect("step 0 is always sampled");
+                println!(
+                    "{:>6.3} {:>6} {:>12} {:>14} {:>16.3}",
+                    r.interference,
+                    r.seed,
+                    r.onset_step.map_or("-".into(), |s| s.to_string()),
+                    r.growth_rate.map_or("-".into(), |g| format!("{g:.2e}")),
+                    last.smallest_share()
+                );
             }
             for f in files {
                 println!("wrote {}", f.display());
