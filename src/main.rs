@@ -272,15 +272,16 @@ fn main() -> anyhow::Result<()> {
             }
         }
         Command::Viscosity { densities, interference, nx, n, steps, seeds, out } => {
+            use phonation::lattice_gas::scene::{density_problem, interference_problem};
             use phonation::lattice_gas::viscosity::{viscosity_table, write_table};
             if nx < 8 || nx % 4 != 0 || n == 0 {
                 bail!("--nx must be a multiple of 4 and at least 8, --n at least 1 (got {nx}, {n})");
             }
-            if let Some(d) = densities.iter().find(|d| !(**d > 0.0 && **d < 1.0)) {
-                bail!("--densities: {d} must lie in (0, 1)");
+            if let Some(reason) = densities.iter().find_map(|&d| density_problem(d)) {
+                bail!("--densities: {reason}");
             }
-            if let Some(p) = interference.iter().find(|p| !(0.0..=1.0).contains(*p)) {
-                bail!("--interference: {p} must lie in [0, 1]");
+            if let Some(reason) = interference.iter().find_map(|&p| interference_problem(p)) {
+                bail!("--interference: {reason}");
             }
             if seeds == 0 {
                 bail!("--seeds must be at least 1");
@@ -307,14 +308,15 @@ fn main() -> anyhow::Result<()> {
         }
         Command::Isotropy { density, interference, n, steps, every, seeds, out } => {
             use phonation::lattice_gas::isotropy::{isotropy_table, write_isotropy};
+            use phonation::lattice_gas::scene::{density_problem, interference_problem};
             if n < 4 || n % 4 != 0 {
                 bail!("--n must be a multiple of 4 and at least 4 (got {n})");
             }
-            if !(density > 0.0 && density < 1.0) {
-                bail!("--density: {density} must lie in (0, 1)");
+            if let Some(reason) = density_problem(density) {
+                bail!("--density: {reason}");
             }
-            if let Some(p) = interference.iter().find(|p| !(0.0..=1.0).contains(*p)) {
-                bail!("--interference: {p} must lie in [0, 1]");
+            if let Some(reason) = interference.iter().find_map(|&p| interference_problem(p)) {
+                bail!("--interference: {reason}");
             }
             if seeds == 0 || every == 0 || steps < every {
                 bail!("--seeds and --every must be at least 1 and --steps at least --every (got {seeds}, {every}, {steps})");

@@ -102,6 +102,17 @@ fn err<T>(field: &str, reason: impl Into<String>) -> Result<T, SceneError> {
     Err(SceneError { field: format!("lattice_gas.{field}"), reason: reason.into() })
 }
 
+/// Why a fill density (particles per link) is refused, if it is: it must lie in (0, 1). Shared by
+/// scene files and the `viscosity` / `isotropy` commands.
+pub fn density_problem(d: f64) -> Option<String> {
+    (!(d > 0.0 && d < 1.0)).then(|| format!("fill {d} must lie in (0, 1) particles per link"))
+}
+
+/// Why an interference probability is refused, if it is: it must lie in [0, 1].
+pub fn interference_problem(p: f64) -> Option<String> {
+    (!(0.0..=1.0).contains(&p)).then(|| format!("probability {p} must lie in [0, 1]"))
+}
+
 impl LatticeGasScene {
     pub fn parse(text: &str) -> Result<Self, SceneError> {
         let file: LatticeGasSceneFile = toml::from_str(text).map_err(|e| SceneError::from_toml("lattice_gas", &e))?;
@@ -122,11 +133,11 @@ impl LatticeGasScene {
         if cells > MAX_CELLS {
             return err("cells", format!("{cells} cells exceed the limit of {MAX_CELLS} (32-bit site indices of the random streams)"));
         }
-        if !(s.density > 0.0 && s.density < 1.0) {
-            return err("density", format!("fill {} must lie in (0, 1) particles per link", s.density));
+        if let Some(reason) = density_problem(s.density) {
+            return err("density", reason);
         }
-        if !(0.0..=1.0).contains(&s.interference) {
-            return err("interference", format!("probability {} must lie in [0, 1]", s.interference));
+        if let Some(reason) = interference_problem(s.interference) {
+            return err("interference", reason);
         }
         if s.steps == 0 {
             return err("steps", "must be at least 1");
