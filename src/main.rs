@@ -1,5 +1,6 @@
 //! `phonation`: the headless command line. `phonation` with no arguments runs the default
-//! built-in scene; `run`, `bench`, `validate`, `scenes`, `check` are the subcommands.
+//! built-in scene; `run`, `bench`, `validate`, `scenes`, `check`, and for the lattice gas
+//! `viscosity` and `isotropy`, are the subcommands.
 
 use anyhow::{Context, bail};
 use clap::{Parser, Subcommand};
@@ -70,6 +71,7 @@ enum Command {
         nx: usize,
         #[arg(long, default_value_t = 8)]
         n: usize,
+        /// Steps; the decay is fitted from step 20 on.
         #[arg(long, default_value_t = 600)]
         steps: u32,
         /// Independent seeds per point (mean and standard error).
@@ -276,6 +278,9 @@ fn main() -> anyhow::Result<()> {
             use phonation::lattice_gas::viscosity::{viscosity_table, write_table};
             if nx < 8 || nx % 4 != 0 || n == 0 {
                 bail!("--nx must be a multiple of 4 and at least 8, --n at least 1 (got {nx}, {n})");
+            }
+            if steps < 40 {
+                bail!("--steps: {steps} is too few: the decay is fitted from step 20 on, so at least 40");
             }
             if let Some(reason) = densities.iter().find_map(|&d| density_problem(d)) {
                 bail!("--densities: {reason}");
