@@ -16,8 +16,9 @@
 //! 0.02, 0.05, 0.1, 0.2, 0.4, 1; medians) the shares spread — rms departure 0.07–0.47 at the end
 //! against ≤ 0.015 at p = 0, in most runs one family down to a few per cent of its share — and the
 //! block variances fall to 0.25–0.8 of the equilibrium values: the gas is quieter than an
-//! equilibrium gas and anisotropic. The shares' second moment is the momentum flux, so a gas at
-//! rest in that state carries an anisotropic stress. The collision alone keeps every share at
+//! equilibrium gas and anisotropic. At rest the momentum flux Π_αα = Σ_k c_kα² n_k sums the
+//! families that contain axis α, and it ends up unequal between axes (by 50 % in the test's
+//! runs): the gas at rest carries an anisotropic stress. The collision alone keeps every share at
 //! 1 ± 0.01; the correlations that the interference leaves between sites overcome it.
 //! Units: ratios and shares (dimensionless); steps.
 
@@ -46,6 +47,12 @@ pub fn family_shares(g: &LatticeGas) -> [f64; 6] {
 /// The root-mean-square departure of the family shares from 1.
 pub fn anisotropy(shares: &[f64; 6]) -> f64 {
     (shares.iter().map(|s| (s - 1.0).powi(2)).sum::<f64>() / 6.0).sqrt()
+}
+
+/// The diagonal of the momentum flux at rest, Π_αα = Σ_k c_kα² n_k for α = X, Y, Z, R, in units
+/// of its isotropic value: the mean share of the three families that contain axis α.
+pub fn momentum_flux_diagonal(shares: &[f64; 6]) -> [f64; 4] {
+    std::array::from_fn(|axis| (0..6).filter(|&f| FAMILIES[f].contains(["X", "Y", "Z", "R"][axis])).map(|f| shares[f]).sum::<f64>() / 3.0)
 }
 
 /// The state of a gas at rest at one step.
@@ -232,6 +239,7 @@ mod tests {
             println!("p = 0, step {}: variance ratios {:.3} (mass), {:.3} (momentum); shares {:.3?}", s.step, s.mass_variance, s.momentum_variance, s.shares);
             assert!((s.mass_variance - 1.0).abs() < 0.25 && (s.momentum_variance - 1.0).abs() < 0.25);
             assert!(s.smallest_share() > 0.96 && s.anisotropy() < 0.025, "{:?}", s.shares);
+            assert!(momentum_flux_diagonal(&s.shares).iter().all(|x| (x - 1.0).abs() < 0.02));
         }
         // p > 0: after a delay that shrinks as p grows the shares spread and the gas becomes
         // quieter than the product measure (8³ cells, d = 0.2, seed 3: the smallest share
@@ -253,6 +261,11 @@ mod tests {
                     last.momentum_variance
                 );
                 assert!(last.anisotropy() > 0.1, "p = {p}: {:?}", last.shares);
+                // an anisotropic stress at rest: the diagonal momentum flux differs between axes
+                let flux = momentum_flux_diagonal(&last.shares);
+                let (lo, hi) = flux.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
+                println!("  momentum flux Π_αα / isotropic (X, Y, Z, R): {flux:.3?}");
+                assert!(hi / lo > 1.2, "{flux:?}");
                 assert!(last.mass_variance < 0.8 && last.momentum_variance < 0.8);
                 onset(&h, 0.8).unwrap()
             })
