@@ -6,8 +6,9 @@
 //! One application to velocity c in a cell compares the 4 departing particles of side A with
 //! the 4 of side B (the ends of the square diagonals perpendicular to c, [`super::bits`]) and
 //! moves every unpaired particle of the sparser side to the denser one. Side A's particles would
-//! enter the neighbouring cell along c's first axis and side B's the one along its second, so
-//! the operation steers c-particles towards whichever of the two cells already receives more.
+//! enter the neighbouring cell along c's first axis and side B's the one along its second (the
+//! cell itself when that axis is R), so the operation steers c-particles towards whichever of
+//! the two cells already receives more.
 //! With mean occupations n_A = n − δ/2 and n_B = n + δ/2 the expected net transfer A → B is
 //! F(n, δ) ≈ K(n) δ with K > 0: an anti-diffusion of each population along e = x_B − x_A,
 //! perpendicular to c.
