@@ -37,15 +37,23 @@ impl CoarseField {
     }
 }
 
-/// Sums the blocks of `block`³ cells.
-pub fn coarse_grain(g: &LatticeGas, block: usize) -> CoarseField {
+/// The integer sums of one block of cells: particles, momentum (X, Y, Z) and fluid cells.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BlockSum {
+    pub particles: u64,
+    pub momentum: [i64; 3],
+    pub cells: u64,
+}
+
+/// The sums of the blocks of `block`³ cells (obstacle cells left out), blocks X-fastest, and the
+/// blocks along X, Y, Z (the last block of an axis may be partial).
+pub fn block_sums(g: &LatticeGas, block: usize) -> ([usize; 3], Vec<BlockSum>) {
     let dims = g.dims.map(|n| n.div_ceil(block));
-    let nblocks = dims[0] * dims[1] * dims[2];
-    let sums: Vec<(u64, [i64; 3], u64)> = (0..nblocks)
+    let sums = (0..dims[0] * dims[1] * dims[2])
         .into_par_iter()
         .map(|b| {
             let (bx, by, bz) = (b % dims[0], (b / dims[0]) % dims[1], b / (dims[0] * dims[1]));
-            let (mut n, mut j, mut cells) = (0u64, [0i64; 3], 0u64);
+            let mut sum = BlockSum::default();
             for z in bz * block..((bz + 1) * block).min(g.dims[2]) {
                 for y in by * block..((by + 1) * block).min(g.dims[1]) {
                     for x in bx * block..((bx + 1) * block).min(g.dims[0]) {
@@ -53,20 +61,26 @@ pub fn coarse_grain(g: &LatticeGas, block: usize) -> CoarseField {
                         if g.solid[cell] {
                             continue;
                         }
-                        cells += 1;
                         let (cn, cj) = g.cell_moments(cell);
-                        n += cn;
+                        sum.cells += 1;
+                        sum.particles += cn;
                         for a in 0..3 {
-                            j[a] += cj[a];
+                            sum.momentum[a] += cj[a];
                         }
                     }
                 }
             }
-            (n, j, cells)
+            sum
         })
         .collect();
-    let density = sums.iter().map(|&(n, _, cells)| (cells > 0).then(|| n as f64 / (cells * 16 * Q as u64) as f64)).collect();
-    let velocity = sums.iter().map(|&(n, j, cells)| (cells > 0 && n > 0).then(|| j.map(|v| v as f64 / n as f64))).collect();
+    (dims, sums)
+}
+
+/// Density and velocity of the blocks of `block`³ cells.
+pub fn coarse_grain(g: &LatticeGas, block: usize) -> CoarseField {
+    let (dims, sums) = block_sums(g, block);
+    let density = sums.iter().map(|s| (s.cells > 0).then(|| s.particles as f64 / (s.cells * 16 * Q as u64) as f64)).collect();
+    let velocity = sums.iter().map(|s| (s.cells > 0 && s.particles > 0).then(|| s.momentum.map(|v| v as f64 / s.particles as f64))).collect();
     CoarseField { block, dims, density, velocity }
 }
 

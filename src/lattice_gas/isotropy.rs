@@ -22,10 +22,11 @@
 //! 1 ± 0.01; the correlations that the interference leaves between sites overcome it.
 //! Units: ratios and shares (dimensionless); steps.
 
-use super::coarse::coarse_grain;
+use super::coarse::block_sums;
 use super::collision::CollisionTable;
 use super::lattice::LatticeGas;
 use super::velocities::Q;
+use crate::validation::taylor_green::slope;
 use serde::Serialize;
 
 /// The families of velocities, by the coordinate plane of their two nonzero components (the
@@ -42,6 +43,11 @@ pub fn family_shares(g: &LatticeGas) -> [f64; 6] {
     }
     let total = counts.iter().sum::<u64>().max(1) as f64;
     counts.map(|c| 6.0 * c as f64 / total)
+}
+
+/// The smallest family share.
+pub fn smallest_share(shares: &[f64; 6]) -> f64 {
+    shares.iter().copied().fold(f64::INFINITY, f64::min)
 }
 
 /// The root-mean-square departure of the family shares from 1.
@@ -75,7 +81,7 @@ impl RestSample {
 
     /// The smallest family share.
     pub fn smallest_share(&self) -> f64 {
-        self.shares.iter().copied().fold(f64::INFINITY, f64::min)
+        smallest_share(&self.shares)
     }
 }
 
@@ -84,18 +90,16 @@ impl RestSample {
 /// family shares.
 pub fn sample(g: &LatticeGas, block: usize) -> RestSample {
     assert!(g.dims.iter().all(|&n| n % block == 0), "blocks must tile the box");
-    let f = coarse_grain(g, block);
+    let (_, sums) = block_sums(g, block);
     let sites = (16 * block * block * block) as f64;
-    // coarse_grain stores density per link and velocity = momentum / particles: undo both
-    let counts: Vec<f64> = f.density.iter().map(|d| d.expect("no obstacles in a box at rest") * Q as f64 * sites).collect();
-    let momenta: Vec<[f64; 3]> = f.velocity.iter().zip(&counts).map(|(u, &n)| u.map_or([0.0; 3], |u| u.map(|x| x * n))).collect();
+    let counts: Vec<f64> = sums.iter().map(|s| s.particles as f64).collect();
     let d = counts.iter().sum::<f64>() / (counts.len() as f64 * Q as f64 * sites);
     let variance = |xs: &[f64]| {
         let mean = xs.iter().sum::<f64>() / xs.len() as f64;
         xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (xs.len() as f64 - 1.0)
     };
     let unit = sites * d * (1.0 - d);
-    let momentum = (0..3).map(|a| variance(&momenta.iter().map(|j| j[a]).collect::<Vec<_>>())).sum::<f64>();
+    let momentum = (0..3).map(|a| variance(&sums.iter().map(|s| s.momentum[a] as f64).collect::<Vec<_>>())).sum::<f64>();
     RestSample { step: g.step, mass_variance: variance(&counts) / (24.0 * unit), momentum_variance: momentum / (3.0 * 12.0 * unit), shares: family_shares(g) }
 }
 
@@ -132,9 +136,8 @@ pub fn growth_rate(history: &[RestSample]) -> Option<f64> {
     if window.len() < 3 {
         return None;
     }
-    let n = window.len() as f64;
-    let (mt, ml) = (window.iter().map(|w| w.0).sum::<f64>() / n, window.iter().map(|w| w.1).sum::<f64>() / n);
-    Some(window.iter().map(|w| (w.0 - mt) * (w.1 - ml)).sum::<f64>() / window.iter().map(|w| (w.0 - mt).powi(2)).sum::<f64>())
+    let (steps, logs): (Vec<f64>, Vec<f64>) = window.into_iter().unzip();
+    Some(slope(&steps, &logs))
 }
 
 /// One gas at rest followed over time: its history, the step at which the smallest family

@@ -9,7 +9,9 @@
 //! Units: ν in (site spacing ℓ)² per step, with integer 4D site coordinates.
 
 use super::collision::CollisionTable;
+use super::isotropy::{family_shares, smallest_share};
 use super::lattice::LatticeGas;
+use crate::validation::taylor_green::slope;
 use serde::Serialize;
 
 #[derive(Clone, Debug, Serialize)]
@@ -55,11 +57,8 @@ pub fn shear_wave(density: f64, interference: f64, nx: usize, nyz: usize, steps:
         }
         g.advance(table);
     }
-    let n = ts.len() as f64;
-    let (mt, ml) = (ts.iter().sum::<f64>() / n, ls.iter().sum::<f64>() / n);
-    let slope = ts.iter().zip(&ls).map(|(t, l)| (t - mt) * (l - ml)).sum::<f64>() / ts.iter().map(|t| (t - mt) * (t - mt)).sum::<f64>();
-    let smallest_share = super::isotropy::family_shares(&g).into_iter().fold(f64::INFINITY, f64::min);
-    ShearWave { density, interference, viscosity: -slope / (k * k), amplitudes: (first, last), steps, smallest_share }
+    let smallest_share = smallest_share(&family_shares(&g));
+    ShearWave { density, interference, viscosity: -slope(&ts, &ls) / (k * k), amplitudes: (first, last), steps, smallest_share }
 }
 
 /// An ensemble of shear-wave measurements at one (density, p): independent seeds.
