@@ -20,7 +20,8 @@ struct Params {
     groups_x: u32,
     // outlet: 0 copy (zero gradient), 1 free stream (refilled like the inlet)
     outlet: u32,
-    pad0: u32,
+    // interference diagonals: 0 c_k's own plane, 1 also both of the complementary plane
+    diagonals: u32,
     pad1: u32,
     pad2: u32,
     inlet_thresholds: array<vec4<u32>, 6>,
@@ -38,6 +39,7 @@ struct Params {
 const WG: u32 = 64u;
 const INTERFERENCE_STREAM: u32 = 0x9e3779b9u;
 const INLET_STREAM: u32 = 0x85ebca6bu;
+const COMPLEMENTARY_STREAM: u32 = 0xc2b2ae35u;
 
 // Wellons' lowbias32 (src/lattice_gas/collision.rs::mix32)
 fn mix32(x0: u32) -> u32 {
@@ -67,7 +69,8 @@ fn collide_state(s: u32, r: u32) -> u32 {
     return members[first + r % (class_start[c + 1u] - first)];
 }
 
-// interference on one 16-bit lane (bits.rs::interfere_lane): sides A and B of the diagonals
+// interference on one 16-bit lane (bits.rs::exchange_lane): sides A and B of the diagonals,
+// paired by flipping axes a and b
 fn interfere_lane(w: u32, a: u32, b: u32, mask_a: u32, mask_b: u32) -> u32 {
     let u = w & mask_a;
     let v = flip(flip(w & mask_b, a), b);
@@ -103,6 +106,7 @@ fn collide_interfere(@builtin(global_invocation_id) gid: vec3<u32>) {
 //@COLLIDE
     if (P.interference != 0u) {
         let hi = mix32(step_counter[0] ^ mix32(P.seed ^ INTERFERENCE_STREAM));
+        let hc = mix32(step_counter[0] ^ mix32(P.seed ^ INTERFERENCE_STREAM ^ COMPLEMENTARY_STREAM));
         for (var lane = 0u; lane < 2u; lane++) {
             if (((sol >> lane) & 1u) == 1u) { continue; }
             let cell = 2u * w + lane;
@@ -119,6 +123,7 @@ fn interfere(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (w >= P.words || P.interference == 0u) { return; }
     let W = P.words;
     let h = mix32(step_counter[0] ^ mix32(P.seed ^ INTERFERENCE_STREAM));
+    let hc = mix32(step_counter[0] ^ mix32(P.seed ^ INTERFERENCE_STREAM ^ COMPLEMENTARY_STREAM));
     let sol = solid[w];
     for (var lane = 0u; lane < 2u; lane++) {
         if (((sol >> lane) & 1u) == 1u) { continue; }

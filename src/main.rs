@@ -66,6 +66,10 @@ enum Command {
         /// Interference probabilities p.
         #[arg(long, value_delimiter = ',', default_value = "0,0.1,0.2,0.3,0.4,0.5,0.6,0.8,1")]
         interference: Vec<f64>,
+        /// Diagonals the interference exchanges along: c_k's own plane (own_plane) or every
+        /// family of squares with a diagonal perpendicular to c_k (all_perpendicular).
+        #[arg(long, value_enum, default_value = "own_plane")]
+        diagonals: phonation::lattice_gas::lattice::Diagonals,
         /// Box of nx × n × n cells (nx a multiple of 4); the shear wave spans X.
         #[arg(long, default_value_t = 32)]
         nx: usize,
@@ -74,6 +78,9 @@ enum Command {
         /// Steps; the decay is fitted from step 20 on.
         #[arg(long, default_value_t = 600)]
         steps: u32,
+        /// Amplitude U of the initial u_Y (ℓ/step), in (0, 0.4].
+        #[arg(long, default_value_t = 0.1)]
+        amplitude: f64,
         /// Independent seeds per point (mean and standard error).
         #[arg(long, default_value_t = 4)]
         seeds: usize,
@@ -90,6 +97,10 @@ enum Command {
         /// Interference probabilities p.
         #[arg(long, value_delimiter = ',', default_value = "0,0.01,0.02,0.05,0.1,0.2,0.4,1")]
         interference: Vec<f64>,
+        /// Diagonals the interference exchanges along: c_k's own plane (own_plane) or every
+        /// family of squares with a diagonal perpendicular to c_k (all_perpendicular).
+        #[arg(long, value_enum, default_value = "own_plane")]
+        diagonals: phonation::lattice_gas::lattice::Diagonals,
         /// Box of n³ cells (n a multiple of 4).
         #[arg(long, default_value_t = 8)]
         n: usize,
@@ -273,9 +284,9 @@ fn main() -> anyhow::Result<()> {
                 println!("{n:18} [solid] {d}");
             }
         }
-        Command::Viscosity { densities, interference, nx, n, steps, seeds, out } => {
+        Command::Viscosity { densities, interference, diagonals, nx, n, steps, amplitude, seeds, out } => {
             use phonation::lattice_gas::scene::{density_problem, interference_problem};
-            use phonation::lattice_gas::viscosity::{viscosity_table, write_table};
+            use phonation::lattice_gas::viscosity::{ShearWaveSetup, viscosity_table, write_table};
             if nx < 8 || nx % 4 != 0 || n == 0 {
                 bail!("--nx must be a multiple of 4 and at least 8, --n at least 1 (got {nx}, {n})");
             }
@@ -291,7 +302,11 @@ fn main() -> anyhow::Result<()> {
             if seeds == 0 {
                 bail!("--seeds must be at least 1");
             }
-            let rows = viscosity_table(&densities, &interference, nx, n, steps, seeds);
+            if !(amplitude > 0.0 && amplitude <= 0.4) {
+                bail!("--amplitude: {amplitude} must lie in (0, 0.4] ℓ/step (the fill's link occupations d (1 ± 2U) must stay in [0, 1] and near linear)");
+            }
+            let setup = ShearWaveSetup { nx, n, steps, amplitude, diagonals };
+            let rows = viscosity_table(&densities, &interference, &setup, seeds);
             let files = write_table(&out, &rows)?;
             println!("{:>8} {:>6} {:>12} {:>10} {:>11} {:>15}", "density", "p", "ν (ℓ²/step)", "± s.e.", "mean field", "smallest share");
             for r in &rows {
@@ -311,7 +326,7 @@ fn main() -> anyhow::Result<()> {
                 println!("wrote {}", f.display());
             }
         }
-        Command::Isotropy { density, interference, n, steps, every, seeds, out } => {
+        Command::Isotropy { density, interference, diagonals, n, steps, every, seeds, out } => {
             use phonation::lattice_gas::isotropy::{isotropy_table, write_isotropy};
             use phonation::lattice_gas::scene::{density_problem, interference_problem};
             if n < 4 || n % 4 != 0 {
@@ -326,7 +341,7 @@ fn main() -> anyhow::Result<()> {
             if seeds == 0 || every == 0 || steps < every {
                 bail!("--seeds and --every must be at least 1 and --steps at least --every (got {seeds}, {every}, {steps})");
             }
-            let runs = isotropy_table(density, &interference, n, steps, every, seeds);
+            let runs = isotropy_table(density, &interference, diagonals, n, steps, every, seeds);
             let files = write_isotropy(&out, &runs)?;
             println!("{:>6} {:>6} {:>12} {:>14} {:>16}", "p", "seed", "onset step", "growth /step", "smallest share");
             for r in &runs {

@@ -28,7 +28,8 @@ struct Params {
     inlet: u32,
     groups_x: u32,
     outlet: u32,
-    pad: [u32; 3],
+    diagonals: u32,
+    pad: [u32; 2],
     inlet_thresholds: [u32; Q],
 }
 
@@ -103,7 +104,8 @@ impl GpuLatticeGas {
             inlet: g.inlet.is_some() as u32,
             groups_x,
             outlet: g.inlet.is_some_and(|i| i.outlet == crate::lattice_gas::lattice::Outlet::FreeStream) as u32,
-            pad: [0; 3],
+            diagonals: (g.diagonals == crate::lattice_gas::lattice::Diagonals::AllPerpendicular) as u32,
+            pad: [0; 2],
             inlet_thresholds: g.inlet.map(|i| i.thresholds).unwrap_or([0; Q]),
         };
         let params = init("lattice gas params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);

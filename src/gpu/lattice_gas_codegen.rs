@@ -3,8 +3,8 @@
 //! the 24 words, the interference masks and the propagation moves — all from the same tables as
 //! the CPU twin ([`crate::lattice_gas::bits`], [`crate::lattice_gas::collision::AXIS_MASKS`]).
 
-use crate::lattice_gas::bits::{axes, interference_sides, propagation_moves};
-use crate::lattice_gas::collision::{AXIS_MASKS, INLET_STREAM, INTERFERENCE_STREAM};
+use crate::lattice_gas::bits::{axes, complementary_sides, interference_sides, propagation_moves};
+use crate::lattice_gas::collision::{AXIS_MASKS, COMPLEMENTARY_STREAM, INLET_STREAM, INTERFERENCE_STREAM};
 use crate::lattice_gas::velocities::{Q, opposite};
 use std::fmt::Write;
 
@@ -55,17 +55,27 @@ fn store() -> String {
 }
 
 /// The interference of every velocity on one lane (`cell`, `shift` in scope), with the random
-/// hash `hash`; `word(k)` is the expression of velocity k's word, read and assigned in place.
-fn interference_blocks(hash: &str, word: impl Fn(usize) -> String) -> String {
+/// hashes `hash` (own plane) and `complementary` (the two complementary-plane diagonals, when
+/// `P.diagonals` is 1); `word(k)` is the expression of velocity k's word, read and assigned in
+/// place. Per velocity the order is the CPU's: own plane, then the diagonals of
+/// [`complementary_sides`] in order.
+fn interference_blocks(hash: &str, complementary: &str, word: impl Fn(usize) -> String) -> String {
+    let exchange = |draw: String, a: usize, b: usize, ma: u16, mb: u16, x: &str| {
+        format!(
+            "            if ({draw} < P.interference) {{\n                let x = {x};\n                let n = interfere_lane((x >> shift) & 0xFFFFu, {a}u, {b}u, {ma:#06x}u, {mb:#06x}u);\n                {x} = (x & ~(0xFFFFu << shift)) | (n << shift);\n            }}\n"
+        )
+    };
     let mut s = String::new();
     for k in 0..Q {
         let ((a, _), (b, _)) = axes(k);
         let (ma, mb) = interference_sides(k);
         let x = word(k);
-        let _ = writeln!(
-            s,
-            "            if (mix32((cell * 24u + {k}u) ^ {hash}) < P.interference) {{\n                let x = {x};\n                let n = interfere_lane((x >> shift) & 0xFFFFu, {a}u, {b}u, {ma:#06x}u, {mb:#06x}u);\n                {x} = (x & ~(0xFFFFu << shift)) | (n << shift);\n            }}"
-        );
+        s += &exchange(format!("mix32((cell * 24u + {k}u) ^ {hash})"), a, b, ma, mb, &x);
+        s += "            if (P.diagonals == 1u) {\n";
+        for (j, (ma, mb, p, q)) in complementary_sides(k).into_iter().enumerate() {
+            s += &exchange(format!("mix32(((cell * 24u + {k}u) * 2u + {j}u) ^ {complementary})"), p, q, ma, mb, &x);
+        }
+        s += "            }\n";
     }
     s
 }
@@ -110,13 +120,14 @@ pub fn shader() -> String {
     // the template's stream salts must be the CPU's
     assert!(TEMPLATE.contains(&format!("INTERFERENCE_STREAM: u32 = {INTERFERENCE_STREAM:#010x}u")));
     assert!(TEMPLATE.contains(&format!("INLET_STREAM: u32 = {INLET_STREAM:#010x}u")));
+    assert!(TEMPLATE.contains(&format!("COMPLEMENTARY_STREAM: u32 = {COMPLEMENTARY_STREAM:#010x}u")));
     let wgsl = TEMPLATE
         .replace("//@CLASS_KEY", &class_key())
         .replace("//@COLLIDE", &collide())
         .replace("//@STORE", &store())
         // the fused kernel works on the collided words in registers, `interfere` on memory
-        .replace("//@REGISTER_INTERFERENCE", &interference_blocks("hi", |k| format!("o{k}")))
-        .replace("//@INTERFERE", &interference_blocks("h", |k| format!("src[{k}u * W + w]")))
+        .replace("//@REGISTER_INTERFERENCE", &interference_blocks("hi", "hc", |k| format!("o{k}")))
+        .replace("//@INTERFERE", &interference_blocks("h", "hc", |k| format!("src[{k}u * W + w]")))
         .replace("//@PROPAGATE", &propagate());
     assert!(!wgsl.contains("//@"), "a marker of shaders/lattice_gas.wgsl was left unfilled");
     wgsl

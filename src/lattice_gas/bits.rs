@@ -3,6 +3,7 @@
 //! several lanes — four cells along X in a u64 on the CPU, two in a u32 on the GPU — and every
 //! operation below acts lane by lane, so the same masks serve both (replicated per lane).
 
+use super::lattice::Diagonals;
 use super::velocities::VELOCITIES;
 
 /// Bits of a lane whose vertex has coordinate bit `axis` = 0.
@@ -82,6 +83,26 @@ pub const fn interference_sides(k: usize) -> (u16, u16) {
     (vertex_mask(a, sa > 0, b, sb < 0), vertex_mask(a, sa < 0, b, sb > 0))
 }
 
+/// The sides of the interference operation for velocity k in the cell's other family of squares
+/// that has diagonals perpendicular to c_k: the squares parallel to the plane of the two axes
+/// (p, q) on which c_k is zero. Both of their diagonals are perpendicular to c_k; returns, for
+/// the diagonal joining (0, 0) to (1, 1) and the one joining (0, 1) to (1, 0) in (b_p, b_q), the
+/// lane masks of its two ends and the axes (p, q).
+pub const fn complementary_sides(k: usize) -> [(u16, u16, usize, usize); 2] {
+    let ((a, _), (b, _)) = axes(k);
+    let mut pq = [0usize; 2];
+    let (mut i, mut axis) = (0, 0);
+    while axis < 4 {
+        if axis != a && axis != b {
+            pq[i] = axis;
+            i += 1;
+        }
+        axis += 1;
+    }
+    let (p, q) = (pq[0], pq[1]);
+    [(vertex_mask(p, false, q, false), vertex_mask(p, true, q, true), p, q), (vertex_mask(p, false, q, true), vertex_mask(p, true, q, false), p, q)]
+}
+
 /// The interference operation on one lane (16 sites) of velocity k's word: side B is moved onto
 /// side A's positions (flip on both axes); the sparser side gets the AND of each pair, the denser
 /// the OR (equal counts: unchanged). Particle number and momentum are conserved pair by pair.
@@ -89,6 +110,13 @@ pub const fn interference_sides(k: usize) -> (u16, u16) {
 pub fn interfere_lane(w: u16, k: usize) -> u16 {
     let ((a, _), (b, _)) = axes(k);
     let (mask_a, mask_b) = interference_sides(k);
+    exchange_lane(w, mask_a, mask_b, a, b)
+}
+
+/// The sparser-AND / denser-OR exchange between the sites `mask_a` and `mask_b` of a lane, paired
+/// by flipping the vertex bits on axes a and b.
+#[inline]
+pub fn exchange_lane(w: u16, mask_a: u16, mask_b: u16, a: usize, b: usize) -> u16 {
     let u = w & mask_a;
     let v = flip(flip((w & mask_b) as u64, a), b) as u16;
     let (na, nb) = (u.count_ones(), v.count_ones());
@@ -98,4 +126,25 @@ pub fn interfere_lane(w: u16, k: usize) -> u16 {
     let (and, or) = (u & v, u | v);
     let (new_a, new_b) = if na < nb { (and, or) } else { (or, and) };
     (w & !(mask_a | mask_b)) | new_a | flip(flip(new_b as u64, a), b) as u16
+}
+
+/// The exchanges one interference pass applies to velocity k's word, in order: (side A, side B,
+/// the two axes that pair them) — c_k's own-plane diagonal, then with
+/// [`Diagonals::AllPerpendicular`] the two of [`complementary_sides`].
+pub fn exchanges(k: usize, diagonals: Diagonals) -> Vec<(u16, u16, usize, usize)> {
+    let ((a, _), (b, _)) = axes(k);
+    let (mask_a, mask_b) = interference_sides(k);
+    let mut out = vec![(mask_a, mask_b, a, b)];
+    if diagonals == Diagonals::AllPerpendicular {
+        out.extend(complementary_sides(k));
+    }
+    out
+}
+
+/// The displacement (ℓ, per axis X, Y, Z, R) of a particle moved from side A to side B of an
+/// exchange: the pair differs by one vertex step on each of its two axes.
+pub fn displacement((mask_a, _, a, b): (u16, u16, usize, usize)) -> [i32; 4] {
+    let v = mask_a.trailing_zeros() as usize;
+    let partner = v ^ (1 << a) ^ (1 << b);
+    std::array::from_fn(|axis| ((partner >> axis) & 1) as i32 - ((v >> axis) & 1) as i32)
 }

@@ -130,6 +130,9 @@ pub const fn mix32(mut x: u32) -> u32 {
 
 /// Salt of the interference stream (seed ^ salt, step, 24·cell + k).
 pub const INTERFERENCE_STREAM: u32 = 0x9e37_79b9;
+/// Extra salt of the complementary-plane interference draws (seed ^ [`INTERFERENCE_STREAM`] ^
+/// salt, step, 2·(24·cell + k) + diagonal), used with [`super::lattice::Diagonals::AllPerpendicular`].
+pub const COMPLEMENTARY_STREAM: u32 = 0xc2b2_ae35;
 /// Salt of the inlet stream (seed ^ salt, 24·step + k, 16·cell + v).
 pub const INLET_STREAM: u32 = 0x85eb_ca6b;
 

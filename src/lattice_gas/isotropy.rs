@@ -24,7 +24,7 @@
 
 use super::coarse::block_sums;
 use super::collision::CollisionTable;
-use super::lattice::LatticeGas;
+use super::lattice::{Diagonals, LatticeGas};
 use super::velocities::Q;
 use crate::validation::taylor_green::slope;
 use serde::Serialize;
@@ -106,9 +106,10 @@ pub fn sample(g: &LatticeGas, block: usize) -> RestSample {
 /// A periodic box of n³ cells filled at rest with density d per link and interference
 /// probability p, sampled (blocks of `block`³ cells) at step 0 and every `every` steps up to
 /// `steps`.
-pub fn rest_history(density: f64, interference: f64, n: usize, block: usize, steps: u32, every: u32, seed: u32) -> Vec<RestSample> {
+pub fn rest_history(density: f64, interference: f64, diagonals: Diagonals, n: usize, block: usize, steps: u32, every: u32, seed: u32) -> Vec<RestSample> {
     let table = CollisionTable::shared();
     let mut g = LatticeGas::new([n, n, n], seed, interference);
+    g.diagonals = diagonals;
     g.fill(density, |_| [0.0; 4], seed.wrapping_add(1));
     let mut out = vec![sample(&g, block)];
     for t in 1..=steps {
@@ -155,12 +156,12 @@ pub struct IsotropyRun {
 
 /// [`rest_history`] for every p and `seeds` seeds (n³ cells, blocks of 2³, sampled every
 /// `every` steps), in parallel.
-pub fn isotropy_table(density: f64, interference: &[f64], n: usize, steps: u32, every: u32, seeds: usize) -> Vec<IsotropyRun> {
+pub fn isotropy_table(density: f64, interference: &[f64], diagonals: Diagonals, n: usize, steps: u32, every: u32, seeds: usize) -> Vec<IsotropyRun> {
     use rayon::prelude::*;
     let runs: Vec<(f64, u32)> = interference.iter().flat_map(|&p| (0..seeds as u32).map(move |s| (p, 3 + 7919 * s))).collect();
     runs.par_iter()
         .map(|&(p, seed)| {
-            let history = rest_history(density, p, n, 2, steps, every, seed);
+            let history = rest_history(density, p, diagonals, n, 2, steps, every, seed);
             IsotropyRun { density, interference: p, seed, onset_step: onset(&history, 0.8), growth_rate: growth_rate(&history), history }
         })
         .collect()
@@ -237,7 +238,7 @@ mod tests {
         // p = 0: the product measure is invariant. 16³ cells in blocks of 2³: 512 blocks, so a
         // variance ratio has a relative standard error √(2/511) = 6.3 %; a family share (≈ 13,100
         // particles of 78,600) has a standard deviation ≈ 0.8 % of its share.
-        let quiet = rest_history(0.2, 0.0, 16, 2, 1000, 250, 3);
+        let quiet = rest_history(0.2, 0.0, Diagonals::OwnPlane, 16, 2, 1000, 250, 3);
         for s in &quiet {
             println!("p = 0, step {}: variance ratios {:.3} (mass), {:.3} (momentum); shares {:.3?}", s.step, s.mass_variance, s.momentum_variance, s.shares);
             assert!((s.mass_variance - 1.0).abs() < 0.25 && (s.momentum_variance - 1.0).abs() < 0.25);
@@ -251,7 +252,7 @@ mod tests {
         let onsets: Vec<u32> = [0.05, 0.2]
             .iter()
             .map(|&p| {
-                let h = rest_history(0.2, p, 8, 2, 3000, 50, 3);
+                let h = rest_history(0.2, p, Diagonals::OwnPlane, 8, 2, 3000, 50, 3);
                 let last = h.last().unwrap();
                 println!(
                     "p = {p}: smallest share below 0.8 from step {:?}; growth rate {:.2e}/step; at step {}: shares {:.3?}, anisotropy {:.3}, variance ratios {:.3}, {:.3}",

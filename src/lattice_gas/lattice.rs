@@ -30,6 +30,32 @@ pub enum Outlet {
     FreeStream,
 }
 
+/// The square diagonals along which the interference operation (seed 002 §3.4) exchanges a
+/// velocity's departing particles. Of the 6 families of 4 parallel squares in a cell, two have
+/// diagonals perpendicular to c_k: the squares of c_k's own plane (one diagonal) and those of the
+/// complementary plane, where c_k is zero (both diagonals).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+#[value(rename_all = "snake_case")]
+pub enum Diagonals {
+    /// The perpendicular diagonal of c_k's own plane only (one draw per cell and velocity).
+    #[default]
+    OwnPlane,
+    /// Also both diagonals of the complementary plane, each with its own draw: every family
+    /// with a diagonal perpendicular to c_k (three draws per cell and velocity).
+    AllPerpendicular,
+}
+
+impl Diagonals {
+    /// The name in scene files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::OwnPlane => "own_plane",
+            Self::AllPerpendicular => "all_perpendicular",
+        }
+    }
+}
+
 /// Inflow of a channel scene (seed 002 §3.5): the inlet cells (X = 0) are refilled every step
 /// with the equilibrium at this density and +X velocity; the last cells follow [`Outlet`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,6 +94,8 @@ pub struct LatticeGas {
     pub seed: u32,
     /// Probability p of the interference operation per (cell, velocity) and step.
     pub interference: f64,
+    /// Which diagonals the interference exchanges along ([`Diagonals`]).
+    pub diagonals: Diagonals,
     /// `None`: periodic in X too; `Some`: inlet at X = 0, zero-gradient outlet at the last X.
     pub inlet: Option<Inlet>,
     pub step: u32,
@@ -86,7 +114,7 @@ impl LatticeGas {
     pub fn new(dims: [usize; 3], seed: u32, interference: f64) -> Self {
         assert!(dims[0] > 0 && dims[0] % LANES == 0 && dims[1] > 0 && dims[2] > 0, "lattice gas cells {dims:?}: X must be a positive multiple of {LANES}");
         let cells = dims[0] * dims[1] * dims[2];
-        Self { dims, blocks: vec![[0; Q]; cells / LANES], solid: vec![false; cells], seed, interference, inlet: None, step: 0 }
+        Self { dims, blocks: vec![[0; Q]; cells / LANES], solid: vec![false; cells], seed, interference, diagonals: Diagonals::default(), inlet: None, step: 0 }
     }
 
     pub fn cells(&self) -> usize {

@@ -7,7 +7,7 @@
 
 use super::coarse::{coarse_grain, write_csv, write_pngs, write_vtk};
 use super::collision::CollisionTable;
-use super::lattice::{Inlet, LANES, LatticeGas, Outlet};
+use super::lattice::{Diagonals, Inlet, LANES, LatticeGas, Outlet};
 use super::spectrum::{Peak, dominant_frequency};
 use super::velocities::Q;
 use crate::scene::SceneError;
@@ -35,6 +35,10 @@ pub struct LatticeGasSection {
     /// Probability p of the interference operation, in [0, 1].
     #[serde(default)]
     pub interference: f64,
+    /// Diagonals the interference exchanges along: `own_plane` (default) or `all_perpendicular`
+    /// ([`Diagonals`]).
+    #[serde(default)]
+    pub diagonals: Diagonals,
     #[serde(default = "default_seed")]
     pub seed: u32,
     pub steps: u64,
@@ -115,7 +119,7 @@ pub fn interference_problem(p: f64) -> Option<String> {
 
 impl LatticeGasScene {
     pub fn parse(text: &str) -> Result<Self, SceneError> {
-        let file: LatticeGasSceneFile = toml::from_str(text).map_err(|e| SceneError::from_toml("lattice_gas", &e))?;
+        let file: LatticeGasSceneFile = toml::from_str(text).map_err(|e| SceneError::from_toml("lattice_gas", &e, text))?;
         Self::new(file)
     }
 
@@ -192,6 +196,7 @@ impl LatticeGasScene {
     pub fn build(&self) -> LatticeGas {
         let s = &self.file.lattice_gas;
         let mut g = LatticeGas::new(s.cells, s.seed, s.interference);
+        g.diagonals = s.diagonals;
         if let Some(c) = &s.cylinder {
             g.add_cylinder(c.center, c.radius);
         }
@@ -239,6 +244,7 @@ pub struct LatticeGasReport {
     pub sites: u64,
     pub density: f64,
     pub interference: f64,
+    pub diagonals: Diagonals,
     pub steps: u64,
     pub wall_s: f64,
     pub site_updates_per_s: f64,
@@ -346,6 +352,7 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, steps: Option<u64
         sites,
         density: s.density,
         interference: s.interference,
+        diagonals: s.diagonals,
         steps: done,
         wall_s: wall,
         site_updates_per_s: sites as f64 * done as f64 / wall.max(1e-12),
@@ -412,6 +419,9 @@ probe_every = 5
             ("velocity = 0.2", "velocity = 0.6", "lattice_gas.inlet.velocity", "below 0.5"),
             ("coarse_block = 4", "coarse_block = 0", "lattice_gas.output.coarse_block", "at least 1"),
             ("steps = 60", "steps = 60\nviscosity = 2", "lattice_gas: viscosity", "unknown field"),
+            ("interference = 0.1", "interference = 0.1\ndiagonals = \"all\"", "lattice_gas.diagonals", "all_perpendicular"),
+            ("interference = 0.1", "interference = \"high\"", "lattice_gas.interference", "invalid type"),
+            ("velocity = 0.2", "velocity = 0.2\noutlet = \"open\"", "lattice_gas.inlet.outlet", "free_stream"),
         ];
         for (a, b, field, reason) in cases {
             let e = with(a, b).expect_err(b);
@@ -419,6 +429,13 @@ probe_every = 5
             assert_eq!(e.field, field, "{b}");
             assert!(e.reason.contains(reason), "{b}: {}", e.reason);
         }
+    }
+
+    #[test]
+    fn the_interference_diagonals_are_read_from_the_scene() {
+        assert_eq!(LatticeGasScene::parse(SMALL).unwrap().build().diagonals, Diagonals::OwnPlane);
+        let all = with("interference = 0.1", "interference = 0.1\ndiagonals = \"all_perpendicular\"").unwrap();
+        assert_eq!(all.build().diagonals, Diagonals::AllPerpendicular);
     }
 
     #[test]

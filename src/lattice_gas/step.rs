@@ -2,9 +2,9 @@
 //! lists them: collision (seed 002 §3.3), interference (§3.4), propagation by bit shifts (§3.3)
 //! and the channel boundaries (§3.5). Blocks are processed in parallel (rayon).
 
-use super::bits::{flip, interfere_lane, propagation_moves, replicate64};
-use super::collision::{CollisionTable, INLET_STREAM, INTERFERENCE_STREAM, site_random};
-use super::lattice::{Block, LANES, LatticeGas, probability_threshold};
+use super::bits::{complementary_sides, exchange_lane, flip, interfere_lane, propagation_moves, replicate64};
+use super::collision::{COMPLEMENTARY_STREAM, CollisionTable, INLET_STREAM, INTERFERENCE_STREAM, site_random};
+use super::lattice::{Block, Diagonals, LANES, LatticeGas, probability_threshold};
 use super::velocities::{Q, opposite};
 use crate::stages::{LATTICE_GAS_STEP, LatticeGasStageKind};
 use rayon::prelude::*;
@@ -71,7 +71,7 @@ impl LatticeGas {
             return;
         }
         let threshold = probability_threshold(self.interference);
-        let (seed, step, solid) = (self.seed ^ INTERFERENCE_STREAM, self.step, &self.solid);
+        let (seed, step, solid, diagonals) = (self.seed ^ INTERFERENCE_STREAM, self.step, &self.solid, self.diagonals);
         self.blocks.par_iter_mut().enumerate().for_each(|(bi, block)| {
             for lane in 0..LANES {
                 let cell = bi * LANES + lane;
@@ -85,6 +85,17 @@ impl LatticeGas {
                     }
                     let new = interfere_lane((*w >> shift) as u16, k);
                     *w = (*w & !(0xFFFF << shift)) | ((new as u64) << shift);
+                }
+                if diagonals == Diagonals::AllPerpendicular {
+                    for (k, w) in block.iter_mut().enumerate() {
+                        for (j, (ma, mb, p, q)) in complementary_sides(k).into_iter().enumerate() {
+                            if site_random(seed ^ COMPLEMENTARY_STREAM, step, ((cell * Q + k) * 2 + j) as u32) >= threshold {
+                                continue;
+                            }
+                            let new = exchange_lane((*w >> shift) as u16, ma, mb, p, q);
+                            *w = (*w & !(0xFFFF << shift)) | ((new as u64) << shift);
+                        }
+                    }
                 }
             }
         });
@@ -200,20 +211,27 @@ mod tests {
     #[test]
     fn every_operation_conserves_particles_and_momentum_exactly() {
         let table = CollisionTable::shared();
-        let mut g = LatticeGas::new([8, 4, 5], 17, 0.3);
-        g.fill(0.2, |x| [0.1 * (x[1] * 0.7).sin(), 0.05, -0.08 * (x[0] * 0.3).cos(), 0.0], 5);
-        let start = g.invariants();
-        println!("{start:?}");
-        assert!(start.particles > 0 && start.momentum.iter().any(|&m| m != 0));
-        for _ in 0..1000 {
-            g.collide(table);
-            assert_eq!(g.invariants(), start, "collision");
-            g.interfere();
-            assert_eq!(g.invariants(), start, "interference");
-            g.propagate();
-            assert_eq!(g.invariants(), start, "propagation");
-            g.step += 1;
+        let mut finals = Vec::new();
+        for diagonals in [Diagonals::OwnPlane, Diagonals::AllPerpendicular] {
+            let mut g = LatticeGas::new([8, 4, 5], 17, 0.3);
+            g.diagonals = diagonals;
+            g.fill(0.2, |x| [0.1 * (x[1] * 0.7).sin(), 0.05, -0.08 * (x[0] * 0.3).cos(), 0.0], 5);
+            let start = g.invariants();
+            println!("{diagonals:?}: {start:?}");
+            assert!(start.particles > 0 && start.momentum.iter().any(|&m| m != 0));
+            for _ in 0..1000 {
+                g.collide(table);
+                assert_eq!(g.invariants(), start, "collision");
+                g.interfere();
+                assert_eq!(g.invariants(), start, "interference");
+                g.propagate();
+                assert_eq!(g.invariants(), start, "propagation");
+                g.step += 1;
+            }
+            finals.push(g.blocks);
         }
+        // the complementary-plane exchanges do act
+        assert_ne!(finals[0], finals[1]);
     }
 
     #[test]
@@ -289,6 +307,7 @@ mod tests {
     fn swap_axes(g: &LatticeGas, a: usize, b: usize) -> LatticeGas {
         let mut h = LatticeGas::new(g.dims, g.seed, g.interference);
         h.step = g.step;
+        h.diagonals = g.diagonals;
         let velocity = |k: usize| {
             let mut c = VELOCITIES[k];
             c.swap(a, b);
@@ -314,18 +333,21 @@ mod tests {
         // interference (p = 1, no random draw) and the propagation gives the exchanged result, bit
         // for bit — so a preferred direction that the gas picks (isotropy.rs) is its own choice.
         // The collision is symmetric in distribution (uniform in the class).
-        for (a, b) in [(0, 1), (0, 2), (1, 2)] {
-            let mut g = LatticeGas::new([8, 8, 8], 5, 1.0);
-            g.fill(0.3, |x| [0.05 * x[1].sin(), 0.0, 0.02, 0.0], 9);
-            let mut swapped = swap_axes(&g, a, b);
-            for _ in 0..3 {
-                g.interfere();
-                g.propagate();
-                swapped.interfere();
-                swapped.propagate();
+        for diagonals in [Diagonals::OwnPlane, Diagonals::AllPerpendicular] {
+            for (a, b) in [(0, 1), (0, 2), (1, 2)] {
+                let mut g = LatticeGas::new([8, 8, 8], 5, 1.0);
+                g.diagonals = diagonals;
+                g.fill(0.3, |x| [0.05 * x[1].sin(), 0.0, 0.02, 0.0], 9);
+                let mut swapped = swap_axes(&g, a, b);
+                for _ in 0..3 {
+                    g.interfere();
+                    g.propagate();
+                    swapped.interfere();
+                    swapped.propagate();
+                }
+                assert_eq!(swap_axes(&swapped, a, b).blocks, g.blocks, "axes {a} and {b}, {diagonals:?}");
+                assert!(g.invariants().particles > 0);
             }
-            assert_eq!(swap_axes(&swapped, a, b).blocks, g.blocks, "axes {a} and {b}");
-            assert!(g.invariants().particles > 0);
         }
     }
 }

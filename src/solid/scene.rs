@@ -187,7 +187,7 @@ pub const MAX_PARTICLES: f64 = 5.0e7;
 
 impl SolidScene {
     pub fn parse(text: &str) -> Result<Self, SceneError> {
-        let file: SolidSceneFile = toml::from_str(text).map_err(|e| SceneError::from_toml("solid", &e))?;
+        let file: SolidSceneFile = toml::from_str(text).map_err(|e| SceneError::from_toml("solid", &e, text))?;
         Self::new(file)
     }
 
