@@ -92,7 +92,7 @@ pub struct LatticeGas {
     pub solid: Vec<bool>,
     /// Seed of the collision / interference / inlet random streams.
     pub seed: u32,
-    /// Probability p of the interference operation per (cell, velocity) and step.
+    /// Probability p of the interference operation per (cell, velocity, diagonal) and step.
     pub interference: f64,
     /// Which diagonals the interference exchanges along ([`Diagonals`]).
     pub diagonals: Diagonals,

@@ -94,6 +94,9 @@ impl Default for OutputSection {
 
 /// Most cells a scene may have (site indices 24 · cell + k must fit in 32 bits).
 pub const MAX_CELLS: usize = (u32::MAX / Q as u32) as usize;
+/// Most cells with [`Diagonals::AllPerpendicular`] (the complementary draws' indices
+/// 2 · (24 · cell + k) + diagonal must fit in 32 bits).
+pub const MAX_CELLS_ALL_PERPENDICULAR: usize = (u32::MAX / (2 * Q as u32)) as usize;
 
 #[derive(Clone, Debug)]
 pub struct LatticeGasScene {
@@ -136,6 +139,14 @@ impl LatticeGasScene {
         let cells = nx.checked_mul(ny).and_then(|c| c.checked_mul(nz)).unwrap_or(usize::MAX);
         if cells > MAX_CELLS {
             return err("cells", format!("{cells} cells exceed the limit of {MAX_CELLS} (32-bit site indices of the random streams)"));
+        }
+        if s.diagonals == Diagonals::AllPerpendicular && cells > MAX_CELLS_ALL_PERPENDICULAR {
+            return err(
+                "cells",
+                format!(
+                    "{cells} cells exceed the limit of {MAX_CELLS_ALL_PERPENDICULAR} with all_perpendicular diagonals (32-bit indices of the interference draws)"
+                ),
+            );
         }
         if let Some(reason) = density_problem(s.density) {
             return err("density", reason);
@@ -421,6 +432,7 @@ probe_every = 5
             ("steps = 60", "steps = 60\nviscosity = 2", "lattice_gas: viscosity", "unknown field"),
             ("interference = 0.1", "interference = 0.1\ndiagonals = \"all\"", "lattice_gas.diagonals", "all_perpendicular"),
             ("interference = 0.1", "interference = \"high\"", "lattice_gas.interference", "invalid type"),
+            ("cells = [32, 16, 2]", "cells = [1024, 1024, 96]\ndiagonals = \"all_perpendicular\"", "lattice_gas.cells", "all_perpendicular"),
             ("velocity = 0.2", "velocity = 0.2\noutlet = \"open\"", "lattice_gas.inlet.outlet", "free_stream"),
         ];
         for (a, b, field, reason) in cases {

@@ -65,7 +65,10 @@ impl LatticeGas {
 
     /// The interference operation (seed 002 §3.4, Fig. 2; see [`super::bits::interfere_lane`]) on
     /// every fluid cell and velocity, each with probability p drawn from the stream of
-    /// (seed ^ [`INTERFERENCE_STREAM`], step, 24·cell + k).
+    /// (seed ^ [`INTERFERENCE_STREAM`], step, 24·cell + k); with [`Diagonals::AllPerpendicular`]
+    /// then the two complementary-plane exchanges ([`super::bits::complementary_sides`]), each
+    /// with its own draw from (seed ^ [`INTERFERENCE_STREAM`] ^ [`COMPLEMENTARY_STREAM`], step,
+    /// 2·(24·cell + k) + diagonal).
     pub fn interfere(&mut self) {
         if self.interference <= 0.0 {
             return;
