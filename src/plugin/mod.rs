@@ -1,5 +1,5 @@
 //! Bevy integration (feature `bevy`): the [`PhonationPlugin`] steps every entity that carries a
-//! [`FluidSimulation`] on the CPU backend, `steps_per_frame` steps per frame, honouring
+//! [`FluidSimulation`], a [`SolidSimulation`] or a [`LatticeGasSimulation`] on the CPU backend, `steps_per_frame` steps per frame, honouring
 //! pause / single-step from [`SimulationControl`]. The systems live in [`PhonationSystems`] sets
 //! named after the solver's stages, so apps can order their own systems around them.
 //!
@@ -15,8 +15,10 @@ use crate::units::Units;
 use bevy::prelude::*;
 
 pub mod gpu;
+pub mod lattice_gas;
 pub mod solid;
 pub use gpu::{GpuFluidHandle, GpuProbes, GpuStepping, PhonationGpuPlugin};
+pub use lattice_gas::{LatticeGasDiagnostics, LatticeGasSimulation};
 pub use solid::{SolidDiagnostics, SolidSimulation, SolidStatus};
 
 /// System sets, in order, of one frame of the simulation.
@@ -26,6 +28,9 @@ pub enum PhonationSystems {
     Step,
     /// Advances every [`SolidSimulation`] by the same number of steps of its solid stage list.
     SolidStep,
+    /// Advances every [`LatticeGasSimulation`] by the same number of steps of
+    /// [`crate::stages::LATTICE_GAS_STEP`].
+    LatticeGasStep,
     /// Updates [`FluidDiagnostics`].
     Diagnostics,
 }
@@ -99,10 +104,14 @@ impl Plugin for PhonationPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<SimulationControl>()
             .init_resource::<StepsThisFrame>()
-            .configure_sets(Update, (PhonationSystems::Step, PhonationSystems::SolidStep, PhonationSystems::Diagnostics).chain())
+            .configure_sets(
+                Update,
+                (PhonationSystems::Step, PhonationSystems::SolidStep, PhonationSystems::LatticeGasStep, PhonationSystems::Diagnostics).chain(),
+            )
             .add_systems(Update, (plan_steps, step_simulations).chain().in_set(PhonationSystems::Step))
             .add_systems(Update, update_diagnostics.in_set(PhonationSystems::Diagnostics));
         solid::build(app);
+        lattice_gas::build(app);
     }
 }
 
