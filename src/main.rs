@@ -303,7 +303,10 @@ fn main() -> anyhow::Result<()> {
                 bail!("--seeds must be at least 1");
             }
             if !(amplitude > 0.0 && amplitude <= 0.4) {
-                bail!("--amplitude: {amplitude} must lie in (0, 0.4] ℓ/step (the fill's link occupations d (1 ± 2U) must stay in [0, 1] and near linear)");
+                bail!("--amplitude: {amplitude} must lie in (0, 0.4] ℓ/step (the wave stays near linear)");
+            }
+            if let Some(d) = densities.iter().find(|&&d| d * (1.0 + 2.0 * amplitude) > 1.0) {
+                bail!("--amplitude: {amplitude} at density {d} asks for link occupations d (1 + 2U) = {:.3} > 1", d * (1.0 + 2.0 * amplitude));
             }
             let setup = ShearWaveSetup { nx, n, steps, amplitude, diagonals };
             let rows = viscosity_table(&densities, &interference, &setup, seeds);
