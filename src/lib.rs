@@ -9,6 +9,7 @@
 //! |---|---|
 //! | [`fluid`] | FDLB: velocity sets, equilibrium, boundaries, CPU reference solver |
 //! | [`lattice_gas`] | FCHC integer lattice gas (second fluid backend, seed 002): collision classes, interference, bit-parallel propagation, channel and cylinder, coarse-graining, viscosity tables, scenes; GPU twin in [`gpu::lattice_gas`] |
+//! | [`coupling`] | fluid–structure coupling: surfaces, tractions, prescribed motions, the weak coupling (method 1) |
 //! | [`solid`] | MPS orthotropic viscoelastic solid: materials, particles, forces, contact, explicit and implicit steps |
 //! | [`stages`] | the ordered stage list of one step (CPU, GPU, Bevy, timings) |
 //! | [`units`] | physical (cgs / SI) ↔ lattice units, Mach scaling |
@@ -19,6 +20,7 @@
 //! | `plugin` | Bevy plugin (feature `bevy`, on by default) |
 
 pub mod bench;
+pub mod coupling;
 pub mod engine;
 pub mod fluid;
 pub mod gpu;

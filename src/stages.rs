@@ -138,3 +138,32 @@ pub const LATTICE_GAS_STEP: [LatticeGasStage; 4] = [
     LatticeGasStage { kind: LatticeGasStageKind::Propagate, name: "propagate" },
     LatticeGasStage { kind: LatticeGasStageKind::Boundaries, name: "boundaries" },
 ];
+
+/// Kind of work a stage of a coupled fluid–solid step does (seed 000 §2.4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CoupledStageKind {
+    /// Solid → fluid: the bodies' surfaces (positions, wall velocities) become the fluid's
+    /// moving walls; the fluid geometry is rebuilt, uncovered nodes initialised.
+    FluidGeometry,
+    /// One fluid step ([`FDLB_STEP`]).
+    Fluid,
+    /// Fluid → solid: tractions on the surface pieces spread to the surface particles (2.110–2.113).
+    SurfaceTraction,
+    /// Solid sub-steps over the fluid step ([`SOLID_EXPLICIT_STEP`]); prescribed bodies follow
+    /// their motion.
+    Solid,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct CoupledStage {
+    pub kind: CoupledStageKind,
+    pub name: &'static str,
+}
+
+/// One step of the weak coupling (method 1, seed §2.4.1), in order.
+pub const COUPLED_WEAK_STEP: [CoupledStage; 4] = [
+    CoupledStage { kind: CoupledStageKind::FluidGeometry, name: "fluid_geometry" },
+    CoupledStage { kind: CoupledStageKind::Fluid, name: "fluid" },
+    CoupledStage { kind: CoupledStageKind::SurfaceTraction, name: "surface_traction" },
+    CoupledStage { kind: CoupledStageKind::Solid, name: "solid" },
+];

@@ -13,6 +13,117 @@ pub enum Shape {
     Sphere { center: [f64; 3], radius: f64 },
     /// Axis-aligned box [min, max].
     Cuboid { min: [f64; 3], max: [f64; 3] },
+    /// Closed polygon in the x–y plane (a prism along z in 3D) whose vertices move with a
+    /// deforming body: the wall seen by the fluid in the coupled solver ([`crate::coupling`]).
+    Polygon(Polygon),
+}
+
+/// A closed, simple polygon in the x–y plane (lattice units), counter-clockwise, with a wall
+/// velocity (c units) at every vertex, linear along each edge.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Polygon {
+    pub vertices: Vec<[f64; 2]>,
+    pub velocities: Vec<[f64; 3]>,
+    /// Bounding box (min x, min y, max x, max y).
+    pub bounds: [f64; 4],
+}
+
+impl Polygon {
+    /// `vertices` counter-clockwise; one velocity per vertex.
+    pub fn new(vertices: Vec<[f64; 2]>, velocities: Vec<[f64; 3]>) -> Self {
+        assert_eq!(vertices.len(), velocities.len(), "one velocity per vertex");
+        let mut bounds = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+        for v in &vertices {
+            bounds = [bounds[0].min(v[0]), bounds[1].min(v[1]), bounds[2].max(v[0]), bounds[3].max(v[1])];
+        }
+        Polygon { vertices, velocities, bounds }
+    }
+
+    /// Twice the signed area (positive when counter-clockwise).
+    pub fn signed_area(&self) -> f64 {
+        let n = self.vertices.len();
+        (0..n)
+            .map(|k| {
+                let (a, b) = (self.vertices[k], self.vertices[(k + 1) % n]);
+                a[0] * b[1] - b[0] * a[1]
+            })
+            .sum::<f64>()
+            * 0.5
+    }
+
+    /// Closest point of the boundary to `p`: (edge index, parameter t ∈ [0, 1] along it, squared distance).
+    pub fn closest(&self, p: [f64; 2]) -> (usize, f64, f64) {
+        let n = self.vertices.len();
+        let mut best = (0, 0.0, f64::INFINITY);
+        for k in 0..n {
+            let (a, b) = (self.vertices[k], self.vertices[(k + 1) % n]);
+            let e = [b[0] - a[0], b[1] - a[1]];
+            let l2 = e[0] * e[0] + e[1] * e[1];
+            let t = if l2 > 0.0 { (((p[0] - a[0]) * e[0] + (p[1] - a[1]) * e[1]) / l2).clamp(0.0, 1.0) } else { 0.0 };
+            let d = [a[0] + t * e[0] - p[0], a[1] + t * e[1] - p[1]];
+            let d2 = d[0] * d[0] + d[1] * d[1];
+            if d2 < best.2 {
+                best = (k, t, d2);
+            }
+        }
+        best
+    }
+
+    /// Whether `p` lies inside (crossing number).
+    pub fn contains(&self, p: [f64; 2]) -> bool {
+        if p[0] < self.bounds[0] || p[0] > self.bounds[2] || p[1] < self.bounds[1] || p[1] > self.bounds[3] {
+            return false;
+        }
+        let n = self.vertices.len();
+        let mut inside = false;
+        for k in 0..n {
+            let (a, b) = (self.vertices[k], self.vertices[(k + 1) % n]);
+            if (a[1] > p[1]) != (b[1] > p[1]) {
+                let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+                if p[0] < x {
+                    inside = !inside;
+                }
+            }
+        }
+        inside
+    }
+
+    /// Wall velocity at the boundary point closest to `p` (linear along the edge).
+    pub fn velocity_at(&self, p: [f64; 2]) -> [f64; 3] {
+        let (k, t, _) = self.closest(p);
+        let (a, b) = (self.velocities[k], self.velocities[(k + 1) % self.vertices.len()]);
+        std::array::from_fn(|i| (1.0 - t) * a[i] + t * b[i])
+    }
+
+    /// Signed distance, positive outside. Outside the bounding box it returns the distance to
+    /// the box, a lower bound of the true distance with the right sign (the layout only uses
+    /// the value inside a solid).
+    fn sdf(&self, p: [f64; 2]) -> f64 {
+        let b = self.bounds;
+        let q = [(b[0] - p[0]).max(p[0] - b[2]).max(0.0), (b[1] - p[1]).max(p[1] - b[3]).max(0.0)];
+        if q[0] > 0.0 || q[1] > 0.0 {
+            return (q[0] * q[0] + q[1] * q[1]).sqrt();
+        }
+        let d = self.closest(p).2.sqrt();
+        if self.contains(p) { -d } else { d }
+    }
+
+    /// Unit normal pointing out of the polygon at the boundary point closest to `p`.
+    fn normal(&self, p: [f64; 2]) -> [f64; 3] {
+        let n = self.vertices.len();
+        let (k, t, d2) = self.closest(p);
+        let (a, b) = (self.vertices[k], self.vertices[(k + 1) % n]);
+        let c = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+        if d2 > 1e-20 {
+            let s = if self.contains(p) { -1.0 } else { 1.0 };
+            let d = d2.sqrt();
+            return [s * (p[0] - c[0]) / d, s * (p[1] - c[1]) / d, 0.0];
+        }
+        // On the boundary: the edge's outward normal (counter-clockwise: (e_y, −e_x)).
+        let e = [b[0] - a[0], b[1] - a[1]];
+        let l = (e[0] * e[0] + e[1] * e[1]).sqrt().max(1e-300);
+        [e[1] / l, -e[0] / l, 0.0]
+    }
 }
 
 impl Shape {
@@ -38,14 +149,17 @@ impl Shape {
                 }
                 norm(q) + inside.min(0.0)
             }
+            Shape::Polygon(poly) => poly.sdf([p[0], p[1]]),
         }
     }
 
     /// Outward unit normal (pointing into the fluid) near `p`, by central differences of the
     /// signed distance (exact for the half-space, cylinder and sphere).
     pub fn normal(&self, p: [f64; 3]) -> [f64; 3] {
-        if let Shape::HalfSpace { normal, .. } = self {
-            return *normal;
+        match self {
+            Shape::HalfSpace { normal, .. } => return *normal,
+            Shape::Polygon(poly) => return poly.normal([p[0], p[1]]),
+            _ => {}
         }
         let h = 1e-4;
         let mut g = [0.0; 3];
@@ -73,6 +187,17 @@ pub struct Obstacle {
     pub temperature: Option<f64>,
 }
 
+impl Obstacle {
+    /// Wall velocity (c units) at the wall point `p`: the polygon's vertex velocities
+    /// interpolated along the nearest edge, else the obstacle's uniform velocity.
+    pub fn velocity_at(&self, p: [f64; 3]) -> [f64; 3] {
+        match &self.shape {
+            Shape::Polygon(poly) => poly.velocity_at([p[0], p[1]]),
+            _ => self.velocity,
+        }
+    }
+}
+
 pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
@@ -95,5 +220,39 @@ mod tests {
         let b = Shape::Cuboid { min: [0.0; 3], max: [2.0; 3] };
         assert!((b.sdf([1.0, 1.0, 1.0]) + 1.0).abs() < 1e-12);
         assert!((b.sdf([3.0, 1.0, 1.0]) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn polygon_sdf_normal_and_wall_velocity() {
+        // Unit square [0, 2]², counter-clockwise, the right edge moving up.
+        let sq = Polygon::new(vec![[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]], vec![[0.0; 3], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.0; 3]]);
+        assert!((sq.signed_area() - 4.0).abs() < 1e-12);
+        let s = Shape::Polygon(sq.clone());
+        assert!((s.sdf([1.0, 1.0, 0.0]) + 1.0).abs() < 1e-12);
+        assert!((s.sdf([1.5, 1.0, 0.0]) + 0.5).abs() < 1e-12);
+        assert!((s.sdf([3.0, 1.0, 0.0]) - 1.0).abs() < 1e-12);
+        assert!((s.sdf([1.0, -0.25, 0.0]) - 0.25).abs() < 1e-12);
+        let n = s.normal([1.8, 1.0, 0.0]);
+        assert!((n[0] - 1.0).abs() < 1e-12 && n[1].abs() < 1e-12);
+        let n = s.normal([1.0, 0.1, 0.0]);
+        assert!((n[1] + 1.0).abs() < 1e-12);
+        // The bottom edge's velocity goes from 0 to 1 along it.
+        let o = Obstacle { shape: s, velocity: [0.0; 3], temperature: None };
+        assert!((o.velocity_at([1.5, 0.0, 0.0])[1] - 0.75).abs() < 1e-12);
+        assert!((o.velocity_at([2.0, 1.0, 0.0])[1] - 1.0).abs() < 1e-12);
+        // A regular 64-gon of radius 5 agrees with the circle's signed distance to O(h²).
+        let k = 64;
+        let verts: Vec<[f64; 2]> = (0..k).map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / k as f64;
+            [10.0 + 5.0 * a.cos(), 10.0 + 5.0 * a.sin()]
+        }).collect();
+        let poly = Shape::Polygon(Polygon::new(verts, vec![[0.0; 3]; k]));
+        let disc = Shape::Cylinder { center: [10.0, 10.0, 0.0], radius: 5.0 };
+        for p in [[12.0, 11.0, 0.0], [14.9, 10.3, 0.0], [6.0, 12.5, 0.0], [5.5, 13.0, 0.0], [10.0, 16.0, 0.0]] {
+            assert!((poly.sdf(p) - disc.sdf(p)).abs() < 5.0 * (1.0 - (std::f64::consts::PI / k as f64).cos()) + 1e-12, "{p:?}");
+        }
+        // Beyond the bounding box: the distance to the box, positive and at most the true distance.
+        let far = [2.0, 3.0, 0.0];
+        assert!(poly.sdf(far) > 0.0 && poly.sdf(far) <= disc.sdf(far));
     }
 }

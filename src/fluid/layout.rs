@@ -174,7 +174,7 @@ impl Layout {
                     let img = [wall[0] + d_img * nrm[0], wall[1] + d_img * nrm[1], wall[2] + d_img * nrm[2]];
                     let image = interpolation_stencil(&grid, img, &fluid_at);
                     // Wall velocity: tangential part only for face walls (a lid), full for obstacles.
-                    let mut v = o.velocity;
+                    let mut v = o.velocity_at(wall);
                     if let Shape::HalfSpace { normal, .. } = &o.shape {
                         let vn = dot(v, *normal);
                         v = [v[0] - vn * normal[0], v[1] - vn * normal[1], v[2] - vn * normal[2]];
@@ -214,6 +214,30 @@ impl Layout {
         let periodic = runs;
         let fluid_count = kind.iter().filter(|k| **k == NodeKind::Fluid).count();
         Layout { grid, boundaries, obstacles, kind, ghosts, face_halos, periodic, fluid_count }
+    }
+}
+
+impl Layout {
+    /// Multilinear interpolation weights at `p` (interior node coordinates) over fluid nodes
+    /// only, renormalised, through periodic images; the nearest fluid node within two cells when
+    /// the cell around `p` holds none; empty when there is none.
+    pub fn fluid_stencil(&self, p: [f64; 3]) -> Vec<(usize, f64)> {
+        let grid = &self.grid;
+        let periodic: [bool; 3] = std::array::from_fn(|a| a < grid.dim && matches!(self.boundaries.faces[2 * a], FaceCondition::Periodic));
+        let fluid_at = |x: [i64; 3]| -> Option<usize> {
+            let mut y = x;
+            for a in 0..3 {
+                if periodic[a] {
+                    y[a] = y[a].rem_euclid(grid.n[a] as i64);
+                }
+            }
+            if !grid.contains(y) {
+                return None;
+            }
+            let i = grid.index(y);
+            (self.kind[i] == NodeKind::Fluid).then_some(i)
+        };
+        interpolation_stencil(grid, p, &fluid_at)
     }
 }
 

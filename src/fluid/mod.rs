@@ -8,6 +8,7 @@ pub mod equilibrium;
 pub mod geometry;
 pub mod grid;
 pub mod layout;
+pub mod moving;
 pub mod solver;
 pub mod storage;
 pub mod timestep;
@@ -16,7 +17,8 @@ pub mod velocity_set;
 
 pub use boundary::{Boundaries, Face, FaceCondition};
 pub use equilibrium::{Equilibrium, GasModel, Macro};
-pub use geometry::{Obstacle, Shape};
+pub use geometry::{Obstacle, Polygon, Shape};
+pub use moving::GeometryChange;
 pub use grid::Grid;
 pub use solver::{FluidSolver, Instability, Totals};
 pub use timestep::StepParams;

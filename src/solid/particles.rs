@@ -103,3 +103,24 @@ pub fn sample_box(dim: usize, min: DVec3, max: DVec3, spacing: f64) -> Vec<DVec3
     }
     out
 }
+
+/// Lattice sample of the disc (2D) or sphere (3D) of radius `radius` around `centre`: the
+/// centres `centre + (k + ½) l₀` of the lattice aligned with the centre (a lattice point never
+/// sits on the centre; the body is symmetric about it) that lie inside. x-fastest order.
+pub fn sample_ball(dim: usize, centre: DVec3, radius: f64, spacing: f64) -> Vec<DVec3> {
+    let half = (radius / spacing).ceil() as i64;
+    let mut out = Vec::new();
+    let zr = if dim == 3 { -half..half } else { 0..1 };
+    for k in zr {
+        for j in -half..half {
+            for i in -half..half {
+                let z = if dim == 3 { (k as f64 + 0.5) * spacing } else { 0.0 };
+                let d = DVec3::new((i as f64 + 0.5) * spacing, (j as f64 + 0.5) * spacing, z);
+                if d.length() < radius {
+                    out.push(centre + d);
+                }
+            }
+        }
+    }
+    out
+}

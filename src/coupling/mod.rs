@@ -1,0 +1,21 @@
+//! Fluid–structure coupling (seed 000 §2.4): the only place where the FDLB air
+//! ([`crate::fluid`]) and the MPS folds ([`crate::solid`]) meet.
+//!
+//! | module | what | seed |
+//! |---|---|---|
+//! | [`surface`] | surface particles and their polygon, surface points on the reference shape | §2.4.1 |
+//! | [`traction`] | the air's traction on surface pieces, spread to the particles | 2.110–2.113 |
+//! | [`motion`] | bodies with a prescribed rigid motion | — |
+//! | [`weak`] | method 1: weak coupling, moving ghost-node walls, explicit solid sub-steps | §2.4.1 |
+//!
+//! Method 2 (the momentum-conserving coupling, §2.4.2) is not built yet.
+
+pub mod motion;
+pub mod surface;
+pub mod traction;
+pub mod weak;
+
+pub use motion::Motion;
+pub use surface::{BodySurface, ReferenceShape, SurfaceError};
+pub use traction::{SurfaceForces, TractionModel, surface_forces};
+pub use weak::{CoupledBody, CoupledInstability, CouplingSetupError, WeakCoupling, WeakOptions};
