@@ -9,6 +9,8 @@
 //! |---|---|
 //! | [`fluid`] | FDLB: velocity sets, equilibrium, boundaries, CPU reference solver |
 //! | [`lattice_gas`] | FCHC integer lattice gas (second fluid backend, seed 002): collision classes, interference, bit-parallel propagation, channel and cylinder, coarse-graining, viscosity tables, scenes; GPU twin in [`gpu::lattice_gas`] |
+//! | [`analysis`] | fits and (later) the glottal-flow measures |
+//! | [`error`] | the field-naming input error shared by every layer |
 //! | [`coupling`] | fluid–structure coupling: surfaces, tractions, prescribed motions, the weak coupling (method 1) |
 //! | [`solid`] | MPS orthotropic viscoelastic solid: materials, particles, forces, contact, explicit and implicit steps |
 //! | [`stages`] | the ordered stage list of one step (CPU, GPU, Bevy, timings) |
@@ -19,9 +21,11 @@
 //! | [`bench`] | memory bandwidth and cells/s measurements |
 //! | `plugin` | Bevy plugin (feature `bevy`, on by default) |
 
+pub mod analysis;
 pub mod bench;
 pub mod coupling;
 pub mod engine;
+pub mod error;
 pub mod fluid;
 pub mod gpu;
 pub mod lattice_gas;
@@ -34,3 +38,55 @@ pub mod solid;
 pub mod stages;
 pub mod units;
 pub mod validation;
+
+/// The physics core imports nothing above it, and fluid and solid meet only in `coupling`.
+#[cfg(test)]
+mod layering {
+    fn sources(dir: &str) -> Vec<(String, String)> {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src").join(dir);
+        let mut out = Vec::new();
+        let mut stack = vec![root];
+        while let Some(d) = stack.pop() {
+            for e in std::fs::read_dir(&d).unwrap() {
+                let p = e.unwrap().path();
+                if p.is_dir() {
+                    stack.push(p);
+                } else if p.extension().is_some_and(|x| x == "rs") {
+                    // Code only: doc comments may point upward (to the GPU twin, say).
+                    let code: String = std::fs::read_to_string(&p).unwrap().lines().filter(|l| !l.trim_start().starts_with("//")).collect::<Vec<_>>().join("\n");
+                    out.push((p.display().to_string(), code));
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn the_physics_core_imports_nothing_above_it() {
+        let above = ["gpu", "engine", "run", "plugin", "output", "scene", "validation", "bench"];
+        let mut violations = Vec::new();
+        for core in ["fluid", "solid", "lattice_gas", "coupling", "analysis"] {
+            for (path, text) in sources(core) {
+                for m in above {
+                    for pat in [format!("crate::{m}::"), format!("crate::{m};"), format!("crate::{m}}}"), format!("phonation::{m}::")] {
+                        if text.contains(&pat) {
+                            violations.push(format!("{path}: {pat}"));
+                        }
+                    }
+                }
+                let other = match core {
+                    "fluid" => Some("solid"),
+                    "solid" => Some("fluid"),
+                    _ => None,
+                };
+                if let Some(o) = other
+                    && text.contains(&format!("crate::{o}::"))
+                {
+                    violations.push(format!("{path}: fluid and solid meet only in coupling (crate::{o}::)"));
+                }
+            }
+        }
+        assert!(sources("coupling").len() >= 4, "the scan reads the core's files");
+        assert!(violations.is_empty(), "{violations:#?}");
+    }
+}

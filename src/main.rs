@@ -184,12 +184,12 @@ fn main() -> anyhow::Result<()> {
         Command::Run { scene: name, out, steps, backend } => {
             let name = name.unwrap_or_else(|| scene::DEFAULT_SCENE.to_string());
             let text = scene_text(&name)?;
-            if phonation::lattice_gas::scene::is_lattice_gas_scene(&text) {
-                let sc = phonation::lattice_gas::scene::LatticeGasScene::parse(&text)?;
+            if phonation::scene::lattice_gas::is_lattice_gas_scene(&text) {
+                let sc = phonation::scene::lattice_gas::LatticeGasScene::parse(&text)?;
                 let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.file.name));
                 let lg = &sc.file.lattice_gas;
                 eprintln!("lattice-gas scene {}: {:?} cells, fill {}, p = {}", sc.file.name, lg.cells, lg.density, lg.interference);
-                let r = phonation::lattice_gas::scene::run_lattice_gas_scene(&sc, &dir, steps, backend)?;
+                let r = phonation::scene::lattice_gas::run_lattice_gas_scene(&sc, &dir, steps, backend)?;
                 eprintln!("backend: {}", r.backend);
                 eprintln!(
                     "{} steps in {:.1} s ({:.3e} site updates/s); particles {} → {}",
@@ -203,11 +203,11 @@ fn main() -> anyhow::Result<()> {
                 eprintln!("outputs in {}", dir.display());
                 return Ok(());
             }
-            if phonation::solid::scene::is_solid_scene(&text) {
-                let sc = phonation::solid::scene::SolidScene::parse(&text)?;
+            if phonation::scene::solid::is_solid_scene(&text) {
+                let sc = phonation::scene::solid::SolidScene::parse(&text)?;
                 let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.file.name));
                 eprintln!("solid scene {}: about {} particles, {:?} integrator", sc.file.name, sc.estimated_particles, sc.file.solid.integrator);
-                let r = phonation::solid::scene::run_solid_scene(&sc, &dir, steps, backend)?;
+                let r = phonation::scene::solid::run_solid_scene(&sc, &dir, steps, backend)?;
                 eprintln!("backend: {}", r.backend);
                 eprintln!(
                     "{} particles, {} bonds, Δt = {:.3e} (explicit limit {:.3e}), {} steps, {:.4e} s simulated in {:.1} s wall ({:.3e} particle updates/s), energy drift {:.2e}",
@@ -248,8 +248,8 @@ fn main() -> anyhow::Result<()> {
         }
         Command::Check { scene: name } => {
             let text = scene_text(&name)?;
-            if phonation::lattice_gas::scene::is_lattice_gas_scene(&text) {
-                let sc = phonation::lattice_gas::scene::LatticeGasScene::parse(&text)?;
+            if phonation::scene::lattice_gas::is_lattice_gas_scene(&text) {
+                let sc = phonation::scene::lattice_gas::LatticeGasScene::parse(&text)?;
                 let lg = &sc.file.lattice_gas;
                 let cells: usize = lg.cells.iter().product();
                 println!(
@@ -258,8 +258,8 @@ fn main() -> anyhow::Result<()> {
                 );
                 return Ok(());
             }
-            if phonation::solid::scene::is_solid_scene(&text) {
-                let sc = phonation::solid::scene::SolidScene::parse(&text)?;
+            if phonation::scene::solid::is_solid_scene(&text) {
+                let sc = phonation::scene::solid::SolidScene::parse(&text)?;
                 let s = sc.build()?;
                 println!(
                     "{}",
@@ -276,16 +276,16 @@ fn main() -> anyhow::Result<()> {
                 println!("{n:18} {d}");
             }
             for (n, t) in scene::LATTICE_GAS_BUILTIN {
-                let d = phonation::lattice_gas::scene::LatticeGasScene::parse(t).map(|s| s.file.description).unwrap_or_default();
+                let d = phonation::scene::lattice_gas::LatticeGasScene::parse(t).map(|s| s.file.description).unwrap_or_default();
                 println!("{n:18} [lattice gas] {d}");
             }
             for (n, t) in scene::SOLID_BUILTIN {
-                let d = phonation::solid::scene::SolidScene::parse(t).map(|s| s.file.description).unwrap_or_default();
+                let d = phonation::scene::solid::SolidScene::parse(t).map(|s| s.file.description).unwrap_or_default();
                 println!("{n:18} [solid] {d}");
             }
         }
         Command::Viscosity { densities, interference, diagonals, nx, n, steps, amplitude, seeds, out } => {
-            use phonation::lattice_gas::scene::{density_problem, interference_problem};
+            use phonation::scene::lattice_gas::{density_problem, interference_problem};
             use phonation::lattice_gas::viscosity::{ShearWaveSetup, viscosity_table, write_table};
             if nx < 8 || nx % 4 != 0 || n == 0 {
                 bail!("--nx must be a multiple of 4 and at least 8, --n at least 1 (got {nx}, {n})");
@@ -331,7 +331,7 @@ fn main() -> anyhow::Result<()> {
         }
         Command::Isotropy { density, interference, diagonals, n, steps, every, seeds, out } => {
             use phonation::lattice_gas::isotropy::{isotropy_table, write_isotropy};
-            use phonation::lattice_gas::scene::{density_problem, interference_problem};
+            use phonation::scene::lattice_gas::{density_problem, interference_problem};
             if n < 4 || n % 4 != 0 {
                 bail!("--n must be a multiple of 4 and at least 4 (got {n})");
             }

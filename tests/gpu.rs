@@ -40,7 +40,7 @@ fn scene(dim3: bool, gas: GasModel) -> FluidSolver {
         b.faces[2] = FaceCondition::Wall { velocity: [0.0; 3], temperature: Some(0.6) };
         b.faces[3] = FaceCondition::Wall { velocity: [0.05, 0.0, 0.0], temperature: None };
         b.faces[4] = FaceCondition::Outlet;
-        b.faces[5] = FaceCondition::VelocityInlet { velocity: [0.0, 0.0, -0.03], theta: 0.6 };
+        b.faces[5] = FaceCondition::VelocityInlet { velocity: [0.0, 0.0, -0.03], theta: 0.6, profile: Default::default() };
         obstacles = vec![Obstacle { shape: Shape::Sphere { center: [6.0, 5.0, 4.0], radius: 2.2 }, velocity: [0.0; 3], temperature: None }];
     } else {
         b.faces[0] = FaceCondition::PressureInlet { rho: 1.01, theta: 0.6 };

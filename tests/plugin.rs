@@ -141,7 +141,7 @@ fn gpu_stepping_in_the_render_world_matches_the_cpu() {
 #[test]
 fn plugin_steps_the_solid_exactly_like_the_direct_solver() {
     use phonation::plugin::{SolidDiagnostics, SolidSimulation};
-    use phonation::solid::scene::SolidScene;
+    use phonation::scene::solid::SolidScene;
     let sc = SolidScene::parse(scene::builtin("oscillating_plate").unwrap()).unwrap();
     let mut app = app();
     app.insert_resource(SimulationControl { paused: false, steps_per_frame: 20, single_steps: 0 });
@@ -172,7 +172,7 @@ fn plugin_steps_the_solid_exactly_like_the_direct_solver() {
 #[test]
 fn plugin_steps_the_lattice_gas_exactly_like_the_direct_gas_and_honours_pause() {
     use phonation::lattice_gas::collision::CollisionTable;
-    use phonation::lattice_gas::scene::LatticeGasScene;
+    use phonation::scene::lattice_gas::LatticeGasScene;
     use phonation::plugin::{LatticeGasDiagnostics, LatticeGasSimulation};
     let sc = LatticeGasScene::parse(
         r#"

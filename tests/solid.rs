@@ -332,7 +332,7 @@ fn block_on_a_slope_sticks_below_and_slides_above_the_friction_angle() {
 
 #[test]
 fn solid_scenes_validate_and_bad_input_names_the_field() {
-    use phonation::solid::scene::{SolidScene, is_solid_scene, run_solid_scene};
+    use phonation::scene::solid::{SolidScene, is_solid_scene, run_solid_scene};
     for (name, text) in phonation::scene::SOLID_BUILTIN {
         assert!(is_solid_scene(text), "{name}");
         let sc = SolidScene::parse(text).unwrap_or_else(|e| panic!("{name}: {e}"));

@@ -123,7 +123,7 @@ impl WeakCoupling {
             }
         }
         let base_load = solid.particles.load.clone();
-        Ok(WeakCoupling {
+        let mut c = WeakCoupling {
             fluid,
             solid,
             units,
@@ -138,7 +138,12 @@ impl WeakCoupling {
             timings: [Duration::ZERO; COUPLED_WEAK_STEP.len()],
             base_load,
             built: None,
-        })
+        };
+        // The bodies' initial walls: the fluid inside them leaves the fluid now, not as a
+        // "covered" change of the first step.
+        c.run_stage(CoupledStageKind::FluidGeometry).expect("the first geometry has no previous one to compare with");
+        c.geometry = GeometryChange::default();
+        Ok(c)
     }
 
     /// Physical time step of one coupled step (s).

@@ -59,10 +59,39 @@ pub enum FaceCondition {
         theta: f64,
     },
     VelocityInlet {
+        /// The velocity (uniform), or the peak velocity on the centre line (parabolic).
         velocity: [f64; 3],
         theta: f64,
+        profile: InletProfile,
     },
     Outlet,
+}
+
+/// Shape of a velocity inlet's profile across the face.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InletProfile {
+    #[default]
+    Uniform,
+    /// Poiseuille: 4s(1 − s) along every transverse axis (s = 0 and 1 at the faces, half a
+    /// cell beyond the last nodes), times the peak velocity.
+    Parabolic,
+}
+
+impl InletProfile {
+    /// The profile's factor at node `x` (interior coordinates) of the inlet on `face`.
+    pub fn factor(self, grid: &super::grid::Grid, face: Face, x: [i64; 3]) -> f64 {
+        match self {
+            InletProfile::Uniform => 1.0,
+            InletProfile::Parabolic => (0..grid.dim)
+                .filter(|&b| b != face.axis())
+                .map(|b| {
+                    let s = (x[b] as f64 + 0.5) / grid.n[b] as f64;
+                    4.0 * s * (1.0 - s)
+                })
+                .product(),
+        }
+    }
 }
 
 /// Conditions on every face, indexed by [`Face`].
@@ -140,10 +169,11 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
                 let m = Macro { rho: *rho, u: ms.u, theta: *theta };
                 set_node(eq, fields, h.node, &m, &neq, k_eq, &mut w, &mut fe);
             }
-            FaceCondition::VelocityInlet { velocity, theta } => {
+            FaceCondition::VelocityInlet { velocity, theta, profile } => {
                 let ms = read_macro(fields, src);
                 non_equilibrium(eq, fields, src, &mut w, &mut fe, &mut neq);
-                let m = Macro { rho: ms.rho, u: *velocity, theta: *theta };
+                let k = profile.factor(&layout.grid, h.face, layout.grid.coords(h.node));
+                let m = Macro { rho: ms.rho, u: velocity.map(|v| k * v), theta: *theta };
                 set_node(eq, fields, h.node, &m, &neq, k_eq, &mut w, &mut fe);
             }
             FaceCondition::Periodic | FaceCondition::Wall { .. } => unreachable!("not a face halo"),

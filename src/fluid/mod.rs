@@ -15,7 +15,7 @@ pub mod timestep;
 pub mod upwind;
 pub mod velocity_set;
 
-pub use boundary::{Boundaries, Face, FaceCondition};
+pub use boundary::{Boundaries, Face, FaceCondition, InletProfile};
 pub use equilibrium::{Equilibrium, GasModel, Macro};
 pub use geometry::{Obstacle, Polygon, Shape};
 pub use moving::GeometryChange;

@@ -229,12 +229,13 @@ impl GpuFluid {
                     e.rho = *rho as f32;
                     e.theta = *theta as f32;
                 }
-                FaceCondition::VelocityInlet { velocity, theta } => {
+                FaceCondition::VelocityInlet { velocity, theta, profile } => {
+                    let k = profile.factor(g, fh.face, g.coords(fh.node));
                     e.code = 2;
                     e.theta = *theta as f32;
-                    e.ux = velocity[0] as f32;
-                    e.uy = velocity[1] as f32;
-                    e.uz = velocity[2] as f32;
+                    e.ux = (k * velocity[0]) as f32;
+                    e.uy = (k * velocity[1]) as f32;
+                    e.uz = (k * velocity[2]) as f32;
                 }
                 _ => unreachable!("face halo of a periodic or wall face"),
             }

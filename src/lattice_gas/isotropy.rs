@@ -26,7 +26,7 @@ use super::coarse::block_sums;
 use super::collision::CollisionTable;
 use super::lattice::{Diagonals, LatticeGas};
 use super::velocities::Q;
-use crate::validation::taylor_green::slope;
+use crate::analysis::fit::slope;
 use serde::Serialize;
 
 /// The families of velocities, by the coordinate plane of their two nonzero components (the

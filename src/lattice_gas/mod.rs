@@ -6,7 +6,7 @@
 //! then drives the velocity populations away from isotropy ([`isotropy`]), which raises the
 //! shear-wave damping ([`viscosity`])), propagation by bit operations on u64 words (four cells
 //! each), channel boundaries and a cylinder obstacle, coarse-graining into a velocity field, the
-//! shear-wave viscosity measurement, scene files, and the GPU twin (`crate::gpu::lattice_gas`).
+//! shear-wave viscosity measurement (scene files: `crate::scene::lattice_gas`), and the GPU twin (`crate::gpu::lattice_gas`).
 //!
 //! | module | what | seed 002 |
 //! |---|---|---|
@@ -19,7 +19,6 @@
 //! | [`viscosity`] | kinematic viscosity from the decay of a shear wave; tables over density and p | (issue 5) |
 //! | [`mean_field`] | the interference in the Boltzmann approximation: transfer, viscosity shift −p K(d)/48 | §3.4 (issue 5) |
 //! | [`isotropy`] | the gas at rest: equilibrium noise, velocity-family shares over time | §4 (2) (issue 5) |
-//! | [`scene`] | TOML scene files (`[lattice_gas]`), validation, the cylinder-wake run | §3.5 |
 //! | [`spectrum`] | dominant frequency of a probe signal (Strouhal number of the wake) | (issue 5) |
 //! | [`bench`] | site updates per second, fraction of bandwidth, projected time of the seed's run | §3.5 |
 
@@ -30,7 +29,6 @@ pub mod collision;
 pub mod isotropy;
 pub mod lattice;
 pub mod mean_field;
-pub mod scene;
 pub mod spectrum;
 pub mod step;
 pub mod velocities;

@@ -11,7 +11,7 @@
 use super::collision::CollisionTable;
 use super::isotropy::{family_shares, smallest_share};
 use super::lattice::{Diagonals, LatticeGas};
-use crate::validation::taylor_green::slope;
+use crate::analysis::fit::slope;
 use serde::Serialize;
 
 #[derive(Clone, Debug, Serialize)]

@@ -8,7 +8,7 @@ use super::{PhonationSystems, StepsThisFrame};
 use crate::lattice_gas::collision::CollisionTable;
 use crate::lattice_gas::isotropy::{family_shares, smallest_share};
 use crate::lattice_gas::lattice::{Invariants, LatticeGas};
-use crate::lattice_gas::scene::LatticeGasScene;
+use crate::scene::lattice_gas::LatticeGasScene;
 use bevy::prelude::*;
 
 /// A lattice gas owned by an entity.

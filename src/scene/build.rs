@@ -6,41 +6,8 @@ use crate::fluid::equilibrium::MACRO_FIELDS;
 use crate::fluid::{Boundaries, Equilibrium, FaceCondition, FluidSolver, Grid, Macro, Obstacle, Shape, StepParams, VelocitySet, timestep};
 use crate::units::Units;
 use serde::Serialize;
-use thiserror::Error;
 
-/// A rejected scene: which field, and why.
-#[derive(Debug, Error, PartialEq)]
-#[error("scene field `{field}`: {reason}")]
-pub struct SceneError {
-    pub field: String,
-    pub reason: String,
-}
-
-impl SceneError {
-    /// A TOML parse error of a scene whose table is `section`. A bad value (an unknown variant,
-    /// a wrong type) is named by its key, found where the error points in `text`:
-    /// `table.key`; otherwise the key the message names (in backticks) becomes the field,
-    /// `section: key`.
-    pub fn from_toml(section: &str, e: &toml::de::Error, text: &str) -> Self {
-        let msg = e.message().to_string();
-        let bad_value = msg.starts_with("unknown variant") || msg.starts_with("invalid type");
-        let located = e.span().filter(|_| bad_value).and_then(|span| value_key(text, span.start));
-        let field = located.or_else(|| msg.split('`').nth(1).map(|s| format!("{section}: {s}"))).unwrap_or_else(|| section.into());
-        SceneError { field, reason: msg }
-    }
-}
-
-/// The dotted key (`table.key`) of the `key = value` line holding byte `at` of a TOML text.
-fn value_key(text: &str, at: usize) -> Option<String> {
-    let before = text.get(..at)?;
-    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
-    let key = text[line_start..].lines().next()?.split_once('=')?.0.trim();
-    if key.is_empty() || key.starts_with('[') {
-        return None;
-    }
-    let table = before[..line_start].lines().rev().find_map(|l| l.trim().strip_prefix('[')?.strip_suffix(']').map(str::to_string));
-    Some(table.map_or_else(|| key.to_string(), |t| format!("{t}.{key}")))
-}
+pub use crate::error::SceneError;
 
 fn err<T>(field: impl Into<String>, reason: impl Into<String>) -> Result<T, SceneError> {
     Err(SceneError { field: field.into(), reason: reason.into() })
@@ -239,11 +206,11 @@ impl FluidScene {
                         max_u = max_u.max((2.0 * pressure.abs() / rho0).sqrt());
                         FaceCondition::PressureInlet { rho: p / th, theta: th }
                     }
-                    FaceSpec::VelocityInlet { velocity, temperature_ratio } => {
+                    FaceSpec::VelocityInlet { velocity, temperature_ratio, profile } => {
                         let v = vector(&format!("{field}.velocity"), velocity, dim, false)?;
                         max_u = max_u.max(v.iter().map(|x| x.abs()).fold(0.0, f64::max));
                         let th = theta0 * finite_positive(&format!("{field}.temperature_ratio"), *temperature_ratio)?;
-                        FaceCondition::VelocityInlet { velocity: v.map(|x| units.velocity_to_lattice(x)), theta: th }
+                        FaceCondition::VelocityInlet { velocity: v.map(|x| units.velocity_to_lattice(x)), theta: th, profile: *profile }
                     }
                     FaceSpec::Outlet => FaceCondition::Outlet,
                 },

@@ -2,7 +2,9 @@
 //! and the built-in scenes of `assets/scenes/`.
 
 pub mod build;
+pub mod lattice_gas;
 pub mod schema;
+pub mod solid;
 
 pub use build::{FluidScene, SceneError, load, parse};
 pub use schema::SceneFile;

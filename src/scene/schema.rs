@@ -114,10 +114,13 @@ pub enum FaceSpec {
         #[serde(default = "one")]
         temperature_ratio: f64,
     },
+    /// `velocity`: uniform, or the peak on the centre line with `profile = "parabolic"`.
     VelocityInlet {
         velocity: Vec<f64>,
         #[serde(default = "one")]
         temperature_ratio: f64,
+        #[serde(default)]
+        profile: crate::fluid::boundary::InletProfile,
     },
     /// Zero-gradient outflow.
     Outlet,

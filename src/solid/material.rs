@@ -4,7 +4,7 @@
 //! Strains and stresses use Voigt order (xx, yy, zz, yz, zx, xy) with engineering shear
 //! strains γ = 2ε, so that σ_V = C ε_V and the energy density is ½ ε_V · C ε_V.
 
-use crate::scene::SceneError;
+use crate::error::SceneError;
 use glam::{DMat3, DVec3};
 use serde::{Deserialize, Serialize};
 

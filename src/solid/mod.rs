@@ -23,7 +23,6 @@ pub mod implicit;
 pub mod material;
 pub mod particles;
 pub mod rotation;
-pub mod scene;
 pub mod solver;
 pub mod timestep;
 

@@ -10,7 +10,7 @@ use super::material::{Orthotropic, Voigt6, min_mandel_eigenvalue};
 use super::particles::Particles;
 use super::rotation::{advance_quaternion, solve_all_rotations, solve_angular_velocity};
 use super::timestep::stable_time_step;
-use crate::scene::SceneError;
+use crate::error::SceneError;
 use crate::stages::{SOLID_EXPLICIT_STEP, SOLID_IMPLICIT_STEP, SolidStage, SolidStageKind};
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;

@@ -26,7 +26,7 @@ pub fn cylinder(diameter: usize, mach: f64, periods: f64, length_d: usize, width
     let params = timestep::choose(nu, theta0, l1, None, timestep::DEFAULT_COURANT_SAFETY).unwrap();
     let (nx, ny) = (length_d * diameter, width_d * diameter);
     let mut b = Boundaries::periodic();
-    b.faces[0] = FaceCondition::VelocityInlet { velocity: [u0, 0.0, 0.0], theta: theta0 };
+    b.faces[0] = FaceCondition::VelocityInlet { velocity: [u0, 0.0, 0.0], theta: theta0, profile: Default::default() };
     b.faces[1] = FaceCondition::Outlet;
     let centre = [6.0 * d, 0.5 * ny as f64 - 0.5, 0.0];
     let obstacle = Obstacle { shape: Shape::Cylinder { center: centre, radius: 0.5 * d }, velocity: [0.0; 3], temperature: None };

@@ -7,6 +7,7 @@ pub mod cavity;
 pub mod channel;
 pub mod contact;
 pub mod cylinder;
+pub mod fsi;
 pub mod riemann;
 pub mod sod;
 pub mod sound;

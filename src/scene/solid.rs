@@ -3,9 +3,9 @@
 //! probe displacements, CG iterations), particle snapshots as VTK and `summary.json`.
 //! Every check runs before anything is allocated; errors name the field and the reason.
 
-use super::particles::sample_box;
-use super::solver::{Integrator, SolidOptions, SolidSolver};
-use super::{ContactParams, Orthotropic, Particles, Wall};
+use crate::solid::particles::sample_box;
+use crate::solid::solver::{Integrator, SolidOptions, SolidSolver};
+use crate::solid::{ContactParams, Orthotropic, Particles, Wall};
 use crate::scene::SceneError;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
@@ -426,7 +426,7 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend:
         header += &format!(",{n}_ux,{n}_uy,{n}_uz");
     }
     writeln!(csv, "{header}")?;
-    let row = |s: &mut SolidSolver, csv: &mut std::io::BufWriter<std::fs::File>| -> anyhow::Result<super::Energies> {
+    let row = |s: &mut SolidSolver, csv: &mut std::io::BufWriter<std::fs::File>| -> anyhow::Result<crate::solid::Energies> {
         let e = s.energies();
         let (pm, am) = (s.particles.linear_momentum(), s.particles.angular_momentum());
         let mut line = format!(

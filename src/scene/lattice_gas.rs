@@ -5,11 +5,12 @@
 //!
 //! Units: lengths in ℓ (site spacing; cell centres every 2ℓ), velocities in ℓ per step.
 
-use super::coarse::{coarse_grain, write_csv, write_pngs, write_vtk};
-use super::collision::CollisionTable;
-use super::lattice::{Diagonals, Inlet, LANES, LatticeGas, Outlet};
-use super::spectrum::{Peak, dominant_frequency};
-use super::velocities::Q;
+use crate::lattice_gas::coarse::coarse_grain;
+use crate::output::coarse::{write_csv, write_pngs, write_vtk};
+use crate::lattice_gas::collision::CollisionTable;
+use crate::lattice_gas::lattice::{Diagonals, Inlet, LANES, LatticeGas, Outlet};
+use crate::lattice_gas::spectrum::{Peak, dominant_frequency};
+use crate::lattice_gas::velocities::Q;
 use crate::scene::SceneError;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
@@ -301,7 +302,7 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, steps: Option<u64
     let mut files = vec!["probe.csv".to_string()];
     let particles_start = g.invariants().particles;
     let mut samples = Vec::new();
-    let mut timings = super::step::LatticeGasTimings::default();
+    let mut timings = crate::lattice_gas::step::LatticeGasTimings::default();
     let mut done = 0u64;
     let mut wall = 0.0;
     let bar = indicatif::ProgressBar::new(total);

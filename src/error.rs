@@ -1,0 +1,39 @@
+//! The error every layer uses for bad input: which field (of a scene file, or of an API
+//! call's parameters), and why. Lives below the physics core so that the core can name the
+//! field without importing the scene layer.
+
+use thiserror::Error;
+
+/// A rejected scene: which field, and why.
+#[derive(Debug, Error, PartialEq)]
+#[error("scene field `{field}`: {reason}")]
+pub struct SceneError {
+    pub field: String,
+    pub reason: String,
+}
+
+impl SceneError {
+    /// A TOML parse error of a scene whose table is `section`. A bad value (an unknown variant,
+    /// a wrong type) is named by its key, found where the error points in `text`:
+    /// `table.key`; otherwise the key the message names (in backticks) becomes the field,
+    /// `section: key`.
+    pub fn from_toml(section: &str, e: &toml::de::Error, text: &str) -> Self {
+        let msg = e.message().to_string();
+        let bad_value = msg.starts_with("unknown variant") || msg.starts_with("invalid type");
+        let located = e.span().filter(|_| bad_value).and_then(|span| value_key(text, span.start));
+        let field = located.or_else(|| msg.split('`').nth(1).map(|s| format!("{section}: {s}"))).unwrap_or_else(|| section.into());
+        SceneError { field, reason: msg }
+    }
+}
+
+/// The dotted key (`table.key`) of the `key = value` line holding byte `at` of a TOML text.
+fn value_key(text: &str, at: usize) -> Option<String> {
+    let before = text.get(..at)?;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let key = text[line_start..].lines().next()?.split_once('=')?.0.trim();
+    if key.is_empty() || key.starts_with('[') {
+        return None;
+    }
+    let table = before[..line_start].lines().rev().find_map(|l| l.trim().strip_prefix('[')?.strip_suffix(']').map(str::to_string));
+    Some(table.map_or_else(|| key.to_string(), |t| format!("{t}.{key}")))
+}
