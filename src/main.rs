@@ -184,6 +184,29 @@ fn main() -> anyhow::Result<()> {
         Command::Run { scene: name, out, steps, backend } => {
             let name = name.unwrap_or_else(|| scene::DEFAULT_SCENE.to_string());
             let text = scene_text(&name)?;
+            if phonation::scene::coupled::is_coupled_scene(&text) {
+                let sc = phonation::scene::coupled::CoupledScene::parse(&text)?;
+                let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.fluid.file.name));
+                if backend == Backend::Gpu {
+                    bail!("--backend gpu: the coupled solver runs on the CPU only for now");
+                }
+                eprintln!(
+                    "coupled scene {}: {:?} nodes, about {} particles, {:?} coupling",
+                    sc.fluid.file.name, sc.fluid.grid.n, sc.solid.estimated_particles, sc.coupling.method
+                );
+                let r = phonation::run::coupled::run_coupled_scene(&sc, &dir, steps, true)?;
+                eprintln!("backend: {}", r.backend);
+                eprintln!(
+                    "{} particles, {} solid sub-steps per step; {} steps, {:.4e} s simulated in {:.1} s wall ({:.1} coupled steps/s); final force {:?}; max displacement {:.3e}; fluid mass drift {:.2e}",
+                    r.particles, r.substeps, r.steps, r.simulated_s, r.wall_s, r.coupled_steps_per_s, r.final_forces, r.max_displacement, r.fluid_mass_drift
+                );
+                eprintln!("stage shares: {}", r.stage_shares.iter().map(|(n, s)| format!("{n} {:.0}%", 100.0 * s)).collect::<Vec<_>>().join(", "));
+                eprintln!("outputs in {}", dir.display());
+                if let Some(d) = r.instability {
+                    bail!("run stopped: {d} (outputs written so far are kept in {})", dir.display());
+                }
+                return Ok(());
+            }
             if phonation::scene::lattice_gas::is_lattice_gas_scene(&text) {
                 let sc = phonation::scene::lattice_gas::LatticeGasScene::parse(&text)?;
                 let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.file.name));
@@ -248,6 +271,15 @@ fn main() -> anyhow::Result<()> {
         }
         Command::Check { scene: name } => {
             let text = scene_text(&name)?;
+            if phonation::scene::coupled::is_coupled_scene(&text) {
+                let sc = phonation::scene::coupled::CoupledScene::parse(&text)?;
+                let c = sc.build()?;
+                println!(
+                    "{}",
+                    serde_json::json!({"name": sc.fluid.file.name, "fluid": sc.fluid.summary(), "particles": c.solid.particles.len(), "surface_points": c.bodies.iter().map(|b| b.surface.particles.len()).collect::<Vec<_>>(), "solid_substeps": c.substeps, "dt": c.dt(), "method": sc.coupling.method})
+                );
+                return Ok(());
+            }
             if phonation::scene::lattice_gas::is_lattice_gas_scene(&text) {
                 let sc = phonation::scene::lattice_gas::LatticeGasScene::parse(&text)?;
                 let lg = &sc.file.lattice_gas;
@@ -278,6 +310,10 @@ fn main() -> anyhow::Result<()> {
             for (n, t) in scene::LATTICE_GAS_BUILTIN {
                 let d = phonation::scene::lattice_gas::LatticeGasScene::parse(t).map(|s| s.file.description).unwrap_or_default();
                 println!("{n:18} [lattice gas] {d}");
+            }
+            for (n, t) in scene::COUPLED_BUILTIN {
+                let d = phonation::scene::coupled::CoupledScene::parse(t).map(|s| s.fluid.file.description).unwrap_or_default();
+                println!("{n:18} [coupled] {d}");
             }
             for (n, t) in scene::SOLID_BUILTIN {
                 let d = phonation::scene::solid::SolidScene::parse(t).map(|s| s.file.description).unwrap_or_default();

@@ -10,11 +10,32 @@ use glam::{DQuat, DVec3};
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Motion {
     /// x(t) = X + v t.
-    Translation { velocity: [f64; 3] },
+    Translation {
+        #[serde(deserialize_with = "vector")]
+        velocity: [f64; 3],
+    },
     /// x(t) = c + R(ω t)(X − c), about the z axis (2D) through `centre`.
-    Rotation { centre: [f64; 3], angular_velocity: f64 },
+    Rotation {
+        #[serde(deserialize_with = "vector")]
+        centre: [f64; 3],
+        angular_velocity: f64,
+    },
     /// x(t) = X + a sin(2π f t).
-    Harmonic { amplitude: [f64; 3], frequency: f64 },
+    Harmonic {
+        #[serde(deserialize_with = "vector")]
+        amplitude: [f64; 3],
+        frequency: f64,
+    },
+}
+
+/// A vector of 2 (z = 0) or 3 components.
+fn vector<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
+    let v: Vec<f64> = serde::Deserialize::deserialize(d)?;
+    match v.len() {
+        2 => Ok([v[0], v[1], 0.0]),
+        3 => Ok([v[0], v[1], v[2]]),
+        n => Err(serde::de::Error::custom(format!("expected 2 or 3 components, got {n}"))),
+    }
 }
 
 impl Motion {

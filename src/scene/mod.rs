@@ -2,6 +2,7 @@
 //! and the built-in scenes of `assets/scenes/`.
 
 pub mod build;
+pub mod coupled;
 pub mod lattice_gas;
 pub mod schema;
 pub mod solid;
@@ -30,10 +31,13 @@ pub const SOLID_BUILTIN: &[(&str, &str)] = &[
     ("two_blocks", include_str!("../../assets/scenes/solid/two_blocks.toml")),
 ];
 
+/// Built-in coupled (fluid–structure) scenes.
+pub const COUPLED_BUILTIN: &[(&str, &str)] = &[("fsi_cylinder", include_str!("../../assets/scenes/coupled/fsi_cylinder.toml"))];
+
 /// The scene `cargo run --release` runs when no scene is given.
 pub const DEFAULT_SCENE: &str = "cylinder_wake";
 
 /// Text of a built-in scene by name.
 pub fn builtin(name: &str) -> Option<&'static str> {
-    BUILTIN.iter().chain(SOLID_BUILTIN).chain(LATTICE_GAS_BUILTIN).find(|(n, _)| *n == name).map(|(_, t)| *t)
+    BUILTIN.iter().chain(SOLID_BUILTIN).chain(LATTICE_GAS_BUILTIN).chain(COUPLED_BUILTIN).find(|(n, _)| *n == name).map(|(_, t)| *t)
 }

@@ -3,7 +3,7 @@
 //! probe displacements, CG iterations), particle snapshots as VTK and `summary.json`.
 //! Every check runs before anything is allocated; errors name the field and the reason.
 
-use crate::solid::particles::sample_box;
+use crate::solid::particles::{sample_ball, sample_box};
 use crate::solid::solver::{Integrator, SolidOptions, SolidSolver};
 use crate::solid::{ContactParams, Orthotropic, Particles, Wall};
 use crate::scene::SceneError;
@@ -106,8 +106,15 @@ impl MaterialSpec {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BodySpec {
+    /// A box [min, max] …
+    #[serde(default)]
     pub min: Vec<f64>,
+    #[serde(default)]
     pub max: Vec<f64>,
+    /// … or a disc (2D) / sphere (3D) of `radius` about `center`.
+    #[serde(default)]
+    pub center: Vec<f64>,
+    pub radius: Option<f64>,
     #[serde(default)]
     pub material: usize,
     #[serde(default)]
@@ -213,6 +220,25 @@ impl SolidScene {
         let mut count = 0.0;
         for (k, b) in s.bodies.iter().enumerate() {
             let f = format!("solid.bodies[{k}]");
+            if let Some(r) = b.radius {
+                if !b.min.is_empty() || !b.max.is_empty() {
+                    return err(format!("{f}.radius"), "a body is a box (min, max) or a ball (center, radius), not both");
+                }
+                vec3(&format!("{f}.center"), &b.center, dim, false)?;
+                if !(r.is_finite() && r >= s.spacing) {
+                    return err(format!("{f}.radius"), format!("must be finite and at least one particle spacing ({}), got {r}", s.spacing));
+                }
+                if b.material >= materials.len() {
+                    return err(format!("{f}.material"), format!("no material {} (there are {})", b.material, materials.len()));
+                }
+                vec3(&format!("{f}.velocity"), &b.velocity, dim, true)?;
+                let ball = if dim == 2 { std::f64::consts::PI * r * r } else { 4.0 / 3.0 * std::f64::consts::PI * r.powi(3) };
+                count += ball / s.spacing.powi(dim as i32);
+                continue;
+            }
+            if !b.center.is_empty() {
+                return err(format!("{f}.center"), "a ball needs a radius");
+            }
             let (lo, hi) = (vec3(&format!("{f}.min"), &b.min, dim, false)?, vec3(&format!("{f}.max"), &b.max, dim, false)?);
             for a in 0..dim {
                 if hi[a] - lo[a] < s.spacing {
@@ -286,9 +312,13 @@ impl SolidScene {
         let mut p = Particles::new(dim, s.spacing);
         let mut first_mode = Vec::new();
         for (k, b) in s.bodies.iter().enumerate() {
-            let (lo, hi) = (v3(&b.min), v3(&b.max));
+            let (lo, hi) = if b.radius.is_some() { (DVec3::ZERO, DVec3::ZERO) } else { (v3(&b.min), v3(&b.max)) };
             let start = p.len();
-            for x in sample_box(dim, lo, hi, s.spacing) {
+            let points = match b.radius {
+                Some(r) => sample_ball(dim, v3(&b.center), r, s.spacing),
+                None => sample_box(dim, lo, hi, s.spacing),
+            };
+            for x in points {
                 let mat = s.layers.iter().rev().find(|r| inside(x, v3(&r.min), v3(&r.max), dim)).map_or(b.material, |r| r.material);
                 let fixed = s.clamps.iter().any(|r| inside(x, v3(&r.min), v3(&r.max), dim));
                 p.push(x, self.materials[mat].density, mat as u16, k as u16, fixed);

@@ -208,6 +208,17 @@ mod explore {
 
     #[test]
     #[ignore]
+    fn explore_oscillating_and_pulse() {
+        let t0 = Instant::now();
+        let r = oscillating_cylinder(8, 0.1, 10_000);
+        eprintln!("{r:?} ({:.1} s)", t0.elapsed().as_secs_f64());
+        let t0 = Instant::now();
+        let r = pressure_pulse_momentum(8, 0.01, 1000);
+        eprintln!("{r:?} ({:.1} s)", t0.elapsed().as_secs_f64());
+    }
+
+    #[test]
+    #[ignore]
     fn explore_towed() {
         let d: usize = std::env::var("TW_D").ok().and_then(|s| s.parse().ok()).unwrap_or(10);
         let re: f64 = std::env::var("TW_RE").ok().and_then(|s| s.parse().ok()).unwrap_or(20.0);
@@ -298,5 +309,157 @@ pub fn towed_cylinder(cells_per_diameter: usize, mach: f64, reynolds: f64, dista
         uncovered: geometry.uncovered,
         covered: geometry.covered,
         towed_mass_drift: drift,
+    }
+}
+
+/// A cylinder oscillating across a periodic box of air at rest, uncovering and covering nodes
+/// every few steps, for a stability check over many steps.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct OscillatingResult {
+    pub steps: u64,
+    pub uncovered: usize,
+    pub covered: usize,
+    /// Relative change of the fluid's mass over the run (fresh nodes take their neighbours'
+    /// mean state; covered nodes take their mass out of the fluid).
+    pub mass_drift: f64,
+    /// Largest Mach number at the end.
+    pub max_mach: f64,
+    pub wall_s: f64,
+}
+
+/// A rigid disc of `cells_per_diameter`, oscillating harmonically along x with amplitude one
+/// diameter and peak speed Mach `mach`, in a periodic box of 6 × 4 diameters, for `steps` steps.
+pub fn oscillating_cylinder(cells_per_diameter: usize, mach: f64, steps: u64) -> Result<OscillatingResult, crate::coupling::CoupledInstability> {
+    let d = cells_per_diameter as f64;
+    let (nx, ny) = (6 * cells_per_diameter, 4 * cells_per_diameter);
+    let vs = VelocitySet::new(VelocitySetKind::D2q21);
+    let l1 = vs.max_l1_speed();
+    let eq = Equilibrium::new(vs, GasModel::Monatomic);
+    let theta0 = 0.6;
+    let u = mach * eq.sound_speed(theta0);
+    let units = Units::new(1.0, 1.0, eq.sound_speed(theta0), theta0, eq.gamma());
+    let params = timestep::choose(u * d / 20.0, theta0, l1, None, timestep::DEFAULT_COURANT_SAFETY).expect("admissible time step");
+    let centre = DVec3::new(0.5 * nx as f64, 0.5 * ny as f64, 0.0);
+    let material = Orthotropic::isotropic(1.0, 0.3, 1.0, 0.0);
+    let mut particles = Particles::new(2, 0.5);
+    for x in sample_ball(2, centre, 0.5 * d, 0.5) {
+        particles.push(x, 1.0, 0, 0, true);
+    }
+    let surface = BodySurface::build(&particles, 0, &ReferenceShape::Disc { centre, radius: 0.5 * d }).expect("disc surface");
+    let fluid = FluidSolver::new(eq, Grid::new(2, [nx, ny, 1]), Boundaries::periodic(), &[], params, move |_| Macro { rho: 1.0, u: [0.0; 3], theta: theta0 });
+    let solid = SolidSolver::new(particles, vec![material], SolidOptions::default()).expect("valid disc");
+    // Amplitude d, peak speed u: frequency u / (2π d).
+    let motion = crate::coupling::Motion::Harmonic { amplitude: [d, 0.0, 0.0], frequency: u / (std::f64::consts::TAU * d) };
+    let bodies = vec![CoupledBody { surface, motion: Some(motion) }];
+    let mut c = WeakCoupling::new(fluid, solid, units, bodies, Vec::new(), WeakOptions::default()).expect("valid coupling");
+    let m0 = c.fluid.totals().mass;
+    let t0 = Instant::now();
+    c.run(steps)?;
+    Ok(OscillatingResult {
+        steps,
+        uncovered: c.geometry.uncovered,
+        covered: c.geometry.covered,
+        mass_drift: (c.fluid.totals().mass - m0) / m0,
+        max_mach: c.fluid.max_mach(),
+        wall_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// Total momentum of air + a free elastic disc in a fully periodic box after a pressure pulse.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct MomentumResult {
+    pub steps: u64,
+    /// |Δ(P_fluid + P_solid)| / the largest |P_solid| reached (the momentum the pulse gave the body).
+    pub relative_drift: f64,
+    pub largest_solid_momentum: f64,
+    pub final_fluid_momentum: [f64; 2],
+    pub final_solid_momentum: [f64; 2],
+}
+
+/// A free, neutrally buoyant elastic disc (D = `cells_per_diameter`) in a periodic box of
+/// 6 × 6 diameters, hit by a Gaussian pressure pulse (amplitude `amplitude` of the density)
+/// centred 1.5 D to its left; momentum budget over `steps` weak-coupling steps.
+pub fn pressure_pulse_momentum(cells_per_diameter: usize, amplitude: f64, steps: u64) -> MomentumResult {
+    let d = cells_per_diameter as f64;
+    let n = 6 * cells_per_diameter;
+    let vs = VelocitySet::new(VelocitySetKind::D2q21);
+    let l1 = vs.max_l1_speed();
+    let eq = Equilibrium::new(vs, GasModel::Monatomic);
+    let theta0 = 0.6;
+    let units = Units::new(1.0, 1.0, eq.sound_speed(theta0), theta0, eq.gamma());
+    let params = timestep::choose(0.05, theta0, l1, None, timestep::DEFAULT_COURANT_SAFETY).expect("admissible time step");
+    let centre = DVec3::new(0.5 * n as f64, 0.5 * n as f64, 0.0);
+    // E = ρ c_s² · 4: a stiff-ish body whose wave speed is twice the sound speed.
+    let material = Orthotropic::isotropic(4.0 * 1.2, 0.3, 1.0, 0.05);
+    let mut particles = Particles::new(2, 0.5);
+    for x in sample_ball(2, centre, 0.5 * d, 0.5) {
+        particles.push(x, 1.0, 0, 0, false);
+    }
+    let surface = BodySurface::build(&particles, 0, &ReferenceShape::Disc { centre, radius: 0.5 * d }).expect("disc surface");
+    let pulse = DVec3::new(centre.x - 1.5 * d, centre.y, 0.0);
+    let fluid = FluidSolver::new(eq, Grid::new(2, [n, n, 1]), Boundaries::periodic(), &[], params, move |x| {
+        let r2 = (x[0] - pulse.x).powi(2) + (x[1] - pulse.y).powi(2);
+        Macro { rho: 1.0 + amplitude * (-r2 / (0.25 * d * d)).exp(), u: [0.0; 3], theta: theta0 }
+    });
+    let solid = SolidSolver::new(particles, vec![material], SolidOptions::default()).expect("valid disc");
+    let bodies = vec![CoupledBody { surface, motion: None }];
+    let mut c = WeakCoupling::new(fluid, solid, units, bodies, Vec::new(), WeakOptions::default()).expect("valid coupling");
+    let (f0, s0) = c.momentum();
+    let total0 = f0 + s0;
+    let mut largest: f64 = 0.0;
+    for _ in 0..steps {
+        c.step().expect("the pulse stays stable");
+        largest = largest.max(c.solid.particles.linear_momentum().length());
+    }
+    let (f, s) = c.momentum();
+    MomentumResult {
+        steps,
+        relative_drift: (f + s - total0).length() / largest,
+        largest_solid_momentum: largest,
+        final_fluid_momentum: [f.x, f.y],
+        final_solid_momentum: [s.x, s.y],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Galilean check (issue 12): a cylinder towed at U through air at rest feels the drag of
+    /// the same cylinder held in air moving at U (Re = 20, D = 10 cells, Mach 0.1, two
+    /// diameters of travel after an impulsive start; mean over the last half diameter).
+    /// Measured: 0.17071 vs 0.17102 (−0.18 %), 200 nodes uncovered and 200 covered, fluid mass
+    /// +2.6·10⁻⁴.
+    #[test]
+    fn a_towed_cylinder_feels_the_drag_of_a_fixed_one_in_the_moving_frame() {
+        let r = towed_cylinder(10, 0.1, 20.0, 2.0);
+        assert!(r.relative_difference.abs() < 0.03, "{r:?}");
+        assert!(r.fixed_drag > 0.1 && r.fixed_drag < 0.3, "{r:?}");
+        // The disc sweeps 20 cells: about 20 diameters' worth of nodes on each side.
+        assert!(r.uncovered == r.covered && (180..=220).contains(&r.uncovered), "{r:?}");
+        assert!(r.towed_mass_drift.abs() < 2e-3, "{r:?}");
+    }
+
+    /// Stability with moving walls (issue 12): a disc oscillating by one diameter (D = 8,
+    /// peak Mach 0.1) uncovers and covers nodes throughout 10⁴ steps and stays finite.
+    /// Measured: 966 uncovered, 962 covered, fluid mass +1.45 % (the ghost-node walls and the
+    /// fresh-node fill do not conserve mass; method 2 is the conservative coupling).
+    #[test]
+    fn an_oscillating_cylinder_stays_stable_for_ten_thousand_steps() {
+        let r = oscillating_cylinder(8, 0.1, 10_000).expect("stays stable");
+        assert!(r.uncovered > 900 && r.covered > 900, "{r:?}");
+        assert!(r.max_mach.is_finite() && r.max_mach < 0.2, "{r:?}");
+        assert!(r.mass_drift.abs() < 0.03, "{r:?}");
+    }
+
+    /// Momentum budget of the weak coupling (issue 12): a free neutrally buoyant elastic disc
+    /// pushed by a pressure pulse in a periodic box. Method 1 does not conserve the total
+    /// momentum; measured drift after 1000 steps: 2.1 % of the largest momentum the disc
+    /// reached (the bound below is that figure with margin, a regression guard).
+    #[test]
+    fn the_weak_coupling_keeps_the_total_momentum_within_a_few_percent() {
+        let r = pressure_pulse_momentum(8, 0.01, 1000);
+        assert!(r.largest_solid_momentum > 0.01, "the pulse moves the disc: {r:?}");
+        assert!(r.relative_drift < 0.05, "{r:?}");
     }
 }

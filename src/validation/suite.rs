@@ -1,8 +1,9 @@
 //! The validation suite run by `phonation validate`: every case, its figure, its reference and
 //! its tolerance. The fast cases are also asserted by `cargo test` (tests/fluid.rs); the slow
-//! ones (cavity, cylinder) run only here.
+//! ones (cavity, cylinder, the coupled Schäfer–Turek and towed-cylinder cases) run only here.
 
-use super::{cavity, channel, cylinder, sod, sound, taylor_green::TaylorGreenCase};
+use super::{cavity, channel, cylinder, fsi, sod, sound, taylor_green::TaylorGreenCase};
+use crate::coupling::TractionModel;
 use crate::fluid::{GasModel, VelocitySetKind};
 use serde::Serialize;
 use std::fmt;
@@ -108,6 +109,29 @@ pub fn cases() -> Vec<Case> {
                 "[0.160, 0.170]".into(),
                 within(r.strouhal, 0.160, 0.170),
             )]
+        }),
+        ("fsi_towed_cylinder", || {
+            // Galilean check of the moving walls: D = 20 cells, Re = 20, Mach 0.1, 3 D of travel.
+            let r = fsi::towed_cylinder(20, 0.1, 20.0, 3.0);
+            vec![("towed / fixed drag − 1".into(), r.relative_difference, "|Δ| ≤ 0.03".into(), r.relative_difference.abs() <= 0.03)]
+        }),
+        ("fsi_schafer_turek_2d1", || {
+            // D = 20 cells, Mach 0.05 at U_max (the density rise of the weakly compressible
+            // channel is O(Ma²): 1.7 % at Mach 0.1), 4 s (the drag settles after ~3 s), means
+            // over the last second.
+            let mut out = Vec::new();
+            for body in [fsi::CylinderBody::RigidObstacle, fsi::CylinderBody::WeakCoupled(TractionModel::PressureAndShear)] {
+                let r = fsi::schafer_turek_2d1(20, 0.05, 4.0, body);
+                let name = match body {
+                    fsi::CylinderBody::RigidObstacle => "rigid obstacle",
+                    _ => "clamped elastic, method 1",
+                };
+                let cd = r.drag_coefficient / fsi::ST_2D1_DRAG - 1.0;
+                let dp = r.pressure_drop / fsi::ST_2D1_PRESSURE_DROP - 1.0;
+                out.push((format!("{name}: C_D / 5.5795 − 1"), cd, "|Δ| ≤ 0.02".into(), cd.abs() <= 0.02));
+                out.push((format!("{name}: Δp / 0.11752 − 1"), dp, "|Δ| ≤ 0.02".into(), dp.abs() <= 0.02));
+            }
+            out
         }),
     ]
 }

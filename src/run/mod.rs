@@ -12,6 +12,8 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+pub mod coupled;
+
 /// How a run ended.
 #[derive(Clone, Debug, Serialize)]
 #[serde(tag = "status", rename_all = "snake_case")]
@@ -55,7 +57,7 @@ pub struct RunOptions {
     pub backend: Backend,
 }
 
-fn snapshot(s: &FluidSolver, scene: &FluidScene, dir: &Path, k: u64, files: &mut Vec<PathBuf>) -> std::io::Result<()> {
+pub(crate) fn snapshot(s: &FluidSolver, scene: &FluidScene, dir: &Path, k: u64, files: &mut Vec<PathBuf>) -> std::io::Result<()> {
     for &f in &scene.file.output.png_fields {
         let name = format!("{:?}", f).to_lowercase();
         let path = dir.join(format!("snapshot_{k:03}_{name}.png"));
