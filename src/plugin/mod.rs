@@ -1,5 +1,5 @@
 //! Bevy integration (feature `bevy`): the [`PhonationPlugin`] steps every entity that carries a
-//! [`FluidSimulation`], a [`SolidSimulation`] or a [`LatticeGasSimulation`] on the CPU backend, `steps_per_frame` steps per frame, honouring
+//! [`FluidSimulation`], a [`SolidSimulation`], a [`LatticeGasSimulation`] or a [`CoupledSimulation`] on the CPU backend, `steps_per_frame` steps per frame, honouring
 //! pause / single-step from [`SimulationControl`]. The systems live in [`PhonationSystems`] sets
 //! named after the solver's stages, so apps can order their own systems around them.
 //!
@@ -14,9 +14,11 @@ use crate::scene::FluidScene;
 use crate::units::Units;
 use bevy::prelude::*;
 
+pub mod coupled;
 pub mod gpu;
 pub mod lattice_gas;
 pub mod solid;
+pub use coupled::{CoupledDiagnostics, CoupledSimulation, CoupledStatus};
 pub use gpu::{GpuFluidHandle, GpuProbes, GpuStepping, PhonationGpuPlugin};
 pub use lattice_gas::{LatticeGasDiagnostics, LatticeGasSimulation};
 pub use solid::{SolidDiagnostics, SolidSimulation, SolidStatus};
@@ -31,6 +33,9 @@ pub enum PhonationSystems {
     /// Advances every [`LatticeGasSimulation`] by the same number of steps of
     /// [`crate::stages::LATTICE_GAS_STEP`].
     LatticeGasStep,
+    /// Advances every [`CoupledSimulation`] by the same number of steps of
+    /// [`crate::stages::COUPLED_WEAK_STEP`].
+    CoupledStep,
     /// Updates [`FluidDiagnostics`].
     Diagnostics,
 }
@@ -106,12 +111,14 @@ impl Plugin for PhonationPlugin {
             .init_resource::<StepsThisFrame>()
             .configure_sets(
                 Update,
-                (PhonationSystems::Step, PhonationSystems::SolidStep, PhonationSystems::LatticeGasStep, PhonationSystems::Diagnostics).chain(),
+                (PhonationSystems::Step, PhonationSystems::SolidStep, PhonationSystems::LatticeGasStep, PhonationSystems::CoupledStep, PhonationSystems::Diagnostics)
+                    .chain(),
             )
             .add_systems(Update, (plan_steps, step_simulations).chain().in_set(PhonationSystems::Step))
             .add_systems(Update, update_diagnostics.in_set(PhonationSystems::Diagnostics));
         solid::build(app);
         lattice_gas::build(app);
+        coupled::build(app);
     }
 }
 
