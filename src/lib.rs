@@ -53,7 +53,8 @@ mod layering {
                     stack.push(p);
                 } else if p.extension().is_some_and(|x| x == "rs") {
                     // Code only: doc comments may point upward (to the GPU twin, say).
-                    let code: String = std::fs::read_to_string(&p).unwrap().lines().filter(|l| !l.trim_start().starts_with("//")).collect::<Vec<_>>().join("\n");
+                    let code: String =
+                        std::fs::read_to_string(&p).unwrap().lines().filter(|l| !l.trim_start().starts_with("//")).collect::<Vec<_>>().join("\n");
                     out.push((p.display().to_string(), code));
                 }
             }

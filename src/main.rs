@@ -321,8 +321,8 @@ fn main() -> anyhow::Result<()> {
             }
         }
         Command::Viscosity { densities, interference, diagonals, nx, n, steps, amplitude, seeds, out } => {
-            use phonation::scene::lattice_gas::{density_problem, interference_problem};
             use phonation::lattice_gas::viscosity::{ShearWaveSetup, viscosity_table, write_table};
+            use phonation::scene::lattice_gas::{density_problem, interference_problem};
             if nx < 8 || nx % 4 != 0 || n == 0 {
                 bail!("--nx must be a multiple of 4 and at least 8, --n at least 1 (got {nx}, {n})");
             }

@@ -202,8 +202,8 @@ fn plugin_steps_the_coupled_solver_exactly_like_the_direct_solver_through_pause_
 #[test]
 fn plugin_steps_the_lattice_gas_exactly_like_the_direct_gas_and_honours_pause() {
     use phonation::lattice_gas::collision::CollisionTable;
-    use phonation::scene::lattice_gas::LatticeGasScene;
     use phonation::plugin::{LatticeGasDiagnostics, LatticeGasSimulation};
+    use phonation::scene::lattice_gas::LatticeGasScene;
     let sc = LatticeGasScene::parse(
         r#"
 name = "plugin_box"

@@ -65,11 +65,15 @@ impl ReferenceShape {
 pub enum SurfaceError {
     #[error("body {body}: fewer than 3 surface particles")]
     TooFew { body: u16 },
-    #[error("body {body}: the surface particles sorted by angle about the centroid do not form a simple polygon (edges {a} and {b} cross); the body is not star-shaped about its centroid")]
+    #[error(
+        "body {body}: the surface particles sorted by angle about the centroid do not form a simple polygon (edges {a} and {b} cross); the body is not star-shaped about its centroid"
+    )]
     NotSimple { body: u16, a: usize, b: usize },
     #[error("body {body}: a body must be at least two particles thick everywhere for a surface polygon (particle {particle} is surface on two opposite sides)")]
     TooThin { body: u16, particle: usize },
-    #[error("body {body}: surface particle {particle} lies more than a spacing inside the body's reference shape (the particles are not a sample of that shape)")]
+    #[error(
+        "body {body}: surface particle {particle} lies more than a spacing inside the body's reference shape (the particles are not a sample of that shape)"
+    )]
     NotOnShape { body: u16, particle: usize },
     #[error("3D surfaces (triangulated) are not built yet; the coupling runs in 2D")]
     ThreeDimensional,

@@ -101,7 +101,14 @@ impl WeakCoupling {
     /// Couples `fluid` (with its rigid `obstacles`, lattice units) and `solid` (explicit) through
     /// the surfaces of `bodies`. The solid's sub-step is the largest that divides the fluid's
     /// step into equal parts and does not exceed the solid's own step.
-    pub fn new(fluid: FluidSolver, mut solid: SolidSolver, units: Units, bodies: Vec<CoupledBody>, obstacles: Vec<Obstacle>, options: WeakOptions) -> Result<Self, CouplingSetupError> {
+    pub fn new(
+        fluid: FluidSolver,
+        mut solid: SolidSolver,
+        units: Units,
+        bodies: Vec<CoupledBody>,
+        obstacles: Vec<Obstacle>,
+        options: WeakOptions,
+    ) -> Result<Self, CouplingSetupError> {
         if solid.options.integrator != Integrator::Explicit {
             return Err(CouplingSetupError::NeedsExplicitSolid);
         }
@@ -204,12 +211,26 @@ impl WeakCoupling {
                     for (k, (a, b)) in old.iter().zip(&verts).enumerate() {
                         let d = a.iter().zip(b).map(|(p, q)| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt()).fold(0.0, f64::max);
                         if d > self.options.max_cells_per_step {
-                            return Err(CoupledInstability::BodyTooFast { step: self.step_count, body: self.bodies[k].surface.body, cells: d, max: self.options.max_cells_per_step });
+                            return Err(CoupledInstability::BodyTooFast {
+                                step: self.step_count,
+                                body: self.bodies[k].surface.body,
+                                cells: d,
+                                max: self.options.max_cells_per_step,
+                            });
                         }
                         moved |= d > 0.0;
                     }
                     // Wall velocities change even when the vertices do not (a body set moving).
-                    let same_velocity = self.fluid.layout.obstacles.iter().rev().take(polys.len()).rev().zip(&polys).all(|(o, p)| matches!(&o.shape, Shape::Polygon(q) if q.velocities == p.velocities));
+                    let same_velocity = self
+                        .fluid
+                        .layout
+                        .obstacles
+                        .iter()
+                        .rev()
+                        .take(polys.len())
+                        .rev()
+                        .zip(&polys)
+                        .all(|(o, p)| matches!(&o.shape, Shape::Polygon(q) if q.velocities == p.velocities));
                     if !moved && same_velocity {
                         return Ok(());
                     }

@@ -242,10 +242,12 @@ mod tests {
         assert!((o.velocity_at([2.0, 1.0, 0.0])[1] - 1.0).abs() < 1e-12);
         // A regular 64-gon of radius 5 agrees with the circle's signed distance to O(h²).
         let k = 64;
-        let verts: Vec<[f64; 2]> = (0..k).map(|i| {
-            let a = std::f64::consts::TAU * i as f64 / k as f64;
-            [10.0 + 5.0 * a.cos(), 10.0 + 5.0 * a.sin()]
-        }).collect();
+        let verts: Vec<[f64; 2]> = (0..k)
+            .map(|i| {
+                let a = std::f64::consts::TAU * i as f64 / k as f64;
+                [10.0 + 5.0 * a.cos(), 10.0 + 5.0 * a.sin()]
+            })
+            .collect();
         let poly = Shape::Polygon(Polygon::new(verts, vec![[0.0; 3]; k]));
         let disc = Shape::Cylinder { center: [10.0, 10.0, 0.0], radius: 5.0 };
         for p in [[12.0, 11.0, 0.0], [14.9, 10.3, 0.0], [6.0, 12.5, 0.0], [5.5, 13.0, 0.0], [10.0, 16.0, 0.0]] {

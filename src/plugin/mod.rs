@@ -111,7 +111,13 @@ impl Plugin for PhonationPlugin {
             .init_resource::<StepsThisFrame>()
             .configure_sets(
                 Update,
-                (PhonationSystems::Step, PhonationSystems::SolidStep, PhonationSystems::LatticeGasStep, PhonationSystems::CoupledStep, PhonationSystems::Diagnostics)
+                (
+                    PhonationSystems::Step,
+                    PhonationSystems::SolidStep,
+                    PhonationSystems::LatticeGasStep,
+                    PhonationSystems::CoupledStep,
+                    PhonationSystems::Diagnostics,
+                )
                     .chain(),
             )
             .add_systems(Update, (plan_steps, step_simulations).chain().in_set(PhonationSystems::Step))

@@ -78,9 +78,11 @@ pub fn is_coupled_scene(text: &str) -> bool {
 impl CoupledScene {
     pub fn parse(text: &str) -> Result<Self, SceneError> {
         let mut table: toml::Table = toml::from_str(text).map_err(|e| SceneError::from_toml("scene", &e, text))?;
-        let coupling = table.remove("coupling").ok_or_else(|| SceneError { field: "coupling".into(), reason: "a coupled scene needs a [coupling] table".into() })?;
+        let coupling =
+            table.remove("coupling").ok_or_else(|| SceneError { field: "coupling".into(), reason: "a coupled scene needs a [coupling] table".into() })?;
         let solid = table.remove("solid").ok_or_else(|| SceneError { field: "solid".into(), reason: "a coupled scene needs a [solid] table".into() })?;
-        let coupling: CouplingSpec = coupling.try_into().map_err(|e: toml::de::Error| SceneError { field: "coupling".into(), reason: e.message().to_string() })?;
+        let coupling: CouplingSpec =
+            coupling.try_into().map_err(|e: toml::de::Error| SceneError { field: "coupling".into(), reason: e.message().to_string() })?;
         let solid: SolidSpec = solid.try_into().map_err(|e: toml::de::Error| SceneError { field: "solid".into(), reason: e.message().to_string() })?;
         let fluid_text = toml::to_string(&table).expect("a TOML table serialises");
         let file: SceneFile = toml::from_str(&fluid_text).map_err(|e| SceneError::from_toml("scene", &e, &fluid_text))?;
@@ -88,8 +90,14 @@ impl CoupledScene {
     }
 
     pub fn new(file: SceneFile, solid: SolidSpec, coupling: CouplingSpec) -> Result<Self, SceneError> {
-        let solid_file =
-            SolidSceneFile { name: file.name.clone(), description: file.description.clone(), units: file.units, solid, run: SolidRun { duration: file.run.duration, output_every: None, snapshots: None }, probes: Vec::new() };
+        let solid_file = SolidSceneFile {
+            name: file.name.clone(),
+            description: file.description.clone(),
+            units: file.units,
+            solid,
+            run: SolidRun { duration: file.run.duration, output_every: None, snapshots: None },
+            probes: Vec::new(),
+        };
         let fluid = FluidScene::new(file)?;
         let solid = SolidScene::new(solid_file)?;
         let s = &solid.file.solid;
@@ -127,7 +135,10 @@ impl CoupledScene {
             let (lo, hi) = body_bounds(b);
             for a in 0..dim {
                 if lo[a] < 0.0 || hi[a] > size[a] {
-                    return err(format!("solid.bodies[{k}]"), format!("extends over [{}, {}] along axis {a}, outside the domain [0, {}]", lo[a], hi[a], size[a]));
+                    return err(
+                        format!("solid.bodies[{k}]"),
+                        format!("extends over [{}, {}] along axis {a}, outside the domain [0, {}]", lo[a], hi[a], size[a]),
+                    );
                 }
             }
         }
@@ -161,18 +172,23 @@ impl CoupledScene {
                 let x = p.reference[i];
                 !p.fixed[i] && o.shape.sdf([units.position_to_lattice(x.x), units.position_to_lattice(x.y), 0.0]) < 0.0
             }) {
-                return err(format!("solid.bodies[{}]", p.body[i]), format!("particle {i} at {:?} lies inside obstacles[{j}] and is not clamped", p.reference[i].to_array()));
+                return err(
+                    format!("solid.bodies[{}]", p.body[i]),
+                    format!("particle {i} at {:?} lies inside obstacles[{j}] and is not clamped", p.reference[i].to_array()),
+                );
             }
         }
         let mut bodies = Vec::new();
         for (k, b) in self.solid.file.solid.bodies.iter().enumerate() {
-            let surface = BodySurface::build(p, k as u16, &reference_shape(b)).map_err(|e| SceneError { field: format!("solid.bodies[{k}]"), reason: e.to_string() })?;
+            let surface =
+                BodySurface::build(p, k as u16, &reference_shape(b)).map_err(|e| SceneError { field: format!("solid.bodies[{k}]"), reason: e.to_string() })?;
             let motion = self.coupling.motions.iter().find(|m| m.body == k).map(|m| m.motion.clone());
             bodies.push(CoupledBody { surface, motion });
         }
         let fluid = self.fluid.build_solver();
         let options = WeakOptions { traction: self.coupling.traction, piece_length: self.coupling.piece_length.unwrap_or(1.0), ..Default::default() };
-        WeakCoupling::new(fluid, solid, units, bodies, self.fluid.obstacles.clone(), options).map_err(|e| SceneError { field: "coupling".into(), reason: e.to_string() })
+        WeakCoupling::new(fluid, solid, units, bodies, self.fluid.obstacles.clone(), options)
+            .map_err(|e| SceneError { field: "coupling".into(), reason: e.to_string() })
     }
 }
 
@@ -224,7 +240,11 @@ mod tests {
             ("center = [0.2, 0.2], radius = 0.05", "center = [2.18, 0.2], radius = 0.05", "solid.bodies[0]"),
             ("dimension = 2", "dimension = 2\nintegrator = \"implicit\"", "solid.integrator"),
             ("output_every = 10", "output_every = 0", "coupling.output_every"),
-            ("output_every = 10", "output_every = 10\nmotions = [{ body = 3, motion = { kind = \"translation\", velocity = [1.0, 0.0] } }]", "coupling.motions[0].body"),
+            (
+                "output_every = 10",
+                "output_every = 10\nmotions = [{ body = 3, motion = { kind = \"translation\", velocity = [1.0, 0.0] } }]",
+                "coupling.motions[0].body",
+            ),
             ("traction = \"pressure_and_shear\"", "traction = \"shear_only\"", "coupling"),
         ];
         for (from, to, field) in cases {

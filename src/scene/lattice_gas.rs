@@ -6,11 +6,11 @@
 //! Units: lengths in ℓ (site spacing; cell centres every 2ℓ), velocities in ℓ per step.
 
 use crate::lattice_gas::coarse::coarse_grain;
-use crate::output::coarse::{write_csv, write_pngs, write_vtk};
 use crate::lattice_gas::collision::CollisionTable;
 use crate::lattice_gas::lattice::{Diagonals, Inlet, LANES, LatticeGas, Outlet};
 use crate::lattice_gas::spectrum::{Peak, dominant_frequency};
 use crate::lattice_gas::velocities::Q;
+use crate::output::coarse::{write_csv, write_pngs, write_vtk};
 use crate::scene::SceneError;
 use serde::{Deserialize, Serialize};
 use std::io::Write;

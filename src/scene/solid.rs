@@ -3,10 +3,10 @@
 //! probe displacements, CG iterations), particle snapshots as VTK and `summary.json`.
 //! Every check runs before anything is allocated; errors name the field and the reason.
 
+use crate::scene::SceneError;
 use crate::solid::particles::{sample_ball, sample_box};
 use crate::solid::solver::{Integrator, SolidOptions, SolidSolver};
 use crate::solid::{ContactParams, Orthotropic, Particles, Wall};
-use crate::scene::SceneError;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use std::io::Write;

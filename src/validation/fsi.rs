@@ -10,7 +10,9 @@
 //! [`WeakCoupling`] (the coupled path: surface polygon, moving-wall geometry, tractions).
 
 use crate::coupling::{BodySurface, CoupledBody, ReferenceShape, TractionModel, WeakCoupling, WeakOptions, surface_forces};
-use crate::fluid::{Boundaries, Equilibrium, FaceCondition, FluidSolver, GasModel, Grid, InletProfile, Macro, Obstacle, Shape, VelocitySet, VelocitySetKind, timestep};
+use crate::fluid::{
+    Boundaries, Equilibrium, FaceCondition, FluidSolver, GasModel, Grid, InletProfile, Macro, Obstacle, Shape, VelocitySet, VelocitySetKind, timestep,
+};
 use crate::solid::particles::sample_ball;
 use crate::solid::{Orthotropic, Particles, SolidOptions, SolidSolver};
 use crate::units::Units;
@@ -276,7 +278,11 @@ pub fn towed_cylinder(cells_per_diameter: usize, mach: f64, reynolds: f64, dista
     let surface = BodySurface::build(&particles, 0, &ReferenceShape::Disc { centre, radius }).expect("disc surface");
     let run = |towed: bool| {
         let uf = if towed { 0.0 } else { u };
-        let fluid = FluidSolver::new(eq.clone(), Grid::new(2, [nx, ny, 1]), Boundaries::periodic(), &[], params, move |_| Macro { rho: 1.0, u: [uf, 0.0, 0.0], theta: theta0 });
+        let fluid = FluidSolver::new(eq.clone(), Grid::new(2, [nx, ny, 1]), Boundaries::periodic(), &[], params, move |_| Macro {
+            rho: 1.0,
+            u: [uf, 0.0, 0.0],
+            theta: theta0,
+        });
         let solid = SolidSolver::new(particles.clone(), vec![material.clone()], SolidOptions::default()).expect("valid disc");
         let motion = towed.then_some(crate::coupling::Motion::Translation { velocity: [-units.velocity_to_physical(u), 0.0, 0.0] });
         let bodies = vec![CoupledBody { surface: surface.clone(), motion }];
