@@ -115,6 +115,12 @@ pub fn cases() -> Vec<Case> {
             let r = fsi::towed_cylinder(20, 0.1, 20.0, 3.0);
             vec![("towed / fixed drag − 1".into(), r.relative_difference, "|Δ| ≤ 0.03".into(), r.relative_difference.abs() <= 0.03)]
         }),
+        ("fsi_disc_in_shear", || {
+            // A neutrally buoyant free disc in simple shear at Re = 0.1 turns at γ̇/2.
+            let r = fsi::disc_in_shear(10, 8, 0.1, 3.0);
+            let e = -r.rotation_rate / 0.5 - 1.0;
+            vec![("Ω / (γ̇/2) − 1 (D/H = 1/8)".into(), e, "|Δ| ≤ 0.03".into(), e.abs() <= 0.03)]
+        }),
         ("fsi_schafer_turek_2d1", || {
             // D = 20 cells, Mach 0.1 at U_max, 6 s, means over the last 1.5 s (acoustic waves
             // ring between the inlet and the constant-pressure outlet). The weakly compressible
