@@ -1,7 +1,7 @@
 //! Speed measurements (a `bench` subcommand, never a timed test): the machine's memory bandwidth
 //! (a STREAM-like triad) and the FDLB node updates per second measured in the same process, the
-//! bytes moved per node update and the fraction of bandwidth achieved; and a speed-vs-error table
-//! (Taylor–Green at three resolutions).
+//! bytes moved per node update and the fraction of bandwidth achieved; and speed-vs-error tables
+//! (Taylor–Green at three resolutions; the coupled Schäfer–Turek cylinder at three resolutions).
 
 use crate::fluid::{Boundaries, Equilibrium, FluidSolver, GasModel, Grid, Macro, VelocitySet, VelocitySetKind, timestep};
 use crate::validation::taylor_green::{TaylorGreenCase, TaylorGreenResult};
@@ -90,10 +90,55 @@ pub struct BenchReport {
     pub solid: Vec<crate::solid::bench::SolidSpeed>,
     /// FCHC lattice gas (periodic box, fill 0.2, p = 0.1).
     pub lattice_gas: Vec<crate::lattice_gas::bench::LatticeGasSpeed>,
+    /// Coupled (weak, CPU): the clamped elastic cylinder of Schäfer–Turek 2D-1 at three
+    /// resolutions — speed against the drag's distance from the finest run.
+    pub coupled: Vec<CoupledSpeed>,
+}
+
+/// One resolution of the coupled speed-vs-error table.
+#[derive(Clone, Debug, Serialize)]
+pub struct CoupledSpeed {
+    pub cells_per_diameter: usize,
+    pub nodes: usize,
+    pub particles: usize,
+    pub solid_substeps: u32,
+    pub coupled_steps_per_s: f64,
+    /// Wall seconds per simulated second.
+    pub wall_per_simulated_s: f64,
+    /// C_D averaged over the last quarter of the run.
+    pub drag_coefficient: f64,
+    /// |C_D − C_D(finest)| / C_D(finest) (0 for the finest).
+    pub error_vs_finest: f64,
+    /// |C_D − 5.5795| / 5.5795 (the steady reference; short runs are still settling).
+    pub error_vs_reference: f64,
+    pub stage_shares: Vec<(String, f64)>,
+}
+
+/// The coupled rows: D = 10, 20, 30 cells (quick: 10, 20) for `duration` simulated seconds.
+pub fn coupled_speed_vs_error(quick: bool) -> Vec<CoupledSpeed> {
+    use crate::coupling::TractionModel;
+    use crate::validation::fsi::{CylinderBody, ST_2D1_DRAG, schafer_turek_2d1};
+    let (sizes, duration): (&[usize], f64) = if quick { (&[10, 20], 0.1) } else { (&[10, 20, 30], 1.0) };
+    let runs: Vec<_> = sizes.iter().map(|&d| (d, schafer_turek_2d1(d, 0.1, duration, CylinderBody::WeakCoupled(TractionModel::PressureAndShear)))).collect();
+    let finest = runs.last().map(|(_, r)| r.drag_coefficient).unwrap_or(f64::NAN);
+    runs.into_iter()
+        .map(|(d, r)| CoupledSpeed {
+            cells_per_diameter: d,
+            nodes: (22 * d) * (41 * d / 10),
+            particles: r.particles,
+            solid_substeps: r.substeps,
+            coupled_steps_per_s: r.steps as f64 / r.wall_s,
+            wall_per_simulated_s: r.wall_s / r.simulated_s,
+            drag_coefficient: r.drag_coefficient,
+            error_vs_finest: (r.drag_coefficient - finest).abs() / finest,
+            error_vs_reference: (r.drag_coefficient - ST_2D1_DRAG).abs() / ST_2D1_DRAG,
+            stage_shares: r.stage_shares,
+        })
+        .collect()
 }
 
 /// Parts of the benchmark, for `bench --only`.
-pub const SUITES: [&str; 3] = ["fdlb", "solid", "lattice_gas"];
+pub const SUITES: [&str; 4] = ["fdlb", "solid", "lattice_gas", "coupled"];
 
 /// The CPU benchmark (every suite of [`SUITES`], or only `only`). `quick` shrinks grids for a
 /// smoke run.
@@ -133,5 +178,6 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
     } else {
         Vec::new()
     };
-    BenchReport { threads: rayon::current_num_threads(), triad_bandwidth_gb_s: bw / 1e9, lattices, speed_vs_error, solid, lattice_gas }
+    let coupled = if wants("coupled") { coupled_speed_vs_error(quick) } else { Vec::new() };
+    BenchReport { threads: rayon::current_num_threads(), triad_bandwidth_gb_s: bw / 1e9, lattices, speed_vs_error, solid, lattice_gas, coupled }
 }

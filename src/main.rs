@@ -448,6 +448,26 @@ fn main() -> anyhow::Result<()> {
                     lattice_gas_row(v, "");
                     cpu_gas = Some(v.site_updates_per_s);
                 }
+                if !r.coupled.is_empty() {
+                    println!("coupled, weak (method 1), clamped elastic cylinder, Schäfer–Turek 2D-1 (Mach 0.1): speed vs error");
+                    println!("{:>4} {:>8} {:>9} {:>8} {:>12} {:>14} {:>8} {:>10} {:>10}", "D", "nodes", "particles", "substeps", "steps/s", "wall s / sim s", "C_D", "vs finest", "vs 5.5795");
+                }
+                for c in &r.coupled {
+                    println!(
+                        "{:>4} {:>8} {:>9} {:>8} {:>12.1} {:>14.1} {:>8.4} {:>9.2}% {:>9.2}%",
+                        c.cells_per_diameter,
+                        c.nodes,
+                        c.particles,
+                        c.solid_substeps,
+                        c.coupled_steps_per_s,
+                        c.wall_per_simulated_s,
+                        c.drag_coefficient,
+                        100.0 * c.error_vs_finest,
+                        100.0 * c.error_vs_reference
+                    );
+                    let st: Vec<String> = c.stage_shares.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
+                    println!("     stages: {}", st.join(", "));
+                }
                 report.insert("cpu".into(), serde_json::to_value(&r)?);
             }
             if backend != BenchBackend::Cpu {
