@@ -450,7 +450,10 @@ fn main() -> anyhow::Result<()> {
                 }
                 if !r.coupled.is_empty() {
                     println!("coupled, weak (method 1), clamped elastic cylinder, Schäfer–Turek 2D-1 (Mach 0.1): speed vs error");
-                    println!("{:>4} {:>8} {:>9} {:>8} {:>12} {:>14} {:>8} {:>10} {:>10}", "D", "nodes", "particles", "substeps", "steps/s", "wall s / sim s", "C_D", "vs finest", "vs 5.5795");
+                    println!(
+                        "{:>4} {:>8} {:>9} {:>8} {:>12} {:>14} {:>8} {:>10} {:>10}",
+                        "D", "nodes", "particles", "substeps", "steps/s", "wall s / sim s", "C_D", "vs finest", "vs 5.5795"
+                    );
                 }
                 for c in &r.coupled {
                     println!(

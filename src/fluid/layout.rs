@@ -218,27 +218,44 @@ impl Layout {
 }
 
 impl Layout {
-    /// Multilinear interpolation weights at `p` (interior node coordinates) over fluid nodes
-    /// only, renormalised, through periodic images; the nearest fluid node within two cells when
-    /// the cell around `p` holds none; empty when there is none.
-    pub fn fluid_stencil(&self, p: [f64; 3]) -> Vec<(usize, f64)> {
+    /// The padded index of the fluid node at interior coordinates `x`, through periodic
+    /// images; `None` when that node is not fluid or lies outside the padded grid.
+    pub fn fluid_node_at(&self, x: [i64; 3]) -> Option<usize> {
         let grid = &self.grid;
-        let periodic: [bool; 3] = std::array::from_fn(|a| a < grid.dim && matches!(self.boundaries.faces[2 * a], FaceCondition::Periodic));
-        let fluid_at = |x: [i64; 3]| -> Option<usize> {
-            let mut y = x;
-            for a in 0..3 {
-                if periodic[a] {
-                    y[a] = y[a].rem_euclid(grid.n[a] as i64);
+        let mut y = x;
+        for a in 0..grid.dim {
+            if matches!(self.boundaries.faces[2 * a], FaceCondition::Periodic) {
+                y[a] = y[a].rem_euclid(grid.n[a] as i64);
+            }
+        }
+        if !grid.contains(y) {
+            return None;
+        }
+        let i = grid.index(y);
+        (self.kind[i] == NodeKind::Fluid).then_some(i)
+    }
+}
+
+/// The 2ᴰ corners of the cell around `p` (interior node coordinates) with their multilinear
+/// weights (the base corner rounds along unused axes).
+pub(crate) fn multilinear_corners(dim: usize, p: [f64; 3]) -> Vec<([i64; 3], f64)> {
+    let base: [i64; 3] = std::array::from_fn(|a| if a < dim { p[a].floor() as i64 } else { p[a].round() as i64 });
+    let frac: [f64; 3] = std::array::from_fn(|a| if a < dim { p[a] - base[a] as f64 } else { 0.0 });
+    (0..1usize << dim)
+        .map(|c| {
+            let mut x = base;
+            let mut w = 1.0;
+            for a in 0..dim {
+                if c & (1 << a) != 0 {
+                    x[a] += 1;
+                    w *= frac[a];
+                } else {
+                    w *= 1.0 - frac[a];
                 }
             }
-            if !grid.contains(y) {
-                return None;
-            }
-            let i = grid.index(y);
-            (self.kind[i] == NodeKind::Fluid).then_some(i)
-        };
-        interpolation_stencil(grid, p, &fluid_at)
-    }
+            (x, w)
+        })
+        .collect()
 }
 
 /// Multilinear interpolation weights at `p` over fluid nodes only (renormalised). Falls back to
@@ -246,21 +263,9 @@ impl Layout {
 fn interpolation_stencil(grid: &Grid, p: [f64; 3], fluid_at: &dyn Fn([i64; 3]) -> Option<usize>) -> Vec<(usize, f64)> {
     let dim = grid.dim;
     let base: [i64; 3] = std::array::from_fn(|a| if a < dim { p[a].floor() as i64 } else { p[a].round() as i64 });
-    let frac: [f64; 3] = std::array::from_fn(|a| if a < dim { p[a] - base[a] as f64 } else { 0.0 });
-    let corners = 1usize << dim;
     let mut out: Vec<(usize, f64)> = Vec::new();
     let mut total = 0.0;
-    for c in 0..corners {
-        let mut x = base;
-        let mut w = 1.0;
-        for a in 0..dim {
-            if c & (1 << a) != 0 {
-                x[a] += 1;
-                w *= frac[a];
-            } else {
-                w *= 1.0 - frac[a];
-            }
-        }
+    for (x, w) in multilinear_corners(dim, p) {
         if w <= 1e-12 {
             continue;
         }

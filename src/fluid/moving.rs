@@ -12,7 +12,7 @@
 
 use super::equilibrium::Macro;
 use super::geometry::Obstacle;
-use super::layout::{Layout, NodeKind};
+use super::layout::{Layout, NodeKind, multilinear_corners};
 use super::solver::FluidSolver;
 
 /// What a geometry update did to the fluid (lattice units).
@@ -103,47 +103,12 @@ impl FluidSolver {
 /// Weights (node, w) that reproduce linear fields at `p` from fluid nodes (see
 /// [`FluidSolver::sample`]).
 fn linear_stencil(layout: &Layout, p: [f64; 3]) -> Option<Vec<(usize, f64)>> {
-    let grid = &layout.grid;
-    let dim = grid.dim;
-    let periodic: [bool; 3] = std::array::from_fn(|a| a < dim && matches!(layout.boundaries.faces[2 * a], super::boundary::FaceCondition::Periodic));
-    let fluid_at = |x: [i64; 3]| -> Option<usize> {
-        let mut y = x;
-        for a in 0..3 {
-            if periodic[a] {
-                y[a] = y[a].rem_euclid(grid.n[a] as i64);
-            }
-        }
-        if !grid.contains(y) {
-            return None;
-        }
-        let i = grid.index(y);
-        (layout.kind[i] == NodeKind::Fluid).then_some(i)
-    };
+    let dim = layout.grid.dim;
+    let corners: Option<Vec<(usize, f64)>> = multilinear_corners(dim, p).into_iter().map(|(x, w)| layout.fluid_node_at(x).map(|i| (i, w))).collect();
+    if corners.is_some() {
+        return corners;
+    }
     let base: [i64; 3] = std::array::from_fn(|a| if a < dim { p[a].floor() as i64 } else { p[a].round() as i64 });
-    let frac: [f64; 3] = std::array::from_fn(|a| if a < dim { p[a] - base[a] as f64 } else { 0.0 });
-    let mut corners = Vec::with_capacity(8);
-    for c in 0..1usize << dim {
-        let mut x = base;
-        let mut w = 1.0;
-        for a in 0..dim {
-            if c & (1 << a) != 0 {
-                x[a] += 1;
-                w *= frac[a];
-            } else {
-                w *= 1.0 - frac[a];
-            }
-        }
-        match fluid_at(x) {
-            Some(i) => corners.push((i, w)),
-            None => {
-                corners.clear();
-                break;
-            }
-        }
-    }
-    if !corners.is_empty() {
-        return Some(corners);
-    }
     // Least squares: value ≈ a + g·(x − p) over the fluid nodes of the block; the value at p is
     // a = e₀ᵀ (AᵀA)⁻¹ Aᵀ φ, so node k gets weight e₀ᵀ (AᵀA)⁻¹ A_kᵀ.
     let zr = if dim == 3 { -1..=2 } else { 0..=0 };
@@ -152,7 +117,7 @@ fn linear_stencil(layout: &Layout, p: [f64; 3]) -> Option<Vec<(usize, f64)>> {
         for dy in -1..=2i64 {
             for dx in -1..=2i64 {
                 let x = [base[0] + dx, base[1] + dy, base[2] + dz];
-                if let Some(i) = fluid_at(x) {
+                if let Some(i) = layout.fluid_node_at(x) {
                     let r = [1.0, x[0] as f64 - p[0], x[1] as f64 - p[1], if dim == 3 { x[2] as f64 - p[2] } else { 0.0 }];
                     rows.push((i, r));
                 }

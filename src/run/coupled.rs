@@ -155,9 +155,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, steps: Option<u64>, show
         instability: instability.map(|e| e.to_string()),
         files: files.clone(),
     };
-    let summary = dir.join("summary.json");
-    std::fs::write(&summary, serde_json::to_string_pretty(&report)?)?;
     let mut report = report;
-    report.files.push(summary);
+    report.files.push(super::write_summary(dir, &report)?);
     Ok(report)
 }

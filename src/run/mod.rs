@@ -133,11 +133,16 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
         stage_fractions: s.timings.report().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
         files: files.clone(),
     };
-    let summary = dir.join("summary.json");
-    std::fs::write(&summary, serde_json::to_string_pretty(&report)?)?;
     let mut report = report;
-    report.files.push(summary);
+    report.files.push(write_summary(dir, &report)?);
     Ok(report)
+}
+
+/// Writes `report` as `dir/summary.json` and returns the path.
+pub(crate) fn write_summary(dir: &Path, report: &impl Serialize) -> anyhow::Result<PathBuf> {
+    let summary = dir.join("summary.json");
+    std::fs::write(&summary, serde_json::to_string_pretty(report)?)?;
+    Ok(summary)
 }
 
 fn unstable(e: &Instability, scene: &FluidScene) -> RunStatus {

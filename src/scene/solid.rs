@@ -220,36 +220,38 @@ impl SolidScene {
         let mut count = 0.0;
         for (k, b) in s.bodies.iter().enumerate() {
             let f = format!("solid.bodies[{k}]");
-            if let Some(r) = b.radius {
-                if !b.min.is_empty() || !b.max.is_empty() {
-                    return err(format!("{f}.radius"), "a body is a box (min, max) or a ball (center, radius), not both");
-                }
-                vec3(&format!("{f}.center"), &b.center, dim, false)?;
-                if !(r.is_finite() && r >= s.spacing) {
-                    return err(format!("{f}.radius"), format!("must be finite and at least one particle spacing ({}), got {r}", s.spacing));
-                }
-                if b.material >= materials.len() {
-                    return err(format!("{f}.material"), format!("no material {} (there are {})", b.material, materials.len()));
-                }
-                vec3(&format!("{f}.velocity"), &b.velocity, dim, true)?;
-                let ball = if dim == 2 { std::f64::consts::PI * r * r } else { 4.0 / 3.0 * std::f64::consts::PI * r.powi(3) };
-                count += ball / s.spacing.powi(dim as i32);
-                continue;
-            }
-            if !b.center.is_empty() {
-                return err(format!("{f}.center"), "a ball needs a radius");
-            }
-            let (lo, hi) = (vec3(&format!("{f}.min"), &b.min, dim, false)?, vec3(&format!("{f}.max"), &b.max, dim, false)?);
-            for a in 0..dim {
-                if hi[a] - lo[a] < s.spacing {
-                    return err(format!("{f}.max"), format!("the box is thinner than one particle spacing along axis {a} ({} < {})", hi[a] - lo[a], s.spacing));
-                }
-            }
             if b.material >= materials.len() {
                 return err(format!("{f}.material"), format!("no material {} (there are {})", b.material, materials.len()));
             }
             vec3(&format!("{f}.velocity"), &b.velocity, dim, true)?;
-            count += (0..dim).map(|a| ((hi[a] - lo[a]) / s.spacing).floor()).product::<f64>();
+            count += match b.radius {
+                Some(r) => {
+                    if !b.min.is_empty() || !b.max.is_empty() {
+                        return err(format!("{f}.radius"), "a body is a box (min, max) or a ball (center, radius), not both");
+                    }
+                    vec3(&format!("{f}.center"), &b.center, dim, false)?;
+                    if !(r.is_finite() && r >= s.spacing) {
+                        return err(format!("{f}.radius"), format!("must be finite and at least one particle spacing ({}), got {r}", s.spacing));
+                    }
+                    let ball = if dim == 2 { std::f64::consts::PI * r * r } else { 4.0 / 3.0 * std::f64::consts::PI * r.powi(3) };
+                    ball / s.spacing.powi(dim as i32)
+                }
+                None => {
+                    if !b.center.is_empty() {
+                        return err(format!("{f}.center"), "a ball needs a radius");
+                    }
+                    let (lo, hi) = (vec3(&format!("{f}.min"), &b.min, dim, false)?, vec3(&format!("{f}.max"), &b.max, dim, false)?);
+                    for a in 0..dim {
+                        if hi[a] - lo[a] < s.spacing {
+                            return err(
+                                format!("{f}.max"),
+                                format!("the box is thinner than one particle spacing along axis {a} ({} < {})", hi[a] - lo[a], s.spacing),
+                            );
+                        }
+                    }
+                    (0..dim).map(|a| ((hi[a] - lo[a]) / s.spacing).floor()).product::<f64>()
+                }
+            };
         }
         if count > MAX_PARTICLES {
             return err("solid.spacing", format!("{count:.3e} particles exceed the limit {MAX_PARTICLES:.0e}"));

@@ -62,6 +62,30 @@ pub struct ChannelCylinderResult {
     pub drag_history: Vec<f64>,
 }
 
+/// D2Q21, monatomic, θ₀ = 0.6: the air of every case here; returns the equilibrium and the
+/// largest L1 speed (for the time step).
+fn d2q21_air() -> (Equilibrium, i32) {
+    let vs = VelocitySet::new(VelocitySetKind::D2q21);
+    let l1 = vs.max_l1_speed();
+    (Equilibrium::new(vs, GasModel::Monatomic), l1)
+}
+
+/// Units whose physical values are the lattice's (Δx = 1 m, ρ₀ = 1 kg/m³, c_s = √(γθ₀) m/s).
+fn lattice_units(eq: &Equilibrium, theta0: f64) -> Units {
+    Units::new(1.0, 1.0, eq.sound_speed(theta0), theta0, eq.gamma())
+}
+
+/// A disc body (body 0) of particles at spacing `l0`, `clamped(x)` choosing its clamped
+/// particles, and its surface polygon.
+fn disc_body(centre: DVec3, radius: f64, l0: f64, density: f64, clamped: impl Fn(DVec3) -> bool) -> (Particles, BodySurface) {
+    let mut particles = Particles::new(2, l0);
+    for x in sample_ball(2, centre, radius, l0) {
+        particles.push(x, density, 0, 0, clamped(x));
+    }
+    let surface = BodySurface::build(&particles, 0, &ReferenceShape::Disc { centre, radius }).expect("disc surface");
+    (particles, surface)
+}
+
 /// Schäfer–Turek 2D-1 with `cells_per_diameter` (a multiple of 10, so that the channel height
 /// 4.1 D is a whole number of cells), lattice Mach number `mach` at U_max, run for `duration` s.
 pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, body: CylinderBody) -> ChannelCylinderResult {
@@ -70,9 +94,7 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, bo
     let u_mean = 2.0 / 3.0 * u_max;
     let dx = d_phys / cells_per_diameter as f64;
     let (nx, ny) = ((l_phys / dx).round() as usize, (h_phys / dx).round() as usize);
-    let vs = VelocitySet::new(VelocitySetKind::D2q21);
-    let l1 = vs.max_l1_speed();
-    let eq = Equilibrium::new(vs, GasModel::Monatomic);
+    let (eq, l1) = d2q21_air();
     let theta0 = 0.6;
     let cs_lat = eq.sound_speed(theta0);
     let units = Units::new(dx, 1.0, u_max / mach, theta0, eq.gamma());
@@ -101,12 +123,8 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, bo
     // close to the fluid's; viscosity 0.01 Pa·s damps its ringing.
     let l0 = dx / 2.0;
     let material = Orthotropic::isotropic(200.0, 0.3, 1.0, 0.01);
-    let mut particles = Particles::new(2, l0);
-    for x in sample_ball(2, centre, radius, l0) {
-        let clamped = body == CylinderBody::WeakCoupledRigid || (x - centre).length() < 0.5 * radius;
-        particles.push(x, material.density, 0, 0, clamped);
-    }
-    let surface = BodySurface::build(&particles, 0, &ReferenceShape::Disc { centre, radius }).expect("disc surface");
+    let (particles, surface) =
+        disc_body(centre, radius, l0, material.density, |x| body == CylinderBody::WeakCoupledRigid || (x - centre).length() < 0.5 * radius);
     let lat = |p: DVec3| [units.position_to_lattice(p.x), units.position_to_lattice(p.y), 0.0];
     let coefficient = 2.0 / (1.0 * u_mean * u_mean * d_phys);
     let t0 = Instant::now();
@@ -268,24 +286,17 @@ pub struct GalileanResult {
 pub fn towed_cylinder(cells_per_diameter: usize, mach: f64, reynolds: f64, distance: f64) -> GalileanResult {
     let d = cells_per_diameter as f64;
     let (nx, ny) = (12 * cells_per_diameter, 8 * cells_per_diameter);
-    let vs = VelocitySet::new(VelocitySetKind::D2q21);
-    let l1 = vs.max_l1_speed();
-    let eq = Equilibrium::new(vs, GasModel::Monatomic);
+    let (eq, l1) = d2q21_air();
     let theta0 = 0.6;
     let u = mach * eq.sound_speed(theta0);
-    // Physical units = lattice units with Δx = 1 m, c_s = √(γθ₀) m/s, ρ₀ = 1 kg/m³.
-    let units = Units::new(1.0, 1.0, eq.sound_speed(theta0), theta0, eq.gamma());
+    let units = lattice_units(&eq, theta0);
     let params = timestep::choose(u * d / reynolds, theta0, l1, None, timestep::DEFAULT_COURANT_SAFETY).expect("admissible time step");
     let steps = (distance * d / u / params.dt).ceil() as u64;
     let centre = DVec3::new(0.5 * nx as f64, 0.5 * ny as f64, 0.0);
     let radius = 0.5 * d;
     let l0 = 0.5;
     let material = Orthotropic::isotropic(1.0, 0.3, 1.0, 0.0);
-    let mut particles = Particles::new(2, l0);
-    for x in sample_ball(2, centre, radius, l0) {
-        particles.push(x, material.density, 0, 0, true);
-    }
-    let surface = BodySurface::build(&particles, 0, &ReferenceShape::Disc { centre, radius }).expect("disc surface");
+    let (particles, surface) = disc_body(centre, radius, l0, material.density, |_| true);
     let run = |towed: bool| {
         let uf = if towed { 0.0 } else { u };
         let fluid = FluidSolver::new(eq.clone(), Grid::new(2, [nx, ny, 1]), Boundaries::periodic(), &[], params, move |_| Macro {
@@ -348,20 +359,14 @@ pub struct OscillatingResult {
 pub fn oscillating_cylinder(cells_per_diameter: usize, mach: f64, steps: u64) -> Result<OscillatingResult, crate::coupling::CoupledInstability> {
     let d = cells_per_diameter as f64;
     let (nx, ny) = (6 * cells_per_diameter, 4 * cells_per_diameter);
-    let vs = VelocitySet::new(VelocitySetKind::D2q21);
-    let l1 = vs.max_l1_speed();
-    let eq = Equilibrium::new(vs, GasModel::Monatomic);
+    let (eq, l1) = d2q21_air();
     let theta0 = 0.6;
     let u = mach * eq.sound_speed(theta0);
-    let units = Units::new(1.0, 1.0, eq.sound_speed(theta0), theta0, eq.gamma());
+    let units = lattice_units(&eq, theta0);
     let params = timestep::choose(u * d / 20.0, theta0, l1, None, timestep::DEFAULT_COURANT_SAFETY).expect("admissible time step");
     let centre = DVec3::new(0.5 * nx as f64, 0.5 * ny as f64, 0.0);
     let material = Orthotropic::isotropic(1.0, 0.3, 1.0, 0.0);
-    let mut particles = Particles::new(2, 0.5);
-    for x in sample_ball(2, centre, 0.5 * d, 0.5) {
-        particles.push(x, 1.0, 0, 0, true);
-    }
-    let surface = BodySurface::build(&particles, 0, &ReferenceShape::Disc { centre, radius: 0.5 * d }).expect("disc surface");
+    let (particles, surface) = disc_body(centre, 0.5 * d, 0.5, 1.0, |_| true);
     let fluid = FluidSolver::new(eq, Grid::new(2, [nx, ny, 1]), Boundaries::periodic(), &[], params, move |_| Macro { rho: 1.0, u: [0.0; 3], theta: theta0 });
     let solid = SolidSolver::new(particles, vec![material], SolidOptions::default()).expect("valid disc");
     // Amplitude d, peak speed u: frequency u / (2π d).
@@ -398,20 +403,14 @@ pub struct MomentumResult {
 pub fn pressure_pulse_momentum(cells_per_diameter: usize, amplitude: f64, steps: u64) -> MomentumResult {
     let d = cells_per_diameter as f64;
     let n = 6 * cells_per_diameter;
-    let vs = VelocitySet::new(VelocitySetKind::D2q21);
-    let l1 = vs.max_l1_speed();
-    let eq = Equilibrium::new(vs, GasModel::Monatomic);
+    let (eq, l1) = d2q21_air();
     let theta0 = 0.6;
-    let units = Units::new(1.0, 1.0, eq.sound_speed(theta0), theta0, eq.gamma());
+    let units = lattice_units(&eq, theta0);
     let params = timestep::choose(0.05, theta0, l1, None, timestep::DEFAULT_COURANT_SAFETY).expect("admissible time step");
     let centre = DVec3::new(0.5 * n as f64, 0.5 * n as f64, 0.0);
     // E = ρ c_s² · 4: a stiff-ish body whose wave speed is twice the sound speed.
     let material = Orthotropic::isotropic(4.0 * 1.2, 0.3, 1.0, 0.05);
-    let mut particles = Particles::new(2, 0.5);
-    for x in sample_ball(2, centre, 0.5 * d, 0.5) {
-        particles.push(x, 1.0, 0, 0, false);
-    }
-    let surface = BodySurface::build(&particles, 0, &ReferenceShape::Disc { centre, radius: 0.5 * d }).expect("disc surface");
+    let (particles, surface) = disc_body(centre, 0.5 * d, 0.5, 1.0, |_| false);
     let pulse = DVec3::new(centre.x - 1.5 * d, centre.y, 0.0);
     let fluid = FluidSolver::new(eq, Grid::new(2, [n, n, 1]), Boundaries::periodic(), &[], params, move |x| {
         let r2 = (x[0] - pulse.x).powi(2) + (x[1] - pulse.y).powi(2);
@@ -512,11 +511,9 @@ pub struct ShearRotationResult {
 pub fn disc_in_shear(cells_per_diameter: usize, height_d: usize, reynolds: f64, viscous_times: f64) -> ShearRotationResult {
     let d = cells_per_diameter as f64;
     let (nx, ny) = (8 * cells_per_diameter, height_d * cells_per_diameter);
-    let vs = VelocitySet::new(VelocitySetKind::D2q21);
-    let l1 = vs.max_l1_speed();
-    let eq = Equilibrium::new(vs, GasModel::Monatomic);
+    let (eq, l1) = d2q21_air();
     let theta0 = 0.6;
-    let units = Units::new(1.0, 1.0, eq.sound_speed(theta0), theta0, eq.gamma());
+    let units = lattice_units(&eq, theta0);
     // Wall speed U = 0.01 (Mach ≈ 0.01): γ̇ = 2U/H.
     let u_wall = 0.01;
     let shear = 2.0 * u_wall / ny as f64;
@@ -529,13 +526,10 @@ pub fn disc_in_shear(cells_per_diameter: usize, height_d: usize, reynolds: f64, 
     let centre = DVec3::new(0.5 * nx as f64 - 0.5, 0.5 * ny as f64 - 0.5, 0.0);
     // Stiff against the shear stress μγ̇ (strain ≈ μγ̇/E ≈ 10⁻⁴), damped.
     let material = Orthotropic::isotropic(20.0 * nu * shear * 1.0e4 / 20.0, 0.3, 1.0, 0.5 * nu);
-    let mut particles = Particles::new(2, 0.5);
-    for x in sample_ball(2, centre, 0.5 * d, 0.5) {
-        particles.push(x, 1.0, 0, 0, false);
-    }
-    let surface = BodySurface::build(&particles, 0, &ReferenceShape::Disc { centre, radius: 0.5 * d }).expect("disc surface");
+    let (particles, surface) = disc_body(centre, 0.5 * d, 0.5, 1.0, |_| false);
     let y_mid = 0.5 * ny as f64 - 0.5;
-    let fluid = FluidSolver::new(eq, Grid::new(2, [nx, ny, 1]), b, &[], params, move |x| Macro { rho: 1.0, u: [shear * (x[1] - y_mid), 0.0, 0.0], theta: theta0 });
+    let fluid =
+        FluidSolver::new(eq, Grid::new(2, [nx, ny, 1]), b, &[], params, move |x| Macro { rho: 1.0, u: [shear * (x[1] - y_mid), 0.0, 0.0], theta: theta0 });
     let solid = SolidSolver::new(particles, vec![material], SolidOptions::default()).expect("valid disc");
     let bodies = vec![CoupledBody { surface, motion: None }];
     let mut c = WeakCoupling::new(fluid, solid, units, bodies, Vec::new(), WeakOptions::default()).expect("valid coupling");
