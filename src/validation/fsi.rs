@@ -467,7 +467,7 @@ mod tests {
     /// Galilean check (issue 12): a cylinder towed at U through air at rest feels the drag of
     /// the same cylinder held in air moving at U (Re = 20, D = 10 cells, Mach 0.1, two
     /// diameters of travel after an impulsive start; mean over the last half diameter).
-    /// Measured: 0.17471 vs 0.17500 (−0.17 %), 200 nodes uncovered and 200 covered, fluid mass
+    /// Measured: 0.17071 vs 0.17102 (−0.18 %), 200 nodes uncovered and 200 covered, fluid mass
     /// +2.6·10⁻⁴.
     #[test]
     fn a_towed_cylinder_feels_the_drag_of_a_fixed_one_in_the_moving_frame() {
@@ -492,13 +492,13 @@ mod tests {
     }
 
     /// Free body (issue 12): a neutrally buoyant free disc at the centre of a Couette channel
-    /// (D = 10 cells, H = 8 D, γ̇D²/ν = 0.1) turns at γ̇/2 (clockwise). Measured: Ω/γ̇ = −0.4956
-    /// after 3 viscous times D²/ν (−0.478 at H = 4 D, where the walls slow it). The traction's
-    /// ∂v_w/∂s term matters here: without it the disc turned at −0.73 γ̇.
+    /// (D = 10 cells, H = 8 D, γ̇D²/ν = 0.1) turns at γ̇/2 (clockwise). Measured: Ω/γ̇ = −0.4995
+    /// after 1.5 viscous times D²/ν (−0.5000 after 2; −0.479 at H = 4 D, where the walls slow
+    /// it). The traction's ∂v_w/∂s term matters here: without it the disc turned at −0.73 γ̇.
     #[test]
     fn a_free_disc_in_simple_shear_turns_at_half_the_shear_rate() {
         let r = disc_in_shear(10, 8, 0.1, 1.5);
-        assert!((r.rotation_rate + 0.5).abs() < 0.015, "{r:?}");
+        assert!((r.rotation_rate + 0.5).abs() < 0.01, "{r:?}");
         assert!(r.centroid_drift < 0.5, "the centred disc stays put: {r:?}");
     }
 
@@ -513,7 +513,7 @@ mod tests {
 
     /// Momentum budget of the weak coupling (issue 12): a free neutrally buoyant elastic disc
     /// pushed by a pressure pulse in a periodic box. Method 1 does not conserve the total
-    /// momentum; measured drift after 1000 steps: 2.7 % of the largest momentum the disc
+    /// momentum; measured drift after 1000 steps: 2.0 % of the largest momentum the disc
     /// reached (the bound below is that figure with margin, a regression guard).
     #[test]
     fn the_weak_coupling_keeps_the_total_momentum_within_a_few_percent() {
