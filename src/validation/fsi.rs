@@ -207,64 +207,6 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, bo
     }
 }
 
-#[cfg(test)]
-mod explore {
-    use super::*;
-    #[test]
-    #[ignore]
-    fn explore_schafer_turek() {
-        let d: usize = std::env::var("ST_D").ok().and_then(|s| s.parse().ok()).unwrap_or(10);
-        let t: f64 = std::env::var("ST_T").ok().and_then(|s| s.parse().ok()).unwrap_or(2.0);
-        let ma: f64 = std::env::var("ST_MA").ok().and_then(|s| s.parse().ok()).unwrap_or(0.1);
-        let which = std::env::var("ST_BODY").unwrap_or("rigid".into());
-        let body = match which.as_str() {
-            "rigid" => CylinderBody::RigidObstacle,
-            "weakrigid" => CylinderBody::WeakCoupledRigid,
-            _ => CylinderBody::WeakCoupled(TractionModel::PressureAndShear),
-        };
-        let r = schafer_turek_2d1(d, ma, t, body);
-        eprintln!("{}", serde_json::to_string_pretty(&r).unwrap());
-    }
-
-    #[test]
-    #[ignore]
-    fn explore_oscillating_and_pulse() {
-        let t0 = Instant::now();
-        let r = oscillating_cylinder(8, 0.1, 10_000);
-        eprintln!("{r:?} ({:.1} s)", t0.elapsed().as_secs_f64());
-        let t0 = Instant::now();
-        let r = pressure_pulse_momentum(8, 0.01, 1000);
-        eprintln!("{r:?} ({:.1} s)", t0.elapsed().as_secs_f64());
-    }
-
-    #[test]
-    #[ignore]
-    fn explore_shear() {
-        let h: usize = std::env::var("SH_H").ok().and_then(|s| s.parse().ok()).unwrap_or(8);
-        let t: f64 = std::env::var("SH_T").ok().and_then(|s| s.parse().ok()).unwrap_or(2.0);
-        let t0 = Instant::now();
-        let r = disc_in_shear(10, h, 0.1, t);
-        eprintln!("{r:?} ({:.1} s)", t0.elapsed().as_secs_f64());
-    }
-
-    #[test]
-    #[ignore]
-    fn explore_added_mass() {
-        eprintln!("{:?}", added_mass_stability(&[1.0, 0.5, 0.3, 0.2, 0.1, 0.05, 0.02, 0.01], 1000));
-    }
-
-    #[test]
-    #[ignore]
-    fn explore_towed() {
-        let d: usize = std::env::var("TW_D").ok().and_then(|s| s.parse().ok()).unwrap_or(10);
-        let re: f64 = std::env::var("TW_RE").ok().and_then(|s| s.parse().ok()).unwrap_or(20.0);
-        let dist: f64 = std::env::var("TW_DIST").ok().and_then(|s| s.parse().ok()).unwrap_or(2.0);
-        let t0 = Instant::now();
-        let r = towed_cylinder(d, 0.1, re, dist);
-        eprintln!("{} ({:.1} s)", serde_json::to_string_pretty(&r).unwrap(), t0.elapsed().as_secs_f64());
-    }
-}
-
 /// Result of the Galilean check: the drag of a cylinder towed through air at rest against the
 /// drag of the same cylinder held fixed in air that moves, at the same time after an impulsive
 /// start (both in one periodic box, so the two problems are the same in the continuum).
@@ -582,14 +524,6 @@ pub fn disc_in_shear(cells_per_diameter: usize, height_d: usize, reynolds: f64, 
     let (mut sum, mut count) = (0.0, 0);
     for k in 1..=steps {
         c.step().expect("the disc in shear stays stable");
-        if std::env::var_os("SH_TRACE").is_some() && k % (steps / 20).max(1) == 0 {
-            eprintln!("step {k}: Ω/γ̇ = {:.4}, torque {:.3e}", spin(&c).0 / shear, {
-                let p = &c.solid.particles;
-                let m: f64 = p.mass.iter().sum();
-                let xc = (0..p.len()).map(|i| p.mass[i] * p.position[i]).sum::<DVec3>() / m;
-                (0..p.len()).map(|i| (p.position[i] - xc).cross(c.forces.force[i]).z).sum::<f64>()
-            });
-        }
         if 5 * k > 4 * steps {
             sum += spin(&c).0;
             count += 1;
