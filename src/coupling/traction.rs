@@ -61,7 +61,14 @@ pub struct SurfaceForces {
 
 /// The tractions of `fluid` on the `surfaces` of the bodies made of `p`; `units` converts the
 /// particle positions (physical, from the domain's origin) to lattice coordinates.
-pub fn surface_forces(fluid: &FluidSolver, units: &Units, surfaces: &[BodySurface], p: &Particles, model: TractionModel, piece_length: f64) -> SurfaceForces {
+pub fn surface_forces<'a>(
+    fluid: &FluidSolver,
+    units: &Units,
+    surfaces: impl IntoIterator<Item = &'a BodySurface>,
+    p: &Particles,
+    model: TractionModel,
+    piece_length: f64,
+) -> SurfaceForces {
     let mut out = SurfaceForces { force: vec![DVec3::ZERO; p.len()], ..Default::default() };
     let to_lattice = |x: DVec3| DVec3::new(units.position_to_lattice(x.x), units.position_to_lattice(x.y), 0.0);
     let p0 = units.theta0;

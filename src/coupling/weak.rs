@@ -19,7 +19,7 @@
 use super::motion::Motion;
 use super::surface::{BodySurface, SurfaceError};
 use super::traction::{SurfaceForces, TractionModel, surface_forces};
-use crate::fluid::{FluidSolver, GeometryChange, Instability, Obstacle, Polygon, Shape};
+use crate::fluid::{FluidSolver, GeometryChange, Instability, Obstacle, Polygon, Shape, Totals};
 use crate::solid::{Integrator, SolidSolver};
 use crate::stages::{COUPLED_WEAK_STEP, CoupledStageKind};
 use crate::units::Units;
@@ -94,7 +94,8 @@ pub struct WeakCoupling {
     /// Wall time per stage of [`COUPLED_WEAK_STEP`].
     pub timings: [Duration; COUPLED_WEAK_STEP.len()],
     base_load: Vec<DVec3>,
-    built: Option<Vec<Vec<[f64; 2]>>>,
+    /// The surface polygons the fluid geometry was last built from.
+    built: Option<Vec<Polygon>>,
 }
 
 impl WeakCoupling {
@@ -205,11 +206,10 @@ impl WeakCoupling {
         match kind {
             CoupledStageKind::FluidGeometry => {
                 let polys = self.polygons();
-                let verts: Vec<Vec<[f64; 2]>> = polys.iter().map(|p| p.vertices.clone()).collect();
                 if let Some(old) = &self.built {
                     let mut moved = false;
-                    for (k, (a, b)) in old.iter().zip(&verts).enumerate() {
-                        let d = a.iter().zip(b).map(|(p, q)| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt()).fold(0.0, f64::max);
+                    for (k, (a, b)) in old.iter().zip(&polys).enumerate() {
+                        let d = a.vertices.iter().zip(&b.vertices).map(|(p, q)| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt()).fold(0.0, f64::max);
                         if d > self.options.max_cells_per_step {
                             return Err(CoupledInstability::BodyTooFast {
                                 step: self.step_count,
@@ -218,36 +218,26 @@ impl WeakCoupling {
                                 max: self.options.max_cells_per_step,
                             });
                         }
-                        moved |= d > 0.0;
+                        // Wall velocities change even when the vertices do not (a body set moving).
+                        moved |= d > 0.0 || a.velocities != b.velocities;
                     }
-                    // Wall velocities change even when the vertices do not (a body set moving).
-                    let same_velocity = self
-                        .fluid
-                        .layout
-                        .obstacles
-                        .iter()
-                        .rev()
-                        .take(polys.len())
-                        .rev()
-                        .zip(&polys)
-                        .all(|(o, p)| matches!(&o.shape, Shape::Polygon(q) if q.velocities == p.velocities));
-                    if !moved && same_velocity {
+                    if !moved {
                         return Ok(());
                     }
                 }
                 let mut all = self.obstacles.clone();
-                all.extend(polys.into_iter().map(|p| Obstacle { shape: Shape::Polygon(p), velocity: [0.0; 3], temperature: None }));
+                all.extend(polys.iter().cloned().map(|p| Obstacle { shape: Shape::Polygon(p), velocity: [0.0; 3], temperature: None }));
                 let ch = self.fluid.set_obstacles(&all);
                 self.geometry.uncovered += ch.uncovered;
                 self.geometry.covered += ch.covered;
                 self.geometry.isolated += ch.isolated;
                 self.geometry.mass_change += ch.mass_change;
-                self.built = Some(verts);
+                self.built = Some(polys);
             }
             CoupledStageKind::Fluid => self.fluid.step()?,
             CoupledStageKind::SurfaceTraction => {
-                let surfaces: Vec<BodySurface> = self.bodies.iter().map(|b| b.surface.clone()).collect();
-                self.forces = surface_forces(&self.fluid, &self.units, &surfaces, &self.solid.particles, self.options.traction, self.options.piece_length);
+                let surfaces = self.bodies.iter().map(|b| &b.surface);
+                self.forces = surface_forces(&self.fluid, &self.units, surfaces, &self.solid.particles, self.options.traction, self.options.piece_length);
                 let p = &mut self.solid.particles;
                 for i in 0..p.len() {
                     p.load[i] = self.base_load[i] + self.forces.force[i];
@@ -275,9 +265,13 @@ impl WeakCoupling {
     /// Linear momentum of the air (Σ ρu over fluid nodes) and of the particles (Σ m v),
     /// physical units (per unit depth in 2D).
     pub fn momentum(&self) -> (DVec3, DVec3) {
+        (self.fluid_momentum(&self.fluid.totals()), self.solid.particles.linear_momentum())
+    }
+
+    /// The air's momentum Σ ρu of fluid `totals` (lattice units) in physical units.
+    pub fn fluid_momentum(&self, totals: &Totals) -> DVec3 {
         let u = &self.units;
         let cell = u.dx.powi(self.fluid.layout.grid.dim as i32);
-        let fluid = DVec3::from_array(self.fluid.totals().momentum) * u.density * u.velocity * cell;
-        (fluid, self.solid.particles.linear_momentum())
+        DVec3::from_array(totals.momentum) * u.density * u.velocity * cell
     }
 }

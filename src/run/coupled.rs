@@ -66,17 +66,10 @@ fn csv_row(c: &WeakCoupling) -> String {
         r += &format!(",{:.9e},{:.9e},{:.9e},{:.9e}", f.x, f.y, d.x, d.y);
     }
     let max_d = (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max);
-    let (fm, sm) = c.momentum();
-    r + &format!(
-        ",{max_d:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.12e},{},{}",
-        fm.x,
-        fm.y,
-        sm.x,
-        sm.y,
-        c.fluid.totals().mass,
-        c.geometry.uncovered,
-        c.geometry.covered
-    )
+    let totals = c.fluid.totals();
+    let fm = c.fluid_momentum(&totals);
+    let sm = p.linear_momentum();
+    r + &format!(",{max_d:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.12e},{},{}", fm.x, fm.y, sm.x, sm.y, totals.mass, c.geometry.uncovered, c.geometry.covered)
 }
 
 /// Runs `sc` for its duration (or `steps`), writing into `dir`.

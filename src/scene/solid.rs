@@ -172,7 +172,7 @@ fn err<T>(field: impl Into<String>, reason: impl Into<String>) -> Result<T, Scen
     Err(SceneError { field: field.into(), reason: reason.into() })
 }
 
-fn vec3(field: &str, v: &[f64], dim: usize, allow_empty: bool) -> Result<DVec3, SceneError> {
+pub(crate) fn vec3(field: &str, v: &[f64], dim: usize, allow_empty: bool) -> Result<DVec3, SceneError> {
     crate::scene::build::vector(field, v, dim, allow_empty).map(DVec3::from_array)
 }
 

@@ -142,7 +142,7 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, bo
         let p = |x: [f64; 3]| f.sample(x).map(|m| units.gauge_pressure_to_physical(m.pressure())).unwrap_or(f64::NAN);
         p(drop_probes[0]) - p(drop_probes[1])
     };
-    let (force, fluid, stage_shares, substeps, max_displacement, n_particles) = match body {
+    let (force, stage_shares, substeps, max_displacement, n_particles) = match body {
         CylinderBody::RigidObstacle => {
             let c = lat(centre);
             let obstacle = Obstacle { shape: Shape::Cylinder { center: c, radius: units.length_to_lattice(radius) }, velocity: [0.0; 3], temperature: None };
@@ -150,18 +150,19 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, bo
             let drag = |f: &FluidSolver| surface_forces(f, &units, std::slice::from_ref(&surface), &particles, TractionModel::PressureAndShear, 1.0).total[0];
             for k in 1..=steps {
                 f.step().expect("Schäfer–Turek stays stable");
-                if k > average_from {
+                let (averaged, sampled) = (k > average_from, k % sample_every == 0);
+                if averaged || sampled {
                     let fk = drag(&f);
-                    mean_force += fk;
-                    mean_drop += pressure_drop(&f);
-                    if k % sample_every == 0 {
+                    if averaged {
+                        mean_force += fk;
+                        mean_drop += pressure_drop(&f);
+                    }
+                    if sampled {
                         history.push(fk.x * coefficient);
                     }
-                } else if k % sample_every == 0 {
-                    history.push(drag(&f).x * coefficient);
                 }
             }
-            (mean_force / (steps - average_from) as f64, f, Vec::new(), 0, 0.0, 0)
+            (mean_force / (steps - average_from) as f64, Vec::new(), 0, 0.0, 0)
         }
         CylinderBody::WeakCoupled(_) | CylinderBody::WeakCoupledRigid => {
             let traction = if let CylinderBody::WeakCoupled(t) = body { t } else { TractionModel::PressureAndShear };
@@ -182,10 +183,9 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, bo
             let p = &c.solid.particles;
             let max_d = (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max);
             let shares = c.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
-            (mean_force / (steps - average_from) as f64, c.fluid, shares, c.substeps, max_d, p.len())
+            (mean_force / (steps - average_from) as f64, shares, c.substeps, max_d, p.len())
         }
     };
-    let _ = &fluid;
     let fifth = history.len() * 4 / 5;
     let last = *history.last().unwrap_or(&f64::NAN);
     ChannelCylinderResult {
@@ -500,7 +500,7 @@ pub fn disc_in_shear(cells_per_diameter: usize, height_d: usize, reynolds: f64, 
     b.faces[3] = FaceCondition::Wall { velocity: [u_wall, 0.0, 0.0], temperature: None };
     let centre = DVec3::new(0.5 * nx as f64 - 0.5, 0.5 * ny as f64 - 0.5, 0.0);
     // Stiff against the shear stress μγ̇ (strain ≈ μγ̇/E ≈ 10⁻⁴), damped.
-    let material = Orthotropic::isotropic(20.0 * nu * shear * 1.0e4 / 20.0, 0.3, 1.0, 0.5 * nu);
+    let material = Orthotropic::isotropic(1.0e4 * nu * shear, 0.3, 1.0, 0.5 * nu);
     let (particles, surface) = disc_body(centre, 0.5 * d, 0.5, 1.0, |_| false);
     let y_mid = 0.5 * ny as f64 - 0.5;
     let fluid =
