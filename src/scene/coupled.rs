@@ -208,3 +208,52 @@ fn reference_shape(b: &BodySpec, dim: usize) -> ReferenceShape {
         None => ReferenceShape::Box { min: v(&b.min), max: v(&b.max) },
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn builtin() -> &'static str {
+        crate::scene::COUPLED_BUILTIN[0].1
+    }
+
+    #[test]
+    fn the_built_in_coupled_scene_builds_and_runs() {
+        let sc = CoupledScene::parse(builtin()).unwrap();
+        assert!(is_coupled_scene(builtin()) && !is_coupled_scene(crate::scene::BUILTIN[0].1));
+        let mut c = sc.build().unwrap();
+        // D = 0.1 m at l₀ = 0.005 m: a disc of ≈ π·10² particles, one surface polygon.
+        assert!((300..330).contains(&c.solid.particles.len()), "{}", c.solid.particles.len());
+        assert_eq!(c.bodies.len(), 1);
+        c.run(20).unwrap();
+        // The flow pushes the cylinder downstream.
+        assert!(c.forces.total[0].x > 0.0, "{:?}", c.forces.total);
+    }
+
+    #[test]
+    fn bad_coupled_scenes_are_refused_with_the_field_and_the_reason() {
+        let cases: [(&str, &str, &str); 7] = [
+            ("method = \"weak\"", "method = \"momentum_conserving\"", "coupling.method"),
+            ("spacing = 0.005 ", "spacing = 0.05 ", "solid.spacing"),
+            ("center = [0.2, 0.2], radius = 0.05", "center = [2.18, 0.2], radius = 0.05", "solid.bodies[0]"),
+            ("dimension = 2", "dimension = 2\nintegrator = \"implicit\"", "solid.integrator"),
+            ("output_every = 10", "output_every = 0", "coupling.output_every"),
+            (
+                "output_every = 10",
+                "output_every = 10\nmotions = [{ body = 3, motion = { kind = \"translation\", velocity = [1.0, 0.0] } }]",
+                "coupling.motions[0].body",
+            ),
+            ("traction = \"pressure_and_shear\"", "traction = \"shear_only\"", "coupling"),
+        ];
+        for (from, to, field) in cases {
+            assert!(builtin().contains(from), "{from}");
+            let text = builtin().replacen(from, to, 1);
+            let e = CoupledScene::parse(&text).err().unwrap_or_else(|| panic!("{to} accepted"));
+            assert_eq!(e.field, field, "{to}: {e}");
+        }
+        // A free body inside a rigid obstacle is refused when built (before the fluid is allocated).
+        let text = builtin().replacen("[run]", "[[obstacles]]\nshape = \"cylinder\"\ncenter = [0.2, 0.2]\nradius = 0.08\n\n[run]", 1);
+        let e = CoupledScene::parse(&text).unwrap().build().err().expect("overlap refused");
+        assert_eq!(e.field, "solid.bodies[0]", "{e}");
+    }
+}
