@@ -36,6 +36,7 @@ pub mod run;
 pub mod scene;
 pub mod solid;
 pub mod stages;
+pub mod two_mass;
 pub mod units;
 pub mod validation;
 
@@ -66,7 +67,7 @@ mod layering {
     fn the_physics_core_imports_nothing_above_it() {
         let above = ["gpu", "engine", "run", "plugin", "output", "scene", "validation", "bench"];
         let mut violations = Vec::new();
-        for core in ["fluid", "solid", "lattice_gas", "coupling", "analysis"] {
+        for core in ["fluid", "solid", "lattice_gas", "coupling", "analysis", "two_mass"] {
             for (path, text) in sources(core) {
                 for m in above {
                     for pat in [format!("crate::{m}::"), format!("crate::{m};"), format!("crate::{m}}}"), format!("phonation::{m}::")] {

@@ -87,3 +87,71 @@ fn unstable_run_stops_with_a_diagnosis_and_keeps_outputs() {
     assert!(dir.join("snapshot_999.vtk").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `phonation sweep --emit slurm` writes a job array whose tasks, each run as Slurm would run
+/// it (the script with SLURM_ARRAY_TASK_ID set), give after `--collect` the same table as the
+/// sweep run here in parallel; the threshold of the two-mass model lies between 1500 and 2500
+/// dyn/cm² (a finer sweep puts it between 2000 and 2500, 2.0–2.5 cmH₂O).
+#[test]
+fn a_slurm_sweep_collects_to_the_table_of_the_local_sweep() {
+    let exe = env!("CARGO_BIN_EXE_phonation");
+    let root = std::env::temp_dir().join(format!("phonation-sweep-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    let (local, cluster) = (root.join("local"), root.join("slurm"));
+    let values = "1500,2500,3500,8000";
+    let run = |args: &[&str]| {
+        let o = std::process::Command::new(exe).args(args).output().unwrap();
+        assert!(o.status.success(), "phonation {args:?}: {}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let printed = run(&["sweep", "two_mass", "--values", values, "--out", local.to_str().unwrap()]);
+    assert!(printed.contains("phonation threshold between 1500 and 2500"), "{printed}");
+    run(&["sweep", "two_mass", "--values", values, "--out", cluster.to_str().unwrap(), "--emit", "slurm"]);
+    let script = std::fs::read_to_string(cluster.join("sweep.slurm")).unwrap();
+    assert!(script.contains("#SBATCH --array=0-3"), "{script}");
+    assert!(!cluster.join("jobs/job_000/voice.json").exists(), "--emit runs nothing");
+    for id in 0..4 {
+        let o = std::process::Command::new("bash")
+            .arg(cluster.join("sweep.slurm"))
+            .env("SLURM_ARRAY_TASK_ID", id.to_string())
+            .env("PHONATION", exe)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "task {id}: {}", String::from_utf8_lossy(&o.stderr));
+    }
+    run(&["sweep", "--collect", cluster.to_str().unwrap()]);
+    let table = |d: &std::path::Path| std::fs::read_to_string(d.join("sweep.csv")).unwrap();
+    assert_eq!(table(&local), table(&cluster));
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(cluster.join("sweep.json")).unwrap()).unwrap();
+    assert_eq!(json["phonation_threshold"]["below"], 1500.0);
+    assert_eq!(json["phonation_threshold"]["at_or_above"], 2500.0);
+    let f0 = json["rows"][3]["f0_hz"].as_f64().unwrap();
+    assert!((f0 / 167.2 - 1.0).abs() < 0.01, "f0 at 8000 dyn/cm² {f0}");
+    std::fs::remove_dir_all(&root).ok();
+}
+
+/// A collect before the tasks ran lists them as not done instead of failing.
+#[test]
+fn collecting_an_unfinished_sweep_says_which_jobs_are_missing() {
+    let exe = env!("CARGO_BIN_EXE_phonation");
+    let dir = std::env::temp_dir().join(format!("phonation-sweep-missing-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let ok = std::process::Command::new(exe)
+        .args(["sweep", "two_mass", "--values", "3000,4000", "--emit", "slurm", "--out", dir.to_str().unwrap()])
+        .status()
+        .unwrap();
+    assert!(ok.success());
+    let o = std::process::Command::new(exe).args(["sweep", "--collect", dir.to_str().unwrap()]).output().unwrap();
+    assert!(o.status.success());
+    assert!(String::from_utf8_lossy(&o.stdout).contains("2 job(s) have not written their results yet"));
+    // a bad value is refused before any job is written, naming the field
+    let bad = std::process::Command::new(exe)
+        .args(["sweep", "two_mass", "--key", "two_mass.duration", "--values", "0.1,-1", "--out", dir.join("bad").to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(err.contains("two_mass.duration"), "{err}");
+    assert!(!dir.join("bad/jobs").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,5 +1,10 @@
-//! Analysis of measured series (physics core: imports nothing above it). Today the
-//! least-squares fits of the measurements; the glottal-flow measures (f0, OQ, SQ, MFDR, NAQ,
-//! H1–H2) come with the glottis issue.
+//! Analysis of measured series (physics core: imports nothing above it): least-squares fits,
+//! spectra, f0, the glottal-flow (voice) measures, band-limited resampling and synthetic test
+//! signals with known answers.
 
 pub mod fit;
+pub mod pitch;
+pub mod resample;
+pub mod spectrum;
+pub mod synthetic;
+pub mod voice;

@@ -6,4 +6,5 @@ pub mod coarse;
 pub mod fields;
 pub mod png_map;
 pub mod probes;
+pub mod voice;
 pub mod vtk;

@@ -13,6 +13,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 pub mod coupled;
+pub mod sweep;
+pub mod two_mass;
 
 /// How a run ended.
 #[derive(Clone, Debug, Serialize)]

@@ -6,6 +6,7 @@ pub mod coupled;
 pub mod lattice_gas;
 pub mod schema;
 pub mod solid;
+pub mod two_mass;
 
 pub use build::{FluidScene, SceneError, load, parse};
 pub use schema::SceneFile;
@@ -34,10 +35,13 @@ pub const SOLID_BUILTIN: &[(&str, &str)] = &[
 /// Built-in coupled (fluid–structure) scenes.
 pub const COUPLED_BUILTIN: &[(&str, &str)] = &[("fsi_cylinder", include_str!("../../assets/scenes/coupled/fsi_cylinder.toml"))];
 
+/// Built-in two-mass (Ishizaka–Flanagan) scenes.
+pub const TWO_MASS_BUILTIN: &[(&str, &str)] = &[("two_mass", include_str!("../../assets/scenes/two_mass/two_mass.toml"))];
+
 /// The scene `cargo run --release` runs when no scene is given.
 pub const DEFAULT_SCENE: &str = "cylinder_wake";
 
 /// Text of a built-in scene by name.
 pub fn builtin(name: &str) -> Option<&'static str> {
-    BUILTIN.iter().chain(SOLID_BUILTIN).chain(LATTICE_GAS_BUILTIN).chain(COUPLED_BUILTIN).find(|(n, _)| *n == name).map(|(_, t)| *t)
+    BUILTIN.iter().chain(SOLID_BUILTIN).chain(LATTICE_GAS_BUILTIN).chain(COUPLED_BUILTIN).chain(TWO_MASS_BUILTIN).find(|(n, _)| *n == name).map(|(_, t)| *t)
 }

@@ -1,0 +1,244 @@
+//! `phonation bench`: memory bandwidth, updates per second and speed-vs-error tables, on the
+//! CPU and the GPU, printed and written as JSON.
+
+use std::path::PathBuf;
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum BenchBackend {
+    Cpu,
+    Gpu,
+    Both,
+}
+
+/// What `phonation bench` measures.
+#[derive(clap::Args)]
+pub struct BenchArgs {
+    /// Small grids, for a smoke run.
+    #[arg(long)]
+    pub quick: bool,
+    /// Which backends to measure.
+    #[arg(long, value_enum, default_value = "cpu")]
+    pub backend: BenchBackend,
+    /// Also write the report as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Only one suite: fdlb, solid or lattice_gas.
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(phonation::bench::SUITES))]
+    pub only: Option<String>,
+}
+
+/// One table row of a solid speed measurement (`extra` appended, e.g. a ratio to the CPU).
+fn solid_row(v: &phonation::solid::bench::SolidSpeed, extra: &str) {
+    println!(
+        "{:9} {:>10} {:>10} {:>14.3e} {:>9.0} {:>7.1}% {:>9.1} {:>8.1}{extra}",
+        format!("{:?}", v.integrator),
+        v.particles,
+        v.bonds,
+        v.particle_updates_per_s,
+        v.bytes_per_update,
+        100.0 * v.bandwidth_fraction,
+        v.cg_iterations,
+        v.time_step_over_explicit_limit
+    );
+}
+
+fn lattice_gas_header() {
+    println!("FCHC lattice gas (fill 0.2, p = 0.1; seed's run = 512×256×128 cells × 39,000 steps):");
+    println!("{:>16} {:>14} {:>9} {:>8} {:>14}", "cells", "site upd./s", "B/site", "of b/w", "seed's run");
+}
+
+/// One table row of a lattice-gas speed measurement (`extra` appended, e.g. a ratio to the CPU).
+fn lattice_gas_row(v: &phonation::lattice_gas::bench::LatticeGasSpeed, extra: &str) {
+    println!(
+        "{:>16} {:>14.3e} {:>9.0} {:>7.1}% {:>12.0} s{extra}",
+        format!("{:?}", v.cells),
+        v.site_updates_per_s,
+        v.bytes_per_site_update,
+        100.0 * v.bandwidth_fraction,
+        v.projected_seed_run_s
+    );
+    if !v.stage_shares.is_empty() {
+        let st: Vec<String> = v.stage_shares.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
+        println!("{:>16} stages: {}", "", st.join(", "));
+    }
+}
+
+pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
+    let BenchArgs { quick, backend, json, only } = args;
+    let wants = |suite: &str| only.as_deref().is_none_or(|o| o == suite);
+    let mut report = serde_json::Map::new();
+    let mut cpu_speeds = Vec::new();
+    let mut cpu_gas: Option<f64> = None;
+    if backend != BenchBackend::Gpu {
+        let r = phonation::bench::run(quick, only.as_deref());
+        println!("CPU: {} threads, STREAM-like triad bandwidth {:.2} GB/s", r.threads, r.triad_bandwidth_gb_s);
+        if !r.lattices.is_empty() {
+            println!("{:8} {:>16} {:>16} {:>10} {:>10}", "lattice", "nodes", "updates/s", "B/update", "of b/w");
+        }
+        for l in &r.lattices {
+            println!(
+                "{:8} {:>16} {:>16.3e} {:>10.0} {:>9.1}%",
+                l.lattice,
+                format!("{:?}", l.nodes),
+                l.node_updates_per_s,
+                l.bytes_per_node_update,
+                100.0 * l.bandwidth_fraction
+            );
+            let st: Vec<String> = l.stage_fractions.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
+            println!("         stages: {}", st.join(", "));
+            cpu_speeds.push((l.lattice.clone(), l.node_updates_per_s));
+        }
+        if !r.speed_vs_error.is_empty() {
+            println!("speed vs error, Taylor–Green D2Q21 (Re = 10):");
+            println!("{:>6} {:>14} {:>16}", "n", "wall s / t.u.", "decay-rate error");
+        }
+        for t in &r.speed_vs_error {
+            println!("{:>6} {:>14.3e} {:>15.3}%", t.n, t.wall_per_time_unit, 100.0 * t.relative_error);
+        }
+        if !r.solid.is_empty() {
+            println!("MPS solid (3D, r_e = 2.1 l0):");
+            println!("{:9} {:>10} {:>10} {:>14} {:>9} {:>8} {:>9} {:>8}", "step", "particles", "bonds", "updates/s", "B/update", "of b/w", "CG it.", "Δt/lim");
+        }
+        for v in &r.solid {
+            solid_row(v, "");
+            let st: Vec<String> = v.stage_shares.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
+            println!("          stages: {}", st.join(", "));
+        }
+        if !r.lattice_gas.is_empty() {
+            lattice_gas_header();
+        }
+        for v in &r.lattice_gas {
+            lattice_gas_row(v, "");
+            cpu_gas = Some(v.site_updates_per_s);
+        }
+        if !r.coupled.is_empty() {
+            println!("coupled, weak (method 1), clamped elastic cylinder, Schäfer–Turek 2D-1 (Mach 0.1): speed vs error");
+            println!(
+                "{:>4} {:>8} {:>9} {:>8} {:>12} {:>14} {:>8} {:>10} {:>10}",
+                "D", "nodes", "particles", "substeps", "steps/s", "wall s / sim s", "C_D", "vs finest", "vs 5.5795"
+            );
+        }
+        for c in &r.coupled {
+            println!(
+                "{:>4} {:>8} {:>9} {:>8} {:>12.1} {:>14.1} {:>8.4} {:>9.2}% {:>9.2}%",
+                c.cells_per_diameter,
+                c.nodes,
+                c.particles,
+                c.solid_substeps,
+                c.coupled_steps_per_s,
+                c.wall_per_simulated_s,
+                c.drag_coefficient,
+                100.0 * c.error_vs_finest,
+                100.0 * c.error_vs_reference
+            );
+            let st: Vec<String> = c.stage_shares.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
+            println!("     stages: {}", st.join(", "));
+        }
+        report.insert("cpu".into(), serde_json::to_value(&r)?);
+    }
+    if backend != BenchBackend::Cpu {
+        let ctx = phonation::gpu::GpuContext::new()?;
+        let bw = phonation::gpu::bench::copy_bandwidth(&ctx, if quick { 64 << 20 } else { 1 << 30 }, 10);
+        println!("GPU: {}, copy-kernel bandwidth {:.2} GB/s", ctx.describe(), bw / 1e9);
+        let sizes: Vec<(phonation::fluid::VelocitySetKind, [usize; 3])> = if !wants("fdlb") {
+            vec![]
+        } else if quick {
+            vec![(phonation::fluid::VelocitySetKind::D2q21, [256, 256, 1]), (phonation::fluid::VelocitySetKind::D3q39, [32, 32, 32])]
+        } else {
+            vec![
+                (phonation::fluid::VelocitySetKind::D2q21, [1024, 1024, 1]),
+                (phonation::fluid::VelocitySetKind::D3q39, [128, 128, 128]),
+                (phonation::fluid::VelocitySetKind::D3q39, [64, 64, 64]),
+            ]
+        };
+        let mut gpu = Vec::new();
+        for (set, n) in sizes {
+            let l = phonation::gpu::bench::lattice_speed(&ctx, set, n, if quick { 5 } else { 20 }, bw);
+            match &l.skipped {
+                Some(why) => println!("{:8} {:>16} skipped: {why}", l.lattice, format!("{:?}", l.nodes)),
+                None => {
+                    let vs_cpu = cpu_speeds
+                        .iter()
+                        .find(|(n, _)| *n == l.lattice)
+                        .map(|(_, c)| format!("  {:.2}× the CPU backend", l.node_updates_per_s / c))
+                        .unwrap_or_default();
+                    println!(
+                        "{:8} {:>16} {:>16.3e} {:>10.0} {:>9.1}%{vs_cpu}",
+                        l.lattice,
+                        format!("{:?}", l.nodes),
+                        l.node_updates_per_s,
+                        l.bytes_per_node_update,
+                        100.0 * l.bandwidth_fraction
+                    );
+                    if !l.stage_fractions.is_empty() {
+                        let st: Vec<String> = l.stage_fractions.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
+                        println!("         GPU stages (timestamps): {}", st.join(", "));
+                    }
+                }
+            }
+            gpu.push(l);
+        }
+        let cpu_solid: Vec<(String, f64)> = report
+            .get("cpu")
+            .and_then(|c| c.get("solid"))
+            .and_then(|s| s.as_array())
+            .map(|a| {
+                a.iter()
+                    .map(|v| (format!("{}/{}", v["integrator"].as_str().unwrap_or(""), v["particles"]), v["particle_updates_per_s"].as_f64().unwrap_or(0.0)))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let mut gpu_solid = Vec::new();
+        if wants("solid") {
+            println!("GPU MPS solid:");
+        }
+        for side in if !wants("solid") {
+            vec![]
+        } else if quick {
+            vec![20usize]
+        } else {
+            vec![46, 100]
+        } {
+            for (integ, steps) in
+                [(phonation::solid::Integrator::Explicit, if quick { 10 } else { 50 }), (phonation::solid::Integrator::Implicit, if quick { 2 } else { 5 })]
+            {
+                match phonation::gpu::solid::solid_speed(&ctx, side, integ, steps, bw) {
+                    Ok(v) => {
+                        let key = format!("{:?}/{}", v.integrator, v.particles).to_lowercase();
+                        let vs = cpu_solid
+                            .iter()
+                            .find(|(k, _)| *k == key)
+                            .map(|(_, c)| format!("  {:.2}× the CPU", v.particle_updates_per_s / c))
+                            .unwrap_or_default();
+                        solid_row(&v, &vs);
+                        gpu_solid.push(v);
+                    }
+                    Err(e) => println!("{:?} {side}³ skipped: {e}", integ),
+                }
+            }
+        }
+        let mut gpu_gas = Vec::new();
+        if wants("lattice_gas") {
+            lattice_gas_header();
+            let sizes: Vec<[usize; 3]> = if quick { vec![[32, 16, 8]] } else { vec![[128, 64, 32], [512, 256, 128]] };
+            for cells in sizes {
+                match phonation::gpu::lattice_gas::lattice_gas_speed(&ctx, cells, if quick { 5 } else { 100 }, bw) {
+                    Ok(v) => {
+                        let vs = cpu_gas.map(|c| format!("  {:.1}× the CPU", v.site_updates_per_s / c)).unwrap_or_default();
+                        lattice_gas_row(&v, &vs);
+                        gpu_gas.push(v);
+                    }
+                    Err(e) => println!("lattice gas {cells:?} skipped: {e}"),
+                }
+            }
+        }
+        report.insert(
+            "gpu".into(),
+            serde_json::json!({ "adapter": ctx.describe(), "copy_bandwidth_gb_s": bw / 1e9, "lattices": gpu, "solid": gpu_solid, "lattice_gas": gpu_gas }),
+        );
+    }
+    if let Some(p) = json {
+        std::fs::write(p, serde_json::to_string_pretty(&report)?)?;
+    }
+    Ok(())
+}

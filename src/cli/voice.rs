@@ -1,0 +1,168 @@
+//! `phonation analyze` (the voice measures, plots and sound of a run's glottal flow) and
+//! `phonation sweep` (one scene over a list of values of one key: in parallel here, or as a
+//! Slurm job array, merged into one table).
+
+use anyhow::bail;
+use phonation::analysis::pitch::F0Range;
+use phonation::analysis::voice::VoiceOptions;
+use phonation::run::sweep;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct AnalyzeArgs {
+    /// A run's output directory holding glottal_flow.csv.
+    pub dir: PathBuf,
+    /// The last fraction (0, 1] of the run analysed.
+    #[arg(long, default_value_t = 0.5)]
+    pub window: f64,
+    /// f0 search range (Hz).
+    #[arg(long, default_value_t = 50.0)]
+    pub f0_min: f64,
+    #[arg(long, default_value_t = 1000.0)]
+    pub f0_max: f64,
+}
+
+pub fn analyze(a: AnalyzeArgs) -> anyhow::Result<()> {
+    if !(a.window > 0.0 && a.window <= 1.0) {
+        bail!("--window: {} must lie in (0, 1]", a.window);
+    }
+    if !(a.f0_min > 0.0 && a.f0_max > a.f0_min) {
+        bail!("--f0-min/--f0-max: need 0 < min < max (got {}, {})", a.f0_min, a.f0_max);
+    }
+    let opts = VoiceOptions { window_fraction: a.window, f0_range: F0Range { min_hz: a.f0_min, max_hz: a.f0_max }, ..VoiceOptions::default() };
+    let r = phonation::output::voice::analyze_dir(&a.dir, &opts)?;
+    print_voice(&r);
+    for f in &r.files {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
+}
+
+/// The measures, one per line, as a voice scientist reads them.
+pub fn print_voice(r: &phonation::output::voice::VoiceReport) {
+    match &r.measures {
+        Some(m) => {
+            println!(
+                "f0 {:.2} Hz (spectrum {}), {} pulses in [{:.4}, {:.4}] s",
+                m.f0_autocorrelation_hz,
+                m.f0_spectrum_hz.map_or("-".into(), |f| format!("{f:.2} Hz")),
+                m.pulses,
+                m.window_s[0],
+                m.window_s[1]
+            );
+            println!("flow: peak {:.1}, mean {:.1}, AC {:.1}, min {:.1} cm³/s; MFDR {:.4e} cm³/s²", m.peak_flow, m.mean_flow, m.ac_flow, m.min_flow, m.mfdr);
+            println!(
+                "OQ {:.3}, SQ {:.3}, ClQ {:.3}, QOQ {:.3}, NAQ {:.4}, H1–H2 {:.2} dB; amplitude spread over the last 5 pulses {:.2} %",
+                m.open_quotient,
+                m.speed_quotient,
+                m.closing_quotient,
+                m.quasi_open_quotient,
+                m.naq,
+                m.h1_h2_db,
+                100.0 * m.amplitude_spread_last5
+            );
+        }
+        None => println!("no voice: {}", r.no_voice.as_deref().unwrap_or("?")),
+    }
+    println!("sound: {:.2} s at {} Hz, {}", r.audio.seconds, r.audio.sample_rate_hz, r.audio.source);
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Emit {
+    /// A Slurm job-array script (sweep.slurm) and one scene file per task; nothing runs here.
+    Slurm,
+}
+
+#[derive(clap::Args)]
+pub struct SweepArgs {
+    /// Scene file or built-in name (not with --collect).
+    #[arg(required_unless_present = "collect")]
+    pub scene: Option<String>,
+    /// The dotted scene key to sweep, e.g. two_mass.lung_pressure.
+    #[arg(long, default_value = "two_mass.lung_pressure")]
+    pub key: String,
+    /// Values of the key (in the key's own units).
+    #[arg(long, value_delimiter = ',', conflicts_with = "range")]
+    pub values: Vec<f64>,
+    /// START,STOP,COUNT: COUNT evenly spaced values from START to STOP.
+    #[arg(long, value_delimiter = ',', num_args = 1)]
+    pub range: Option<Vec<f64>>,
+    /// Sweep directory (default out/sweep_<scene>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write the jobs for a cluster instead of running them here.
+    #[arg(long, value_enum)]
+    pub emit: Option<Emit>,
+    /// Merge the results the jobs of this sweep directory wrote.
+    #[arg(long, conflicts_with_all = ["scene", "emit"])]
+    pub collect: Option<PathBuf>,
+}
+
+pub fn sweep(a: SweepArgs) -> anyhow::Result<()> {
+    if let Some(dir) = &a.collect {
+        let (rows, t) = sweep::collect(dir)?;
+        return print_sweep(dir, &rows, t);
+    }
+    let name = a.scene.expect("clap requires a scene without --collect");
+    let values = match &a.range {
+        Some(r) => {
+            let count_ok = r.len() == 3 && r[2] >= 2.0 && r[2].fract() == 0.0 && r[2] <= 10_000.0;
+            if !count_ok || !r[0].is_finite() || !r[1].is_finite() {
+                bail!("--range: START,STOP,COUNT with COUNT a whole number in [2, 10000] (got {r:?})");
+            }
+            let n = r[2] as usize;
+            (0..n).map(|i| r[0] + (r[1] - r[0]) * i as f64 / (n - 1) as f64).collect()
+        }
+        None => a.values.clone(),
+    };
+    if let Some(v) = values.iter().find(|v| !v.is_finite()) {
+        bail!("--values: {v} is not a finite number");
+    }
+    let text = super::run::scene_text(&name)?;
+    let stem = std::path::Path::new(&name).file_stem().map_or(name.clone(), |s| s.to_string_lossy().into_owned());
+    let dir = a.out.unwrap_or_else(|| PathBuf::from("out").join(format!("sweep_{stem}")));
+    let m = sweep::prepare(&dir, &text, &stem, &a.key, &values)?;
+    match a.emit {
+        Some(Emit::Slurm) => {
+            let script = sweep::emit_slurm(&dir, &m)?;
+            println!("{} jobs written under {}", m.jobs.len(), dir.join("jobs").display());
+            println!("submit: sbatch {}", script.display());
+            println!("then:   phonation sweep --collect {}", dir.display());
+            Ok(())
+        }
+        None => {
+            let start = std::time::Instant::now();
+            let (rows, t) = sweep::run_local(&dir, &m)?;
+            println!("{} jobs in {:.2} s on {} threads", rows.len(), start.elapsed().as_secs_f64(), rayon::current_num_threads());
+            print_sweep(&dir, &rows, t)
+        }
+    }
+}
+
+fn print_sweep(dir: &std::path::Path, rows: &[sweep::Row], t: Option<sweep::Threshold>) -> anyhow::Result<()> {
+    let f = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
+    println!("{:>14} {:>6} {:>10} {:>12} {:>12} {:>8}", "value", "osc.", "f0 (Hz)", "peak cm³/s", "mean cm³/s", "OQ");
+    for r in rows {
+        let state = if !r.done {
+            "n/a"
+        } else if r.oscillating {
+            "yes"
+        } else {
+            "no"
+        };
+        println!("{:>14.6} {:>6} {:>10} {:>12} {:>12} {:>8}", r.value, state, f(r.f0_hz, 2), f(r.peak_flow, 1), f(r.mean_flow, 1), f(r.open_quotient, 3));
+    }
+    match t {
+        Some(sweep::Threshold { below: Some(b), at_or_above }) => println!("phonation threshold between {b} and {at_or_above}"),
+        Some(sweep::Threshold { below: None, at_or_above }) => println!("oscillates already at the lowest value, {at_or_above}"),
+        None => println!("no oscillation at any value swept"),
+    }
+    let missing = rows.iter().filter(|r| !r.done).count();
+    if missing > 0 {
+        println!("{missing} job(s) have not written their results yet");
+    }
+    for n in ["sweep.csv", "sweep.json", "sweep.svg"] {
+        println!("wrote {}", dir.join(n).display());
+    }
+    Ok(())
+}

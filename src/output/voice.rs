@@ -1,0 +1,265 @@
+//! The voice outputs of a glottal run: `glottal_flow.csv` (the series), `voice.json` (the
+//! measures of [`crate::analysis::voice`] and how the sound was made), `pulses.csv`, SVG plots
+//! of U_g(t), dU_g/dt and the spectrum, and the sound: `glottal_flow.wav` (U_g, mean removed)
+//! and `radiated.wav` (dU_g/dt: the radiated pressure of a monopole at the lips is ∝ dU/dt, a
+//! first approximation with no vocal tract), 44.1 kHz 16-bit mono, normalised to 0.9 of full
+//! scale, at least one second long.
+
+use crate::analysis::resample::resample;
+use crate::analysis::spectrum::amplitude_spectrum;
+use crate::analysis::voice::{VoiceMeasures, VoiceOptions, voice_measures};
+use anyhow::{Context, bail};
+use plotters::prelude::*;
+use serde::Serialize;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Audio sample rate of the WAV files (Hz).
+pub const AUDIO_RATE: u32 = 44_100;
+/// Shortest sound written (s).
+pub const MIN_AUDIO_S: f64 = 1.0;
+
+/// A uniformly sampled glottal series: the flow and, when known, the area and more columns.
+#[derive(Clone, Debug, Default)]
+pub struct GlottalSeries {
+    /// Sample interval (s).
+    pub dt: f64,
+    /// Glottal volume flow (cm³/s; per unit length, cm²/s, in 2D).
+    pub flow: Vec<f64>,
+    /// Further columns (name with unit, values), e.g. `area_cm2`.
+    pub columns: Vec<(String, Vec<f64>)>,
+}
+
+/// Write `glottal_flow.csv`: `t_s,flow_cm3_s` and the extra columns.
+pub fn write_glottal_csv(dir: &Path, s: &GlottalSeries) -> anyhow::Result<PathBuf> {
+    let path = dir.join("glottal_flow.csv");
+    let mut w = std::io::BufWriter::new(std::fs::File::create(&path)?);
+    write!(w, "t_s,flow_cm3_s")?;
+    for (n, _) in &s.columns {
+        write!(w, ",{n}")?;
+    }
+    writeln!(w)?;
+    for (i, u) in s.flow.iter().enumerate() {
+        write!(w, "{:.9e},{u:.9e}", i as f64 * s.dt)?;
+        for (_, c) in &s.columns {
+            write!(w, ",{:.9e}", c[i])?;
+        }
+        writeln!(w)?;
+    }
+    w.flush()?;
+    Ok(path)
+}
+
+/// Read a `glottal_flow.csv` (the time column `t_s`, the flow column `flow_cm3_s`, any others),
+/// checking that the sampling is uniform.
+pub fn read_glottal_csv(path: &Path) -> anyhow::Result<GlottalSeries> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().context("empty glottal_flow.csv")?.split(',').map(str::trim).collect();
+    let t_col = header.iter().position(|h| *h == "t_s").context("glottal_flow.csv: no `t_s` column")?;
+    let u_col = header.iter().position(|h| *h == "flow_cm3_s").context("glottal_flow.csv: no `flow_cm3_s` column")?;
+    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); header.len()];
+    for (n, line) in lines.enumerate() {
+        let vals: Vec<&str> = line.split(',').collect();
+        if vals.len() != header.len() {
+            bail!("glottal_flow.csv line {}: {} values, the header has {}", n + 2, vals.len(), header.len());
+        }
+        for (c, v) in vals.iter().enumerate() {
+            cols[c].push(v.trim().parse().with_context(|| format!("glottal_flow.csv line {}, column `{}`: not a number", n + 2, header[c]))?);
+        }
+    }
+    let t = &cols[t_col];
+    if t.len() < 3 {
+        bail!("glottal_flow.csv: {} samples, too few to analyse", t.len());
+    }
+    let dt = (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64;
+    if dt.is_nan() || dt <= 0.0 || t.windows(2).any(|w| ((w[1] - w[0]) / dt - 1.0).abs() > 1e-3) {
+        bail!("glottal_flow.csv: the times in `t_s` are not uniformly spaced (the measures need a uniform series)");
+    }
+    let columns = header.iter().enumerate().filter(|(c, _)| *c != t_col && *c != u_col).map(|(c, h)| (h.to_string(), cols[c].clone())).collect();
+    Ok(GlottalSeries { dt, flow: cols[u_col].clone(), columns })
+}
+
+/// How the sound files were made.
+#[derive(Clone, Debug, Serialize)]
+pub struct AudioNote {
+    pub sample_rate_hz: u32,
+    pub seconds: f64,
+    /// "the whole run", or which periods were repeated to reach the length.
+    pub source: String,
+}
+
+/// What [`write_voice_outputs`] wrote.
+#[derive(Clone, Debug, Serialize)]
+pub struct VoiceReport {
+    pub measures: Option<VoiceMeasures>,
+    /// Why there are no measures (no oscillation, too short).
+    pub no_voice: Option<String>,
+    pub audio: AudioNote,
+    pub files: Vec<PathBuf>,
+}
+
+/// Measure the series and write `voice.json` (with `extra` merged in: the scene, the two-mass
+/// yardstick, …), `pulses.csv`, the plots and the WAV files into `dir`.
+pub fn write_voice_outputs(dir: &Path, s: &GlottalSeries, opts: &VoiceOptions, extra: serde_json::Value) -> anyhow::Result<VoiceReport> {
+    let measured = voice_measures(&s.flow, s.dt, opts);
+    let derivative: Vec<f64> = s.flow.windows(2).map(|w| (w[1] - w[0]) / s.dt).collect();
+    let mut files = Vec::new();
+    let (measures, no_voice) = match measured {
+        Ok(m) => (Some(m), None),
+        Err(e) => (None, Some(e.to_string())),
+    };
+    let audio = write_wavs(dir, s, &derivative, measures.as_ref(), &mut files)?;
+    if let Some(m) = &measures {
+        let path = dir.join("pulses.csv");
+        let mut text = String::from("t_open_s,t_peak_s,t_close_s,period_s,peak_flow_cm3_s,ac_flow_cm3_s,mfdr_cm3_s2\n");
+        for p in &m.pulse_list {
+            text += &format!("{:.9e},{:.9e},{:.9e},{:.9e},{:.6e},{:.6e},{:.6e}\n", p.t_open, p.t_peak, p.t_close, p.period, p.peak_flow, p.ac_flow, p.mfdr);
+        }
+        std::fs::write(&path, text)?;
+        files.push(path);
+    }
+    files.extend(plot_series(dir, s, &derivative, measures.as_ref(), opts.window_fraction)?);
+    let mut json = serde_json::json!({
+        "oscillating": measures.is_some(),
+        "measures": measures,
+        "no_voice": no_voice,
+        "sample_rate_hz": 1.0 / s.dt,
+        "samples": s.flow.len(),
+        "audio": audio,
+        "options": opts,
+        "definitions": DEFINITIONS,
+    });
+    if let (Some(obj), serde_json::Value::Object(more)) = (json.as_object_mut(), extra) {
+        obj.extend(more);
+    }
+    let path = dir.join("voice.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&json)?)?;
+    files.insert(0, path);
+    Ok(VoiceReport { measures, no_voice, audio, files })
+}
+
+/// The definitions the measures follow, written into voice.json (see `analysis::voice`).
+pub const DEFINITIONS: &str = "APARAT-style: window = last window_fraction of the run; f0 by autocorrelation (parabolic refinement), \
+f0_spectrum by the Hann-windowed spectrum peak; pulses = flow maxima ≥ 0.7 T0 apart; opening at the rising 20 % crossing of the pulse's rise, \
+closure at the return to within 1 % of the closed-phase level; OQ = (t_c − t_o)/T0, SQ = (t_peak − t_o)/(t_c − t_peak), ClQ = (t_c − t_peak)/T0, \
+QOQ = time above 50 % of A_ac / T0; MFDR = −min dU/dt; NAQ = A_ac/(MFDR·T0); H1–H2 of dU/dt by projection over whole periods; \
+means over the pulses of the window";
+
+/// Write the two WAV files; the audio is the whole run when it lasts a second or more, else the
+/// last whole periods (between pulse peaks) repeated.
+fn write_wavs(dir: &Path, s: &GlottalSeries, derivative: &[f64], m: Option<&VoiceMeasures>, files: &mut Vec<PathBuf>) -> anyhow::Result<AudioNote> {
+    let duration = s.flow.len() as f64 * s.dt;
+    let fs_in = 1.0 / s.dt;
+    let n_out = ((duration.max(MIN_AUDIO_S)) * AUDIO_RATE as f64).ceil() as usize;
+    // the segment of whole periods to loop: the last pulses' peaks (at most 10 periods)
+    let periodic_segment = m.filter(|_| duration < MIN_AUDIO_S).and_then(|m| {
+        let peaks: Vec<usize> = m.pulse_list.iter().map(|p| (p.t_peak / s.dt).round() as usize).collect();
+        let last = *peaks.last()?;
+        let first = peaks[peaks.len().saturating_sub(11)];
+        (last > first).then_some((first, last, peaks.len().min(11) - 1))
+    });
+    let (flow_audio, deriv_audio, source) = match periodic_segment {
+        Some((a, b, periods)) => {
+            let seg = &s.flow[a..b];
+            let dseg = &derivative[a..b];
+            let repeats = MIN_AUDIO_S / ((b - a) as f64 * s.dt);
+            (
+                resample(&demean(seg), fs_in, AUDIO_RATE as f64, n_out, true),
+                resample(dseg, fs_in, AUDIO_RATE as f64, n_out, true),
+                format!(
+                    "the run lasts {duration:.3} s: its last {periods} whole periods ({:.4}–{:.4} s) repeated {repeats:.1} times to reach {MIN_AUDIO_S} s",
+                    a as f64 * s.dt,
+                    b as f64 * s.dt
+                ),
+            )
+        }
+        None => {
+            let note = if duration < MIN_AUDIO_S {
+                format!("the run lasts {duration:.3} s and does not oscillate: the whole run, then silence up to {MIN_AUDIO_S} s")
+            } else {
+                "the whole run".to_string()
+            };
+            (resample(&demean(&s.flow), fs_in, AUDIO_RATE as f64, n_out, false), resample(derivative, fs_in, AUDIO_RATE as f64, n_out, false), note)
+        }
+    };
+    for (name, data) in [("glottal_flow.wav", &flow_audio), ("radiated.wav", &deriv_audio)] {
+        let path = dir.join(name);
+        write_wav(&path, data)?;
+        files.push(path);
+    }
+    Ok(AudioNote { sample_rate_hz: AUDIO_RATE, seconds: n_out as f64 / AUDIO_RATE as f64, source })
+}
+
+fn demean(x: &[f64]) -> Vec<f64> {
+    let m = x.iter().sum::<f64>() / x.len().max(1) as f64;
+    x.iter().map(|v| v - m).collect()
+}
+
+/// 16-bit mono PCM at [`AUDIO_RATE`], peak normalised to 0.9 of full scale (silence stays 0).
+pub fn write_wav(path: &Path, data: &[f64]) -> anyhow::Result<()> {
+    let spec = hound::WavSpec { channels: 1, sample_rate: AUDIO_RATE, bits_per_sample: 16, sample_format: hound::SampleFormat::Int };
+    let mut w = hound::WavWriter::create(path, spec).with_context(|| format!("creating {}", path.display()))?;
+    let peak = data.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let scale = if peak > 0.0 { 0.9 * i16::MAX as f64 / peak } else { 0.0 };
+    for v in data {
+        w.write_sample((v * scale).round() as i16)?;
+    }
+    w.finalize()?;
+    Ok(())
+}
+
+/// `glottal_flow.svg` (U_g and the area when present), `flow_derivative.svg`, `spectrum.svg`
+/// (dU_g/dt in dB, with f0 and its harmonics marked).
+fn plot_series(dir: &Path, s: &GlottalSeries, derivative: &[f64], m: Option<&VoiceMeasures>, window_fraction: f64) -> anyhow::Result<Vec<PathBuf>> {
+    // The last 10 periods (or the last 50 ms) in the time plots, thinned to ≤ 4000 points.
+    let span = m.map_or(0.05, |m| 10.0 / m.f0_autocorrelation_hz);
+    let n = s.flow.len();
+    let start = n.saturating_sub((span / s.dt) as usize);
+    let thin = ((n - start) / 4000).max(1);
+    let pts = |x: &[f64]| -> Vec<(f64, f64)> { (start..x.len()).step_by(thin).map(|i| (i as f64 * s.dt * 1e3, x[i])).collect() };
+    let mut out = Vec::new();
+    let title = match m {
+        Some(m) => format!("glottal flow: f0 {:.1} Hz, OQ {:.2}, peak {:.0} cm³/s", m.f0_autocorrelation_hz, m.open_quotient, m.peak_flow),
+        None => "glottal flow (no steady oscillation)".to_string(),
+    };
+    out.push(line_plot(&dir.join("glottal_flow.svg"), &title, "t (ms)", "U_g (cm³/s)", &pts(&s.flow))?);
+    let dtitle = match m {
+        Some(m) => format!("flow derivative: MFDR {:.3e} cm³/s², NAQ {:.3}", m.mfdr, m.naq),
+        None => "flow derivative".to_string(),
+    };
+    out.push(line_plot(&dir.join("flow_derivative.svg"), &dtitle, "t (ms)", "dU_g/dt (cm³/s²)", &pts(derivative))?);
+    // spectrum of the analysed window's derivative, 0–5 kHz, dB re its maximum
+    let window = (n as f64 * window_fraction) as usize;
+    let spec = amplitude_spectrum(&derivative[derivative.len().saturating_sub(window)..], s.dt, 2);
+    let top = spec.iter().fold(0.0f64, |a, p| a.max(p.1)).max(1e-300);
+    let db: Vec<(f64, f64)> = spec.iter().filter(|p| p.0 <= 5000.0).map(|p| (p.0, 20.0 * (p.1 / top).max(1e-6).log10())).collect();
+    let stitle = match m {
+        Some(m) => format!("spectrum of dU_g/dt: H1–H2 {:.1} dB", m.h1_h2_db),
+        None => "spectrum of dU_g/dt".to_string(),
+    };
+    out.push(line_plot(&dir.join("spectrum.svg"), &stitle, "f (Hz)", "level (dB re max)", &db)?);
+    Ok(out)
+}
+
+fn line_plot(path: &Path, title: &str, x_desc: &str, y_desc: &str, pts: &[(f64, f64)]) -> anyhow::Result<PathBuf> {
+    let root = SVGBackend::new(path, (800, 420)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (x0, x1) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (y0, y1) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    let (x0, x1) = if x0 < x1 { (x0, x1) } else { (0.0, 1.0) };
+    let pad = 0.05 * (y1 - y0).abs().max(1e-9);
+    let (y0, y1) = if y0.is_finite() { (y0 - pad, y1 + pad) } else { (0.0, 1.0) };
+    let mut chart =
+        ChartBuilder::on(&root).caption(title, ("sans-serif", 18)).margin(12).x_label_area_size(40).y_label_area_size(70).build_cartesian_2d(x0..x1, y0..y1)?;
+    chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).draw()?;
+    chart.draw_series(LineSeries::new(pts.iter().cloned(), BLUE.stroke_width(1)))?;
+    root.present()?;
+    Ok(path.to_path_buf())
+}
+
+/// `phonation analyze DIR`: read `DIR/glottal_flow.csv` and (re)write the voice outputs.
+pub fn analyze_dir(dir: &Path, opts: &VoiceOptions) -> anyhow::Result<VoiceReport> {
+    let s = read_glottal_csv(&dir.join("glottal_flow.csv"))?;
+    write_voice_outputs(dir, &s, opts, serde_json::json!({ "analysed_from": dir.join("glottal_flow.csv") }))
+}

@@ -1,0 +1,273 @@
+//! Parameter sweeps: one scene, one numeric key (e.g. `two_mass.lung_pressure`) set to each of
+//! a list of values, one independent job per value. Locally the jobs run in parallel (rayon);
+//! with `--emit slurm` the same jobs become a Slurm job array (one scene file per task and a
+//! script that runs `phonation run` on the task's file), and `--collect` merges whatever the
+//! tasks wrote into the same table (`sweep.csv`, `sweep.json`, `sweep.svg`) and the phonation
+//! threshold: the lowest value at which the folds oscillate.
+//!
+//! Layout of a sweep directory:
+//! ```text
+//! DIR/sweep_manifest.json   the scene, the key, the values, the jobs
+//! DIR/jobs/job_000.toml     one scene per job
+//! DIR/jobs/job_000/         its outputs (voice.json, glottal_flow.csv, …)
+//! DIR/sweep.slurm           (--emit slurm) the job-array script
+//! DIR/sweep.csv, sweep.json, sweep.svg   the merged table
+//! ```
+
+use crate::scene::SceneError;
+use crate::scene::two_mass::{TwoMassScene, is_two_mass_scene};
+use anyhow::{Context, bail};
+use plotters::prelude::*;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The manifest of a sweep.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Manifest {
+    pub scene: String,
+    pub key: String,
+    pub jobs: Vec<Job>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Job {
+    pub id: usize,
+    pub value: f64,
+    /// Scene file and output directory, relative to the sweep directory.
+    pub scene_file: String,
+    pub out: String,
+}
+
+/// One row of the merged table (None: the job wrote no result, or the folds did not oscillate).
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    pub id: usize,
+    pub value: f64,
+    /// The job finished (its voice.json exists).
+    pub done: bool,
+    pub oscillating: bool,
+    pub f0_hz: Option<f64>,
+    pub peak_flow: Option<f64>,
+    pub mean_flow: Option<f64>,
+    pub open_quotient: Option<f64>,
+    pub mfdr: Option<f64>,
+}
+
+/// The lowest swept value at which the folds oscillate, with every lower value silent.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Threshold {
+    /// The highest silent value below it (None: the lowest value swept already oscillates).
+    pub below: Option<f64>,
+    pub at_or_above: f64,
+}
+
+/// Set the numeric value at a dotted `key` of a scene text (the key must exist: a sweep does not
+/// invent settings).
+pub fn set_key(text: &str, key: &str, value: f64) -> Result<String, SceneError> {
+    let mut table: toml::Table = toml::from_str(text).map_err(|e| SceneError::from_toml("scene", &e, text))?;
+    let parts: Vec<&str> = key.split('.').collect();
+    let mut t = &mut table;
+    for p in &parts[..parts.len() - 1] {
+        t = t.get_mut(*p).and_then(|v| v.as_table_mut()).ok_or_else(|| SceneError { field: key.into(), reason: format!("the scene has no table `{p}`") })?;
+    }
+    let last = parts[parts.len() - 1];
+    match t.get(last) {
+        Some(toml::Value::Float(_)) | Some(toml::Value::Integer(_)) => {}
+        Some(other) => return Err(SceneError { field: key.into(), reason: format!("is a {}, not a number: only numbers can be swept", other.type_str()) }),
+        None => return Err(SceneError { field: key.into(), reason: "the scene has no such key (write it in the scene first)".into() }),
+    }
+    t.insert(last.to_string(), toml::Value::Float(value));
+    Ok(toml::to_string(&table).expect("a table serialises"))
+}
+
+/// Write the manifest and one scene file per value; every job's scene is checked before any
+/// runs, so that a value out of range is refused with its field up front.
+pub fn prepare(dir: &Path, scene_text: &str, scene_name: &str, key: &str, values: &[f64]) -> anyhow::Result<Manifest> {
+    if values.is_empty() {
+        bail!("--values: no values to sweep");
+    }
+    if !is_two_mass_scene(scene_text) {
+        bail!("sweep: only two-mass scenes write voice measures so far (the glottis scenes will follow); `{scene_name}` is another kind");
+    }
+    let mut texts = Vec::new();
+    for &v in values {
+        let text = set_key(scene_text, key, v)?;
+        TwoMassScene::parse(&text).with_context(|| format!("the job with {key} = {v}"))?;
+        texts.push(text);
+    }
+    std::fs::create_dir_all(dir.join("jobs"))?;
+    let mut jobs = Vec::new();
+    for (id, (text, &value)) in texts.iter().zip(values).enumerate() {
+        let scene_file = format!("jobs/job_{id:03}.toml");
+        std::fs::write(dir.join(&scene_file), format!("# sweep job {id}: {key} = {value}\n{text}"))?;
+        jobs.push(Job { id, value, scene_file, out: format!("jobs/job_{id:03}") });
+    }
+    let m = Manifest { scene: scene_name.into(), key: key.into(), jobs };
+    std::fs::write(dir.join("sweep_manifest.json"), serde_json::to_string_pretty(&m)?)?;
+    Ok(m)
+}
+
+/// Run one job of a prepared sweep in this process.
+pub fn run_job(dir: &Path, job: &Job) -> anyhow::Result<()> {
+    let text = std::fs::read_to_string(dir.join(&job.scene_file))?;
+    let sc = TwoMassScene::parse(&text)?;
+    crate::run::two_mass::run_two_mass_scene(&sc, &dir.join(&job.out))?;
+    Ok(())
+}
+
+/// Run every job in parallel (rayon), then collect.
+pub fn run_local(dir: &Path, m: &Manifest) -> anyhow::Result<(Vec<Row>, Option<Threshold>)> {
+    m.jobs.par_iter().map(|j| run_job(dir, j).with_context(|| format!("job {} ({} = {})", j.id, m.key, j.value))).collect::<anyhow::Result<Vec<()>>>()?;
+    collect(dir)
+}
+
+/// Write the Slurm job-array script: task i runs `phonation run jobs/job_i.toml`.
+/// `phonation` is this executable unless `PHONATION` names another at run time.
+pub fn emit_slurm(dir: &Path, m: &Manifest) -> anyhow::Result<PathBuf> {
+    let abs = std::fs::canonicalize(dir)?;
+    let exe = std::env::current_exe().map(|p| p.display().to_string()).unwrap_or_else(|_| "phonation".into());
+    std::fs::create_dir_all(dir.join("logs"))?;
+    let script = format!(
+        r#"#!/bin/bash
+# A phonation sweep as a Slurm job array: {n} independent jobs, {key} over {values:?}.
+# Submit:  sbatch {path}
+# Then:    phonation sweep --collect {abs}
+#SBATCH --job-name=phonation-sweep-{name}
+#SBATCH --array=0-{last}
+#SBATCH --ntasks=1
+#SBATCH --cpus-per-task=1
+#SBATCH --time=01:00:00
+#SBATCH --output={abs}/logs/%A_%a.out
+set -euo pipefail
+cd "${{SWEEP_DIR:-{abs}}}"
+PHONATION="${{PHONATION:-{exe}}}"
+ID=$(printf '%03d' "$SLURM_ARRAY_TASK_ID")
+"$PHONATION" run "jobs/job_$ID.toml" --out "jobs/job_$ID"
+"#,
+        n = m.jobs.len(),
+        key = m.key,
+        values = m.jobs.iter().map(|j| j.value).collect::<Vec<_>>(),
+        path = abs.join("sweep.slurm").display(),
+        abs = abs.display(),
+        name = m.scene,
+        last = m.jobs.len() - 1,
+    );
+    let path = dir.join("sweep.slurm");
+    std::fs::write(&path, script)?;
+    Ok(path)
+}
+
+/// Merge the jobs' results into `sweep.csv`, `sweep.json` and `sweep.svg`; jobs that have not
+/// written their voice.json are listed as not done.
+pub fn collect(dir: &Path) -> anyhow::Result<(Vec<Row>, Option<Threshold>)> {
+    let m: Manifest = serde_json::from_str(
+        &std::fs::read_to_string(dir.join("sweep_manifest.json")).with_context(|| format!("{} is not a sweep directory", dir.display()))?,
+    )?;
+    let mut rows = Vec::new();
+    for j in &m.jobs {
+        let voice = std::fs::read_to_string(dir.join(&j.out).join("voice.json")).ok().and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
+        let get = |k: &str| voice.as_ref().and_then(|v| v["measures"][k].as_f64());
+        rows.push(Row {
+            id: j.id,
+            value: j.value,
+            done: voice.is_some(),
+            oscillating: voice.as_ref().is_some_and(|v| v["oscillating"] == true),
+            f0_hz: get("f0_autocorrelation_hz"),
+            peak_flow: get("peak_flow"),
+            mean_flow: get("mean_flow"),
+            open_quotient: get("open_quotient"),
+            mfdr: get("mfdr"),
+        });
+    }
+    rows.sort_by(|a, b| a.value.total_cmp(&b.value));
+    let threshold = threshold(&rows);
+    let fmt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6e}"));
+    let mut csv = format!("{},done,oscillating,f0_hz,peak_flow_cm3_s,mean_flow_cm3_s,open_quotient,mfdr_cm3_s2\n", m.key);
+    for r in &rows {
+        csv += &format!(
+            "{:.6e},{},{},{},{},{},{},{}\n",
+            r.value,
+            r.done,
+            r.oscillating,
+            fmt(r.f0_hz),
+            fmt(r.peak_flow),
+            fmt(r.mean_flow),
+            fmt(r.open_quotient),
+            fmt(r.mfdr)
+        );
+    }
+    std::fs::write(dir.join("sweep.csv"), csv)?;
+    let missing: Vec<usize> = rows.iter().filter(|r| !r.done).map(|r| r.id).collect();
+    std::fs::write(
+        dir.join("sweep.json"),
+        serde_json::to_string_pretty(
+            &serde_json::json!({"scene": m.scene, "key": m.key, "rows": rows, "phonation_threshold": threshold, "jobs_not_done": missing}),
+        )?,
+    )?;
+    plot(&dir.join("sweep.svg"), &m.key, &rows)?;
+    Ok((rows, threshold))
+}
+
+/// The lowest oscillating value above which (in the sweep's order) nothing lower oscillates.
+pub fn threshold(rows: &[Row]) -> Option<Threshold> {
+    let first = rows.iter().position(|r| r.oscillating)?;
+    Some(Threshold { below: first.checked_sub(1).map(|i| rows[i].value), at_or_above: rows[first].value })
+}
+
+fn plot(path: &Path, key: &str, rows: &[Row]) -> anyhow::Result<()> {
+    let root = SVGBackend::new(path, (800, 640)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (top, bottom) = root.split_vertically(320);
+    let x0 = rows.first().map_or(0.0, |r| r.value);
+    let x1 = rows.last().map_or(1.0, |r| r.value).max(x0 + 1e-9);
+    for (area, label, pick) in [(&top, "f0 (Hz)", (|r: &Row| r.f0_hz) as fn(&Row) -> Option<f64>), (&bottom, "peak flow (cm³/s)", |r: &Row| r.peak_flow)] {
+        let pts: Vec<(f64, f64)> = rows.iter().filter_map(|r| pick(r).map(|v| (r.value, v))).collect();
+        let hi = pts.iter().fold(0.0f64, |m, p| m.max(p.1)).max(1e-9) * 1.1;
+        let mut chart = ChartBuilder::on(area)
+            .caption(format!("{label} against {key} (open circles: no oscillation)"), ("sans-serif", 16))
+            .margin(10)
+            .x_label_area_size(36)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x1, 0.0..hi)?;
+        chart.configure_mesh().x_desc(key).y_desc(label).draw()?;
+        chart.draw_series(LineSeries::new(pts.clone(), BLUE.stroke_width(2)))?;
+        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, BLUE.filled())))?;
+        chart.draw_series(rows.iter().filter(|r| r.done && !r.oscillating).map(|r| Circle::new((r.value, 0.0), 4, RED.stroke_width(1))))?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn set_key_changes_one_number_and_refuses_what_it_cannot_set() {
+        let text = "name = \"t\"\n[two_mass]\nlung_pressure = 7845\nduration = 0.1\n";
+        let t = set_key(text, "two_mass.lung_pressure", 1234.5).unwrap();
+        assert!(t.contains("lung_pressure = 1234.5") && t.contains("duration = 0.1"), "{t}");
+        assert_eq!(set_key(text, "two_mass.pressure", 1.0).unwrap_err().field, "two_mass.pressure");
+        assert_eq!(set_key(text, "fluid.x", 1.0).unwrap_err().field, "fluid.x");
+        assert!(set_key(text, "name", 1.0).unwrap_err().reason.contains("not a number"));
+    }
+
+    #[test]
+    fn threshold_is_the_first_oscillating_value() {
+        let row = |value: f64, oscillating: bool| Row {
+            id: 0,
+            value,
+            done: true,
+            oscillating,
+            f0_hz: None,
+            peak_flow: None,
+            mean_flow: None,
+            open_quotient: None,
+            mfdr: None,
+        };
+        assert_eq!(threshold(&[row(1.0, false), row(2.0, false), row(3.0, true), row(4.0, true)]), Some(Threshold { below: Some(2.0), at_or_above: 3.0 }));
+        assert_eq!(threshold(&[row(1.0, false)]), None);
+        assert_eq!(threshold(&[row(1.0, true)]), Some(Threshold { below: None, at_or_above: 1.0 }));
+    }
+}
