@@ -17,6 +17,7 @@
 pub mod bench;
 pub mod bonds;
 pub mod contact;
+pub mod fold;
 pub mod forces;
 pub mod grid;
 pub mod implicit;
