@@ -59,6 +59,19 @@ impl Default for FoldSection {
 pub enum Layer {
     Body,
     Cover,
+    /// 3D only: the thyroid cartilage and thyroarytenoid muscle on the lateral–anterior side
+    /// (seed §3.4.3, Fig. 3.34).
+    Thyroarytenoid,
+}
+
+/// Both folds of the 3D glottis: (lateral, along the fold from the anterior end, vertical)
+/// positions (cm), layers, fixed flags, side.
+#[derive(Clone, Debug, Default)]
+pub struct FoldParticles3 {
+    pub position: Vec<[f64; 3]>,
+    pub layer: Vec<Layer>,
+    pub fixed: Vec<bool>,
+    pub side: Vec<i8>,
 }
 
 /// Both folds' particles: (lateral, vertical) positions (cm), layers, fixed flags and which
@@ -271,6 +284,48 @@ impl FoldSection {
     }
 }
 
+impl FoldSection {
+    /// The 3D fold of seed §3.4.3: the section extruded along the fold length (y from the
+    /// anterior end, 0 … length), sampled on a cubic lattice of `spacing`, mirrored about the
+    /// mid-plane. Read from the seed (decisions):
+    /// - the glottal opening widens linearly from 0 at the anterior end to `opening` (cm) at the
+    ///   posterior end, on top of the section's gap G: at y the folds are G + opening·y/length
+    ///   apart (each section shifted laterally by half of it);
+    /// - layers: the cover is the outer `cover_fraction` under the free surface of each section
+    ///   (as in 2D); of the rest, the part outside the quarter ellipse centred on the
+    ///   medial-posterior edge with semi-axes width (lateral) and length (along the fold) is the
+    ///   thyroid cartilage / thyroarytenoid layer, the remainder the body;
+    /// - fixed: within `fixed_depth` of the lateral face or of the anterior face, and of the
+    ///   posterior face except the cover ("the posterior fixed end applies to the body only").
+    pub fn sample_3d(&self, spacing: f64, fixed_depth: f64, opening: f64) -> FoldParticles3 {
+        let section = self.sample(spacing, fixed_depth);
+        let half = section.position.len() / 2;
+        let ny = (self.length / spacing).round().max(1.0) as usize;
+        let mut out = FoldParticles3::default();
+        for side in [-1i8, 1] {
+            for j in 0..ny {
+                let y = (j as f64 + 0.5) * self.length / ny as f64;
+                let shift = 0.5 * opening * y / self.length;
+                for k in half..2 * half {
+                    let [lat, z] = section.position[k];
+                    let medial_distance = lat - 0.5 * self.gap; // from the section's medial surface
+                    let from_posterior = self.length - y;
+                    let mut layer = section.layer[k];
+                    if layer == Layer::Body && (medial_distance / self.width).powi(2) + (from_posterior / self.length).powi(2) > 1.0 {
+                        layer = Layer::Thyroarytenoid;
+                    }
+                    let fixed = section.fixed[k] || y < fixed_depth || (from_posterior < fixed_depth && layer != Layer::Cover);
+                    out.position.push([side as f64 * (lat + shift), y, z]);
+                    out.layer.push(layer);
+                    out.fixed.push(fixed);
+                    out.side.push(side);
+                }
+            }
+        }
+        out
+    }
+}
+
 /// Titze's body–cover cases of seed §3.4.1 (Young's moduli, dyn/cm²).
 ///
 /// Decision: the seed's case list gives body 1.0 and cover 10.0 × 10⁵ for A (and body 1.0,
@@ -433,6 +488,37 @@ mod tests {
         assert_eq!((D.young().0, D.young().1), (2.0 * C.young().0, 2.0 * C.young().1));
         // the seed's ordering of f0: A < C < B < D
         assert!(A.seed_f0() < C.seed_f0() && C.seed_f0() < B.seed_f0() && B.seed_f0() < D.seed_f0());
+    }
+
+    /// The 3D fold at the seed's 0.01 cm spacing holds ≈ 8·10⁵ particles (seed §3.4.3: "about
+    /// 800000"); at 0.02 cm (fast) the count is the volume over l₀³, the layers and the opening
+    /// are as read from the seed.
+    #[test]
+    fn three_d_fold_count_layers_and_opening() {
+        let f = FoldSection::default();
+        let seed_count = 2.0 * f.area() * f.length / 0.01f64.powi(3);
+        assert!((seed_count / 8.0e5 - 1.0).abs() < 0.15, "{seed_count:.0}");
+        let l0 = 0.02;
+        let p = f.sample_3d(l0, 1.5 * l0, 0.06);
+        let expect = 2.0 * f.area() * f.length / l0.powi(3);
+        assert!((p.position.len() as f64 / expect - 1.0).abs() < 0.04, "{} vs {expect:.0}", p.position.len());
+        let share = |l: Layer| p.layer.iter().filter(|x| **x == l).count() as f64 / p.layer.len() as f64;
+        assert!((share(Layer::Cover) * 9.0 - 1.0).abs() < 0.02, "cover {}", share(Layer::Cover));
+        // the quarter ellipse leaves 1 − π/4 of the width × length rectangle outside it
+        let ta = share(Layer::Thyroarytenoid) / (1.0 - share(Layer::Cover));
+        assert!(ta > 0.1 && ta < 0.3, "thyroarytenoid share of the non-cover {ta}");
+        // gap: G at the anterior end, G + 0.06 at the posterior end (medial particles l₀/2 in)
+        let gap_at = |y_lo: f64, y_hi: f64| {
+            let right = p.position.iter().filter(|q| q[0] > 0.0 && q[1] > y_lo && q[1] < y_hi).map(|q| q[0]).fold(f64::INFINITY, f64::min);
+            2.0 * right - l0
+        };
+        assert!((gap_at(0.0, l0) - (f.gap + 0.06 * 0.5 * l0 / f.length)).abs() < 1e-9, "{}", gap_at(0.0, l0));
+        assert!((gap_at(f.length - l0, f.length) - (f.gap + 0.06 * (1.0 - 0.5 * l0 / f.length))).abs() < 1e-9);
+        // the posterior end holds the cover free, the body fixed
+        let lateral_face = |q: [f64; 3]| f.gap / 2.0 + f.width + 0.5 * 0.06 * q[1] / f.length - q[0].abs() < 1.5 * l0;
+        let post: Vec<usize> = (0..p.position.len()).filter(|&i| p.position[i][1] > f.length - l0 && !lateral_face(p.position[i])).collect();
+        assert!(post.len() > 100);
+        assert!(post.iter().all(|&i| p.fixed[i] == (p.layer[i] != Layer::Cover)));
     }
 
     #[test]
