@@ -1,22 +1,25 @@
 //! # phonation
 //!
 //! Vocal-fold fluid–structure interaction: a compressible thermal finite-difference lattice
-//! Boltzmann fluid (D2Q21 / D3Q39, seed 000 §2.3), with (in later milestones) an MPS
-//! orthotropic viscoelastic solid, two coupling methods, a GPU backend and an integer lattice
-//! gas. It ships as a headless simulator (`phonation` binary) and a Bevy plugin (feature `bevy`).
+//! Boltzmann fluid (D2Q21 / D3Q39, seed 000 §2.3), an MPS orthotropic viscoelastic solid
+//! (§2.1–2.2), their coupling (§2.4; the weak method so far), GPU twins of the fluid and solid
+//! kernels, an integer lattice gas (seed 002), the voice measures and a two-mass reference model.
+//! It ships as a headless simulator (`phonation` binary) and a Bevy plugin (feature `bevy`).
 //!
 //! | module | what |
 //! |---|---|
 //! | [`fluid`] | FDLB: velocity sets, equilibrium, boundaries, CPU reference solver |
 //! | [`lattice_gas`] | FCHC integer lattice gas (second fluid backend, seed 002): collision classes, interference, bit-parallel propagation, channel and cylinder, coarse-graining, viscosity tables, scenes; GPU twin in [`gpu::lattice_gas`] |
-//! | [`analysis`] | fits and (later) the glottal-flow measures |
+//! | [`analysis`] | fits, spectra, f0, the glottal-flow (voice) measures, band-limited resampling, synthetic test signals |
+//! | [`two_mass`] | the Ishizaka–Flanagan two-mass model of the folds (the yardstick of the glottis) |
 //! | [`error`] | the field-naming input error shared by every layer |
 //! | [`coupling`] | fluid–structure coupling: surfaces, tractions, prescribed motions, the weak coupling (method 1) |
-//! | [`solid`] | MPS orthotropic viscoelastic solid: materials, particles, forces, contact, explicit and implicit steps |
+//! | [`solid`] | MPS orthotropic viscoelastic solid: materials, particles, forces, contact, explicit and implicit steps, the vocal-fold geometry |
 //! | [`stages`] | the ordered stage list of one step (CPU, GPU, Bevy, timings) |
 //! | [`units`] | physical (cgs / SI) ↔ lattice units, Mach scaling |
 //! | [`scene`] | scene files (TOML), validation of user input, building a solver |
-//! | [`output`] | probes CSV, PNG colour maps, VTK, summary JSON |
+//! | [`run`] | running a scene on a backend and writing its outputs: fluid, coupled, two-mass; parameter sweeps (parallel or a Slurm job array) |
+//! | [`output`] | probes CSV, PNG colour maps, VTK, summary JSON, voice outputs (voice.json, plots, WAV) |
 //! | [`validation`] | analytic references and validation cases (Taylor–Green, Sod, …) |
 //! | [`bench`] | memory bandwidth and cells/s measurements |
 //! | `plugin` | Bevy plugin (feature `bevy`, on by default) |
