@@ -13,7 +13,7 @@ use std::f64::consts::PI;
 const ZEROS: f64 = 16.0;
 
 /// Samples of `x` (rate `f_in` Hz) at `n_out` instants k / `f_out`, k = 0..n_out. With
-/// `periodic` the series repeats (x[n + len] = x[n]), so any length of output can be drawn
+/// `periodic` the series repeats (`x[n + len] = x[n]`), so any length of output can be drawn
 /// from whole periods; otherwise it is zero outside.
 pub fn resample(x: &[f64], f_in: f64, f_out: f64, n_out: usize, periodic: bool) -> Vec<f64> {
     if x.is_empty() {
