@@ -2,120 +2,115 @@
 
 use anyhow::{Context, bail};
 use phonation::run::{Backend, RunOptions, RunStatus, run_scene};
-use phonation::scene;
-use std::path::PathBuf;
+use phonation::scene::coupled::CoupledScene;
+use phonation::scene::lattice_gas::LatticeGasScene;
+use phonation::scene::solid::SolidScene;
+use phonation::scene::two_mass::TwoMassScene;
+use phonation::scene::{self, FluidScene, Scene, SceneKind};
+use std::path::{Path, PathBuf};
 
 pub fn scene_text(arg: &str) -> anyhow::Result<String> {
     if let Some(t) = scene::builtin(arg) {
         return Ok(t.to_string());
     }
     std::fs::read_to_string(arg).with_context(|| {
-        format!(
-            "reading scene file {arg} (not a built-in scene either: {})",
-            scene::BUILTIN
-                .iter()
-                .chain(scene::SOLID_BUILTIN)
-                .chain(scene::LATTICE_GAS_BUILTIN)
-                .chain(scene::COUPLED_BUILTIN)
-                .chain(scene::TWO_MASS_BUILTIN)
-                .map(|(n, _)| *n)
-                .collect::<Vec<_>>()
-                .join(", ")
-        )
+        format!("reading scene file {arg} (not a built-in scene either: {})", scene::builtins().map(|(n, _)| *n).collect::<Vec<_>>().join(", "))
     })
 }
 
 /// Run a scene file or a built-in scene and write its outputs.
 pub fn run(name: Option<String>, out: Option<PathBuf>, steps: Option<u64>, backend: Backend) -> anyhow::Result<()> {
     let name = name.unwrap_or_else(|| scene::DEFAULT_SCENE.to_string());
-    let text = scene_text(&name)?;
-    if phonation::scene::two_mass::is_two_mass_scene(&text) {
-        let sc = phonation::scene::two_mass::TwoMassScene::parse(&text)?;
-        let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.file.name));
-        if steps.is_some() {
-            bail!("--steps: a two-mass scene runs for its `two_mass.duration`; set that instead");
-        }
-        if backend == Backend::Gpu {
-            bail!("--backend gpu: the two-mass model is an ODE of four unknowns and runs on the CPU");
-        }
-        let s = &sc.file.two_mass;
-        eprintln!(
-            "two-mass scene {}: lung pressure {:.1} dyn/cm² ({:.2} cmH₂O), {} s at {} Hz ({} RK4 steps)",
-            sc.file.name,
-            s.lung_pressure,
-            s.lung_pressure / phonation::two_mass::CM_H2O,
-            s.duration,
-            s.sample_rate,
-            sc.steps
-        );
-        let r = phonation::run::two_mass::run_two_mass_scene(&sc, &dir)?;
-        eprintln!("{} steps in {:.3} s wall; max glottal area {:.4} cm², closed {:.0} % of the time", r.steps, r.wall_s, r.max_area, 100.0 * r.closed_fraction);
-        if let Some(v) = &r.voice {
-            super::voice::print_voice(v);
-        }
-        eprintln!("outputs in {}", dir.display());
-        return Ok(());
+    let scene = Scene::read(&scene_text(&name)?)?;
+    let dir = out.unwrap_or_else(|| PathBuf::from("out").join(scene.name()));
+    match scene {
+        Scene::Fluid(sc) => run_fluid(&sc, &dir, steps, backend),
+        Scene::Solid(sc) => run_solid(&sc, &dir, steps, backend),
+        Scene::LatticeGas(sc) => run_lattice_gas(&sc, &dir, steps, backend),
+        Scene::Coupled(sc) => run_coupled(&sc, &dir, steps, backend),
+        Scene::TwoMass(sc) => run_two_mass(&sc, &dir, steps, backend),
     }
-    if phonation::scene::coupled::is_coupled_scene(&text) {
-        let sc = phonation::scene::coupled::CoupledScene::parse(&text)?;
-        let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.fluid.file.name));
-        if backend == Backend::Gpu {
-            bail!("--backend gpu: the coupled solver runs on the CPU only for now");
-        }
-        eprintln!(
-            "coupled scene {}: {:?} nodes, about {} particles, {:?} coupling",
-            sc.fluid.file.name, sc.fluid.grid.n, sc.solid.estimated_particles, sc.coupling.method
-        );
-        let r = phonation::run::coupled::run_coupled_scene(&sc, &dir, steps, true)?;
-        eprintln!("backend: {}", r.backend);
-        eprintln!(
-            "{} particles, {} solid sub-steps per step; {} steps, {:.4e} s simulated in {:.1} s wall ({:.1} coupled steps/s); final force {:?}; max displacement {:.3e}; fluid mass drift {:.2e}",
-            r.particles, r.substeps, r.steps, r.simulated_s, r.wall_s, r.coupled_steps_per_s, r.final_forces, r.max_displacement, r.fluid_mass_drift
-        );
-        eprintln!("stage shares: {}", r.stage_shares.iter().map(|(n, s)| format!("{n} {:.0}%", 100.0 * s)).collect::<Vec<_>>().join(", "));
-        eprintln!("outputs in {}", dir.display());
-        if let Some(d) = r.instability {
-            bail!("run stopped: {d} (outputs written so far are kept in {})", dir.display());
-        }
-        return Ok(());
+}
+
+fn run_two_mass(sc: &TwoMassScene, dir: &Path, steps: Option<u64>, backend: Backend) -> anyhow::Result<()> {
+    if steps.is_some() {
+        bail!("--steps: a two-mass scene runs for its `two_mass.duration`; set that instead");
     }
-    if phonation::scene::lattice_gas::is_lattice_gas_scene(&text) {
-        let sc = phonation::scene::lattice_gas::LatticeGasScene::parse(&text)?;
-        let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.file.name));
-        let lg = &sc.file.lattice_gas;
-        eprintln!("lattice-gas scene {}: {:?} cells, fill {}, p = {}", sc.file.name, lg.cells, lg.density, lg.interference);
-        let r = phonation::scene::lattice_gas::run_lattice_gas_scene(&sc, &dir, steps, backend)?;
-        eprintln!("backend: {}", r.backend);
-        eprintln!(
-            "{} steps in {:.1} s ({:.3e} site updates/s); particles {} → {}",
-            r.steps, r.wall_s, r.site_updates_per_s, r.particles_start, r.particles_end
-        );
-        match (r.wake_peak, r.strouhal) {
-            (Some(p), Some(st)) => eprintln!("wake: periodic shedding, f = {:.4e} /step ({:.1} periods), St = {st:.3}", p.frequency, p.periods),
-            (Some(p), None) => eprintln!("wake: no periodic shedding (peak prominence {:.1}, {:.1} periods)", p.prominence, p.periods),
-            _ => {}
-        }
-        eprintln!("outputs in {}", dir.display());
-        return Ok(());
+    if backend == Backend::Gpu {
+        bail!("--backend gpu: the two-mass model is an ODE of four unknowns and runs on the CPU");
     }
-    if phonation::scene::solid::is_solid_scene(&text) {
-        let sc = phonation::scene::solid::SolidScene::parse(&text)?;
-        let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.file.name));
-        eprintln!("solid scene {}: about {} particles, {:?} integrator", sc.file.name, sc.estimated_particles, sc.file.solid.integrator);
-        let r = phonation::scene::solid::run_solid_scene(&sc, &dir, steps, backend)?;
-        eprintln!("backend: {}", r.backend);
-        eprintln!(
-            "{} particles, {} bonds, Δt = {:.3e} (explicit limit {:.3e}), {} steps, {:.4e} s simulated in {:.1} s wall ({:.3e} particle updates/s), energy drift {:.2e}",
-            r.particles, r.bonds, r.dt, r.explicit_limit, r.steps, r.simulated_time, r.wall_s, r.particle_updates_per_s, r.energy_drift
-        );
-        eprintln!("outputs in {}", dir.display());
-        if let Some(d) = r.instability {
-            bail!("run stopped: {d} (outputs written so far are kept in {})", dir.display());
-        }
-        return Ok(());
+    let s = &sc.file.two_mass;
+    eprintln!(
+        "two-mass scene {}: lung pressure {:.1} dyn/cm² ({:.2} cmH₂O), {} s at {} Hz ({} RK4 steps)",
+        sc.file.name,
+        s.lung_pressure,
+        s.lung_pressure / phonation::two_mass::CM_H2O,
+        s.duration,
+        s.sample_rate,
+        sc.steps
+    );
+    let r = phonation::run::two_mass::run_two_mass_scene(sc, dir)?;
+    eprintln!("{} steps in {:.3} s wall; max glottal area {:.4} cm², closed {:.0} % of the time", r.steps, r.wall_s, r.max_area, 100.0 * r.closed_fraction);
+    if let Some(v) = &r.voice {
+        super::voice::print_voice(v);
     }
-    let sc = scene::load(&text)?;
-    let dir = out.unwrap_or_else(|| PathBuf::from("out").join(&sc.file.name));
+    eprintln!("outputs in {}", dir.display());
+    Ok(())
+}
+
+fn run_coupled(sc: &CoupledScene, dir: &Path, steps: Option<u64>, backend: Backend) -> anyhow::Result<()> {
+    if backend == Backend::Gpu {
+        bail!("--backend gpu: the coupled solver runs on the CPU only for now");
+    }
+    eprintln!(
+        "coupled scene {}: {:?} nodes, about {} particles, {:?} coupling",
+        sc.fluid.file.name, sc.fluid.grid.n, sc.solid.estimated_particles, sc.coupling.method
+    );
+    let r = phonation::run::coupled::run_coupled_scene(sc, dir, steps, true)?;
+    eprintln!("backend: {}", r.backend);
+    eprintln!(
+        "{} particles, {} solid sub-steps per step; {} steps, {:.4e} s simulated in {:.1} s wall ({:.1} coupled steps/s); final force {:?}; max displacement {:.3e}; fluid mass drift {:.2e}",
+        r.particles, r.substeps, r.steps, r.simulated_s, r.wall_s, r.coupled_steps_per_s, r.final_forces, r.max_displacement, r.fluid_mass_drift
+    );
+    eprintln!("stage shares: {}", r.stage_shares.iter().map(|(n, s)| format!("{n} {:.0}%", 100.0 * s)).collect::<Vec<_>>().join(", "));
+    eprintln!("outputs in {}", dir.display());
+    if let Some(d) = r.instability {
+        bail!("run stopped: {d} (outputs written so far are kept in {})", dir.display());
+    }
+    Ok(())
+}
+
+fn run_lattice_gas(sc: &LatticeGasScene, dir: &Path, steps: Option<u64>, backend: Backend) -> anyhow::Result<()> {
+    let lg = &sc.file.lattice_gas;
+    eprintln!("lattice-gas scene {}: {:?} cells, fill {}, p = {}", sc.file.name, lg.cells, lg.density, lg.interference);
+    let r = phonation::scene::lattice_gas::run_lattice_gas_scene(sc, dir, steps, backend)?;
+    eprintln!("backend: {}", r.backend);
+    eprintln!("{} steps in {:.1} s ({:.3e} site updates/s); particles {} → {}", r.steps, r.wall_s, r.site_updates_per_s, r.particles_start, r.particles_end);
+    match (r.wake_peak, r.strouhal) {
+        (Some(p), Some(st)) => eprintln!("wake: periodic shedding, f = {:.4e} /step ({:.1} periods), St = {st:.3}", p.frequency, p.periods),
+        (Some(p), None) => eprintln!("wake: no periodic shedding (peak prominence {:.1}, {:.1} periods)", p.prominence, p.periods),
+        _ => {}
+    }
+    eprintln!("outputs in {}", dir.display());
+    Ok(())
+}
+
+fn run_solid(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend: Backend) -> anyhow::Result<()> {
+    eprintln!("solid scene {}: about {} particles, {:?} integrator", sc.file.name, sc.estimated_particles, sc.file.solid.integrator);
+    let r = phonation::scene::solid::run_solid_scene(sc, dir, steps, backend)?;
+    eprintln!("backend: {}", r.backend);
+    eprintln!(
+        "{} particles, {} bonds, Δt = {:.3e} (explicit limit {:.3e}), {} steps, {:.4e} s simulated in {:.1} s wall ({:.3e} particle updates/s), energy drift {:.2e}",
+        r.particles, r.bonds, r.dt, r.explicit_limit, r.steps, r.simulated_time, r.wall_s, r.particle_updates_per_s, r.energy_drift
+    );
+    eprintln!("outputs in {}", dir.display());
+    if let Some(d) = r.instability {
+        bail!("run stopped: {d} (outputs written so far are kept in {})", dir.display());
+    }
+    Ok(())
+}
+
+fn run_fluid(sc: &FluidScene, dir: &Path, steps: Option<u64>, backend: Backend) -> anyhow::Result<()> {
     let sum = sc.summary();
     eprintln!(
         "scene {}: {:?} {:?} nodes, Δt = {:.4} (τ = {:.4}, A = {:.4}), ν = {:.5} lattice, {} steps, Mach {:.3}{}",
@@ -130,7 +125,7 @@ pub fn run(name: Option<String>, out: Option<PathBuf>, steps: Option<u64>, backe
         sum.reference_mach,
         if sum.mach_scaled { " (Mach-scaled)" } else { "" }
     );
-    let report = run_scene(&sc, &dir, &RunOptions { steps, show_progress: true, backend })?;
+    let report = run_scene(sc, dir, &RunOptions { steps, show_progress: true, backend })?;
     eprintln!("backend: {}", report.backend);
     eprintln!(
         "{} steps, {:.4e} s simulated in {:.1} s wall ({:.3e} node updates/s), mass drift {:.2e}, max Mach {:.3}",
@@ -145,65 +140,43 @@ pub fn run(name: Option<String>, out: Option<PathBuf>, steps: Option<u64>, backe
 
 /// Validate a scene and print what it resolves to.
 pub fn check(name: String) -> anyhow::Result<()> {
-    let text = scene_text(&name)?;
-    if phonation::scene::two_mass::is_two_mass_scene(&text) {
-        let sc = phonation::scene::two_mass::TwoMassScene::parse(&text)?;
-        println!("{}", serde_json::to_string_pretty(&sc)?);
-        return Ok(());
-    }
-    if phonation::scene::coupled::is_coupled_scene(&text) {
-        let sc = phonation::scene::coupled::CoupledScene::parse(&text)?;
-        let c = sc.build()?;
-        println!(
-            "{}",
+    let summary = match Scene::read(&scene_text(&name)?)? {
+        Scene::TwoMass(sc) => serde_json::to_value(&sc)?,
+        Scene::Coupled(sc) => {
+            let c = sc.build()?;
             serde_json::json!({"name": sc.fluid.file.name, "fluid": sc.fluid.summary(), "particles": c.solid.particles.len(), "surface_points": c.bodies.iter().map(|b| b.surface.particles.len()).collect::<Vec<_>>(), "solid_substeps": c.substeps, "dt": c.dt(), "method": sc.coupling.method})
-        );
-        return Ok(());
-    }
-    if phonation::scene::lattice_gas::is_lattice_gas_scene(&text) {
-        let sc = phonation::scene::lattice_gas::LatticeGasScene::parse(&text)?;
-        let lg = &sc.file.lattice_gas;
-        let cells: usize = lg.cells.iter().product();
-        println!(
-            "{}",
+        }
+        Scene::LatticeGas(sc) => {
+            let lg = &sc.file.lattice_gas;
+            let cells: usize = lg.cells.iter().product();
             serde_json::json!({"name": sc.file.name, "cells": lg.cells, "sites": 16 * cells, "state_bytes": 48 * cells, "density": lg.density, "interference": lg.interference, "steps": lg.steps, "probe": sc.probe})
-        );
-        return Ok(());
-    }
-    if phonation::scene::solid::is_solid_scene(&text) {
-        let sc = phonation::scene::solid::SolidScene::parse(&text)?;
-        let s = sc.build()?;
-        println!(
-            "{}",
+        }
+        Scene::Solid(sc) => {
+            let s = sc.build()?;
             serde_json::json!({"name": sc.file.name, "particles": s.particles.len(), "bonds": s.disc.bonds.len(), "dt": s.dt, "explicit_limit": s.explicit_limit, "integrator": s.options.integrator})
-        );
-        return Ok(());
-    }
-    let sc = scene::load(&text)?;
-    println!("{}", serde_json::to_string_pretty(&sc.summary())?);
+        }
+        Scene::Fluid(sc) => serde_json::to_value(sc.summary())?,
+    };
+    println!("{}", serde_json::to_string_pretty(&summary)?);
     Ok(())
 }
 
 /// List the built-in scenes.
 pub fn scenes() {
-    for (n, t) in scene::BUILTIN {
-        let d = scene::parse(t).map(|s| s.description).unwrap_or_default();
-        println!("{n:22} {d}");
-    }
-    for (n, t) in scene::LATTICE_GAS_BUILTIN {
-        let d = phonation::scene::lattice_gas::LatticeGasScene::parse(t).map(|s| s.file.description).unwrap_or_default();
-        println!("{n:22} [lattice gas] {d}");
-    }
-    for (n, t) in scene::COUPLED_BUILTIN {
-        let d = phonation::scene::coupled::CoupledScene::parse(t).map(|s| s.fluid.file.description).unwrap_or_default();
-        println!("{n:22} [coupled] {d}");
-    }
-    for (n, t) in scene::TWO_MASS_BUILTIN {
-        let d = phonation::scene::two_mass::TwoMassScene::parse(t).map(|s| s.file.description).unwrap_or_default();
-        println!("{n:22} [two-mass] {d}");
-    }
-    for (n, t) in scene::SOLID_BUILTIN {
-        let d = phonation::scene::solid::SolidScene::parse(t).map(|s| s.file.description).unwrap_or_default();
-        println!("{n:22} [solid] {d}");
+    for (n, t) in scene::builtins() {
+        let (tag, d) = match Scene::read(t) {
+            Ok(s) => (
+                match s.kind() {
+                    SceneKind::Fluid => "",
+                    SceneKind::Solid => "[solid] ",
+                    SceneKind::LatticeGas => "[lattice gas] ",
+                    SceneKind::Coupled => "[coupled] ",
+                    SceneKind::TwoMass => "[two-mass] ",
+                },
+                s.description().to_string(),
+            ),
+            Err(e) => ("[broken] ", e.to_string()),
+        };
+        println!("{n:22} {tag}{d}");
     }
 }

@@ -15,7 +15,8 @@
 //! ```
 
 use crate::scene::SceneError;
-use crate::scene::two_mass::{TwoMassScene, is_two_mass_scene};
+use crate::scene::SceneKind;
+use crate::scene::two_mass::TwoMassScene;
 use anyhow::{Context, bail};
 use plotters::prelude::*;
 use rayon::prelude::*;
@@ -87,7 +88,7 @@ pub fn prepare(dir: &Path, scene_text: &str, scene_name: &str, key: &str, values
     if values.is_empty() {
         bail!("--values: no values to sweep");
     }
-    if !is_two_mass_scene(scene_text) {
+    if SceneKind::of(scene_text) != SceneKind::TwoMass {
         bail!("sweep: only two-mass scenes write voice measures so far (the glottis scenes will follow); `{scene_name}` is another kind");
     }
     let mut texts = Vec::new();

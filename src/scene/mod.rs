@@ -3,12 +3,14 @@
 
 pub mod build;
 pub mod coupled;
+pub mod kind;
 pub mod lattice_gas;
 pub mod schema;
 pub mod solid;
 pub mod two_mass;
 
 pub use build::{FluidScene, SceneError, load, parse};
+pub use kind::{Scene, SceneKind};
 pub use schema::SceneFile;
 
 /// Built-in scenes, embedded so that the binary runs them from anywhere.
@@ -41,7 +43,12 @@ pub const TWO_MASS_BUILTIN: &[(&str, &str)] = &[("two_mass", include_str!("../..
 /// The scene `cargo run --release` runs when no scene is given.
 pub const DEFAULT_SCENE: &str = "cylinder_wake";
 
+/// Every built-in scene, (name, text), fluid scenes first.
+pub fn builtins() -> impl Iterator<Item = &'static (&'static str, &'static str)> {
+    BUILTIN.iter().chain(SOLID_BUILTIN).chain(LATTICE_GAS_BUILTIN).chain(COUPLED_BUILTIN).chain(TWO_MASS_BUILTIN)
+}
+
 /// Text of a built-in scene by name.
 pub fn builtin(name: &str) -> Option<&'static str> {
-    BUILTIN.iter().chain(SOLID_BUILTIN).chain(LATTICE_GAS_BUILTIN).chain(COUPLED_BUILTIN).chain(TWO_MASS_BUILTIN).find(|(n, _)| *n == name).map(|(_, t)| *t)
+    builtins().find(|(n, _)| *n == name).map(|(_, t)| *t)
 }
