@@ -244,3 +244,44 @@ steps = 100
     assert_eq!(d.invariants, start, "a periodic box keeps its particles and momentum");
     assert!(d.invariants.particles > 0 && d.smallest_family_share > 0.8 && d.smallest_family_share <= 1.0);
 }
+
+/// The two-mass model in the schedule: its flow is bit for bit the direct model's, pause and
+/// single steps are honoured, and the live voice measures read the f0 of a full run.
+#[test]
+fn plugin_steps_the_two_mass_model_and_measures_its_voice_live() {
+    use phonation::plugin::{TwoMassSimulation, VoiceDiagnostics};
+    use phonation::two_mass::{CM_H2O, TwoMass, TwoMassParams};
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, PhonationPlugin));
+    app.insert_resource(SimulationControl { paused: false, steps_per_frame: 2000, single_steps: 0 });
+    let sim = TwoMassSimulation::new(TwoMassParams::default(), 8.0 * CM_H2O);
+    let dt = sim.dt;
+    let e = app.world_mut().spawn(sim).id();
+    for _ in 0..40 {
+        app.update();
+    }
+    // paused: nothing moves; then one single step
+    app.world_mut().resource_mut::<SimulationControl>().paused = true;
+    app.update();
+    assert_eq!(app.world().get::<TwoMassSimulation>(e).unwrap().model.steps, 80_000);
+    app.world_mut().resource_mut::<SimulationControl>().single_steps = 1;
+    app.update();
+    app.update();
+    let sim = app.world().get::<TwoMassSimulation>(e).unwrap();
+    assert_eq!(sim.model.steps, 80_001);
+    let mut direct = TwoMass::new(TwoMassParams::default(), 8.0 * CM_H2O);
+    for _ in 0..80_001 {
+        direct.step(dt);
+    }
+    assert_eq!(direct.state, sim.model.state, "the plugin's model is the direct model, bit for bit");
+    let d = app.world().get::<VoiceDiagnostics>(e).unwrap();
+    let m = d.measures.as_ref().expect("oscillating after 0.45 s");
+    let full = phonation::run::two_mass::yardstick(8.0 * CM_H2O).unwrap();
+    assert!(
+        (m.f0_autocorrelation_hz / full.f0_autocorrelation_hz - 1.0).abs() < 0.005,
+        "live f0 {} vs {}",
+        m.f0_autocorrelation_hz,
+        full.f0_autocorrelation_hz
+    );
+    assert!((m.peak_flow / full.peak_flow - 1.0).abs() < 0.01, "live peak {} vs {}", m.peak_flow, full.peak_flow);
+}

@@ -1,5 +1,5 @@
 //! Bevy integration (feature `bevy`): the [`PhonationPlugin`] steps every entity that carries a
-//! [`FluidSimulation`], a [`SolidSimulation`], a [`LatticeGasSimulation`] or a [`CoupledSimulation`] on the CPU backend, `steps_per_frame` steps per frame, honouring
+//! [`FluidSimulation`], a [`SolidSimulation`], a [`LatticeGasSimulation`], a [`CoupledSimulation`] or a [`TwoMassSimulation`] (with live [`VoiceDiagnostics`]) on the CPU backend, `steps_per_frame` steps per frame, honouring
 //! pause / single-step from [`SimulationControl`]. The systems live in [`PhonationSystems`] sets
 //! named after the solver's stages, so apps can order their own systems around them.
 //!
@@ -18,10 +18,12 @@ pub mod coupled;
 pub mod gpu;
 pub mod lattice_gas;
 pub mod solid;
+pub mod two_mass;
 pub use coupled::{CoupledDiagnostics, CoupledSimulation, CoupledStatus};
 pub use gpu::{GpuFluidHandle, GpuProbes, GpuStepping, PhonationGpuPlugin};
 pub use lattice_gas::{LatticeGasDiagnostics, LatticeGasSimulation};
 pub use solid::{SolidDiagnostics, SolidSimulation, SolidStatus};
+pub use two_mass::{TwoMassSimulation, VoiceDiagnostics};
 
 /// System sets, in order, of one frame of the simulation.
 #[derive(SystemSet, Debug, Clone, PartialEq, Eq, Hash)]
@@ -36,6 +38,9 @@ pub enum PhonationSystems {
     /// Advances every [`CoupledSimulation`] by the same number of steps of
     /// [`crate::stages::COUPLED_WEAK_STEP`].
     CoupledStep,
+    /// Advances every [`TwoMassSimulation`] by the same number of steps and updates its
+    /// [`VoiceDiagnostics`].
+    TwoMassStep,
     /// Updates [`FluidDiagnostics`].
     Diagnostics,
 }
@@ -116,6 +121,7 @@ impl Plugin for PhonationPlugin {
                     PhonationSystems::SolidStep,
                     PhonationSystems::LatticeGasStep,
                     PhonationSystems::CoupledStep,
+                    PhonationSystems::TwoMassStep,
                     PhonationSystems::Diagnostics,
                 )
                     .chain(),
@@ -125,6 +131,7 @@ impl Plugin for PhonationPlugin {
         solid::build(app);
         lattice_gas::build(app);
         coupled::build(app);
+        two_mass::build(app);
     }
 }
 

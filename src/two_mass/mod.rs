@@ -10,7 +10,7 @@
 
 pub mod model;
 
-pub use model::{TwoMassRun, glottal_flow, simulate, simulate_from};
+pub use model::{TwoMass, TwoMassRun, glottal_flow, simulate, simulate_from};
 
 use serde::{Deserialize, Serialize};
 

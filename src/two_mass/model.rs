@@ -98,6 +98,56 @@ pub struct TwoMassRun {
     pub x2: Vec<f64>,
 }
 
+/// The model's state advanced step by step (what the Bevy plugin and [`simulate`] drive).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TwoMass {
+    pub params: TwoMassParams,
+    /// Sub-glottal pressure (dyn/cm²).
+    pub lung_pressure: f64,
+    /// (x₁ cm, ẋ₁ cm/s, x₂ cm, ẋ₂ cm/s).
+    pub state: [f64; 4],
+    /// Simulated time (s) and steps taken.
+    pub time: f64,
+    pub steps: u64,
+}
+
+impl TwoMass {
+    /// At rest, the pressure switched on.
+    pub fn new(params: TwoMassParams, lung_pressure: f64) -> Self {
+        TwoMass { params, lung_pressure, state: [0.0; 4], time: 0.0, steps: 0 }
+    }
+
+    /// One classical RK4 step of `dt` s.
+    pub fn step(&mut self, dt: f64) {
+        let (p, ps, s) = (&self.params, self.lung_pressure, self.state);
+        let add = |a: &State, b: &State, h: f64| -> State { std::array::from_fn(|i| a[i] + h * b[i]) };
+        let k1 = rate(p, &s, ps);
+        let k2 = rate(p, &add(&s, &k1, 0.5 * dt), ps);
+        let k3 = rate(p, &add(&s, &k2, 0.5 * dt), ps);
+        let k4 = rate(p, &add(&s, &k3, dt), ps);
+        self.state = std::array::from_fn(|i| s[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
+        self.time += dt;
+        self.steps += 1;
+    }
+
+    /// Areas of the two sections (cm², negative when closed past the mid-line).
+    pub fn areas(&self) -> (f64, f64) {
+        areas(&self.params, &self.state)
+    }
+
+    /// Glottal area min(A₁, A₂) clipped at 0 (cm²).
+    pub fn glottal_area(&self) -> f64 {
+        let (a1, a2) = self.areas();
+        a1.min(a2).max(0.0)
+    }
+
+    /// Glottal volume flow (cm³/s).
+    pub fn flow(&self) -> f64 {
+        let (a1, a2) = self.areas();
+        glottal_flow(&self.params, a1, a2, self.lung_pressure).flow
+    }
+}
+
 /// Integrate from rest under the sub-glottal pressure `lung_pressure` (dyn/cm², switched on at
 /// t = 0) for `steps` steps of `dt` s (RK4), recording every step.
 pub fn simulate(p: &TwoMassParams, lung_pressure: f64, dt: f64, steps: usize) -> TwoMassRun {
@@ -106,24 +156,22 @@ pub fn simulate(p: &TwoMassParams, lung_pressure: f64, dt: f64, steps: usize) ->
 
 /// As [`simulate`], from the state (x₁ cm, ẋ₁ cm/s, x₂ cm, ẋ₂ cm/s).
 pub fn simulate_from(p: &TwoMassParams, lung_pressure: f64, dt: f64, steps: usize, initial: [f64; 4]) -> TwoMassRun {
-    let mut s: State = initial;
-    let mut run = TwoMassRun { dt, area: Vec::with_capacity(steps + 1), flow: Vec::with_capacity(steps + 1), x1: Vec::new(), x2: Vec::new() };
-    let record = |s: &State, run: &mut TwoMassRun| {
-        let (a1, a2) = areas(p, s);
-        run.area.push(a1.min(a2).max(0.0));
-        run.flow.push(glottal_flow(p, a1, a2, lung_pressure).flow);
-        run.x1.push(s[0]);
-        run.x2.push(s[2]);
+    let mut m = TwoMass { state: initial, ..TwoMass::new(p.clone(), lung_pressure) };
+    let mut run = TwoMassRun {
+        dt,
+        area: Vec::with_capacity(steps + 1),
+        flow: Vec::with_capacity(steps + 1),
+        x1: Vec::with_capacity(steps + 1),
+        x2: Vec::with_capacity(steps + 1),
     };
-    record(&s, &mut run);
-    let add = |a: &State, b: &State, h: f64| -> State { std::array::from_fn(|i| a[i] + h * b[i]) };
-    for _ in 0..steps {
-        let k1 = rate(p, &s, lung_pressure);
-        let k2 = rate(p, &add(&s, &k1, 0.5 * dt), lung_pressure);
-        let k3 = rate(p, &add(&s, &k2, 0.5 * dt), lung_pressure);
-        let k4 = rate(p, &add(&s, &k3, dt), lung_pressure);
-        s = std::array::from_fn(|i| s[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
-        record(&s, &mut run);
+    for k in 0..=steps {
+        if k > 0 {
+            m.step(dt);
+        }
+        run.area.push(m.glottal_area());
+        run.flow.push(m.flow());
+        run.x1.push(m.state[0]);
+        run.x2.push(m.state[2]);
     }
     run
 }
