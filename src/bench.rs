@@ -93,6 +93,50 @@ pub struct BenchReport {
     /// Coupled (weak, CPU): the clamped elastic cylinder of Schäfer–Turek 2D-1 at three
     /// resolutions — speed against the drag's distance from the finest run.
     pub coupled: Vec<CoupledSpeed>,
+    /// The two-mass model at 8 cmH₂O: RK4 rate against the f0 and peak-flow error.
+    pub two_mass: Vec<TwoMassSpeed>,
+}
+
+/// One RK4 rate of the two-mass speed-vs-error table.
+#[derive(Clone, Debug, Serialize)]
+pub struct TwoMassSpeed {
+    /// RK4 steps per second of simulated time (Hz).
+    pub rate_hz: f64,
+    pub steps_per_s: f64,
+    /// Wall seconds per simulated second.
+    pub wall_per_simulated_s: f64,
+    pub f0_hz: f64,
+    /// |f0 − f0(finest)| / f0(finest) and the same for the peak flow.
+    pub f0_error: f64,
+    pub peak_flow_error: f64,
+}
+
+/// The two-mass rows: 0.4 s at 8 cmH₂O with RK4 at 1, 2, 4, 8 × 44.1 kHz against 32 × 44.1 kHz.
+pub fn two_mass_speed_vs_error() -> Vec<TwoMassSpeed> {
+    use crate::analysis::voice::{VoiceOptions, voice_measures};
+    use crate::two_mass::{CM_H2O, TwoMassParams, simulate};
+    let runs: Vec<(f64, f64, crate::analysis::voice::VoiceMeasures)> = [1.0, 2.0, 4.0, 8.0, 32.0]
+        .iter()
+        .map(|k| {
+            let rate = 44_100.0 * k;
+            let steps = (0.4 * rate) as usize;
+            let t = Instant::now();
+            let run = simulate(&TwoMassParams::default(), 8.0 * CM_H2O, 1.0 / rate, steps);
+            let wall = t.elapsed().as_secs_f64();
+            (rate, wall, voice_measures(&run.flow, 1.0 / rate, &VoiceOptions::default()).expect("the standard model oscillates at 8 cmH2O"))
+        })
+        .collect();
+    let (_, _, fine) = runs.last().expect("five rates").clone();
+    runs.iter()
+        .map(|(rate, wall, m)| TwoMassSpeed {
+            rate_hz: *rate,
+            steps_per_s: 0.4 * rate / wall,
+            wall_per_simulated_s: wall / 0.4,
+            f0_hz: m.f0_autocorrelation_hz,
+            f0_error: (m.f0_autocorrelation_hz / fine.f0_autocorrelation_hz - 1.0).abs(),
+            peak_flow_error: (m.peak_flow / fine.peak_flow - 1.0).abs(),
+        })
+        .collect()
 }
 
 /// One resolution of the coupled speed-vs-error table.
@@ -138,7 +182,7 @@ pub fn coupled_speed_vs_error(quick: bool) -> Vec<CoupledSpeed> {
 }
 
 /// Parts of the benchmark, for `bench --only`.
-pub const SUITES: [&str; 4] = ["fdlb", "solid", "lattice_gas", "coupled"];
+pub const SUITES: [&str; 5] = ["fdlb", "solid", "lattice_gas", "coupled", "two_mass"];
 
 /// The CPU benchmark (every suite of [`SUITES`], or only `only`). `quick` shrinks grids for a
 /// smoke run.
@@ -179,5 +223,6 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
         Vec::new()
     };
     let coupled = if wants("coupled") { coupled_speed_vs_error(quick) } else { Vec::new() };
-    BenchReport { threads: rayon::current_num_threads(), triad_bandwidth_gb_s: bw / 1e9, lattices, speed_vs_error, solid, lattice_gas, coupled }
+    let two_mass = if wants("two_mass") { two_mass_speed_vs_error() } else { Vec::new() };
+    BenchReport { threads: rayon::current_num_threads(), triad_bandwidth_gb_s: bw / 1e9, lattices, speed_vs_error, solid, lattice_gas, coupled, two_mass }
 }

@@ -22,7 +22,7 @@ pub struct BenchArgs {
     /// Also write the report as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Only one suite: fdlb, solid or lattice_gas.
+    /// Only one suite: fdlb, solid, lattice_gas, coupled or two_mass.
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(phonation::bench::SUITES))]
     pub only: Option<String>,
 }
@@ -133,6 +133,21 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             );
             let st: Vec<String> = c.stage_shares.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
             println!("     stages: {}", st.join(", "));
+        }
+        if !r.two_mass.is_empty() {
+            println!("two-mass model (Ishizaka–Flanagan, 8 cmH₂O, 0.4 s): RK4 rate vs error (against 32 × 44.1 kHz)");
+            println!("{:>12} {:>14} {:>14} {:>10} {:>10} {:>12}", "rate (Hz)", "steps/s", "wall s/sim s", "f0 (Hz)", "f0 err", "peak err");
+        }
+        for t in &r.two_mass {
+            println!(
+                "{:>12.0} {:>14.3e} {:>14.4} {:>10.3} {:>9.4}% {:>11.4}%",
+                t.rate_hz,
+                t.steps_per_s,
+                t.wall_per_simulated_s,
+                t.f0_hz,
+                100.0 * t.f0_error,
+                100.0 * t.peak_flow_error
+            );
         }
         report.insert("cpu".into(), serde_json::to_value(&r)?);
     }
