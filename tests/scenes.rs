@@ -155,3 +155,28 @@ fn collecting_an_unfinished_sweep_says_which_jobs_are_missing() {
     assert!(!dir.join("bad/jobs").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `phonation analyze` re-measures a run's glottal_flow.csv and, given the lung pressure, puts
+/// the two-mass yardstick next to it in voice.json.
+#[test]
+fn analyze_rewrites_the_voice_outputs_with_the_two_mass_yardstick() {
+    let exe = env!("CARGO_BIN_EXE_phonation");
+    let dir = std::env::temp_dir().join(format!("phonation-analyze-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let ok = std::process::Command::new(exe).args(["run", "two_mass", "--out", dir.to_str().unwrap()]).output().unwrap();
+    assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+    std::fs::remove_file(dir.join("voice.json")).unwrap();
+    let o = std::process::Command::new(exe).args(["analyze", dir.to_str().unwrap(), "--lung-pressure", "7845.32"]).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("voice.json")).unwrap()).unwrap();
+    let f0 = v["measures"]["f0_autocorrelation_hz"].as_f64().unwrap();
+    let yard = v["two_mass_yardstick"]["measures"]["f0_autocorrelation_hz"].as_f64().unwrap();
+    // the run is the standard model at this pressure: the yardstick (a 0.4 s run) agrees
+    assert!((f0 / yard - 1.0).abs() < 1e-3, "{f0} vs {yard}");
+    // a CSV that is not uniformly sampled is refused with the reason
+    std::fs::write(dir.join("glottal_flow.csv"), "t_s,flow_cm3_s\n0,1\n0.1,2\n0.3,3\n").unwrap();
+    let bad = std::process::Command::new(exe).args(["analyze", dir.to_str().unwrap()]).output().unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("not uniformly spaced"));
+    std::fs::remove_dir_all(&dir).ok();
+}

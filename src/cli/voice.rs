@@ -20,6 +20,10 @@ pub struct AnalyzeArgs {
     pub f0_min: f64,
     #[arg(long, default_value_t = 1000.0)]
     pub f0_max: f64,
+    /// The run's lung pressure (dyn/cm²): voice.json then holds the two-mass model's measures at
+    /// that pressure ("two_mass_yardstick") for comparison.
+    #[arg(long)]
+    pub lung_pressure: Option<f64>,
 }
 
 pub fn analyze(a: AnalyzeArgs) -> anyhow::Result<()> {
@@ -30,7 +34,22 @@ pub fn analyze(a: AnalyzeArgs) -> anyhow::Result<()> {
         bail!("--f0-min/--f0-max: need 0 < min < max (got {}, {})", a.f0_min, a.f0_max);
     }
     let opts = VoiceOptions { window_fraction: a.window, f0_range: F0Range { min_hz: a.f0_min, max_hz: a.f0_max }, ..VoiceOptions::default() };
-    let r = phonation::output::voice::analyze_dir(&a.dir, &opts)?;
+    let extra = match a.lung_pressure {
+        Some(p) if !p.is_finite() || p.abs() > 1e6 => bail!("--lung-pressure: {p} is not a pressure in dyn/cm² within ±10⁶"),
+        Some(p) => {
+            let y = phonation::run::two_mass::yardstick(p);
+            match &y {
+                Some(m) => println!(
+                    "two-mass yardstick at {p} dyn/cm²: f0 {:.2} Hz, peak flow {:.1} cm³/s, OQ {:.3}",
+                    m.f0_autocorrelation_hz, m.peak_flow, m.open_quotient
+                ),
+                None => println!("two-mass yardstick at {p} dyn/cm²: below its phonation threshold"),
+            }
+            serde_json::json!({ "two_mass_yardstick": { "lung_pressure_dyn_cm2": p, "measures": y } })
+        }
+        None => serde_json::json!({}),
+    };
+    let r = phonation::output::voice::analyze_dir(&a.dir, &opts, extra)?;
     print_voice(&r);
     for f in &r.files {
         println!("wrote {}", f.display());

@@ -258,8 +258,13 @@ fn line_plot(path: &Path, title: &str, x_desc: &str, y_desc: &str, pts: &[(f64, 
     Ok(path.to_path_buf())
 }
 
-/// `phonation analyze DIR`: read `DIR/glottal_flow.csv` and (re)write the voice outputs.
-pub fn analyze_dir(dir: &Path, opts: &VoiceOptions) -> anyhow::Result<VoiceReport> {
+/// `phonation analyze DIR`: read `DIR/glottal_flow.csv` and (re)write the voice outputs, with
+/// `extra` (an object) merged into voice.json.
+pub fn analyze_dir(dir: &Path, opts: &VoiceOptions, extra: serde_json::Value) -> anyhow::Result<VoiceReport> {
     let s = read_glottal_csv(&dir.join("glottal_flow.csv"))?;
-    write_voice_outputs(dir, &s, opts, serde_json::json!({ "analysed_from": dir.join("glottal_flow.csv") }))
+    let mut more = serde_json::json!({ "analysed_from": dir.join("glottal_flow.csv") });
+    if let (Some(m), serde_json::Value::Object(e)) = (more.as_object_mut(), extra) {
+        m.extend(e);
+    }
+    write_voice_outputs(dir, &s, opts, more)
 }

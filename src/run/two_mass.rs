@@ -114,7 +114,7 @@ mod tests {
         let f0_audio = crate::analysis::pitch::f0_autocorrelation(&samples, 1.0 / 44_100.0, Default::default()).unwrap();
         assert!((f0_audio / f0 - 1.0).abs() < 0.005, "audio f0 {f0_audio} vs {f0}");
         // `analyze` on the written CSV gives the same measures
-        let again = crate::output::voice::analyze_dir(&dir, &sc.file.analysis.options()).unwrap();
+        let again = crate::output::voice::analyze_dir(&dir, &sc.file.analysis.options(), serde_json::json!({})).unwrap();
         let m = again.measures.unwrap();
         assert!((m.f0_autocorrelation_hz / f0 - 1.0).abs() < 1e-6 && (m.peak_flow / r.peak_flow.unwrap() - 1.0).abs() < 1e-6);
         std::fs::remove_dir_all(&dir).ok();
