@@ -26,6 +26,9 @@ pub enum ReferenceShape {
     Box { min: DVec3, max: DVec3 },
     /// Disc (2D) of `radius` about `centre`.
     Disc { centre: DVec3, radius: f64 },
+    /// A closed polygon (2D, x–y; the last vertex joins the first), e.g. the vocal-fold section
+    /// of [`crate::solid::fold::FoldSection::outline`] with its arcs cut finely.
+    Outline(Vec<DVec3>),
 }
 
 impl ReferenceShape {
@@ -55,6 +58,20 @@ impl ReferenceShape {
                 let mut d = x - *centre;
                 d.z = 0.0;
                 ((d.length() - radius).abs() <= spacing).then(|| *centre + d.normalize_or(DVec3::X) * *radius)
+            }
+            ReferenceShape::Outline(v) => {
+                // the nearest point of the polygon's edges
+                let n = v.len();
+                let p = DVec3::new(x.x, x.y, 0.0);
+                let nearest = (0..n)
+                    .map(|i| {
+                        let (a, b) = (DVec3::new(v[i].x, v[i].y, 0.0), DVec3::new(v[(i + 1) % n].x, v[(i + 1) % n].y, 0.0));
+                        let ab = b - a;
+                        let t = if ab.length_squared() > 0.0 { ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0) } else { 0.0 };
+                        a + t * ab
+                    })
+                    .min_by(|a, b| (*a - p).length_squared().total_cmp(&(*b - p).length_squared()))?;
+                ((nearest - p).length() <= spacing).then_some(DVec3::new(nearest.x, nearest.y, x.z))
             }
         }
     }
@@ -194,6 +211,37 @@ mod tests {
         for c in [lo, hi, DVec3::new(hi.x, lo.y, 0.0), DVec3::new(lo.x, hi.y, 0.0)] {
             assert!(pts.iter().any(|q| (*q - c).length() < 1e-12), "corner {c} is a vertex");
         }
+    }
+
+    /// The vocal-fold section of seed Fig. 3.9 as a coupled body: its surface particles land on
+    /// the outline and the surface polygon encloses the section's area.
+    #[test]
+    fn a_vocal_fold_surface_lies_on_its_outline() {
+        use crate::solid::fold::FoldSection;
+        let f = FoldSection::default();
+        let l0 = 0.0042;
+        let fold = f.sample(l0, 2.0 * l0);
+        let mut p = Particles::new(2, l0);
+        for (q, side) in fold.position.iter().zip(&fold.side) {
+            if *side > 0 {
+                p.push(DVec3::new(q[0], q[1], 0.0), 1.043, 0, 0, false);
+            }
+        }
+        let outline: Vec<DVec3> = f.outline(64).iter().map(|q| DVec3::new(q[0], q[1], 0.0)).collect();
+        let s = BodySurface::build(&p, 0, &ReferenceShape::Outline(outline.clone())).unwrap();
+        let pts = s.points(&p);
+        let on_outline = |q: DVec3| {
+            let n = outline.len();
+            (0..n).any(|i| {
+                let (a, b) = (outline[i], outline[(i + 1) % n]);
+                let ab = b - a;
+                let t = ((q - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
+                (a + t * ab - q).length() < 1e-12
+            })
+        };
+        assert!(pts.iter().all(|q| on_outline(*q)));
+        let area = polygon_area(&pts);
+        assert!((area / f.area() - 1.0).abs() < 0.01, "surface polygon {area} vs section {}", f.area());
     }
 
     #[test]
