@@ -332,9 +332,9 @@ fn block_on_a_slope_sticks_below_and_slides_above_the_friction_angle() {
 
 #[test]
 fn solid_scenes_validate_and_bad_input_names_the_field() {
-    use phonation::scene::solid::{SolidScene, is_solid_scene, run_solid_scene};
+    use phonation::scene::solid::{SolidScene, run_solid_scene};
     for (name, text) in phonation::scene::SOLID_BUILTIN {
-        assert!(is_solid_scene(text), "{name}");
+        assert_eq!(phonation::scene::SceneKind::of(text), phonation::scene::SceneKind::Solid, "{name}");
         let sc = SolidScene::parse(text).unwrap_or_else(|e| panic!("{name}: {e}"));
         let s = sc.build().unwrap_or_else(|e| panic!("{name}: {e}"));
         println!("{name}: {} particles (estimated {}), Δt {:.3e}, explicit limit {:.3e}", s.particles.len(), sc.estimated_particles, s.dt, s.explicit_limit);

@@ -64,9 +64,8 @@ fn step_two_mass(steps: Res<StepsThisFrame>, mut sims: Query<(Entity, &mut TwoMa
                 sim.flow.pop_front();
             }
         }
-        let window: Vec<f64> = sim.flow.iter().copied().collect();
         let opts = VoiceOptions { window_fraction: 1.0, ..VoiceOptions::default() };
-        let (measures, no_voice) = match voice_measures(&window, sim.dt, &opts) {
+        let (measures, no_voice) = match voice_measures(sim.flow.make_contiguous(), sim.dt, &opts) {
             Ok(m) => (Some(m), None),
             Err(e) => (None, Some(e.to_string())),
         };

@@ -74,8 +74,14 @@ pub fn run_two_mass_scene(sc: &TwoMassScene, dir: &Path) -> anyhow::Result<TwoMa
 /// after 0.4 s at 176.4 kHz, for "two-mass f0 at this pressure" next to a 2D/3D glottis.
 /// `None` below the phonation threshold.
 pub fn yardstick(lung_pressure: f64) -> Option<VoiceMeasures> {
-    let dt = 1.0 / 176_400.0;
-    let run = simulate(&TwoMassParams::default(), lung_pressure, dt, (0.4 / dt) as usize);
+    standard_voice(lung_pressure, 176_400.0, 0.4)
+}
+
+/// The standard model's voice measures (default options) after `duration` s from rest at the
+/// lung pressure (dyn/cm²), RK4 at `rate` Hz; `None` when it does not oscillate.
+pub fn standard_voice(lung_pressure: f64, rate: f64, duration: f64) -> Option<VoiceMeasures> {
+    let dt = 1.0 / rate;
+    let run = simulate(&TwoMassParams::default(), lung_pressure, dt, (duration / dt) as usize);
     voice_measures(&run.flow, dt, &VoiceOptions::default()).ok()
 }
 

@@ -70,11 +70,6 @@ fn err<T>(field: impl Into<String>, reason: impl Into<String>) -> Result<T, Scen
     Err(SceneError { field: field.into(), reason: reason.into() })
 }
 
-/// Whether a scene text has a `[coupling]` table.
-pub fn is_coupled_scene(text: &str) -> bool {
-    toml::from_str::<toml::Table>(text).map(|t| t.contains_key("coupling")).unwrap_or(false)
-}
-
 impl CoupledScene {
     pub fn parse(text: &str) -> Result<Self, SceneError> {
         let mut table: toml::Table = toml::from_str(text).map_err(|e| SceneError::from_toml("scene", &e, text))?;
@@ -220,7 +215,10 @@ mod tests {
     #[test]
     fn the_built_in_coupled_scene_builds_and_runs() {
         let sc = CoupledScene::parse(builtin()).unwrap();
-        assert!(is_coupled_scene(builtin()) && !is_coupled_scene(crate::scene::BUILTIN[0].1));
+        assert!(
+            crate::scene::SceneKind::of(builtin()) == crate::scene::SceneKind::Coupled
+                && crate::scene::SceneKind::of(crate::scene::BUILTIN[0].1) != crate::scene::SceneKind::Coupled
+        );
         let mut c = sc.build().unwrap();
         // D = 0.1 m at l₀ = 0.005 m: a disc of ≈ π·10² particles, one surface polygon.
         assert!((300..330).contains(&c.solid.particles.len()), "{}", c.solid.particles.len());

@@ -218,11 +218,6 @@ impl LatticeGasScene {
     }
 }
 
-/// Is this scene text a lattice-gas scene (has a `[lattice_gas]` table)?
-pub fn is_lattice_gas_scene(text: &str) -> bool {
-    toml::from_str::<toml::Table>(text).map(|t| t.contains_key("lattice_gas")).unwrap_or(false)
-}
-
 /// Mean velocity (X, Y; ℓ/step) of the fluid sites of the cells within a square of half-width
 /// `half` ℓ around `at` (ℓ), over all Z.
 pub fn region_velocity(g: &LatticeGas, at: [f64; 2], half: f64) -> [f64; 2] {
@@ -414,10 +409,10 @@ probe_every = 5
     fn bad_input_is_refused_with_the_field_and_the_reason() {
         assert!(LatticeGasScene::parse(SMALL).is_ok());
         for (name, text) in crate::scene::LATTICE_GAS_BUILTIN {
-            assert!(is_lattice_gas_scene(text));
+            assert_eq!(crate::scene::SceneKind::of(text), crate::scene::SceneKind::LatticeGas);
             LatticeGasScene::parse(text).unwrap_or_else(|e| panic!("{name}: {e}"));
         }
-        assert!(!is_lattice_gas_scene(crate::scene::BUILTIN[0].1));
+        assert_ne!(crate::scene::SceneKind::of(crate::scene::BUILTIN[0].1), crate::scene::SceneKind::LatticeGas);
         let cases = [
             ("interference = 0.1", "interference = 1.5", "lattice_gas.interference", "[0, 1]"),
             ("interference = 0.1", "interference = -0.01", "lattice_gas.interference", "[0, 1]"),

@@ -564,8 +564,3 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend:
     std::fs::write(dir.join("summary.json"), serde_json::to_string_pretty(&report)?)?;
     Ok(report)
 }
-
-/// Is this scene text a solid scene (has a `[solid]` table)?
-pub fn is_solid_scene(text: &str) -> bool {
-    toml::from_str::<toml::Table>(text).map(|t| t.contains_key("solid")).unwrap_or(false)
-}

@@ -99,11 +99,6 @@ pub struct TwoMassScene {
     pub steps: usize,
 }
 
-/// Whether a scene text is a two-mass scene (has a `[two_mass]` table).
-pub fn is_two_mass_scene(text: &str) -> bool {
-    toml::from_str::<toml::Table>(text).map(|t| t.contains_key("two_mass")).unwrap_or(false)
-}
-
 impl TwoMassScene {
     pub fn parse(text: &str) -> Result<Self, SceneError> {
         let file: TwoMassSceneFile = toml::from_str(text).map_err(|e| SceneError::from_toml("two_mass", &e, text))?;
@@ -149,8 +144,9 @@ mod tests {
         let sc = TwoMassScene::parse(crate::scene::builtin("two_mass").unwrap()).unwrap();
         assert_eq!(sc.file.two_mass.params, TwoMassParams::default());
         assert!((sc.file.two_mass.lung_pressure / crate::two_mass::CM_H2O - 8.0).abs() < 1e-3);
-        assert!(is_two_mass_scene(crate::scene::builtin("two_mass").unwrap()));
-        assert!(!is_two_mass_scene(crate::scene::BUILTIN[0].1));
+        use crate::scene::SceneKind;
+        assert_eq!(SceneKind::of(crate::scene::builtin("two_mass").unwrap()), SceneKind::TwoMass);
+        assert_ne!(SceneKind::of(crate::scene::BUILTIN[0].1), SceneKind::TwoMass);
     }
 
     #[test]

@@ -82,10 +82,9 @@ pub struct FoldParticles {
     pub layer: Vec<Layer>,
     pub fixed: Vec<bool>,
     pub side: Vec<i8>,
-    /// Cover thickness on the particles (cm): the depth of the deepest cover particle.
+    /// Cover thickness on the particles (cm): the depth of the deepest cover particle (the
+    /// continuous section's is [`FoldSection::cover_thickness`]).
     pub cover_thickness: f64,
-    /// The same thickness for the continuous section ([`FoldSection::cover_thickness`]).
-    pub continuous_cover_thickness: f64,
 }
 
 /// A rounded corner: centre, radius, start and end angles of its arc.
@@ -181,6 +180,12 @@ impl FoldSection {
 
     /// Whether (lateral, vertical) lies in the right fold.
     pub fn contains(&self, p: [f64; 2]) -> bool {
+        self.contains_with(&self.fillets(), p)
+    }
+
+    /// [`Self::contains`] with the corners' fillets computed once by the caller (the samplers
+    /// test every lattice point).
+    fn contains_with(&self, (f1, f2): &(Fillet, Fillet), p: [f64; 2]) -> bool {
         let m = self.medial();
         if p[0] < m || p[0] > m + self.width || p[1] < 0.0 || p[1] > self.height {
             return false;
@@ -190,8 +195,7 @@ impl FoldSection {
         if (x1 - x0) * (p[1] - y0) - (y1 - y0) * (p[0] - x0) > 0.0 && p[1] < y1 {
             return false;
         }
-        let (f1, f2) = self.fillets();
-        for f in [&f1, &f2] {
+        for f in [f1, f2] {
             if in_corner_region(f, p) && dist(p, f.centre) > f.radius {
                 return false;
             }
@@ -218,13 +222,14 @@ impl FoldSection {
     /// fold: 4.7 particle spacings of 0.0042 cm).
     pub fn cover_thickness(&self, spacing: f64) -> f64 {
         let outline = self.outline(64);
+        let fillets = self.fillets();
         let h = spacing / 4.0;
         let m = self.medial();
         let (nx, nz) = ((self.width / h).ceil() as usize, (self.height / h).ceil() as usize);
         let depths: Vec<f64> = (0..nx * nz)
             .filter_map(|k| {
                 let p = [m + (k % nx) as f64 * h + 0.5 * h, (k / nx) as f64 * h + 0.5 * h];
-                self.contains(p).then(|| self.depth(p, &outline))
+                self.contains_with(&fillets, p).then(|| self.depth(p, &outline))
             })
             .collect();
         let (mut lo, mut hi) = (0.0, self.width.min(self.height));
@@ -247,12 +252,13 @@ impl FoldSection {
         let m = self.medial();
         let xl = m + self.width;
         let outline = self.outline(64);
+        let fillets = self.fillets();
         let (nx, nz) = ((self.width / spacing).ceil() as usize, (self.height / spacing).ceil() as usize);
         let mut right = Vec::new();
         for j in 0..nz {
             for i in 0..nx {
                 let p = [m + (i as f64 + 0.5) * spacing, (j as f64 + 0.5) * spacing];
-                if self.contains(p) {
+                if self.contains_with(&fillets, p) {
                     right.push(p);
                 }
             }
@@ -271,7 +277,7 @@ impl FoldSection {
             is_cover[i] = true;
         }
         let cover = depth[order[k - 1]];
-        let mut out = FoldParticles { cover_thickness: cover, continuous_cover_thickness: self.cover_thickness(spacing), ..Default::default() };
+        let mut out = FoldParticles { cover_thickness: cover, ..Default::default() };
         for side in [-1i8, 1] {
             for (p, c) in right.iter().zip(&is_cover) {
                 out.position.push([side as f64 * p[0], p[1]]);
@@ -473,8 +479,9 @@ mod tests {
         // the cover runs along the medial surface: the particles nearest the mid-line are cover
         assert!(p.position.iter().zip(&p.layer).filter(|(q, _)| q[0].abs() < f.gap / 2.0 + l0).all(|(_, l)| *l == Layer::Cover));
         // the particles' cover is as thick as the continuous section's, to within half a spacing
-        assert!((p.cover_thickness - p.continuous_cover_thickness).abs() < 0.5 * l0, "cover {} vs {}", p.cover_thickness, p.continuous_cover_thickness);
-        assert!((p.continuous_cover_thickness - 0.0198).abs() < 0.001, "{}", p.continuous_cover_thickness);
+        let continuous = f.cover_thickness(l0);
+        assert!((p.cover_thickness - continuous).abs() < 0.5 * l0, "cover {} vs {continuous}", p.cover_thickness);
+        assert!((continuous - 0.0198).abs() < 0.001, "{continuous}");
     }
 
     #[test]

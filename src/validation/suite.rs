@@ -127,11 +127,7 @@ pub fn cases() -> Vec<Case> {
             // the scheme first order at the switching instants, so the test is the spread).
             let runs: Vec<(f64, crate::analysis::voice::VoiceMeasures)> = [2.0, 4.0, 16.0]
                 .iter()
-                .map(|k| {
-                    let dt = 1.0 / (44_100.0 * k);
-                    let run = crate::two_mass::simulate(&crate::two_mass::TwoMassParams::default(), 8.0 * crate::two_mass::CM_H2O, dt, (0.4 / dt) as usize);
-                    (*k, crate::analysis::voice::voice_measures(&run.flow, dt, &Default::default()).expect("oscillates"))
-                })
+                .map(|k| (*k, crate::run::two_mass::standard_voice(8.0 * crate::two_mass::CM_H2O, 44_100.0 * k, 0.4).expect("oscillates")))
                 .collect();
             let fine = &runs[2].1;
             runs[..2]
