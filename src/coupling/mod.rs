@@ -7,11 +7,13 @@
 //! | [`traction`] | the air's traction on surface pieces, spread to the particles | 2.110–2.113 |
 //! | [`motion`] | bodies with a prescribed rigid motion | — |
 //! | [`weak`] | method 1: weak coupling, moving ghost-node walls, explicit solid sub-steps | §2.4.1 |
+//! | [`glottis`] | glottal gap, area, flow through the narrowest section, margin displacements | §3.4.1 |
 //! | [`level_set`] | method 2's geometry: level set from the particles, crossings, normals | 2.124–2.126 |
 //!
 //! Method 2 (the momentum-conserving coupling, §2.4.2) has its geometry ([`level_set`]); the
 //! momentum exchange, added mass and outgoing populations (2.127–2.133) are not built yet.
 
+pub mod glottis;
 pub mod level_set;
 pub mod motion;
 pub mod surface;

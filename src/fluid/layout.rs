@@ -172,7 +172,14 @@ impl Layout {
                     let wall = [p[0] - d * nrm[0], p[1] - d * nrm[1], p[2] - d * nrm[2]];
                     let d_img = (-d).max(1.0);
                     let img = [wall[0] + d_img * nrm[0], wall[1] + d_img * nrm[1], wall[2] + d_img * nrm[2]];
-                    let image = interpolation_stencil(&grid, img, &fluid_at);
+                    let mut image = interpolation_stencil(&grid, img, &fluid_at);
+                    if image.is_empty() {
+                        // The image point fell where no fluid is near (a body that crosses a
+                        // face wall: the nearest surface of a node beyond the wall can face away
+                        // from the fluid): the nearest fluid node to the ghost itself, which is
+                        // within two cells along an axis by the definition of a ghost.
+                        image = interpolation_stencil(&grid, p, &fluid_at);
+                    }
                     // Wall velocity: tangential part only for face walls (a lid), full for obstacles.
                     let mut v = o.velocity_at(wall);
                     if let Shape::HalfSpace { normal, .. } = &o.shape {

@@ -239,4 +239,26 @@ mod tests {
         }
         s.step().expect("stays stable after the move");
     }
+
+    #[test]
+    fn a_body_through_a_face_wall_gives_every_ghost_a_fluid_image() {
+        // A fold-like block clamped beyond the x_min wall: its ghosts beyond the wall are
+        // nearest to its lateral face, whose image point lies outside the fluid.
+        let eq = Equilibrium::new(VelocitySet::new(VelocitySetKind::D2q21), GasModel::Monatomic);
+        let params = timestep::choose(0.05, 0.6, eq.set.max_l1_speed(), None, timestep::DEFAULT_COURANT_SAFETY).unwrap();
+        let mut b = Boundaries::periodic();
+        b.faces[0] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
+        b.faces[1] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
+        let block = Polygon::new(vec![[-1.47, 6.3], [9.6, 6.3], [9.6, 12.4], [-1.47, 12.4]], vec![[0.0; 3]; 4]);
+        let o = Obstacle { shape: Shape::Polygon(block), velocity: [0.0; 3], temperature: None };
+        let mut s = FluidSolver::new(eq, Grid::new(2, [24, 24, 1]), b, &[o], params, |_| Macro { rho: 1.0, u: [0.0; 3], theta: 0.6 });
+        assert!(!s.layout.ghosts.is_empty());
+        for g in &s.layout.ghosts {
+            let w: f64 = g.image.iter().map(|(_, w)| w).sum();
+            assert!((w - 1.0).abs() < 1e-12, "ghost {:?} has image weights summing to {w}", s.layout.grid.coords(g.node));
+        }
+        for _ in 0..20 {
+            s.step().expect("finite next to the junction of the body and the wall");
+        }
+    }
 }

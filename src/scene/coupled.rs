@@ -18,7 +18,8 @@
 
 use super::build::{FluidScene, SceneError};
 use super::schema::SceneFile;
-use super::solid::{BodySpec, SolidRun, SolidScene, SolidSceneFile, SolidSpec, vec3};
+use super::solid::{BodySpec, FoldBodySpec, FoldSide, SolidRun, SolidScene, SolidSceneFile, SolidSpec, vec3};
+use crate::coupling::glottis::Glottis;
 use crate::coupling::{BodySurface, CoupledBody, Motion, ReferenceShape, TractionModel, WeakCoupling, WeakOptions};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
@@ -127,12 +128,13 @@ impl CoupledScene {
         }
         let size = &fluid.file.domain.size;
         for (k, b) in s.bodies.iter().enumerate() {
-            let (lo, hi) = body_bounds(b, dim);
+            let (lo, hi) = body_bounds(b, dim, s.spacing);
+            let what = if b.fold.is_some() { "its free part (all but the clamped lateral strip)" } else { "it" };
             for a in 0..dim {
                 if lo[a] < 0.0 || hi[a] > size[a] {
                     return err(
                         format!("solid.bodies[{k}]"),
-                        format!("extends over [{}, {}] along axis {a}, outside the domain [0, {}]", lo[a], hi[a], size[a]),
+                        format!("{what} extends over [{}, {}] along axis {a}, outside the domain [0, {}]", lo[a], hi[a], size[a]),
                     );
                 }
             }
@@ -187,9 +189,42 @@ impl CoupledScene {
     }
 }
 
-/// The bounding box of a validated body of a `dim`-dimensional solid.
-fn body_bounds(b: &BodySpec, dim: usize) -> (DVec3, DVec3) {
+impl CoupledScene {
+    /// The glottis when the solid has exactly one left and one right fold about the same
+    /// mid-line: glottal gap, flow and margins are then sampled during a run.
+    pub fn glottis(&self, c: &WeakCoupling) -> Option<Glottis> {
+        let folds: Vec<(usize, &FoldBodySpec)> = self.solid.file.solid.bodies.iter().enumerate().filter_map(|(k, b)| b.fold.as_ref().map(|f| (k, f))).collect();
+        let [(a, fa), (b, fb)] = folds[..] else { return None };
+        let ((l, _), (r, fr)) = match (fa.side, fb.side) {
+            (FoldSide::Left, FoldSide::Right) => ((a, fa), (b, fb)),
+            (FoldSide::Right, FoldSide::Left) => ((b, fb), (a, fa)),
+            _ => return None,
+        };
+        if fa.origin[0] != fb.origin[0] {
+            return None;
+        }
+        let sec = &fr.section;
+        let m = 0.5 * sec.gap;
+        let lower = fr.to_scene([m, sec.height - sec.t2]);
+        let upper = fr.to_scene([m, sec.height]);
+        Some(Glottis::new(c, l, r, fr.origin[0], sec.length, lower, upper))
+    }
+
+    /// The lung pressure: the gauge pressure of the inlet on the tracheal face (y_min), if any.
+    pub fn lung_pressure(&self) -> Option<f64> {
+        match self.fluid.file.boundaries.y_min {
+            crate::scene::schema::FaceSpec::PressureInlet { pressure, .. } => Some(pressure),
+            _ => None,
+        }
+    }
+}
+
+/// The bounding box of a validated body of a `dim`-dimensional solid (of a fold: its free part).
+fn body_bounds(b: &BodySpec, dim: usize, spacing: f64) -> (DVec3, DVec3) {
     let v = |a: &[f64]| vec3("", a, dim, false).expect("validated");
+    if let Some(f) = &b.fold {
+        return f.free_bounds(spacing);
+    }
     match b.radius {
         Some(r) => (v(&b.center) - DVec3::splat(r), v(&b.center) + DVec3::splat(r)),
         None => (v(&b.min), v(&b.max)),
@@ -198,6 +233,9 @@ fn body_bounds(b: &BodySpec, dim: usize) -> (DVec3, DVec3) {
 
 fn reference_shape(b: &BodySpec, dim: usize) -> ReferenceShape {
     let v = |a: &[f64]| vec3("", a, dim, false).expect("validated");
+    if let Some(f) = &b.fold {
+        return ReferenceShape::Outline(f.outline());
+    }
     match b.radius {
         Some(r) => ReferenceShape::Disc { centre: v(&b.center), radius: r },
         None => ReferenceShape::Box { min: v(&b.min), max: v(&b.max) },
@@ -253,5 +291,135 @@ mod tests {
         let text = builtin().replacen("[run]", "[[obstacles]]\nshape = \"cylinder\"\ncenter = [0.2, 0.2]\nradius = 0.08\n\n[run]", 1);
         let e = CoupledScene::parse(&text).unwrap().build().err().expect("overlap refused");
         assert_eq!(e.field, "solid.bodies[0]", "{e}");
+    }
+
+    fn glottis_text(name: &str) -> &'static str {
+        crate::scene::builtin(name).unwrap()
+    }
+
+    #[test]
+    fn the_glottis_scenes_carry_the_seed_folds_and_titze_cases() {
+        use crate::solid::fold::{BodyCoverCase, FoldSection};
+        for (name, case) in
+            [("glottis_2d_a", BodyCoverCase::A), ("glottis_2d_b", BodyCoverCase::B), ("glottis_2d_c", BodyCoverCase::C), ("glottis_2d_d", BodyCoverCase::D)]
+        {
+            let sc = CoupledScene::parse(glottis_text(name)).unwrap();
+            let s = &sc.solid.file.solid;
+            // body = material 0, cover = material 1, in-plane E and ν = 0.97, fibre decoupled
+            let (cover, body) = case.young();
+            assert_eq!((s.materials.len(), sc.solid.materials[0].young[0], sc.solid.materials[1].young[0]), (2, body, cover), "{name}");
+            for m in &sc.solid.materials {
+                assert_eq!(m.poisson, [0.97, 0.0, 0.0], "{name}");
+                assert!((m.shear[2] - m.young[0] / (2.0 * 1.97)).abs() < 1e-3 * m.shear[2], "{name}: G_xy = E/(2(1+ν))");
+                assert_eq!((m.density, m.viscosity), (1.043, 5.0), "{name}");
+            }
+            for b in &s.bodies {
+                let f = b.fold.as_ref().unwrap();
+                assert_eq!((&f.section, f.cover_material, b.material), (&FoldSection::default(), 1, 0), "{name}");
+            }
+            assert_eq!(sc.lung_pressure(), Some(8000.0), "{name}");
+            assert_eq!((sc.fluid.grid.n[0], sc.fluid.grid.n[1]), (124, 128), "{name}");
+        }
+    }
+
+    #[test]
+    fn the_glottis_builds_two_folds_with_their_layers_clamps_and_gap() {
+        let sc = CoupledScene::parse(glottis_text("glottis_2d_coarse")).unwrap();
+        let c = sc.build().unwrap();
+        let p = &c.solid.particles;
+        let section = crate::solid::fold::FoldSection::default();
+        let l0 = p.spacing;
+        // each fold holds its section's area in particles of l₀² (within the lattice sampling's 2 %)
+        let expected = 2.0 * section.area() / (l0 * l0);
+        assert!((p.len() as f64 / expected - 1.0).abs() < 0.02, "{} particles, expected {expected:.0}", p.len());
+        // the cover (material 1) is 1/9 of each fold
+        let cover = p.material.iter().filter(|m| **m == 1).count() as f64 / p.len() as f64;
+        assert!((cover - 1.0 / 9.0).abs() < 0.01, "cover fraction {cover}");
+        // the clamped particles are those within fixed_depth = 0.025 cm of a lateral face (x₀ ± (G/2 + width))
+        let x0 = 1.513671875 / 2.0;
+        let lateral = 0.5 * section.gap + section.width;
+        for i in 0..p.len() {
+            let depth = lateral - (p.reference[i].x - x0).abs();
+            assert_eq!(p.fixed[i], depth < 0.025, "particle {i} at depth {depth}");
+        }
+        assert!(p.fixed.iter().any(|f| *f));
+        // the left fold mirrors the right one
+        let (l, r): (Vec<usize>, Vec<usize>) = (0..p.len()).partition(|&i| p.body[i] == 0);
+        assert_eq!(l.len(), r.len());
+        assert!(l.iter().all(|&i| p.reference[i].x < x0) && r.iter().all(|&i| p.reference[i].x > x0));
+        // the glottis: the seed's initial gap G = 0.021 cm at the medial surface, no flow at rest,
+        // margins at rest
+        let g = sc.glottis(&c).expect("two folds make a glottis");
+        let s = g.sample(&c);
+        assert!((s.gap - section.gap).abs() < 1e-9, "gap {}", s.gap);
+        assert!((s.area - section.gap * section.length).abs() < 1e-9, "area {}", s.area);
+        assert!(s.narrowest_y > 0.45 + section.height - section.t2 - 1e-9 && s.narrowest_y < 0.45 + section.height + 1e-9, "narrowest at {}", s.narrowest_y);
+        assert_eq!((s.flow, s.lower_margin, s.upper_margin), (0.0, 0.0, 0.0));
+        // the lower margin sits at the foot of the vertical medial surface, the upper one at its top
+        for (k, want) in [(g.lower_margin[1], 0.45 + section.height - section.t2), (g.upper_margin[1], 0.45 + section.height)] {
+            assert!((p.reference[k].y - want).abs() < 1.5 * l0, "margin particle at {:?}, expected y ≈ {want}", p.reference[k]);
+        }
+    }
+
+    #[test]
+    fn the_glottal_flow_is_the_volume_flux_through_the_narrowest_section() {
+        // Air moving up at a uniform 1000 cm/s with density ρ₀ (1.02 ρ₀): the probe reads
+        // u × (the fluid nodes' width between the folds) × the fold length (× 1.02).
+        let text = glottis_text("glottis_2d_a").replace("spacing = 0.006103515625", "spacing = 0.0042");
+        let sc = CoupledScene::parse(&text).unwrap();
+        let mut c = sc.build().unwrap();
+        let g = sc.glottis(&c).unwrap();
+        let u = c.units;
+        let before = g.sample(&c);
+        let row = u.position_to_lattice(before.narrowest_y).round() as i64;
+        let grid = c.fluid.layout.grid.clone();
+        let open: usize = (0..grid.n[0] as i64).filter(|&i| c.fluid.layout.kind[grid.index([i, row, 0])] == crate::fluid::layout::NodeKind::Fluid).count();
+        assert!(open >= 1, "the 0.021 cm gap holds {open} nodes of {} cm", u.dx);
+        for rho in [1.0, 1.02] {
+            let theta = u.theta0;
+            let uy = u.velocity_to_lattice(1000.0);
+            c.fluid.initialise(|_| crate::fluid::Macro { rho, u: [0.0, uy, 0.0], theta });
+            let s = g.sample(&c);
+            let want = rho * 1000.0 * open as f64 * u.dx * 1.4;
+            assert!((s.flow - want).abs() < 1e-9 * want, "flow {} vs {want}", s.flow);
+        }
+    }
+
+    #[test]
+    fn bad_fold_bodies_are_refused_with_the_field() {
+        let base = glottis_text("glottis_2d_coarse");
+        let left = "{ fold = { side = \"left\", origin = [0.7568359375, 0.45], cover_material = 1, fixed_depth = 0.025 }, material = 0 }";
+        assert!(base.contains(left));
+        let cases: [(&str, &str); 6] = [
+            (
+                "{ fold = { side = \"left\", origin = [0.7568359375, 0.45], cover_material = 1, fixed_depth = 0.025 }, material = 0, radius = 0.1 }",
+                "solid.bodies[0].fold",
+            ),
+            (
+                "{ fold = { side = \"left\", origin = [0.7568359375, 0.45], cover_material = 5, fixed_depth = 0.025 }, material = 0 }",
+                "solid.bodies[0].fold.cover_material",
+            ),
+            (
+                "{ fold = { side = \"left\", origin = [0.7568359375, 0.45], cover_material = 1, fixed_depth = 0.025, section = { t2 = 0.6 } }, material = 0 }",
+                "solid.bodies[0].fold.section.t2",
+            ),
+            ("{ fold = { side = \"left\", origin = [0.7568359375], cover_material = 1, fixed_depth = 0.025 }, material = 0 }", "solid.bodies[0].fold.origin"),
+            // the free part of the fold would reach past the domain's side wall
+            ("{ fold = { side = \"left\", origin = [0.7, 0.45], cover_material = 1, fixed_depth = 0.025 }, material = 0 }", "solid.bodies[0]"),
+            (
+                "{ fold = { side = \"left\", origin = [0.7568359375, 0.45], cover_material = 1, fixed_depth = 0.9 }, material = 0 }",
+                "solid.bodies[0].fold.fixed_depth",
+            ),
+        ];
+        for (to, field) in cases {
+            let e = CoupledScene::parse(&base.replacen(left, to, 1)).err().unwrap_or_else(|| panic!("{to} accepted"));
+            assert_eq!(e.field, field, "{to}: {e}");
+        }
+        // particles coarser than the cover layer (≈ 0.02 cm)
+        let e = CoupledScene::parse(&base.replace("spacing = 0.01220703125", "spacing = 0.024")).err().unwrap();
+        assert_eq!(e.field, "solid.spacing", "{e}");
+        // the seed's cm defaults in an SI scene
+        let e = CoupledScene::parse(&base.replace("units = \"cgs\"", "units = \"si\"")).err().unwrap();
+        assert_eq!(e.field, "solid.bodies[0].fold.section", "{e}");
     }
 }

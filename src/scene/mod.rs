@@ -35,7 +35,14 @@ pub const SOLID_BUILTIN: &[(&str, &str)] = &[
 ];
 
 /// Built-in coupled (fluid–structure) scenes.
-pub const COUPLED_BUILTIN: &[(&str, &str)] = &[("fsi_cylinder", include_str!("../../assets/scenes/coupled/fsi_cylinder.toml"))];
+pub const COUPLED_BUILTIN: &[(&str, &str)] = &[
+    ("fsi_cylinder", include_str!("../../assets/scenes/coupled/fsi_cylinder.toml")),
+    ("glottis_2d_a", include_str!("../../assets/scenes/glottis/glottis_2d_a.toml")),
+    ("glottis_2d_b", include_str!("../../assets/scenes/glottis/glottis_2d_b.toml")),
+    ("glottis_2d_c", include_str!("../../assets/scenes/glottis/glottis_2d_c.toml")),
+    ("glottis_2d_d", include_str!("../../assets/scenes/glottis/glottis_2d_d.toml")),
+    ("glottis_2d_coarse", include_str!("../../assets/scenes/glottis/glottis_2d_coarse.toml")),
+];
 
 /// Built-in two-mass (Ishizaka–Flanagan) scenes.
 pub const TWO_MASS_BUILTIN: &[(&str, &str)] = &[("two_mass", include_str!("../../assets/scenes/two_mass/two_mass.toml"))];

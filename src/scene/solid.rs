@@ -4,6 +4,7 @@
 //! Every check runs before anything is allocated; errors name the field and the reason.
 
 use crate::scene::SceneError;
+use crate::solid::fold::{FoldSection, Layer};
 use crate::solid::particles::{sample_ball, sample_box};
 use crate::solid::solver::{Integrator, SolidOptions, SolidSolver};
 use crate::solid::{ContactParams, Orthotropic, Particles, Wall};
@@ -121,6 +122,86 @@ pub struct BodySpec {
     pub velocity: Vec<f64>,
     /// Release in the first clamped–free bending mode along x (clamp at x = 0): tip speed.
     pub first_mode_tip_speed: Option<f64>,
+    /// … or a vocal fold (seed Fig. 3.9, 2D): `material` is its body layer's.
+    pub fold: Option<FoldBodySpec>,
+}
+
+/// A vocal fold as a body (seed 000 §3.4.1, [`FoldSection`]): the section's particles on one
+/// side of the glottal mid-line, the cover layer (the outer `section.cover_fraction` under the
+/// free surface) of `cover_material`, the inner part of the body's `material`, and the particles
+/// within `fixed_depth` of the lateral face clamped (the thyroid cartilage). The lateral axis
+/// is x, the vertical (flow) axis y: the tracheal (lung) side is below, the vocal tract above.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FoldBodySpec {
+    /// Fig. 3.9 dimensions in the scene's length unit; the defaults are the seed's, in cm.
+    #[serde(default)]
+    pub section: FoldSection,
+    pub side: FoldSide,
+    /// The point of the glottal mid-line level with the fold's tracheal face (scene units).
+    pub origin: Vec<f64>,
+    pub cover_material: usize,
+    /// Depth under the lateral face that is clamped; default 2 l₀.
+    pub fixed_depth: Option<f64>,
+}
+
+/// Which fold: the left one lies at x below the mid-line, the right one above it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FoldSide {
+    Left,
+    Right,
+}
+
+impl FoldBodySpec {
+    fn sign(&self) -> f64 {
+        match self.side {
+            FoldSide::Left => -1.0,
+            FoldSide::Right => 1.0,
+        }
+    }
+
+    /// Fold coordinates (lateral, vertical) → scene position.
+    pub fn to_scene(&self, p: [f64; 2]) -> DVec3 {
+        DVec3::new(self.origin[0] + self.sign() * p[0], self.origin[1] + p[1], 0.0)
+    }
+
+    /// The particles of this fold on a lattice of `spacing`: scene position, layer, clamped.
+    pub fn sample(&self, spacing: f64) -> Vec<(DVec3, Layer, bool)> {
+        let s = self.section.sample(spacing, self.clamp_depth(spacing));
+        let side = self.sign() as i8;
+        (0..s.position.len())
+            .filter(|&i| s.side[i] == side)
+            .map(|i| {
+                let [lat, z] = s.position[i];
+                (self.to_scene([lat.abs(), z]), s.layer[i], s.fixed[i])
+            })
+            .collect()
+    }
+
+    /// The section's outline in scene coordinates, counter-clockwise.
+    pub fn outline(&self) -> Vec<DVec3> {
+        let mut v: Vec<DVec3> = self.section.outline(16).into_iter().map(|p| self.to_scene(p)).collect();
+        if self.side == FoldSide::Left {
+            v.reverse(); // the mirror image turns the other way
+        }
+        v
+    }
+
+    /// Depth under the lateral face that is clamped, for particles of `spacing`.
+    pub fn clamp_depth(&self, spacing: f64) -> f64 {
+        self.fixed_depth.unwrap_or(2.0 * spacing)
+    }
+
+    /// Bounding box (scene coordinates) of the fold less its clamped lateral strip: the part
+    /// that moves, which must lie in the air's domain (the clamped strip is attached to the
+    /// cartilage and may lie beyond the domain's wall).
+    pub fn free_bounds(&self, spacing: f64) -> (DVec3, DVec3) {
+        let m = 0.5 * self.section.gap;
+        let lateral = m + self.section.width - self.clamp_depth(spacing);
+        let (a, b) = (self.to_scene([m, 0.0]), self.to_scene([lateral, self.section.height]));
+        (a.min(b), a.max(b))
+    }
 }
 
 /// An axis-aligned box; `material` is used by layers.
@@ -176,6 +257,38 @@ pub(crate) fn vec3(field: &str, v: &[f64], dim: usize, allow_empty: bool) -> Res
     crate::scene::build::vector(field, v, dim, allow_empty).map(DVec3::from_array)
 }
 
+/// Checks a fold body `f` and returns its particle count estimate.
+fn check_fold(fold: &FoldBodySpec, f: &str, s: &SolidSpec, units: crate::scene::schema::UnitSystem, materials: usize) -> Result<f64, SceneError> {
+    if s.dimension != 2 {
+        return err(format!("{f}.fold"), "fold bodies are 2D sections (solid.dimension = 2); the 3D fold is not a scene body yet");
+    }
+    fold.section.check(&format!("{f}.fold.section"))?;
+    if units == crate::scene::schema::UnitSystem::Si && fold.section == FoldSection::default() {
+        return err(format!("{f}.fold.section"), "the default dimensions are the seed's, in cm: give them in m for an SI scene (or use units = \"cgs\")");
+    }
+    vec3(&format!("{f}.fold.origin"), &fold.origin, 2, false)?;
+    if fold.cover_material >= materials {
+        return err(format!("{f}.fold.cover_material"), format!("no material {} (there are {materials})", fold.cover_material));
+    }
+    if let Some(d) = fold.fixed_depth
+        && !(d.is_finite() && d >= s.spacing && d < fold.section.width)
+    {
+        return err(format!("{f}.fold.fixed_depth"), format!("must lie in [l₀ = {}, width = {}), got {d}", s.spacing, fold.section.width));
+    }
+    // The cover must be at least one particle thick where it is thinnest.
+    let cover = fold.section.cover_thickness(s.spacing);
+    if cover < s.spacing {
+        return err(
+            "solid.spacing",
+            format!(
+                "l₀ = {} is coarser than the fold's cover layer ({cover:.4}, {} of the section): use l₀ ≤ {cover:.4}",
+                s.spacing, fold.section.cover_fraction
+            ),
+        );
+    }
+    Ok(fold.section.area() / (s.spacing * s.spacing))
+}
+
 fn inside(x: DVec3, min: DVec3, max: DVec3, dim: usize) -> bool {
     (0..dim).all(|a| x[a] >= min[a] && x[a] <= max[a])
 }
@@ -224,6 +337,13 @@ impl SolidScene {
                 return err(format!("{f}.material"), format!("no material {} (there are {})", b.material, materials.len()));
             }
             vec3(&format!("{f}.velocity"), &b.velocity, dim, true)?;
+            if let Some(fold) = &b.fold {
+                if b.radius.is_some() || !b.min.is_empty() || !b.max.is_empty() || !b.center.is_empty() {
+                    return err(format!("{f}.fold"), "a body is a box, a ball or a fold, not several");
+                }
+                count += check_fold(fold, &f, s, file.units, materials.len())?;
+                continue;
+            }
             count += match b.radius {
                 Some(r) => {
                     if !b.min.is_empty() || !b.max.is_empty() {
@@ -314,15 +434,21 @@ impl SolidScene {
         let mut p = Particles::new(dim, s.spacing);
         let mut first_mode = Vec::new();
         for (k, b) in s.bodies.iter().enumerate() {
-            let (lo, hi) = if b.radius.is_some() { (DVec3::ZERO, DVec3::ZERO) } else { (v3(&b.min), v3(&b.max)) };
+            let (lo, hi) = if b.radius.is_some() || b.fold.is_some() { (DVec3::ZERO, DVec3::ZERO) } else { (v3(&b.min), v3(&b.max)) };
             let start = p.len();
-            let points = match b.radius {
-                Some(r) => sample_ball(dim, v3(&b.center), r, s.spacing),
-                None => sample_box(dim, lo, hi, s.spacing),
+            // (position, material before the scene's layers, clamped by the body itself)
+            let points: Vec<(DVec3, usize, bool)> = match (&b.fold, b.radius) {
+                (Some(fold), _) => fold
+                    .sample(s.spacing)
+                    .into_iter()
+                    .map(|(x, layer, fixed)| (x, if layer == Layer::Cover { fold.cover_material } else { b.material }, fixed))
+                    .collect(),
+                (None, Some(r)) => sample_ball(dim, v3(&b.center), r, s.spacing).into_iter().map(|x| (x, b.material, false)).collect(),
+                (None, None) => sample_box(dim, lo, hi, s.spacing).into_iter().map(|x| (x, b.material, false)).collect(),
             };
-            for x in points {
-                let mat = s.layers.iter().rev().find(|r| inside(x, v3(&r.min), v3(&r.max), dim)).map_or(b.material, |r| r.material);
-                let fixed = s.clamps.iter().any(|r| inside(x, v3(&r.min), v3(&r.max), dim));
+            for (x, own, clamped) in points {
+                let mat = s.layers.iter().rev().find(|r| inside(x, v3(&r.min), v3(&r.max), dim)).map_or(own, |r| r.material);
+                let fixed = clamped || s.clamps.iter().any(|r| inside(x, v3(&r.min), v3(&r.max), dim));
                 p.push(x, self.materials[mat].density, mat as u16, k as u16, fixed);
                 if !fixed {
                     *p.velocity.last_mut().unwrap() = v3(&b.velocity);
