@@ -3,6 +3,7 @@
 //! signals with known answers.
 
 pub mod fit;
+pub mod lag;
 pub mod pitch;
 pub mod resample;
 pub mod spectrum;

@@ -19,7 +19,7 @@ pub mod gpu;
 pub mod lattice_gas;
 pub mod solid;
 pub mod two_mass;
-pub use coupled::{CoupledDiagnostics, CoupledSimulation, CoupledStatus};
+pub use coupled::{CoupledDiagnostics, CoupledGlottis, CoupledSimulation, CoupledStatus};
 pub use gpu::{GpuFluidHandle, GpuProbes, GpuStepping, PhonationGpuPlugin};
 pub use lattice_gas::{LatticeGasDiagnostics, LatticeGasSimulation};
 pub use solid::{SolidDiagnostics, SolidSimulation, SolidStatus};

@@ -64,6 +64,11 @@ pub struct GlottisReport {
     pub oscillating: bool,
     pub f0_hz: Option<f64>,
     pub open_quotient: Option<f64>,
+    /// (max − min)/mean AC flow of the last five pulses: ≤ 0.1 for a settled oscillation.
+    pub amplitude_spread_last5: Option<f64>,
+    /// Time (s) by which the lower margin's lateral motion leads the upper one's over the
+    /// analysed window (positive: the lower margin opens and closes first).
+    pub lower_margin_lead_s: Option<f64>,
     /// Why there are no voice measures (too short, steady, …).
     pub no_voice: Option<String>,
 }
@@ -275,6 +280,14 @@ fn glottal_outputs(sc: &CoupledScene, dir: &Path, record: &GlottalRecord, files:
         oscillating: m.is_some(),
         f0_hz: m.map(|m| m.f0_autocorrelation_hz),
         open_quotient: m.map(|m| m.open_quotient),
+        amplitude_spread_last5: m.map(|m| m.amplitude_spread_last5),
+        lower_margin_lead_s: m.and_then(|m| {
+            // over the voice window, lags up to half a period
+            let start = (m.window_s[0] / series.dt) as usize;
+            let half_period = (0.5 / m.f0_autocorrelation_hz / series.dt) as usize;
+            let col = |k: usize| &series.columns[k].1[start.min(s.len())..];
+            crate::analysis::lag::lead_time(col(3), col(4), series.dt, half_period)
+        }),
         no_voice: voice.no_voice.clone(),
     })
 }

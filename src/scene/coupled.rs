@@ -210,6 +210,19 @@ impl CoupledScene {
         Some(Glottis::new(c, l, r, fr.origin[0], sec.length, lower, upper))
     }
 
+    /// Sets the folds' layers to a body–cover case: the fold bodies' `material` to in-plane
+    /// Young's modulus `body`, their `cover_material` to `cover` (shear moduli scaled with them,
+    /// Poisson ratios kept). Materials shared with non-fold bodies change for those too.
+    pub fn set_fold_moduli(&mut self, cover: f64, body: f64) {
+        let folds: Vec<(usize, usize)> = self.solid.file.solid.bodies.iter().filter_map(|b| b.fold.as_ref().map(|f| (b.material, f.cover_material))).collect();
+        for (b, c) in folds {
+            for (m, e) in [(b, body), (c, cover)] {
+                let mat = &mut self.solid.materials[m];
+                *mat = mat.scaled(e / mat.young[0]);
+            }
+        }
+    }
+
     /// The lung pressure: the gauge pressure of the inlet on the tracheal face (y_min), if any.
     pub fn lung_pressure(&self) -> Option<f64> {
         match self.fluid.file.boundaries.y_min {
@@ -319,6 +332,16 @@ mod tests {
             }
             assert_eq!(sc.lung_pressure(), Some(8000.0), "{name}");
             assert_eq!((sc.fluid.grid.n[0], sc.fluid.grid.n[1]), (124, 128), "{name}");
+            // the coarse scene set to this case (as `validate --case glottis_2d` does) carries
+            // the same layers
+            let mut coarse = CoupledScene::parse(glottis_text("glottis_2d_coarse")).unwrap();
+            coarse.set_fold_moduli(cover, body);
+            for (a, b) in coarse.solid.materials.iter().zip(&sc.solid.materials) {
+                for k in 0..3 {
+                    assert!((a.young[k] / b.young[k] - 1.0).abs() < 1e-12 && (a.shear[k] / b.shear[k] - 1.0).abs() < 1e-3, "{name}: {a:?} vs {b:?}");
+                }
+                assert_eq!((a.poisson, a.density, a.viscosity), (b.poisson, b.density, b.viscosity));
+            }
         }
     }
 

@@ -50,6 +50,12 @@ impl Orthotropic {
         Self { young: [e_plane, e_fibre, e_plane], poisson: [nu_xy, nu_yz, nu_plane], shear: [g_fibre, g_plane, g_fibre], density, viscosity }
     }
 
+    /// The same material with every modulus (Young's and shear) times `factor`: the Poisson
+    /// ratios, density and viscosity kept (how Titze's body–cover cases scale a layer).
+    pub fn scaled(&self, factor: f64) -> Self {
+        Self { young: self.young.map(|e| e * factor), shear: self.shear.map(|g| g * factor), ..self.clone() }
+    }
+
     /// Compliance of the normal block, seed (2.8): S₁ = C₁⁻¹.
     fn normal_compliance(&self) -> [[f64; 3]; 3] {
         let [ex, ey, ez] = self.young;

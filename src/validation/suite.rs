@@ -162,6 +162,11 @@ pub fn cases() -> Vec<Case> {
             let heavy_ok = rows.iter().filter(|(r, _)| *r >= 0.2).all(|(_, ok)| *ok);
             vec![("lightest stable ρ_s/ρ_f (method 1)".into(), lightest, "≤ 0.2, every heavier one stable".into(), heavy_ok && lightest <= 0.2)]
         }),
+        ("glottis_2d", || {
+            // Cases A–D on glottis_2d_coarse (62 × 64 cells, Mach-scaled air), 40 ms each:
+            // ~20 min per case on 2 cores.
+            super::glottis::rows()
+        }),
         ("fsi_schafer_turek_2d1", || {
             // D = 20 cells, Mach 0.1 at U_max, 6 s, means over the last 1.5 s (acoustic waves
             // ring between the inlet and the constant-pressure outlet). The weakly compressible
