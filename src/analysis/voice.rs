@@ -89,6 +89,7 @@ pub struct VoiceMeasures {
     pub mfdr: f64,
     pub naq: f64,
     pub h1_h2_db: f64,
+    /// NaN (null in JSON) when the window holds fewer than five pulses.
     pub amplitude_spread_last5: f64,
     #[serde(skip)]
     pub pulse_list: Vec<Pulse>,
@@ -175,7 +176,12 @@ pub fn voice_measures(flow: &[f64], dt: f64, opts: &VoiceOptions) -> Result<Voic
     let h2 = harmonic_amplitude(d_span, dt, f_span, 2);
     let tail: Vec<f64> = pulses.iter().rev().take(5).map(|p| p.ac_flow).collect();
     let tail_mean = tail.iter().sum::<f64>() / tail.len() as f64;
-    let tail_spread = (tail.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - tail.iter().cloned().fold(f64::INFINITY, f64::min)) / tail_mean;
+    // undefined (NaN, null in JSON) with fewer than five pulses: one pulse's spread is no evidence of settling
+    let tail_spread = if tail.len() < 5 {
+        f64::NAN
+    } else {
+        (tail.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - tail.iter().cloned().fold(f64::INFINITY, f64::min)) / tail_mean
+    };
     let min_flow = peaks.windows(2).map(|w| x[w[0]..=w[1]].iter().cloned().fold(f64::INFINITY, f64::min)).sum::<f64>() / periods;
     Ok(VoiceMeasures {
         window_s: [t_of(0.0), t_of((x.len() - 1) as f64)],

@@ -71,14 +71,14 @@ pub fn print_voice(r: &phonation::output::voice::VoiceReport) {
             );
             println!("flow: peak {:.1}, mean {:.1}, AC {:.1}, min {:.1} cm³/s; MFDR {:.4e} cm³/s²", m.peak_flow, m.mean_flow, m.ac_flow, m.min_flow, m.mfdr);
             println!(
-                "OQ {:.3}, SQ {:.3}, ClQ {:.3}, QOQ {:.3}, NAQ {:.4}, H1–H2 {:.2} dB; amplitude spread over the last 5 pulses {:.2} %",
+                "OQ {:.3}, SQ {:.3}, ClQ {:.3}, QOQ {:.3}, NAQ {:.4}, H1–H2 {:.2} dB; amplitude spread over the last 5 pulses {}",
                 m.open_quotient,
                 m.speed_quotient,
                 m.closing_quotient,
                 m.quasi_open_quotient,
                 m.naq,
                 m.h1_h2_db,
-                100.0 * m.amplitude_spread_last5
+                if m.amplitude_spread_last5.is_nan() { "n/a (fewer than 5 pulses)".to_string() } else { format!("{:.2} %", 100.0 * m.amplitude_spread_last5) }
             );
         }
         None => println!("no voice: {}", r.no_voice.as_deref().unwrap_or("?")),

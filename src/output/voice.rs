@@ -176,7 +176,8 @@ fn write_wavs(dir: &Path, s: &GlottalSeries, derivative: &[f64], m: Option<&Voic
         }
         None => {
             let note = if duration < MIN_AUDIO_S {
-                format!("the run lasts {duration:.3} s and does not oscillate: the whole run, then silence up to {MIN_AUDIO_S} s")
+                let why = if m.is_some() { "has fewer than two whole periods in the analysed window to repeat" } else { "does not oscillate" };
+                format!("the run lasts {duration:.3} s and {why}: the whole run, then silence up to {MIN_AUDIO_S} s")
             } else {
                 "the whole run".to_string()
             };
