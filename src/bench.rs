@@ -95,6 +95,47 @@ pub struct BenchReport {
     pub coupled: Vec<CoupledSpeed>,
     /// The two-mass model at 8 cmH₂O: RK4 rate against the f0 and peak-flow error.
     pub two_mass: Vec<TwoMassSpeed>,
+    /// The coupled 2D glottis (weak, CPU): the coarse and the seed-sized scenes.
+    pub glottis: Vec<GlottisSpeed>,
+}
+
+/// Speed of a glottis scene from rest (the first steps: the pressure wave has not yet reached
+/// the folds, so the fluid geometry is rebuilt only where it changes).
+#[derive(Clone, Debug, Serialize)]
+pub struct GlottisSpeed {
+    pub scene: String,
+    pub nodes: usize,
+    pub particles: usize,
+    /// Coupled (= fluid) step (s).
+    pub dt: f64,
+    pub coupled_steps_per_s: f64,
+    /// Wall seconds per simulated millisecond.
+    pub wall_per_simulated_ms: f64,
+    pub stage_shares: Vec<(String, f64)>,
+}
+
+/// `steps` coupled steps of each built-in glottis scene of `names`.
+pub fn glottis_speed(names: &[&str], steps: u64) -> Vec<GlottisSpeed> {
+    names
+        .iter()
+        .map(|name| {
+            let sc = crate::scene::coupled::CoupledScene::parse(crate::scene::builtin(name).expect("built in")).expect("valid");
+            let mut c = sc.build().expect("builds");
+            let t = Instant::now();
+            c.run(steps).expect("stable from rest");
+            let wall = t.elapsed().as_secs_f64();
+            let n = c.fluid.layout.grid.n;
+            GlottisSpeed {
+                scene: name.to_string(),
+                nodes: n[0] * n[1] * n[2],
+                particles: c.solid.particles.len(),
+                dt: c.dt(),
+                coupled_steps_per_s: steps as f64 / wall,
+                wall_per_simulated_ms: wall / (steps as f64 * c.dt() * 1e3),
+                stage_shares: c.stage_shares().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
+            }
+        })
+        .collect()
 }
 
 /// One RK4 rate of the two-mass speed-vs-error table.
@@ -182,7 +223,7 @@ pub fn coupled_speed_vs_error(quick: bool) -> Vec<CoupledSpeed> {
 }
 
 /// Parts of the benchmark, for `bench --only`.
-pub const SUITES: [&str; 5] = ["fdlb", "solid", "lattice_gas", "coupled", "two_mass"];
+pub const SUITES: [&str; 6] = ["fdlb", "solid", "lattice_gas", "coupled", "two_mass", "glottis"];
 
 /// The CPU benchmark (every suite of [`SUITES`], or only `only`). `quick` shrinks grids for a
 /// smoke run.
@@ -224,5 +265,22 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
     };
     let coupled = if wants("coupled") { coupled_speed_vs_error(quick) } else { Vec::new() };
     let two_mass = if wants("two_mass") { two_mass_speed_vs_error() } else { Vec::new() };
-    BenchReport { threads: rayon::current_num_threads(), triad_bandwidth_gb_s: bw / 1e9, lattices, speed_vs_error, solid, lattice_gas, coupled, two_mass }
+    let glottis = if !wants("glottis") {
+        Vec::new()
+    } else if quick {
+        glottis_speed(&["glottis_2d_coarse"], 20)
+    } else {
+        glottis_speed(&["glottis_2d_coarse", "glottis_2d_c"], 300)
+    };
+    BenchReport {
+        threads: rayon::current_num_threads(),
+        triad_bandwidth_gb_s: bw / 1e9,
+        lattices,
+        speed_vs_error,
+        solid,
+        lattice_gas,
+        coupled,
+        two_mass,
+        glottis,
+    }
 }

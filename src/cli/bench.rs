@@ -22,7 +22,7 @@ pub struct BenchArgs {
     /// Also write the report as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Only one suite: fdlb, solid, lattice_gas, coupled or two_mass.
+    /// Only one suite: fdlb, solid, lattice_gas, coupled, two_mass or glottis.
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(phonation::bench::SUITES))]
     pub only: Option<String>,
 }
@@ -148,6 +148,15 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                 100.0 * t.f0_error,
                 100.0 * t.peak_flow_error
             );
+        }
+        if !r.glottis.is_empty() {
+            println!("coupled 2D glottis (weak, CPU), from rest; no error column: f0 needs tens of ms (validate --case glottis_2d)");
+            println!("{:>18} {:>8} {:>9} {:>10} {:>10} {:>16}", "scene", "nodes", "particles", "dt (s)", "steps/s", "wall s / sim ms");
+        }
+        for g in &r.glottis {
+            println!("{:>18} {:>8} {:>9} {:>10.3e} {:>10.1} {:>16.2}", g.scene, g.nodes, g.particles, g.dt, g.coupled_steps_per_s, g.wall_per_simulated_ms);
+            let st: Vec<String> = g.stage_shares.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
+            println!("     stages: {}", st.join(", "));
         }
         report.insert("cpu".into(), serde_json::to_value(&r)?);
     }
