@@ -26,7 +26,8 @@ pub struct Ghost {
     pub node: usize,
     /// (node, weight) of fluid nodes around the image point; weights sum to 1.
     pub image: Vec<(usize, f64)>,
-    /// d_ghost / d_image ∈ [−1, 0): linear extrapolation factor through the wall.
+    /// d_ghost / d_image ∈ [−1, 0): linear extrapolation factor through the wall; in
+    /// [0, PINCH) for a node pinched between two walls (interpolation between wall and image).
     pub ratio: f64,
     pub wall_velocity: [f64; 3],
     pub wall_temperature: Option<f64>,
@@ -54,6 +55,10 @@ pub struct Layout {
     pub fluid_count: usize,
 }
 
+/// Distance (cells) from two obstacles within which a node between them is pinched out of the
+/// fluid: a slit narrower than one cell holds no fluid node.
+pub const PINCH: f64 = 0.5;
+
 impl Layout {
     pub fn new(grid: Grid, boundaries: Boundaries, user_obstacles: &[Obstacle]) -> Self {
         let mut obstacles = Vec::new();
@@ -80,16 +85,30 @@ impl Layout {
         let n = grid.len();
         let periodic_axis: [bool; 3] = std::array::from_fn(|a| a < grid.dim && matches!(boundaries.faces[2 * a], FaceCondition::Periodic));
         let pos = |x: [i64; 3]| [x[0] as f64, x[1] as f64, x[2] as f64];
-        // Deepest-first: the obstacle that contains the point with the largest (least negative) sdf.
+        // The obstacle a node belongs to: deepest-first, the one that contains the point with
+        // the largest (least negative) sdf. A node outside every obstacle but within half a cell
+        // of two of them is *pinched* (a slit narrower than a cell, e.g. a closing glottis): it
+        // leaves the fluid too, with the nearest of the two (d ≥ 0), since a fluid node squeezed
+        // between two walls that close on it is compressed without bound.
         let containing = |p: [f64; 3]| -> Option<(usize, f64)> {
-            let mut best: Option<(usize, f64)> = None;
+            let mut inside: Option<(usize, f64)> = None;
+            let mut near: [Option<(usize, f64)>; 2] = [None, None];
             for (k, o) in obstacles.iter().enumerate() {
                 let d = o.shape.sdf(p);
-                if d < 0.0 && best.is_none_or(|(_, bd)| d > bd) {
-                    best = Some((k, d));
+                if d < 0.0 {
+                    if inside.is_none_or(|(_, bd)| d > bd) {
+                        inside = Some((k, d));
+                    }
+                } else if d < PINCH {
+                    if near[0].is_none_or(|(_, nd)| d < nd) {
+                        near[1] = near[0];
+                        near[0] = Some((k, d));
+                    } else if near[1].is_none_or(|(_, nd)| d < nd) {
+                        near[1] = Some((k, d));
+                    }
                 }
             }
-            best
+            inside.or(if near[1].is_some() { near[0] } else { None })
         };
 
         let mut kind = vec![NodeKind::Inactive; n];
@@ -166,7 +185,7 @@ impl Layout {
             match kind[idx] {
                 NodeKind::Ghost => {
                     let p = pos(x);
-                    let (k, d) = containing(p).expect("ghost is inside a solid");
+                    let (k, d) = containing(p).expect("ghost is inside (or pinched by) a solid");
                     let o = &obstacles[k];
                     let nrm = o.shape.normal(p);
                     let wall = [p[0] - d * nrm[0], p[1] - d * nrm[1], p[2] - d * nrm[2]];

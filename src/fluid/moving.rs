@@ -261,4 +261,33 @@ mod tests {
             s.step().expect("finite next to the junction of the body and the wall");
         }
     }
+
+    #[test]
+    fn a_slit_narrower_than_a_cell_holds_no_fluid_node() {
+        // Two blocks with a vertical slit centred on the node column x = 12: a slit of 0.8 cells
+        // pinches that column out of the fluid (every node within half a cell of both walls);
+        // one of 1.2 cells keeps it.
+        let blocks = |w: f64| {
+            let block = |x0: f64, x1: f64| Obstacle {
+                shape: Shape::Polygon(Polygon::new(vec![[x0, 6.3], [x1, 6.3], [x1, 14.6], [x0, 14.6]], vec![[0.0; 3]; 4])),
+                velocity: [0.0; 3],
+                temperature: None,
+            };
+            [block(2.2, 12.0 - 0.5 * w), block(12.0 + 0.5 * w, 21.7)]
+        };
+        let fluid_in_slit = |w: f64| {
+            let s = box_solver(&blocks(w));
+            (7..=14).filter(|&y| s.layout.kind[s.layout.grid.index([12, y, 0])] == layout::NodeKind::Fluid).count()
+        };
+        assert_eq!(fluid_in_slit(0.8), 0);
+        assert_eq!(fluid_in_slit(1.2), 8);
+        // a closing slit: the pinched nodes leave the fluid with their mass, and the step runs
+        let mut s = box_solver(&blocks(1.2));
+        let ch = s.set_obstacles(&blocks(0.8));
+        assert_eq!((ch.covered, ch.uncovered), (8, 0), "{ch:?}");
+        for g in s.layout.ghosts.iter().filter(|g| s.layout.grid.coords(g.node)[0] == 12) {
+            assert!(g.ratio >= 0.0 && g.ratio < layout::PINCH, "pinched ghost ratio {}", g.ratio);
+        }
+        s.step().expect("finite after the slit closed");
+    }
 }
