@@ -40,7 +40,8 @@ pub struct GlottalSample {
     pub narrowest_y: f64,
     /// Glottal area A_g = max(gap, 0) × length (cm²).
     pub area: f64,
-    /// Volume flow through the narrowest section, ∫ ρu_y dx / ρ₀ × length (cm³/s).
+    /// Volume flow through the narrowest section, ∫ ρu_y dx / ρ₀ × length (cm³/s); exactly 0
+    /// when that section holds no fluid node (closed at the lattice's resolution).
     pub flow: f64,
     /// Lateral (opening) displacement of the lower and upper margins, mean of both folds.
     pub lower_margin: f64,

@@ -57,6 +57,9 @@ pub struct GlottisReport {
     pub max_area: f64,
     /// Fraction of the samples with the folds touching (gap ≤ 0).
     pub closed_fraction: f64,
+    /// Fraction of the samples with no fluid node in the narrowest section: the glottis closed
+    /// at the lattice's resolution (a gap narrower than about a cell), with zero flow.
+    pub no_flow_fraction: f64,
     pub mean_flow: f64,
     pub max_flow: f64,
     pub largest_lower_margin: f64,
@@ -273,6 +276,7 @@ fn glottal_outputs(sc: &CoupledScene, dir: &Path, record: &GlottalRecord, files:
         min_area: fold(|g| g.area, f64::INFINITY, f64::min),
         max_area: fold(|g| g.area, 0.0, f64::max),
         closed_fraction: s.iter().filter(|g| g.gap <= 0.0).count() as f64 / n,
+        no_flow_fraction: s.iter().filter(|g| g.flow == 0.0).count() as f64 / n,
         mean_flow: s.iter().map(|g| g.flow).sum::<f64>() / n,
         max_flow: fold(|g| g.flow, f64::NEG_INFINITY, f64::max),
         largest_lower_margin: fold(|g| g.lower_margin.abs(), 0.0, f64::max),
