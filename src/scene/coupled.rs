@@ -17,8 +17,9 @@
 //! origin. Everything is checked before anything large is allocated.
 
 use super::build::{FluidScene, SceneError};
+use super::fold::{FoldBodySpec, FoldSide};
 use super::schema::SceneFile;
-use super::solid::{BodySpec, FoldBodySpec, FoldSide, SolidRun, SolidScene, SolidSceneFile, SolidSpec, vec3};
+use super::solid::{BodySpec, SolidRun, SolidScene, SolidSceneFile, SolidSpec, vec3};
 use crate::coupling::glottis::Glottis;
 use crate::coupling::{BodySurface, CoupledBody, Motion, ReferenceShape, TractionModel, WeakCoupling, WeakOptions};
 use glam::DVec3;

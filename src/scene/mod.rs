@@ -3,6 +3,7 @@
 
 pub mod build;
 pub mod coupled;
+pub mod fold;
 pub mod kind;
 pub mod lattice_gas;
 pub mod schema;

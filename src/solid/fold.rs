@@ -245,10 +245,27 @@ impl FoldSection {
         0.5 * (lo + hi)
     }
 
-    /// Both folds on a square lattice of `spacing` (cm), the right one from l₀/2 inside its
-    /// medial surface and bottom face, the left one its mirror image. Particles within
-    /// `fixed_depth` of the lateral face are fixed (the cartilage).
+    /// Both folds on a square lattice of `spacing` (cm): [`Self::sample_right`] and its mirror
+    /// image about the mid-line, left fold first.
     pub fn sample(&self, spacing: f64, fixed_depth: f64) -> FoldParticles {
+        let right = self.sample_right(spacing, fixed_depth);
+        let mut out = FoldParticles { cover_thickness: right.cover_thickness, ..Default::default() };
+        for side in [-1i8, 1] {
+            for i in 0..right.position.len() {
+                let [lat, z] = right.position[i];
+                out.position.push([side as f64 * lat, z]);
+                out.layer.push(right.layer[i]);
+                out.fixed.push(right.fixed[i]);
+                out.side.push(side);
+            }
+        }
+        out
+    }
+
+    /// The right fold on a square lattice of `spacing` (cm), from l₀/2 inside its medial
+    /// surface and bottom face. Particles within `fixed_depth` of the lateral face are fixed
+    /// (the cartilage).
+    pub fn sample_right(&self, spacing: f64, fixed_depth: f64) -> FoldParticles {
         let m = self.medial();
         let xl = m + self.width;
         let outline = self.outline(64);
@@ -278,13 +295,11 @@ impl FoldSection {
         }
         let cover = depth[order[k - 1]];
         let mut out = FoldParticles { cover_thickness: cover, ..Default::default() };
-        for side in [-1i8, 1] {
-            for (p, c) in right.iter().zip(&is_cover) {
-                out.position.push([side as f64 * p[0], p[1]]);
-                out.layer.push(if *c { Layer::Cover } else { Layer::Body });
-                out.fixed.push(xl - p[0] < fixed_depth);
-                out.side.push(side);
-            }
+        for (p, c) in right.iter().zip(&is_cover) {
+            out.position.push(*p);
+            out.layer.push(if *c { Layer::Cover } else { Layer::Body });
+            out.fixed.push(xl - p[0] < fixed_depth);
+            out.side.push(1);
         }
         out
     }
@@ -304,15 +319,14 @@ impl FoldSection {
     /// - fixed: within `fixed_depth` of the lateral face or of the anterior face, and of the
     ///   posterior face except the cover ("the posterior fixed end applies to the body only").
     pub fn sample_3d(&self, spacing: f64, fixed_depth: f64, opening: f64) -> FoldParticles3 {
-        let section = self.sample(spacing, fixed_depth);
-        let half = section.position.len() / 2;
+        let section = self.sample_right(spacing, fixed_depth);
         let ny = (self.length / spacing).round().max(1.0) as usize;
         let mut out = FoldParticles3::default();
         for side in [-1i8, 1] {
             for j in 0..ny {
                 let y = (j as f64 + 0.5) * self.length / ny as f64;
                 let shift = 0.5 * opening * y / self.length;
-                for k in half..2 * half {
+                for k in 0..section.position.len() {
                     let [lat, z] = section.position[k];
                     let medial_distance = lat - 0.5 * self.gap; // from the section's medial surface
                     let from_posterior = self.length - y;
