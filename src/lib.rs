@@ -16,9 +16,10 @@
 //! | [`coupling`] | fluid–structure coupling: surfaces, tractions, prescribed motions, the weak coupling (method 1) |
 //! | [`solid`] | MPS orthotropic viscoelastic solid: materials, particles, forces, contact, explicit and implicit steps, the vocal-fold geometry |
 //! | [`stages`] | the ordered stage list of one step (CPU, GPU, Bevy, timings) |
+//! | [`step`] | the one step interface of every solver ([`step::Solver`]) and its failure ([`step::Instability`]) |
 //! | [`units`] | physical (cgs / SI) ↔ lattice units, Mach scaling |
 //! | [`scene`] | scene files (TOML), validation of user input, building a solver |
-//! | [`run`] | running a scene on a backend and writing its outputs: fluid, coupled, two-mass; parameter sweeps (parallel or a Slurm job array) |
+//! | [`run`] | running a scene on a backend ([`run::backend`]: picking the GPU, one engine per solver) through one run loop ([`run::driver`]) and writing its outputs: fluid, solid, lattice gas, coupled, two-mass; parameter sweeps (parallel or a Slurm job array) |
 //! | [`output`] | probes CSV, PNG colour maps, VTK, summary JSON, voice outputs (voice.json, plots, WAV) |
 //! | [`validation`] | analytic references and validation cases (Taylor–Green, Sod, …) |
 //! | [`bench`] | memory bandwidth and cells/s measurements |
@@ -27,7 +28,6 @@
 pub mod analysis;
 pub mod bench;
 pub mod coupling;
-pub mod engine;
 pub mod error;
 pub mod fluid;
 pub mod gpu;
@@ -39,6 +39,7 @@ pub mod run;
 pub mod scene;
 pub mod solid;
 pub mod stages;
+pub mod step;
 pub mod two_mass;
 pub mod units;
 pub mod validation;

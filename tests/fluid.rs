@@ -372,7 +372,8 @@ fn instability_is_diagnosed_with_where_when_and_what() {
     let e = s.run(1000).expect_err("Δt = 1 is four times the advection stability limit");
     assert!(e.step < 1000);
     assert!(["density", "temperature", "velocity"].contains(&e.quantity), "{e}");
-    assert!(e.node.iter().zip(&s.layout.grid.n).all(|(x, n)| *x >= 0 && (*x as usize) < *n));
+    let node = e.node().expect("a fluid instability names its node");
+    assert!(node.iter().zip(&s.layout.grid.n).all(|(x, n)| *x >= 0 && (*x as usize) < *n));
     assert!(e.to_string().contains("unstable at step"));
 }
 

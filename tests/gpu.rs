@@ -174,7 +174,7 @@ fn headless_run_on_the_gpu_writes_the_same_probes_as_the_cpu() {
 /// The foundation issue's CI validations, on the GPU backend, with the same tolerances.
 #[test]
 fn validations_pass_on_the_gpu() {
-    use phonation::engine::Backend;
+    use phonation::run::Backend;
     use phonation::validation::{sod::SodCase, sound, taylor_green::TaylorGreenCase};
     let Some(_ctx) = context() else { return };
     let r = TaylorGreenCase::new(VelocitySetKind::D2q21, 64).run_on(Backend::Gpu).unwrap();
@@ -341,7 +341,7 @@ fn solid_whole_steps_match_the_cpu_backend() {
             gpu.cg_tolerance = 1e-6;
             let x0 = cpu.particles.position.clone();
             for _ in 0..steps {
-                cpu.step();
+                cpu.step().unwrap();
             }
             gpu.run(steps);
             let u_c: Vec<DVec3> = (0..cpu.particles.len()).map(|i| cpu.particles.position[i] - x0[i]).collect();
@@ -410,7 +410,7 @@ fn solid_contact_matches_the_cpu() {
     let mut gpu = GpuSolid::from_solver(&ctx, &mut cpu).unwrap();
     let x0 = cpu.particles.position.clone();
     for _ in 0..1500 {
-        cpu.step();
+        cpu.step().unwrap();
     }
     gpu.run(1500);
     let u_c: Vec<DVec3> = (0..cpu.particles.len()).map(|i| cpu.particles.position[i] - x0[i]).collect();

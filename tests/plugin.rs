@@ -151,10 +151,10 @@ fn plugin_steps_the_solid_exactly_like_the_direct_solver() {
     }
     let mut direct = sc.build().unwrap();
     for _ in 0..200 {
-        direct.step();
+        direct.step().unwrap();
     }
     let sim = app.world().get::<SolidSimulation>(e).unwrap();
-    assert_eq!(sim.solver.steps, 200);
+    assert_eq!(sim.solver.step_count, 200);
     let same = sim
         .solver
         .particles

@@ -186,7 +186,7 @@ fn explicit_undamped_motion_conserves_momentum_and_angular_momentum() {
     let pscale: f64 = (0..s.particles.len()).map(|i| s.particles.mass[i] * s.particles.velocity[i].length()).sum();
     let lscale: f64 = (0..s.particles.len()).map(|i| s.particles.mass[i] * s.particles.position[i].cross(s.particles.velocity[i]).length()).sum();
     for _ in 0..500 {
-        s.step();
+        s.step().unwrap();
     }
     let dp = (s.particles.linear_momentum() - p0).length() / pscale;
     let dl = (s.particles.angular_momentum() - l0).length() / lscale;
@@ -272,7 +272,7 @@ fn implicit_steps_are_stable_far_beyond_the_explicit_limit() {
         let mut crossings = Vec::new();
         let (mut worst_res, mut max_it, mut amp) = (0.0f64, 0usize, 0.0f64);
         while crossings.len() < 3 && s.time < 2.0 {
-            s.step();
+            s.step().unwrap();
             worst_res = worst_res.max(s.last.cg.relative_residual);
             max_it = max_it.max(s.last.cg.iterations);
             let d = phonation::validation::beam::tip_deflection(&s, &tip);
@@ -332,7 +332,8 @@ fn block_on_a_slope_sticks_below_and_slides_above_the_friction_angle() {
 
 #[test]
 fn solid_scenes_validate_and_bad_input_names_the_field() {
-    use phonation::scene::solid::{SolidScene, run_solid_scene};
+    use phonation::run::solid::run_solid_scene;
+    use phonation::scene::solid::SolidScene;
     for (name, text) in phonation::scene::SOLID_BUILTIN {
         assert_eq!(phonation::scene::SceneKind::of(text), phonation::scene::SceneKind::Solid, "{name}");
         let sc = SolidScene::parse(text).unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -373,7 +374,7 @@ fn solid_scenes_validate_and_bad_input_names_the_field() {
     let dir = std::env::temp_dir().join("phonation_solid_scene_test");
     let _ = std::fs::remove_dir_all(&dir);
     let sc = SolidScene::parse(base).unwrap();
-    let r = run_solid_scene(&sc, &dir, Some(400), phonation::engine::Backend::Cpu).unwrap();
+    let r = run_solid_scene(&sc, &dir, Some(400), phonation::run::Backend::Cpu).unwrap();
     let csv = std::fs::read_to_string(dir.join("solid.csv")).unwrap();
     let rows: Vec<&str> = csv.lines().collect();
     assert!(rows[0].contains("left_ux") && rows[0].contains("right_ux"));

@@ -83,7 +83,7 @@ fn run_coupled(sc: &CoupledScene, dir: &Path, steps: Option<u64>, backend: Backe
 fn run_lattice_gas(sc: &LatticeGasScene, dir: &Path, steps: Option<u64>, backend: Backend) -> anyhow::Result<()> {
     let lg = &sc.file.lattice_gas;
     eprintln!("lattice-gas scene {}: {:?} cells, fill {}, p = {}", sc.file.name, lg.cells, lg.density, lg.interference);
-    let r = phonation::scene::lattice_gas::run_lattice_gas_scene(sc, dir, steps, backend)?;
+    let r = phonation::run::lattice_gas::run_lattice_gas_scene(sc, dir, steps, backend)?;
     eprintln!("backend: {}", r.backend);
     eprintln!("{} steps in {:.1} s ({:.3e} site updates/s); particles {} → {}", r.steps, r.wall_s, r.site_updates_per_s, r.particles_start, r.particles_end);
     match (r.wake_peak, r.strouhal) {
@@ -97,7 +97,7 @@ fn run_lattice_gas(sc: &LatticeGasScene, dir: &Path, steps: Option<u64>, backend
 
 fn run_solid(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend: Backend) -> anyhow::Result<()> {
     eprintln!("solid scene {}: about {} particles, {:?} integrator", sc.file.name, sc.estimated_particles, sc.file.solid.integrator);
-    let r = phonation::scene::solid::run_solid_scene(sc, dir, steps, backend)?;
+    let r = phonation::run::solid::run_solid_scene(sc, dir, steps, backend)?;
     eprintln!("backend: {}", r.backend);
     eprintln!(
         "{} particles, {} bonds, Δt = {:.3e} (explicit limit {:.3e}), {} steps, {:.4e} s simulated in {:.1} s wall ({:.3e} particle updates/s), energy drift {:.2e}",

@@ -23,4 +23,4 @@ pub mod weak;
 pub use motion::Motion;
 pub use surface::{BodySurface, ReferenceShape, SurfaceError};
 pub use traction::{SurfaceForces, TractionModel, surface_forces};
-pub use weak::{CoupledBody, CoupledInstability, CouplingSetupError, WeakCoupling, WeakOptions};
+pub use weak::{CoupledBody, CouplingSetupError, WeakCoupling, WeakOptions};

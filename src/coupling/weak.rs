@@ -11,7 +11,10 @@
 //! velocity imposed, non-equilibrium part carried over) — already validated for fixed and
 //! moving walls; here each ghost takes the wall velocity of the closest point of the body's
 //! surface polygon. No per-speed sub-division is needed: the ghost state serves every
-//! velocity of the stencil. The moving body must not cross more than one cell per step.
+//! velocity of the stencil. The moving body must not cross more than one cell per step. Where
+//! two bodies close on each other the wall between two fluid regions becomes thinner than the
+//! stencil; the fluid nodes there take one-sided stencils ([`crate::fluid::thin_wall`]) so that
+//! no state passes through the contact.
 //!
 //! Units: the solid works in the scene's physical units; the fluid in lattice units; positions
 //! map through [`Units::position_to_lattice`] (the same origin).
@@ -19,7 +22,8 @@
 use super::motion::Motion;
 use super::surface::{BodySurface, SurfaceError};
 use super::traction::{SurfaceForces, TractionModel, surface_forces};
-use crate::fluid::{FluidSolver, GeometryChange, Instability, Obstacle, Polygon, Shape, Totals};
+use crate::fluid::{FluidSolver, GeometryChange, Obstacle, Polygon, Shape, Totals};
+use crate::step::{Instability, Part, Site};
 use crate::solid::{Integrator, SolidSolver};
 use crate::stages::{COUPLED_WEAK_STEP, CoupledStageKind};
 use crate::units::Units;
@@ -47,19 +51,6 @@ impl Default for WeakOptions {
     fn default() -> Self {
         Self { traction: TractionModel::default(), piece_length: 1.0, max_cells_per_step: 1.0 }
     }
-}
-
-/// Why a coupled step stopped.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum CoupledInstability {
-    #[error("fluid {0}")]
-    Fluid(#[from] Instability),
-    #[error("solid: particle {particle} is not finite at coupled step {step} (t = {time:.6e} s)")]
-    Solid { step: u64, time: f64, particle: usize },
-    #[error(
-        "body {body} moved {cells:.3} cells in one step at coupled step {step}; a surface may move at most {max} cell per fluid step (use a smaller time step or a slower body)"
-    )]
-    BodyTooFast { step: u64, body: u16, cells: f64, max: f64 },
 }
 
 /// Errors of the coupled set-up, naming the field.
@@ -160,7 +151,7 @@ impl WeakCoupling {
     }
 
     /// One coupled step.
-    pub fn step(&mut self) -> Result<(), CoupledInstability> {
+    pub fn step(&mut self) -> Result<(), Instability> {
         for (k, st) in COUPLED_WEAK_STEP.iter().enumerate() {
             let t0 = Instant::now();
             let r = self.run_stage(st.kind);
@@ -173,7 +164,7 @@ impl WeakCoupling {
     }
 
     /// Runs `n` coupled steps, stopping at the first instability.
-    pub fn run(&mut self, n: u64) -> Result<(), CoupledInstability> {
+    pub fn run(&mut self, n: u64) -> Result<(), Instability> {
         for _ in 0..n {
             self.step()?;
         }
@@ -202,7 +193,7 @@ impl WeakCoupling {
             .collect()
     }
 
-    fn run_stage(&mut self, kind: CoupledStageKind) -> Result<(), CoupledInstability> {
+    fn run_stage(&mut self, kind: CoupledStageKind) -> Result<(), Instability> {
         match kind {
             CoupledStageKind::FluidGeometry => {
                 let polys = self.polygons();
@@ -211,11 +202,18 @@ impl WeakCoupling {
                     for (k, (a, b)) in old.iter().zip(&polys).enumerate() {
                         let d = a.vertices.iter().zip(&b.vertices).map(|(p, q)| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt()).fold(0.0, f64::max);
                         if d > self.options.max_cells_per_step {
-                            return Err(CoupledInstability::BodyTooFast {
+                            return Err(Instability {
+                                part: Part::Coupling,
                                 step: self.step_count,
-                                body: self.bodies[k].surface.body,
-                                cells: d,
-                                max: self.options.max_cells_per_step,
+                                time: self.time,
+                                time_unit: "s",
+                                site: Site::Body(self.bodies[k].surface.body),
+                                quantity: "surface displacement in one step (cells)",
+                                value: d,
+                                reason: format!(
+                                    "a surface may move at most {} cell per fluid step (use a smaller time step or a slower body)",
+                                    self.options.max_cells_per_step
+                                ),
                             });
                         }
                         // Wall velocities change even when the vertices do not (a body set moving).
@@ -246,16 +244,18 @@ impl WeakCoupling {
             CoupledStageKind::Solid => {
                 let dts = self.solid.dt;
                 for k in 0..self.substeps {
-                    self.solid.step();
+                    if let Err(mut e) = self.solid.step() {
+                        // stamped with the coupled step and time
+                        e.reason = format!("{} (solid sub-step {} of {})", e.reason, k + 1, self.substeps);
+                        (e.step, e.time) = (self.step_count, self.time);
+                        return Err(e);
+                    }
                     let t = self.time + (k + 1) as f64 * dts;
                     for b in &self.bodies {
                         if let Some(m) = &b.motion {
                             m.apply(&mut self.solid.particles, b.surface.body, t);
                         }
                     }
-                }
-                if let Some(i) = self.solid.non_finite() {
-                    return Err(CoupledInstability::Solid { step: self.step_count, time: self.time, particle: i });
                 }
             }
         }
@@ -273,5 +273,17 @@ impl WeakCoupling {
         let u = &self.units;
         let cell = u.dx.powi(self.fluid.layout.grid.dim as i32);
         DVec3::from_array(totals.momentum) * u.density * u.velocity * cell
+    }
+}
+
+impl crate::step::Solver for WeakCoupling {
+    fn step(&mut self) -> Result<(), Instability> {
+        WeakCoupling::step(self)
+    }
+    fn step_count(&self) -> u64 {
+        self.step_count
+    }
+    fn stage_shares(&self) -> Vec<(&'static str, f64)> {
+        WeakCoupling::stage_shares(self)
     }
 }

@@ -1,9 +1,11 @@
 //! Classification of every padded node (fluid, ghost, inlet/outlet halo, periodic halo,
-//! inactive) and the tables the boundary fill walks through. Built once per scene.
+//! inactive), the tables the boundary fill walks through and the one-sided stencils next to
+//! thin walls. Built once per scene, and once per step when bodies move ([`super::moving`]).
 
 use super::boundary::{Boundaries, Face, FaceCondition};
 use super::geometry::{Obstacle, Shape, dot};
 use super::grid::{Grid, HALO};
+use super::thin_wall::{ThinTap, thin_taps};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
@@ -53,6 +55,9 @@ pub struct Layout {
     /// Periodic copies as runs (destination, source, length) of consecutive nodes along x.
     pub periodic: Vec<(usize, usize, usize)>,
     pub fluid_count: usize,
+    /// One-sided advection stencils of the fluid nodes next to walls thinner than the upwind
+    /// stencil ([`super::thin_wall`]); empty for geometries without such walls.
+    pub thin_taps: Vec<ThinTap>,
 }
 
 /// Distance (cells) from two obstacles within which a node between them is pinched out of the
@@ -239,7 +244,8 @@ impl Layout {
         }
         let periodic = runs;
         let fluid_count = kind.iter().filter(|k| **k == NodeKind::Fluid).count();
-        Layout { grid, boundaries, obstacles, kind, ghosts, face_halos, periodic, fluid_count }
+        let thin_taps = thin_taps(&grid, &kind, &ghosts);
+        Layout { grid, boundaries, obstacles, kind, ghosts, face_halos, periodic, fluid_count, thin_taps }
     }
 }
 

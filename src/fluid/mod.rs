@@ -11,6 +11,7 @@ pub mod layout;
 pub mod moving;
 pub mod solver;
 pub mod storage;
+pub mod thin_wall;
 pub mod timestep;
 pub mod upwind;
 pub mod velocity_set;

@@ -16,23 +16,14 @@ use super::grid::Grid;
 use super::layout::{Layout, NodeKind};
 use super::storage::RowBlocked;
 use super::timestep::StepParams;
+use super::thin_wall::FULL;
 use super::upwind::stencils;
 use crate::stages::{FDLB_STEP, RkStage, Stage, StageKind, StageTimings};
 use rayon::prelude::*;
 use std::time::Instant;
 
-/// Why a run stopped: where, when and which quantity left its admissible range.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("unstable at step {step} (t = {time:.6} lattice units), node {node:?}: {quantity} = {value:e} ({reason})")]
-pub struct Instability {
-    pub step: u64,
-    pub time: f64,
-    /// Interior node coordinates.
-    pub node: [i64; 3],
-    pub quantity: &'static str,
-    pub value: f64,
-    pub reason: String,
-}
+pub use crate::step::Instability;
+use crate::step::{Part, Site};
 
 /// Totals over fluid nodes (lattice units).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -175,6 +166,11 @@ impl FluidSolver {
         Ok(())
     }
 
+    /// Each stage's share of the wall time of the steps so far ([`FDLB_STEP`]'s names).
+    pub fn stage_shares(&self) -> Vec<(&'static str, f64)> {
+        self.timings.report()
+    }
+
     /// Executes one stage of the list.
     pub fn run_stage(&mut self, stage: &Stage) -> Result<(), Instability> {
         let ctx = Kernels { eq: &self.eq, layout: &self.layout, stencil: &self.stencil, params: self.params, g: self.body_force, pop: self.pop };
@@ -185,7 +181,16 @@ impl FluidSolver {
                     RkStage::Second => ctx.moments_collide(&self.f1, Some(&self.f), &mut self.h, &mut self.mac, &mut self.f2, self.window),
                 };
                 if let Some((node, quantity, value, reason)) = r {
-                    return Err(Instability { step: self.step_count, time: self.time, node: self.layout.grid.coords(node), quantity, value, reason });
+                    return Err(Instability {
+                        part: Part::Fluid,
+                        step: self.step_count,
+                        time: self.time,
+                        time_unit: "lattice units",
+                        site: Site::Node(self.layout.grid.coords(node)),
+                        quantity,
+                        value,
+                        reason,
+                    });
                 }
             }
             StageKind::Boundaries => {
@@ -579,5 +584,48 @@ impl Kernels<'_> {
                 }
             },
         );
+        self.thin_wall_advect(h, out, factor);
+    }
+
+    /// Replaces the full upwind stencil by the one-sided one of each thin tap
+    /// ([`super::thin_wall`]): `out −= factor·Δt·|c_a|/6·Σ (w − w_full)·h` for the velocities
+    /// whose component along the tap's axis has the tap's sign.
+    fn thin_wall_advect(&self, h: &[f64], out: &mut [f64], factor: f64) {
+        let taps = &self.layout.thin_taps;
+        if taps.is_empty() {
+            return;
+        }
+        let eq = self.eq;
+        let (nv, q) = (eq.values_per_node(), eq.q());
+        let k = factor * self.params.dt;
+        let py = self.layout.grid.padded[1];
+        for t in taps {
+            let mut d = [0i64; 3];
+            d[t.axis] = t.sign;
+            let step = self.pop.neighbour_offset(d, py);
+            let dw: [f64; 4] = std::array::from_fn(|j| t.weights[j] - FULL[j]);
+            for v in 0..nv {
+                let c = eq.set.c[if v < q { v } else { v - q }][t.axis];
+                if c.signum() as i64 != t.sign {
+                    continue;
+                }
+                let i0 = self.pop.index(t.node, v) as isize;
+                let hv = |m: isize| h[(i0 + m * step) as usize];
+                let corr = dw[0] * hv(0) + dw[1] * hv(1) + dw[2] * hv(-1) + dw[3] * hv(-2);
+                out[i0 as usize] -= k * (c.unsigned_abs() as f64 / 6.0) * corr;
+            }
+        }
+    }
+}
+
+impl crate::step::Solver for FluidSolver {
+    fn step(&mut self) -> Result<(), Instability> {
+        FluidSolver::step(self)
+    }
+    fn step_count(&self) -> u64 {
+        self.step_count
+    }
+    fn stage_shares(&self) -> Vec<(&'static str, f64)> {
+        FluidSolver::stage_shares(self)
     }
 }

@@ -159,6 +159,12 @@ impl GpuFluid {
 
     /// The same on a device opened elsewhere (Bevy's render device). `limits`: the device's.
     pub fn from_device(device: wgpu::Device, queue: wgpu::Queue, limits: &wgpu::Limits, s: &FluidSolver) -> Result<Self, GpuError> {
+        if !s.layout.thin_taps.is_empty() {
+            return Err(GpuError::Unsupported(format!(
+                "the geometry has walls thinner than the upwind stencil ({} one-sided stencils, crate::fluid::thin_wall), which the GPU fluid does not have yet",
+                s.layout.thin_taps.len()
+            )));
+        }
         let eq = &s.eq;
         let nv = eq.values_per_node();
         let g = &s.layout.grid;

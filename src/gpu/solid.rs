@@ -105,7 +105,7 @@ pub struct GpuSolid {
     pub cg_max_iterations: usize,
     /// Iterations and relative residual of the last CG solve.
     pub last_cg: (usize, f64),
-    pub steps: u64,
+    pub step_count: u64,
     contact: Option<GpuContact>,
 }
 
@@ -266,7 +266,7 @@ impl GpuSolid {
             cg_tolerance: 1e-5,
             cg_max_iterations: s.options.cg_max_iterations,
             last_cg: (0, 0.0),
-            steps: 0,
+            step_count: 0,
             contact: None,
         };
         if let Some(cp) = &s.options.contact {
@@ -413,7 +413,7 @@ impl GpuSolid {
         w("load", (0..p.len()).map(|i| v4(p.load[i], p.added_mass[i])).collect());
         let rot: Vec<[f32; 12]> = s.rotations().iter().map(m3).collect();
         self.queue.write_buffer(&self.buffers["rot"], 0, bytemuck::cast_slice(&rot));
-        self.steps = s.steps;
+        self.step_count = s.step_count;
     }
 
     fn dispatch(&self, pass: &mut wgpu::ComputePass, entry: &str) {
@@ -527,7 +527,7 @@ impl GpuSolid {
         for st in list {
             self.run_stage(st.kind);
         }
-        self.steps += 1;
+        self.step_count += 1;
     }
 
     /// Runs `n` explicit steps with one submission per 32 steps (implicit: step by step).
@@ -555,7 +555,7 @@ impl GpuSolid {
             }
             self.queue.submit([enc.finish()]);
             done += batch;
-            self.steps += batch;
+            self.step_count += batch;
         }
     }
 
@@ -610,8 +610,8 @@ impl GpuSolid {
         s.particles.spin = self.download_vectors(SolidArray::Spin);
         s.particles.rotation =
             self.read_f32("quat").chunks(4).take(self.n).map(|c| DQuat::from_xyzw(c[0] as f64, c[1] as f64, c[2] as f64, c[3] as f64)).collect();
-        s.steps = self.steps;
-        s.time = self.steps as f64 * self.dt;
+        s.step_count = self.step_count;
+        s.time = self.step_count as f64 * self.dt;
     }
 }
 

@@ -46,9 +46,8 @@ fn step_solids(steps: Res<StepsThisFrame>, mut sims: Query<(Entity, &mut SolidSi
             continue;
         }
         for _ in 0..steps.0 {
-            sim.solver.step();
-            if let Some(i) = sim.solver.non_finite() {
-                let why = format!("particle {i} not finite at step {} (t = {:.4e})", sim.solver.steps, sim.solver.time);
+            if let Err(e) = sim.solver.step() {
+                let why = e.to_string();
                 warn!("phonation: solid on {entity} stopped: {why}");
                 commands.entity(entity).insert(SolidStatus::Unstable(why));
                 break;
@@ -63,7 +62,7 @@ fn solid_diagnostics(mut sims: Query<(Entity, &mut SolidSimulation)>, mut comman
         let energies = s.energies();
         let p = &s.particles;
         let d = SolidDiagnostics {
-            steps: s.steps,
+            steps: s.step_count,
             time: s.time,
             energies,
             linear_momentum: p.linear_momentum().as_vec3(),

@@ -6,15 +6,14 @@
 
 use crate::analysis::voice::VoiceOptions;
 use crate::coupling::glottis::GlottalSample;
-use crate::coupling::{CoupledInstability, WeakCoupling};
+use crate::coupling::WeakCoupling;
 use crate::output::probes::ProbeWriter;
 use crate::output::voice::{GlottalSeries, write_voice_outputs};
 use crate::scene::coupled::CoupledScene;
-use crate::scene::solid::write_vtk;
+use crate::run::solid::write_vtk;
 use serde::Serialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct CoupledReport {
@@ -175,8 +174,6 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, steps: Option<u64>, show
         }
         None => None,
     };
-    let bar = if show_progress { indicatif::ProgressBar::new(total) } else { indicatif::ProgressBar::hidden() };
-    bar.set_style(indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} coupled steps  {per_sec}  eta {eta}").unwrap());
     let snapshot = |c: &WeakCoupling, k: u64, files: &mut Vec<PathBuf>| -> std::io::Result<()> {
         super::snapshot(&c.fluid, fluid_scene, dir, k, files)?;
         let path = dir.join(format!("particles_{k:03}.vtk"));
@@ -184,36 +181,30 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, steps: Option<u64>, show
         files.push(path);
         Ok(())
     };
-    let t0 = Instant::now();
-    let mut instability: Option<CoupledInstability> = None;
     let mut k_snap = 0;
-    for _ in 0..total {
-        if let Err(e) = c.step() {
-            instability = Some(e);
-            break;
-        }
-        let s = c.step_count;
-        if s % every == 0 || s == total {
-            writeln!(csv, "{}", csv_row(&c))?;
+    let progress = show_progress.then_some("coupled steps");
+    let outcome = super::driver::drive(&mut c, total, &[every, probe_every, snap_every], progress, |c, t| {
+        if t.hit[0] || t.last {
+            writeln!(csv, "{}", csv_row(c))?;
             csv.flush()?;
         }
-        if s % probe_every == 0 || s == total {
+        if t.hit[1] || t.last {
             probes.sample(&c.fluid, &fluid_scene.units)?;
         }
         // uniformly sampled: the voice measures need a constant interval
-        if s % probe_every == 0
+        if t.hit[1]
             && let (Some(g), Some(r)) = (&glottis, &mut record)
         {
-            r.push(g.sample(&c))?;
+            r.push(g.sample(c))?;
         }
-        if s % snap_every == 0 && k_snap < snaps {
+        if t.hit[2] && k_snap < snaps {
             k_snap += 1;
-            snapshot(&c, k_snap, &mut files)?;
+            snapshot(c, k_snap, &mut files)?;
         }
-        bar.set_position(s);
-    }
-    bar.finish_and_clear();
-    let wall = t0.elapsed().as_secs_f64();
+        Ok(())
+    })?;
+    let wall = outcome.wall_s;
+    let instability = outcome.instability;
     if instability.is_some() {
         snapshot(&c, 999, &mut files)?;
     }

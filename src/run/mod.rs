@@ -1,18 +1,21 @@
 //! Headless run of a scene: steps the CPU solver, writes probes, snapshots and a summary, and
 //! stops with a diagnosis (keeping every output written so far) when the run goes unstable.
 
-pub use crate::engine::Backend;
-use crate::engine::Engine;
+pub use backend::{Backend, FluidEngine, LatticeGasEngine, SolidEngine, pick_gpu};
 use crate::fluid::{FluidSolver, Instability};
+use crate::step::Solver;
 use crate::output::{fields, png_map, probes::ProbeWriter, vtk};
 use crate::scene::FluidScene;
 use crate::scene::build::SceneSummary;
 use crate::scene::schema::Field;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
+pub mod backend;
 pub mod coupled;
+pub mod driver;
+pub mod lattice_gas;
+pub mod solid;
 pub mod sweep;
 pub mod two_mass;
 
@@ -41,6 +44,7 @@ pub struct RunReport {
     pub status: RunStatus,
     pub steps_done: u64,
     pub simulated_time_s: f64,
+    /// Wall time of the steps (s), outputs excluded.
     pub wall_time_s: f64,
     pub node_updates_per_s: f64,
     pub mass_drift: f64,
@@ -79,51 +83,40 @@ pub(crate) fn snapshot(s: &FluidSolver, scene: &FluidScene, dir: &Path, k: u64, 
 /// `summary.json`; an unstable run is reported in it, not as an `Err`.
 pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::Result<RunReport> {
     std::fs::create_dir_all(dir)?;
-    let mut s = scene.build_solver();
     let units = scene.units;
     let total = opts.steps.unwrap_or(scene.steps);
     let mut files = vec![dir.join("probes.csv")];
-    let mut probes = ProbeWriter::create(&files[0], &s, &scene.probes)?;
-    probes.sample(&s, &units)?;
+    let mut engine = FluidEngine::new(opts.backend, scene.build_solver())?;
+    let mut probes = ProbeWriter::create(&files[0], &engine.solver, &scene.probes)?;
+    probes.sample(&engine.solver, &units)?;
     let snaps = scene.file.output.snapshots;
     let snap_every = if snaps > 0 { (total / snaps).max(1) } else { u64::MAX };
-    let m0 = s.totals().mass;
-    let bar = if opts.show_progress { indicatif::ProgressBar::new(total) } else { indicatif::ProgressBar::hidden() };
-    bar.set_style(indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} steps  {per_sec}  eta {eta}").unwrap());
-    let (mut engine, backend) = Engine::new(opts.backend, &s)?;
-    let t0 = Instant::now();
-    let mut status = RunStatus::Completed;
+    let m0 = engine.solver.totals().mass;
     let mut k_snap = 0;
-    let probe_every = scene.file.output.probe_every;
-    let mut step = 0;
-    while step < total {
-        // Advance to the next output event.
-        let next_probe = (step / probe_every + 1) * probe_every;
-        let next_snap = if k_snap < snaps { (step / snap_every + 1) * snap_every } else { u64::MAX };
-        let next = next_probe.min(next_snap).min(total);
-        if let Err(e) = engine.advance(&mut s, next - step) {
-            status = unstable(&e, scene);
-            break;
+    let progress = opts.show_progress.then_some("steps");
+    let outcome = driver::drive(&mut engine, total, &[scene.file.output.probe_every, snap_every], progress, |e, t| {
+        if t.hit[0] || t.last {
+            probes.sample(&e.solver, &units)?;
         }
-        step = next;
-        if step % probe_every == 0 || step == total {
-            probes.sample(&s, &units)?;
-        }
-        if step % snap_every == 0 && k_snap < snaps {
+        if t.hit[1] && k_snap < snaps {
             k_snap += 1;
-            snapshot(&s, scene, dir, k_snap, &mut files)?;
+            snapshot(&e.solver, scene, dir, k_snap, &mut files)?;
         }
-        bar.set_position(step);
-    }
-    bar.finish_and_clear();
-    let wall = t0.elapsed().as_secs_f64();
+        Ok(())
+    })?;
+    let s = &engine.solver;
     // A final snapshot of whatever state the run reached (the last finite one if unstable).
-    if matches!(status, RunStatus::Unstable { .. }) {
-        snapshot(&s, scene, dir, 999, &mut files)?;
-    }
+    let status = match &outcome.instability {
+        Some(e) => {
+            snapshot(s, scene, dir, 999, &mut files)?;
+            unstable(e, scene)
+        }
+        None => RunStatus::Completed,
+    };
+    let wall = outcome.wall_s;
     let steps_done = s.step_count;
-    let report = RunReport {
-        backend,
+    let mut report = RunReport {
+        backend: engine.name.clone(),
         scene: scene.summary(),
         status,
         steps_done,
@@ -132,10 +125,9 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
         node_updates_per_s: steps_done as f64 * s.layout.fluid_count as f64 / wall.max(1e-9),
         mass_drift: (s.totals().mass - m0) / m0,
         max_mach: s.max_mach(),
-        stage_fractions: s.timings.report().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
-        files: files.clone(),
+        stage_fractions: engine.stage_shares().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
+        files,
     };
-    let mut report = report;
     report.files.push(write_summary(dir, &report)?);
     Ok(report)
 }
@@ -149,7 +141,8 @@ pub(crate) fn write_summary(dir: &Path, report: &impl Serialize) -> anyhow::Resu
 
 fn unstable(e: &Instability, scene: &FluidScene) -> RunStatus {
     let u = &scene.units;
-    let pos = std::array::from_fn(|a| if a < scene.grid.dim { (e.node[a] as f64 + 0.5) * u.dx } else { 0.0 });
+    let node = e.node().unwrap_or_default();
+    let pos = std::array::from_fn(|a| if a < scene.grid.dim { (node[a] as f64 + 0.5) * u.dx } else { 0.0 });
     RunStatus::Unstable {
         diagnosis: e.to_string(),
         step: e.step,

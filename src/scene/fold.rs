@@ -160,7 +160,7 @@ duration = 1.0
         let mut deepest: f64 = 0.0;
         let (mut highest, mut lowest) = (f64::NEG_INFINITY, f64::INFINITY);
         for k in 0..10_000 {
-            s.step();
+            s.step().expect("the closing folds stay finite");
             let p = &s.particles;
             if k % 100 == 99 {
                 // the smallest distance between particles of the two folds

@@ -5,17 +5,10 @@
 //!
 //! Units: lengths in ℓ (site spacing; cell centres every 2ℓ), velocities in ℓ per step.
 
-use crate::lattice_gas::coarse::coarse_grain;
-use crate::lattice_gas::collision::CollisionTable;
 use crate::lattice_gas::lattice::{Diagonals, Inlet, LANES, LatticeGas, Outlet};
-use crate::lattice_gas::spectrum::{Peak, dominant_frequency};
 use crate::lattice_gas::velocities::Q;
-use crate::output::coarse::{write_csv, write_pngs, write_vtk};
 use crate::scene::SceneError;
 use serde::{Deserialize, Serialize};
-use std::io::Write;
-use std::path::Path;
-use std::time::Instant;
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -243,146 +236,12 @@ pub fn region_velocity(g: &LatticeGas, at: [f64; 2], half: f64) -> [f64; 2] {
     if n == 0 { [0.0; 2] } else { j.map(|v| v as f64 / n as f64) }
 }
 
-#[derive(Clone, Debug, Serialize)]
-pub struct LatticeGasReport {
-    pub name: String,
-    pub backend: String,
-    pub cells: [usize; 3],
-    pub sites: u64,
-    pub density: f64,
-    pub interference: f64,
-    pub diagonals: Diagonals,
-    pub steps: u64,
-    pub wall_s: f64,
-    pub site_updates_per_s: f64,
-    /// Wall-time share per stage (CPU backend only).
-    pub stage_shares: Vec<(String, f64)>,
-    pub particles_start: u64,
-    pub particles_end: u64,
-    /// Inflow velocity (ℓ/step) set at the inlet, and measured upstream of the cylinder (mean of
-    /// the last half of the samples).
-    pub inlet_velocity: Option<f64>,
-    pub upstream_velocity: Option<f64>,
-    /// Cylinder diameter (ℓ).
-    pub diameter: Option<f64>,
-    /// Spectral peak of the probe's transverse velocity over the last half of the run.
-    pub wake_peak: Option<Peak>,
-    /// Whether the wake sheds periodically: a prominent peak (≥ 50× the mean power; white noise
-    /// gives 5–10) with at least three periods in the window.
-    pub shedding_periodic: bool,
-    /// St = f D / U (U the inlet velocity), when shedding is periodic.
-    pub strouhal: Option<f64>,
-    pub files: Vec<String>,
-}
-
-/// Runs a lattice-gas scene into `dir`: `probe.csv` (step, u_X, u_Y at the probe, u_X
-/// upstream), `coarse_NNNNNNN.{csv,vtk}` and `coarse_NNNNNNN_{speed,uy}.png` every
-/// `output.every` steps, and `summary.json`. The GPU backend mirrors its state to the CPU at
-/// every sample.
-pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, steps: Option<u64>, backend: crate::engine::Backend) -> anyhow::Result<LatticeGasReport> {
-    std::fs::create_dir_all(dir)?;
-    let s = &sc.file.lattice_gas;
-    let table = CollisionTable::shared();
-    let mut g = sc.build();
-    let (ctx, backend_name) = crate::engine::pick_gpu(backend)?;
-    let mut gpu = match &ctx {
-        Some(ctx) => Some(crate::gpu::lattice_gas::GpuLatticeGas::new(ctx, &g, table)?),
-        None => None,
-    };
-    let total = steps.unwrap_or(s.steps).max(1);
-    let o = &s.output;
-    let upstream = s.cylinder.as_ref().map(|c| [(c.center[0] - c.radius) * 0.5, c.center[1]]);
-    let mut probe_csv = std::io::BufWriter::new(std::fs::File::create(dir.join("probe.csv"))?);
-    writeln!(probe_csv, "step,u_x,u_y,upstream_u_x")?;
-    let mut files = vec!["probe.csv".to_string()];
-    let particles_start = g.invariants().particles;
-    let mut samples = Vec::new();
-    let mut timings = crate::lattice_gas::step::LatticeGasTimings::default();
-    let mut done = 0u64;
-    let mut wall = 0.0;
-    let bar = indicatif::ProgressBar::new(total);
-    while done < total {
-        let next = [total, (done / o.probe_every + 1) * o.probe_every, (done / o.every + 1) * o.every].into_iter().min().unwrap();
-        let t0 = Instant::now();
-        match gpu.as_mut() {
-            Some(gg) => {
-                gg.advance(next - done);
-                gg.download_into(&mut g);
-            }
-            None => {
-                for _ in done..next {
-                    g.advance_timed(table, &mut timings);
-                }
-            }
-        }
-        wall += t0.elapsed().as_secs_f64();
-        done = next;
-        bar.set_position(done);
-        if done % o.probe_every == 0 {
-            if let Some(p) = sc.probe {
-                let u = region_velocity(&g, p, 2.0 * o.coarse_block as f64);
-                let up = upstream.map(|a| region_velocity(&g, a, 2.0 * o.coarse_block as f64)[0]);
-                writeln!(probe_csv, "{done},{:.6},{:.6},{}", u[0], u[1], up.map(|v| format!("{v:.6}")).unwrap_or_default())?;
-                samples.push((u[1], up));
-            }
-        }
-        if done % o.every == 0 || done == total {
-            probe_csv.flush()?;
-            let f = coarse_grain(&g, o.coarse_block);
-            let stem = format!("coarse_{done:07}");
-            write_csv(&dir.join(format!("{stem}.csv")), &f)?;
-            write_vtk(&dir.join(format!("{stem}.vtk")), &f, &format!("{} step {done}", sc.file.name))?;
-            write_pngs(&dir.join(format!("{stem}_speed.png")), &dir.join(format!("{stem}_uy.png")), &f)?;
-            files.extend([format!("{stem}.csv"), format!("{stem}.vtk"), format!("{stem}_speed.png"), format!("{stem}_uy.png")]);
-        }
-    }
-    bar.finish_and_clear();
-    probe_csv.flush()?;
-    let last_half = &samples[samples.len() / 2..];
-    let wake_peak = dominant_frequency(&last_half.iter().map(|s| s.0).collect::<Vec<_>>(), o.probe_every as f64);
-    let upstream_velocity = {
-        let v: Vec<f64> = last_half.iter().filter_map(|s| s.1).collect();
-        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-    };
-    let diameter = s.cylinder.as_ref().map(|c| 2.0 * c.radius);
-    let inlet_velocity = s.inlet.as_ref().map(|i| i.velocity);
-    let shedding_periodic = wake_peak.is_some_and(|p| p.prominence >= 50.0 && p.periods >= 3.0);
-    let strouhal = match (shedding_periodic, wake_peak, diameter, inlet_velocity) {
-        (true, Some(p), Some(d), Some(u)) if u > 0.0 => Some(p.frequency * d / u),
-        _ => None,
-    };
-    let sites = 16 * g.cells() as u64;
-    let report = LatticeGasReport {
-        name: sc.file.name.clone(),
-        backend: backend_name,
-        cells: s.cells,
-        sites,
-        density: s.density,
-        interference: s.interference,
-        diagonals: s.diagonals,
-        steps: done,
-        wall_s: wall,
-        site_updates_per_s: sites as f64 * done as f64 / wall.max(1e-12),
-        stage_shares: timings.report().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
-        particles_start,
-        particles_end: g.invariants().particles,
-        inlet_velocity,
-        upstream_velocity,
-        diameter,
-        wake_peak,
-        shedding_periodic,
-        strouhal,
-        files,
-    };
-    std::fs::write(dir.join("summary.json"), serde_json::to_string_pretty(&report)?)?;
-    Ok(report)
-}
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    const SMALL: &str = r#"
+    pub(crate) const SMALL: &str = r#"
 name = "small_wake"
 [lattice_gas]
 cells = [32, 16, 2]
@@ -444,27 +303,5 @@ probe_every = 5
         assert_eq!(LatticeGasScene::parse(SMALL).unwrap().build().diagonals, Diagonals::OwnPlane);
         let all = with("interference = 0.1", "interference = 0.1\ndiagonals = \"all_perpendicular\"").unwrap();
         assert_eq!(all.build().diagonals, Diagonals::AllPerpendicular);
-    }
-
-    #[test]
-    fn a_small_wake_runs_and_writes_its_outputs() {
-        let sc = LatticeGasScene::parse(SMALL).unwrap();
-        let dir = std::env::temp_dir().join(format!("phonation_lg_{}", std::process::id()));
-        let r = run_lattice_gas_scene(&sc, &dir, None, crate::engine::Backend::Cpu).unwrap();
-        println!("{}", serde_json::to_string(&r).unwrap());
-        assert_eq!(r.steps, 60);
-        assert_eq!(r.sites, 32 * 16 * 2 * 16);
-        for f in ["probe.csv", "summary.json", "coarse_0000030.csv", "coarse_0000060.vtk", "coarse_0000060_speed.png", "coarse_0000060_uy.png"] {
-            assert!(dir.join(f).is_file(), "{f}");
-        }
-        let probe = std::fs::read_to_string(dir.join("probe.csv")).unwrap();
-        assert_eq!(probe.lines().count(), 1 + 12);
-        // after 60 steps the injected flow has reached the upstream probe (inlet at 0.2 ℓ/step)
-        let last: Vec<f64> = probe.lines().last().unwrap().split(',').map(|v| v.parse().unwrap()).collect();
-        assert!(last[3] > 0.05 && last[3] < 0.3, "upstream u_x {}", last[3]);
-        // the coarse CSV holds 8 × 4 × 1 blocks
-        let csv = std::fs::read_to_string(dir.join("coarse_0000060.csv")).unwrap();
-        assert_eq!(csv.lines().count(), 1 + 32);
-        std::fs::remove_dir_all(&dir).ok();
     }
 }

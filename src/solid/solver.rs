@@ -1,6 +1,7 @@
 //! The MPS solid on the CPU: explicit (seed 000 §2.2.4) and implicit (§2.2.5) steps driven by
 //! the stage lists [`SOLID_EXPLICIT_STEP`] and [`SOLID_IMPLICIT_STEP`].
 
+use crate::step::{Instability, Part, Site};
 use super::bonds::{self, Bonds};
 use super::contact::{ContactInput, ContactParams, Contacts, Wall};
 use super::forces::{Discretisation, ForceField, Mode, StressField, bond_forces, rotation_chain, rotation_increments, strain_stress};
@@ -100,7 +101,7 @@ pub struct SolidSolver {
     /// Estimated explicit stability limit (whatever the integrator).
     pub explicit_limit: f64,
     pub time: f64,
-    pub steps: u64,
+    pub step_count: u64,
     pub last: StepStats,
     pub timings: Vec<(SolidStage, Duration)>,
     rot: Vec<DMat3>,
@@ -163,7 +164,7 @@ impl SolidSolver {
             dt: 0.0,
             explicit_limit: 0.0,
             time: 0.0,
-            steps: 0,
+            step_count: 0,
             last: StepStats::default(),
             timings: Vec::new(),
             rot: vec![DMat3::IDENTITY; n],
@@ -251,8 +252,9 @@ impl SolidSolver {
         }
     }
 
-    /// Advances one step.
-    pub fn step(&mut self) {
+    /// Advances one step; stops with the diagnosis when a particle's position or velocity is
+    /// no longer finite (the usual cause: a time step above the explicit limit).
+    pub fn step(&mut self) -> Result<(), Instability> {
         for k in 0..self.timings.len() {
             let st = self.timings[k].0;
             let t0 = Instant::now();
@@ -260,7 +262,30 @@ impl SolidSolver {
             self.timings[k].1 += t0.elapsed();
         }
         self.time += self.dt;
-        self.steps += 1;
+        self.step_count += 1;
+        match self.non_finite() {
+            None => Ok(()),
+            Some(i) => Err(self.instability_at(i)),
+        }
+    }
+
+    /// The diagnosis of a particle whose state is not finite.
+    pub fn instability_at(&self, i: usize) -> Instability {
+        let x = self.particles.reference[i];
+        let v = self.particles.velocity[i];
+        Instability {
+            part: Part::Solid,
+            step: self.step_count,
+            time: self.time,
+            time_unit: "s",
+            site: Site::Particle(i),
+            quantity: if v.is_finite() { "position" } else { "velocity" },
+            value: if v.is_finite() { self.particles.position[i].length() } else { v.length() },
+            reason: format!(
+                "not finite; the particle's reference position is [{:.4e}, {:.4e}, {:.4e}]; Δt = {:.3e} against the explicit limit {:.3e}",
+                x.x, x.y, x.z, self.dt, self.explicit_limit
+            ),
+        }
     }
 
     fn run_stage(&mut self, kind: SolidStageKind) {
@@ -395,5 +420,17 @@ impl SolidSolver {
     pub fn non_finite(&self) -> Option<usize> {
         let p = &self.particles;
         (0..p.len()).find(|&i| !(p.position[i].is_finite() && p.velocity[i].is_finite()))
+    }
+}
+
+impl crate::step::Solver for SolidSolver {
+    fn step(&mut self) -> Result<(), Instability> {
+        SolidSolver::step(self)
+    }
+    fn step_count(&self) -> u64 {
+        self.step_count
+    }
+    fn stage_shares(&self) -> Vec<(&'static str, f64)> {
+        SolidSolver::stage_shares(self)
     }
 }

@@ -44,7 +44,7 @@ pub fn two_blocks(speed: f64, steps: u64) -> Collision {
     let scale: f64 = (0..s.particles.len()).map(|i| s.particles.mass[i] * s.particles.velocity[i].length()).sum();
     let mut max_overlap: f64 = 0.0;
     for _ in 0..steps {
-        s.step();
+        s.step().expect("the colliding bodies stay finite");
         max_overlap = max_overlap.max(s.contacts().max_overlap);
     }
     let com_v = |b: u16| {
@@ -94,7 +94,7 @@ pub fn block_on_slope(angle_deg: f64, settle: f64, time: f64) -> Slope {
     let mut s =
         SolidSolver::new(p, vec![m], SolidOptions { contact: Some(cp), walls, gravity: DVec3::new(0.0, -g0, 0.0), ..Default::default() }).expect("valid slope");
     while s.time < settle {
-        s.step();
+        s.step().expect("the block settles on the slope");
     }
     s.options.gravity = gravity;
     s.time = 0.0;
@@ -103,7 +103,7 @@ pub fn block_on_slope(angle_deg: f64, settle: f64, time: f64) -> Slope {
     let x0 = com(&s);
     let (mut t_half, mut v_half) = (0.0, 0.0);
     while s.time < time {
-        s.step();
+        s.step().expect("the block slides and stays finite");
         if t_half == 0.0 && s.time >= 0.5 * time {
             t_half = s.time;
             v_half = vel(&s);

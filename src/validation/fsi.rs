@@ -304,7 +304,7 @@ pub struct OscillatingResult {
 
 /// A rigid disc of `cells_per_diameter`, oscillating harmonically along x with amplitude one
 /// diameter and peak speed Mach `mach`, in a periodic box of 6 × 4 diameters, for `steps` steps.
-pub fn oscillating_cylinder(cells_per_diameter: usize, mach: f64, steps: u64) -> Result<OscillatingResult, crate::coupling::CoupledInstability> {
+pub fn oscillating_cylinder(cells_per_diameter: usize, mach: f64, steps: u64) -> Result<OscillatingResult, crate::step::Instability> {
     let d = cells_per_diameter as f64;
     let (nx, ny) = (6 * cells_per_diameter, 4 * cells_per_diameter);
     let (eq, l1) = d2q21_air();
@@ -359,7 +359,7 @@ pub fn pulse_on_a_free_disc(
     amplitude: f64,
     steps: u64,
     density: f64,
-) -> Result<MomentumResult, crate::coupling::CoupledInstability> {
+) -> Result<MomentumResult, crate::step::Instability> {
     let d = cells_per_diameter as f64;
     let n = 6 * cells_per_diameter;
     let (eq, l1) = d2q21_air();

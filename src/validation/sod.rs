@@ -3,7 +3,8 @@
 //! temperature into the positivity window of the velocity set; zero-gradient ends.
 
 use super::riemann::{Solution, State};
-use crate::engine::{Backend, Engine};
+use crate::run::{Backend, FluidEngine};
+use crate::step::Solver;
 use crate::fluid::{Boundaries, Equilibrium, FaceCondition, FluidSolver, GasModel, Grid, Macro, StepParams, VelocitySet, VelocitySetKind, timestep};
 use crate::gpu::GpuError;
 
@@ -61,11 +62,12 @@ impl SodCase {
         let mut b = Boundaries::periodic();
         b.faces[0] = FaceCondition::Outlet;
         b.faces[1] = FaceCondition::Outlet;
-        let mut solver = FluidSolver::new(eq, Grid::new(dim, [n, 1, 1]), b, &[], params, init);
+        let solver = FluidSolver::new(eq, Grid::new(dim, [n, 1, 1]), b, &[], params, init);
         let t_end = self.time_fraction * n as f64 / (gamma * s).sqrt();
         let steps = ((t_end / params.dt) - 0.5).ceil().max(0.0) as u64;
-        let (mut engine, _) = Engine::new(backend, &solver)?;
-        engine.advance(&mut solver, steps).expect("Sod shock tube stays stable");
+        let mut engine = FluidEngine::new(backend, solver)?;
+        engine.advance(steps).expect("Sod shock tube stays stable");
+        let solver = &engine.solver;
         let t = solver.time;
         let field: Vec<Macro> = (0..n).map(|x| solver.macro_at_coords([x as i64, 0, 0])).collect();
         let xi = |x: f64| (x - x0) / t;

@@ -1,7 +1,8 @@
 //! Speed of sound: a standing isentropic acoustic mode in a periodic tube; its oscillation
 //! period against c_s = √(γθ) (2.104) with γ = (D+2)/D (monatomic) or 1.4 (diatomic).
 
-use crate::engine::{Backend, Engine};
+use crate::run::{Backend, FluidEngine};
+use crate::step::Solver;
 use crate::fluid::{Boundaries, Equilibrium, FluidSolver, GasModel, Grid, Macro, VelocitySet, VelocitySetKind, timestep};
 use crate::gpu::GpuError;
 use std::f64::consts::PI;
@@ -38,17 +39,18 @@ pub fn sound_speed_on(set: VelocitySetKind, gas: GasModel, n: usize, backend: Ba
         Macro { rho: 1.0 + eps * c, u: [0.0; 3], theta: theta0 * (1.0 + (gamma - 1.0) * eps * c) }
     };
     let grid = Grid::new(dim, [n, 1, 1]);
-    let mut s = FluidSolver::new(eq, grid, Boundaries::periodic(), &[], params, init);
+    let s = FluidSolver::new(eq, grid, Boundaries::periodic(), &[], params, init);
     let predicted = (gamma * theta0).sqrt();
     let omega = predicted * k;
     let t_end = 3.2 * 2.0 * PI / omega;
     let mode = |s: &FluidSolver| -> f64 { (0..n).map(|x| (s.macro_at_coords([x as i64, 0, 0]).rho - 1.0) * (k * x as f64).cos()).sum::<f64>() };
-    let (mut engine, _) = Engine::new(backend, &s)?;
-    let mut prev = (s.time, mode(&s));
+    let mut engine = FluidEngine::new(backend, s)?;
+    let mut prev = (engine.solver.time, mode(&engine.solver));
     let mut crossings = Vec::new();
-    while s.time < t_end {
-        engine.advance(&mut s, 1).expect("acoustic mode stays stable");
-        let cur = (s.time, mode(&s));
+    while engine.solver.time < t_end {
+        engine.advance(1).expect("acoustic mode stays stable");
+        let s = &engine.solver;
+        let cur = (s.time, mode(s));
         if prev.1.signum() != cur.1.signum() {
             crossings.push(prev.0 + (cur.0 - prev.0) * prev.1 / (prev.1 - cur.1));
         }

@@ -1,0 +1,212 @@
+//! The backend that advances a solver: the CPU reference, or the GPU with the CPU solver as a
+//! mirror that receives the GPU state after every advance (for outputs and measurements). One
+//! engine per kind of solver, each a [`Solver`], so that the run loop ([`super::driver`]) treats
+//! them alike; the GPU context is picked here, above the physics core.
+
+use crate::fluid::{FluidSolver, Instability};
+use crate::gpu::lattice_gas::GpuLatticeGas;
+use crate::gpu::solid::GpuSolid;
+use crate::gpu::{GpuContext, GpuError, GpuFluid};
+use crate::lattice_gas::collision::CollisionTable;
+use crate::lattice_gas::lattice::LatticeGas;
+use crate::lattice_gas::step::LatticeGasTimings;
+use crate::solid::SolidSolver;
+use crate::step::{Part, Site, Solver};
+use serde::Serialize;
+
+/// Which solver backend runs the scene.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Backend {
+    Cpu,
+    Gpu,
+    /// The GPU when the adapter is a real (discrete or integrated) GPU, else the CPU: a software
+    /// rasteriser such as lavapipe is slower than the CPU backend.
+    #[default]
+    Auto,
+}
+
+/// The GPU context a run should use for `backend` (None: run on the CPU), and a line saying
+/// what was chosen. `Auto` takes the GPU only when the adapter is a hardware GPU; `Gpu` fails
+/// when there is no adapter.
+pub fn pick_gpu(backend: Backend) -> Result<(Option<GpuContext>, String), GpuError> {
+    let threads = rayon::current_num_threads();
+    if backend != Backend::Cpu {
+        match GpuContext::new() {
+            Ok(ctx) => {
+                let real = matches!(ctx.info.device_type, wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::IntegratedGpu);
+                if backend == Backend::Gpu || real {
+                    let name = format!("gpu: {}", ctx.describe());
+                    return Ok((Some(ctx), name));
+                }
+                return Ok((None, format!("cpu ({threads} threads; adapter {} is not a hardware GPU)", ctx.describe())));
+            }
+            Err(e) if backend == Backend::Gpu => return Err(e),
+            Err(_) => {}
+        }
+    }
+    Ok((None, format!("cpu ({threads} threads)")))
+}
+
+/// The FDLB fluid on a backend. On the GPU, [`FluidEngine::solver`] mirrors the GPU state after
+/// every [`Solver::advance`].
+pub struct FluidEngine {
+    pub solver: FluidSolver,
+    gpu: Option<Box<GpuFluid>>,
+    /// What runs it ("cpu (2 threads)", "gpu: …").
+    pub name: String,
+}
+
+impl FluidEngine {
+    /// Picks the backend and uploads `solver` to the GPU when it is chosen.
+    pub fn new(backend: Backend, solver: FluidSolver) -> Result<Self, GpuError> {
+        let (ctx, name) = pick_gpu(backend)?;
+        let gpu = match ctx {
+            Some(ctx) => Some(Box::new(GpuFluid::from_solver(&ctx, &solver)?)),
+            None => None,
+        };
+        Ok(Self { solver, gpu, name })
+    }
+}
+
+impl Solver for FluidEngine {
+    fn step(&mut self) -> Result<(), Instability> {
+        self.advance(1)
+    }
+
+    fn step_count(&self) -> u64 {
+        self.solver.step_count
+    }
+
+    /// On the GPU: `n` steps, then the state copied back into the mirror (which keeps the last
+    /// state copied back when the GPU reports an instability).
+    fn advance(&mut self, n: u64) -> Result<(), Instability> {
+        let Some(g) = self.gpu.as_mut() else { return self.solver.run(n) };
+        let s = &mut self.solver;
+        g.run(n);
+        if let Some((node, code)) = g.instability() {
+            let quantity = ["", "density", "velocity", "temperature"][code as usize];
+            return Err(Instability {
+                part: Part::Fluid,
+                step: g.step_count,
+                time: g.step_count as f64 * s.params.dt,
+                time_unit: "lattice units",
+                site: Site::Node(s.layout.grid.coords(node)),
+                quantity,
+                value: f64::NAN,
+                reason: format!("{quantity} left its admissible range on the GPU within the last {n} steps"),
+            });
+        }
+        g.download_into(s);
+        Ok(())
+    }
+
+    fn stage_shares(&self) -> Vec<(&'static str, f64)> {
+        match self.gpu {
+            None => self.solver.stage_shares(),
+            Some(_) => Vec::new(),
+        }
+    }
+}
+
+/// The MPS solid on a backend. On the GPU, [`SolidEngine::solver`] mirrors the GPU state after
+/// every [`Solver::advance`].
+pub struct SolidEngine {
+    pub solver: SolidSolver,
+    gpu: Option<GpuSolid>,
+    pub name: String,
+}
+
+impl SolidEngine {
+    pub fn new(backend: Backend, mut solver: SolidSolver) -> Result<Self, GpuError> {
+        let (ctx, name) = pick_gpu(backend)?;
+        let gpu = match ctx {
+            Some(ctx) => Some(GpuSolid::from_solver(&ctx, &mut solver)?),
+            None => None,
+        };
+        Ok(Self { solver, gpu, name })
+    }
+}
+
+impl Solver for SolidEngine {
+    fn step(&mut self) -> Result<(), Instability> {
+        self.advance(1)
+    }
+
+    fn step_count(&self) -> u64 {
+        self.solver.step_count
+    }
+
+    fn advance(&mut self, n: u64) -> Result<(), Instability> {
+        let Some(g) = self.gpu.as_mut() else { return Solver::advance(&mut self.solver, n) };
+        g.run(n);
+        g.download_into(&mut self.solver);
+        match self.solver.non_finite() {
+            None => Ok(()),
+            Some(i) => Err(self.solver.instability_at(i)),
+        }
+    }
+
+    fn stage_shares(&self) -> Vec<(&'static str, f64)> {
+        match self.gpu {
+            None => self.solver.stage_shares(),
+            Some(_) => Vec::new(),
+        }
+    }
+}
+
+/// The integer lattice gas on a backend. It cannot go unstable (its state is bits; particle
+/// number and momentum are conserved exactly by every collision), so [`Solver::step`] always
+/// succeeds. `gas.step` is the position of its random streams (`u32`, wrapping, as on the GPU);
+/// the step counter is [`Solver::step_count`]. On the GPU, `gas` mirrors the GPU state after
+/// every advance.
+pub struct LatticeGasEngine {
+    pub gas: LatticeGas,
+    table: &'static CollisionTable,
+    gpu: Option<GpuLatticeGas>,
+    step_count: u64,
+    pub timings: LatticeGasTimings,
+    pub name: String,
+}
+
+impl LatticeGasEngine {
+    pub fn new(backend: Backend, gas: LatticeGas) -> Result<Self, GpuError> {
+        let table = CollisionTable::shared();
+        let (ctx, name) = pick_gpu(backend)?;
+        let gpu = match &ctx {
+            Some(ctx) => Some(GpuLatticeGas::new(ctx, &gas, table)?),
+            None => None,
+        };
+        Ok(Self { gas, table, gpu, step_count: 0, timings: LatticeGasTimings::default(), name })
+    }
+}
+
+impl Solver for LatticeGasEngine {
+    fn step(&mut self) -> Result<(), Instability> {
+        self.advance(1)
+    }
+
+    fn step_count(&self) -> u64 {
+        self.step_count
+    }
+
+    fn advance(&mut self, n: u64) -> Result<(), Instability> {
+        match self.gpu.as_mut() {
+            Some(g) => {
+                g.advance(n);
+                g.download_into(&mut self.gas);
+            }
+            None => {
+                for _ in 0..n {
+                    self.gas.advance_timed(self.table, &mut self.timings);
+                }
+            }
+        }
+        self.step_count += n;
+        Ok(())
+    }
+
+    fn stage_shares(&self) -> Vec<(&'static str, f64)> {
+        self.timings.report()
+    }
+}
