@@ -5,12 +5,12 @@
 //! snapshot of the last finite state).
 
 use crate::analysis::voice::VoiceOptions;
-use crate::coupling::glottis::GlottalSample;
 use crate::coupling::WeakCoupling;
+use crate::coupling::glottis::GlottalSample;
 use crate::output::probes::ProbeWriter;
 use crate::output::voice::{GlottalSeries, write_voice_outputs};
-use crate::scene::coupled::CoupledScene;
 use crate::run::solid::write_vtk;
+use crate::scene::coupled::CoupledScene;
 use serde::Serialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};

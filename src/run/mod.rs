@@ -1,13 +1,13 @@
 //! Headless run of a scene: steps the CPU solver, writes probes, snapshots and a summary, and
 //! stops with a diagnosis (keeping every output written so far) when the run goes unstable.
 
-pub use backend::{Backend, FluidEngine, LatticeGasEngine, SolidEngine, pick_gpu};
 use crate::fluid::{FluidSolver, Instability};
-use crate::step::Solver;
 use crate::output::{fields, png_map, probes::ProbeWriter, vtk};
 use crate::scene::FluidScene;
 use crate::scene::build::SceneSummary;
 use crate::scene::schema::Field;
+use crate::step::Solver;
+pub use backend::{Backend, FluidEngine, LatticeGasEngine, SolidEngine, pick_gpu};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 

@@ -236,7 +236,6 @@ pub fn region_velocity(g: &LatticeGas, at: [f64; 2], half: f64) -> [f64; 2] {
     if n == 0 { [0.0; 2] } else { j.map(|v| v as f64 / n as f64) }
 }
 
-
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;

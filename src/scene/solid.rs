@@ -379,4 +379,3 @@ impl SolidScene {
         SolidSolver::new(p, self.materials.clone(), opts)
     }
 }
-

@@ -1,7 +1,6 @@
 //! The MPS solid on the CPU: explicit (seed 000 §2.2.4) and implicit (§2.2.5) steps driven by
 //! the stage lists [`SOLID_EXPLICIT_STEP`] and [`SOLID_IMPLICIT_STEP`].
 
-use crate::step::{Instability, Part, Site};
 use super::bonds::{self, Bonds};
 use super::contact::{ContactInput, ContactParams, Contacts, Wall};
 use super::forces::{Discretisation, ForceField, Mode, StressField, bond_forces, rotation_chain, rotation_increments, strain_stress};
@@ -13,6 +12,7 @@ use super::rotation::{advance_quaternion, solve_all_rotations, solve_angular_vel
 use super::timestep::stable_time_step;
 use crate::error::SceneError;
 use crate::stages::{SOLID_EXPLICIT_STEP, SOLID_IMPLICIT_STEP, SolidStage, SolidStageKind};
+use crate::step::{Instability, Part, Site};
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};

@@ -354,12 +354,7 @@ pub fn pressure_pulse_momentum(cells_per_diameter: usize, amplitude: f64, steps:
 
 /// [`pressure_pulse_momentum`] with a disc of density `density` (the air's is 1); an
 /// instability is returned, not a panic.
-pub fn pulse_on_a_free_disc(
-    cells_per_diameter: usize,
-    amplitude: f64,
-    steps: u64,
-    density: f64,
-) -> Result<MomentumResult, crate::step::Instability> {
+pub fn pulse_on_a_free_disc(cells_per_diameter: usize, amplitude: f64, steps: u64, density: f64) -> Result<MomentumResult, crate::step::Instability> {
     let d = cells_per_diameter as f64;
     let n = 6 * cells_per_diameter;
     let (eq, l1) = d2q21_air();

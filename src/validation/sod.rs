@@ -3,10 +3,10 @@
 //! temperature into the positivity window of the velocity set; zero-gradient ends.
 
 use super::riemann::{Solution, State};
-use crate::run::{Backend, FluidEngine};
-use crate::step::Solver;
 use crate::fluid::{Boundaries, Equilibrium, FaceCondition, FluidSolver, GasModel, Grid, Macro, StepParams, VelocitySet, VelocitySetKind, timestep};
 use crate::gpu::GpuError;
+use crate::run::{Backend, FluidEngine};
+use crate::step::Solver;
 
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct SodResult {

@@ -1,10 +1,10 @@
 //! Speed of sound: a standing isentropic acoustic mode in a periodic tube; its oscillation
 //! period against c_s = √(γθ) (2.104) with γ = (D+2)/D (monatomic) or 1.4 (diatomic).
 
-use crate::run::{Backend, FluidEngine};
-use crate::step::Solver;
 use crate::fluid::{Boundaries, Equilibrium, FluidSolver, GasModel, Grid, Macro, VelocitySet, VelocitySetKind, timestep};
 use crate::gpu::GpuError;
+use crate::run::{Backend, FluidEngine};
+use crate::step::Solver;
 use std::f64::consts::PI;
 
 #[derive(Clone, Debug, serde::Serialize)]

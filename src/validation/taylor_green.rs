@@ -6,11 +6,11 @@
 //! exp(−3νk²t) in the linear (low Reynolds number) regime.
 //! Density uniform, temperature θ₀ uniform, plus the pressure field of the 2D vortex.
 
-use crate::run::{Backend, FluidEngine};
-use crate::step::Solver;
 use crate::fluid::timestep;
 use crate::fluid::{Boundaries, Equilibrium, FluidSolver, GasModel, Grid, Macro, StepParams, VelocitySet, VelocitySetKind};
 use crate::gpu::GpuError;
+use crate::run::{Backend, FluidEngine};
+use crate::step::Solver;
 use std::f64::consts::PI;
 use std::time::Instant;
 
