@@ -27,7 +27,8 @@
 //! part of its Fourier symbol is ≥ 0), so the Heun step stays stable under the same limit. A ghost
 //! is far when its image point (the weighted mean of its image nodes) lies strictly on the other
 //! side of it along the axis; a fluid node at −2s is far when the node at −s is not fluid.
-//! Geometries without thin walls have no such taps, and their results are unchanged.
+//! Geometries without thin walls have no such taps, and their results are unchanged. The GPU
+//! twin is the `thin_wall` kernel ([`crate::gpu::codegen::thin_wall`]), run after each advection.
 
 use super::grid::Grid;
 use super::layout::{Ghost, NodeKind};

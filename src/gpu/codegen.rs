@@ -242,6 +242,56 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     s
 }
 
+/// The one-sided stencils next to thin walls ([`crate::fluid::thin_wall`]), applied after the
+/// advection: one thread per fluid node that has any, walking its taps (so no two threads write
+/// the same value). Each tap carries the correction weights w − w_full on (0, +s, −s, −2s) and
+/// the step to the +s neighbour; value v is corrected when its velocity component along the
+/// tap's axis has the tap's sign: dst −= k·|c_a|/6·Σ w·h.
+pub fn thin_wall(eq: &Equilibrium, split: Split) -> String {
+    let g = split.groups() as u32;
+    let nv = eq.values_per_node();
+    let q = eq.q();
+    let mut s = format!("const WG: u32 = {WORKGROUP}u;\n{PARAMS}\n");
+    s += r#"
+struct ThinTap { node: u32, axis: u32, sign: i32, step: i32, w: vec4<f32>, };
+@group(0) @binding(1) var<storage, read> taps: array<ThinTap>;
+@group(0) @binding(2) var<storage, read> ranges: array<vec2<u32>>;
+"#;
+    s += &split.declare("h", "read", 10);
+    s += &split.declare("dst", "read_write", 10 + g);
+    s += r#"
+@compute @workgroup_size(WG)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = thread_index(gid, nwg);
+    if (i >= P.count) { return; }
+    let range = ranges[i];
+    let N = P.n_nodes;
+    let k = select(1.0, 0.5, P.stage == 2u) * P.dt;
+    for (var t = range.x; t < range.x + range.y; t = t + 1u) {
+        let tp = taps[t];
+        let st = tp.step;
+"#;
+    for v in 0..nv {
+        let i = if v < q { v } else { v - q };
+        let c = eq.set.c[i];
+        let (grp, r) = (v / split.per_binding, v % split.per_binding);
+        let terms: Vec<String> = (0..3)
+            .filter(|&a| c[a] != 0)
+            .map(|a| format!("select(0.0, {}, tp.axis == {a}u && tp.sign == {})", f(c[a].unsigned_abs() as f64 / 6.0), c[a].signum()))
+            .collect();
+        if terms.is_empty() {
+            continue;
+        }
+        let _ = writeln!(
+            s,
+            "        {{ let m = {}; if (m != 0.0) {{ let c = i32({r}u * N + tp.node); let corr = tp.w.x * h{grp}[c] + tp.w.y * h{grp}[c + st] + tp.w.z * h{grp}[c - st] + tp.w.w * h{grp}[c - 2 * st]; dst{grp}[c] = dst{grp}[c] - k * m * corr; }} }}",
+            terms.join(" + ")
+        );
+    }
+    s += "    }\n}\n";
+    s
+}
+
 /// Boundary fill kernels (`ghost_fill`, `face_fill`, `periodic_copy`) in one module.
 pub fn boundaries(eq: &Equilibrium, split: Split) -> String {
     let g = split.groups() as u32;

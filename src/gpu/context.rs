@@ -11,8 +11,6 @@ pub enum GpuError {
     Device(String),
     #[error("{what} needs {bytes} bytes in one storage binding, more than the adapter's {limit}")]
     TooLarge { what: &'static str, bytes: u64, limit: u64 },
-    #[error("{0} (run this scene with --backend cpu)")]
-    Unsupported(String),
 }
 
 /// Device, queue and what the adapter is.

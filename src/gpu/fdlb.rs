@@ -64,11 +64,25 @@ struct Entry {
     _p1: f32,
 }
 
+/// A one-sided stencil of [`crate::fluid::thin_wall`] as the `thin_wall` kernel reads it.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, Default)]
+struct ThinTapEntry {
+    node: u32,
+    axis: u32,
+    sign: i32,
+    /// Offset (nodes) to the +s neighbour.
+    step: i32,
+    /// w − w_full on (0, +s, −s, −2s).
+    w: [f32; 4],
+}
+
 const PIPE_MOMENTS: usize = 0;
 const PIPE_ADVECT: usize = 1;
 const PIPE_GHOST: usize = 2;
 const PIPE_FACE: usize = 3;
 const PIPE_PERIODIC: usize = 4;
+const PIPE_THIN: usize = 5;
 
 /// Which node array to read back.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -116,8 +130,12 @@ pub struct GpuFluid {
     periodic: (wgpu::Buffer, u32),
     params_stage: [wgpu::Buffer; 2],
     params_count: [wgpu::Buffer; 3],
-    /// moments_collide, advect, ghost_fill, face_fill, periodic_copy (the `PIPE_*` indices).
-    pipelines: [wgpu::ComputePipeline; 5],
+    /// Thin-wall taps, (first tap, count) per node, the node count, and the parameters of the
+    /// two Runge–Kutta stages with that count.
+    thin: (wgpu::Buffer, wgpu::Buffer, u32, [wgpu::Buffer; 2]),
+    /// moments_collide, advect, ghost_fill, face_fill, periodic_copy, thin_wall (the `PIPE_*`
+    /// indices).
+    pipelines: [wgpu::ComputePipeline; 6],
     /// Per placement of fⁿ (buffer 0 or 2), per stage, the dispatches with their bind groups.
     groups: [Vec<Vec<(usize, wgpu::BindGroup, u32)>>; 2],
     pub step_count: u64,
@@ -159,12 +177,6 @@ impl GpuFluid {
 
     /// The same on a device opened elsewhere (Bevy's render device). `limits`: the device's.
     pub fn from_device(device: wgpu::Device, queue: wgpu::Queue, limits: &wgpu::Limits, s: &FluidSolver) -> Result<Self, GpuError> {
-        if !s.layout.thin_taps.is_empty() {
-            return Err(GpuError::Unsupported(format!(
-                "the geometry has walls thinner than the upwind stencil ({} one-sided stencils, crate::fluid::thin_wall), which the GPU fluid does not have yet",
-                s.layout.thin_taps.len()
-            )));
-        }
         let eq = &s.eq;
         let nv = eq.values_per_node();
         let g = &s.layout.grid;
@@ -287,6 +299,25 @@ impl GpuFluid {
             uniform(Params { count: counts[2] as u32, ..base }),
         ];
 
+        // Thin-wall taps, grouped by node (the layout lists them node by node).
+        let mut thin_taps: Vec<ThinTapEntry> = Vec::with_capacity(s.layout.thin_taps.len());
+        let mut thin_ranges: Vec<[u32; 2]> = Vec::new();
+        for t in &s.layout.thin_taps {
+            let unit = [1i64, g.padded[0] as i64, (g.padded[0] * g.padded[1]) as i64][t.axis];
+            let w = std::array::from_fn(|j| (t.weights[j] - crate::fluid::thin_wall::FULL[j]) as f32);
+            if thin_ranges.last().is_none_or(|r| thin_taps[r[0] as usize].node != t.node as u32) {
+                thin_ranges.push([thin_taps.len() as u32, 0]);
+            }
+            thin_ranges.last_mut().expect("pushed above")[1] += 1;
+            thin_taps.push(ThinTapEntry { node: t.node as u32, axis: t.axis as u32, sign: t.sign as i32, step: (t.sign * unit) as i32, w });
+        }
+        let thin_count = thin_ranges.len() as u32;
+        if thin_taps.is_empty() {
+            // a whole (never read) element, so that the binding holds one
+            thin_taps.push(ThinTapEntry::default());
+        }
+        let params_thin = [uniform(Params { stage: 1, count: thin_count, ..base }), uniform(Params { stage: 2, count: thin_count, ..base })];
+
         let bsrc = codegen::boundaries(eq, split);
         let mut gpu = GpuFluid {
             pipelines: [
@@ -295,7 +326,14 @@ impl GpuFluid {
                 pipeline(&device, "ghost_fill", &bsrc, "ghost_fill"),
                 pipeline(&device, "face_fill", &bsrc, "face_fill"),
                 pipeline(&device, "periodic_copy", &bsrc, "periodic_copy"),
+                pipeline(&device, "thin_wall", &codegen::thin_wall(eq, split), "main"),
             ],
+            thin: (
+                storage(&device, "thin taps", bytemuck::cast_slice(&thin_taps)),
+                storage(&device, "thin ranges", bytemuck::cast_slice(&thin_ranges)),
+                thin_count,
+                params_thin,
+            ),
             groups: [Vec::new(), Vec::new()],
             ghosts: (
                 storage(&device, "ghosts", bytemuck::cast_slice(&ghost_entries)),
@@ -408,7 +446,9 @@ impl GpuFluid {
             StageKind::Advect => {
                 let out = if k == 0 { f1 } else { fnext };
                 let bg = self.bind(&self.pipelines[PIPE_ADVECT], &[(0, params), (1, &self.kind)], &[(10, &self.h), (10 + g, out)]);
-                vec![(PIPE_ADVECT, bg, self.interior)]
+                let thin =
+                    self.bind(&self.pipelines[PIPE_THIN], &[(0, &self.thin.3[k]), (1, &self.thin.0), (2, &self.thin.1)], &[(10, &self.h), (10 + g, out)]);
+                vec![(PIPE_ADVECT, bg, self.interior), (PIPE_THIN, thin, self.thin.2)]
             }
         }
     }

@@ -82,3 +82,24 @@ pub fn benchmark_block(side: usize, integrator: Integrator) -> SolidSolver {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::step::{Part, Site, Solver};
+
+    #[test]
+    fn a_time_step_far_above_the_explicit_limit_stops_with_a_diagnosis() {
+        let mut s = benchmark_block(4, Integrator::Explicit);
+        s.dt = 20.0 * s.explicit_limit;
+        let e = Solver::advance(&mut s, 5000).expect_err("twenty times the explicit limit diverges");
+        assert_eq!(e.part, Part::Solid);
+        assert!(matches!(e.site, Site::Particle(i) if i < s.particles.len()), "{e}");
+        assert!(e.step >= 1 && e.step == s.step_count && e.step < 5000, "{e}");
+        assert!(e.to_string().contains("explicit limit"), "{e}");
+        // at the explicit limit's half (the scene default) the same block stays finite
+        let mut s = benchmark_block(4, Integrator::Explicit);
+        Solver::advance(&mut s, 200).expect("half the explicit limit is stable");
+        assert_eq!(Solver::step_count(&s), 200);
+    }
+}
