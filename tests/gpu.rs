@@ -410,6 +410,36 @@ fn solid_whole_steps_match_the_cpu_backend() {
 }
 
 /// Two elastic blocks driven into each other above a wall, with gravity and friction.
+/// `solid.cg_tolerance` has its effect on the GPU too: a looser tolerance stops the f32
+/// conjugate gradient earlier, each solve ends at or below its tolerance, and a tolerance below
+/// what f32 reaches is refused with the field (the CPU, in f64, takes it).
+#[test]
+fn the_scene_cg_tolerance_drives_the_gpu_solve_or_is_refused() {
+    use phonation::run::{Backend, SolidEngine};
+    use phonation::scene::solid::SolidScene;
+    use phonation::step::Solver;
+    let Some(_ctx) = context() else { return };
+    let text = phonation::scene::builtin("cantilever").unwrap();
+    let with = |t: &str| SolidScene::parse(&text.replace("time_step = 0.005", &format!("time_step = 0.005\ncg_tolerance = {t}"))).unwrap();
+    let sc = with("1e-9");
+    let e = SolidEngine::new(Backend::Gpu, sc.build().unwrap(), sc.file.solid.cg_tolerance).err().expect("1e-9 is out of f32's reach");
+    assert!(e.to_string().contains("solid.cg_tolerance"), "{e}");
+    let mut cpu = SolidEngine::new(Backend::Cpu, sc.build().unwrap(), sc.file.solid.cg_tolerance).unwrap();
+    cpu.advance(1).unwrap();
+    assert!(cpu.solver.last.cg.relative_residual <= 1e-9, "the CPU solves to 1e-9: {:?}", cpu.solver.last.cg);
+    let mut iterations = Vec::new();
+    for t in [1e-2, 1e-6] {
+        let sc = with(&format!("{t:e}"));
+        let mut g = SolidEngine::new(Backend::Gpu, sc.build().unwrap(), sc.file.solid.cg_tolerance).unwrap();
+        g.advance(1).unwrap();
+        let (it, res) = g.gpu_last_cg().expect("on the GPU");
+        eprintln!("GPU CG to {t:e}: {it} iterations, residual {res:e}");
+        assert!(res <= t, "GPU CG stopped at {res:e} above its tolerance {t:e}");
+        iterations.push(it);
+    }
+    assert!(iterations[0] < iterations[1], "a looser tolerance takes fewer iterations: {iterations:?}");
+}
+
 fn colliding_blocks() -> SolidSolver {
     let mat = Orthotropic::isotropic(1.0e6, 0.3, 1.0, 1.0);
     let l0 = 0.1;

@@ -263,6 +263,7 @@ impl GpuSolid {
             buffers: bufs,
             pipelines,
             groups,
+            // f32 cannot reach the CPU default (1e-8); the run layer sets the scene's value
             cg_tolerance: 1e-5,
             cg_max_iterations: s.options.cg_max_iterations,
             last_cg: (0, 0.0),

@@ -118,15 +118,45 @@ pub struct SolidEngine {
 }
 
 impl SolidEngine {
-    pub fn new(backend: Backend, mut solver: SolidSolver) -> Result<Self, GpuError> {
+    /// Picks the backend and uploads `solver` to the GPU when it is chosen. `cg_tolerance`: the
+    /// scene's `solid.cg_tolerance` when it sets one. The CPU solve (f64) takes it from the
+    /// solver's options; the GPU's (f32) takes it too, and refuses one below what f32 reaches
+    /// ([`GPU_CG_FLOOR`]); without one the GPU uses [`GPU_CG_DEFAULT`] (the CPU default, 10⁻⁸,
+    /// is out of f32's reach).
+    pub fn new(backend: Backend, mut solver: SolidSolver, cg_tolerance: Option<f64>) -> anyhow::Result<Self> {
         let (ctx, name) = pick_gpu(backend)?;
         let gpu = match ctx {
-            Some(ctx) => Some(GpuSolid::from_solver(&ctx, &mut solver)?),
+            Some(ctx) => {
+                let mut g = GpuSolid::from_solver(&ctx, &mut solver)?;
+                g.cg_tolerance = match cg_tolerance {
+                    Some(t) if t < GPU_CG_FLOOR => anyhow::bail!(crate::error::SceneError {
+                        field: "solid.cg_tolerance".into(),
+                        reason: format!(
+                            "{t:e} is below what the GPU's single-precision conjugate gradient reaches ({GPU_CG_FLOOR:e}); use at least that, or --backend cpu"
+                        ),
+                    }),
+                    Some(t) => t,
+                    None => GPU_CG_DEFAULT,
+                };
+                Some(g)
+            }
             None => None,
         };
         Ok(Self { solver, gpu, name })
     }
+
+    /// Iterations and relative residual of the last GPU conjugate-gradient solve (None on the
+    /// CPU, whose solver reports it in `solver.last.cg`).
+    pub fn gpu_last_cg(&self) -> Option<(usize, f64)> {
+        self.gpu.as_ref().map(|g| g.last_cg)
+    }
 }
+
+/// The smallest relative residual the GPU's f32 conjugate gradient is asked for: a few hundred
+/// ε_f32 (measured: the implicit solid's kernels agree with the CPU to 1e-6 at this tolerance).
+pub const GPU_CG_FLOOR: f64 = 1e-6;
+/// The GPU's tolerance when the scene sets none.
+pub const GPU_CG_DEFAULT: f64 = 1e-5;
 
 impl Solver for SolidEngine {
     fn step(&mut self) -> Result<(), Instability> {

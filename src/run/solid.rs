@@ -77,7 +77,7 @@ pub fn write_vtk(s: &SolidSolver, path: &Path) -> std::io::Result<()> {
 pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend: Backend) -> anyhow::Result<SolidReport> {
     std::fs::create_dir_all(dir)?;
     // GPU: the CPU solver mirrors the GPU state at every output (rows, snapshots)
-    let mut engine = SolidEngine::new(backend, sc.build()?)?;
+    let mut engine = SolidEngine::new(backend, sc.build()?, sc.file.solid.cg_tolerance)?;
     let s = &mut engine.solver;
     let dim = sc.file.solid.dimension;
     let total = steps.unwrap_or((sc.file.run.duration / s.dt).ceil() as u64).max(1);
