@@ -244,7 +244,7 @@ impl Layout {
         }
         let periodic = runs;
         let fluid_count = kind.iter().filter(|k| **k == NodeKind::Fluid).count();
-        let thin_taps = thin_taps(&grid, &kind, &ghosts);
+        let thin_taps = thin_taps(&grid, &kind, &ghosts, &periodic_axis);
         Layout { grid, boundaries, obstacles, kind, ghosts, face_halos, periodic, fluid_count, thin_taps }
     }
 }

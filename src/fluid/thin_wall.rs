@@ -50,7 +50,9 @@ pub const FULL: [f64; 4] = [3.0, 2.0, -6.0, 1.0];
 
 /// Every (fluid node, axis, sign) whose upwind stencil reaches across a thin wall, with its
 /// one-sided weights (see the module docs).
-pub fn thin_taps(grid: &Grid, kind: &[NodeKind], ghosts: &[Ghost]) -> Vec<ThinTap> {
+/// `periodic[a]`: axis a is periodic (an image node across the periodic face counts at its
+/// nearest periodic copy).
+pub fn thin_taps(grid: &Grid, kind: &[NodeKind], ghosts: &[Ghost], periodic: &[bool; 3]) -> Vec<ThinTap> {
     let mut ghost_of = vec![usize::MAX; grid.len()];
     for (k, g) in ghosts.iter().enumerate() {
         ghost_of[g.node] = k;
@@ -59,11 +61,17 @@ pub fn thin_taps(grid: &Grid, kind: &[NodeKind], ghosts: &[Ghost]) -> Vec<ThinTa
     let image: Vec<[f64; 3]> = ghosts
         .iter()
         .map(|g| {
+            let at = grid.coords(g.node);
             let mut c = [0.0; 3];
             for &(i, w) in &g.image {
                 let x = grid.coords(i);
                 for a in 0..3 {
-                    c[a] += w * x[a] as f64;
+                    let mut d = x[a] - at[a];
+                    if periodic[a] {
+                        let n = grid.n[a] as i64;
+                        d = (d + n / 2).rem_euclid(n) - n / 2;
+                    }
+                    c[a] += w * (at[a] + d) as f64;
                 }
             }
             c
@@ -193,6 +201,22 @@ mod leak_tests {
             leaky.layout.thin_taps.clear();
             let (above, _) = run(leaky, 300, y_above);
             assert!(above > 1e-4, "{thickness}-cell plate without one-sided stencils: ρ above moved by {above:e} only");
+        }
+    }
+
+    #[test]
+    fn a_thick_body_next_to_a_periodic_face_has_no_thin_taps() {
+        // A disc ten cells across has none: in the middle of a periodic box, or half a cell
+        // from its periodic faces, where the image nodes of its ghosts lie beyond the face and
+        // count at their near periodic copy (the far copy would look like the other side).
+        let eq = Equilibrium::new(VelocitySet::new(VelocitySetKind::D2q21), GasModel::Monatomic);
+        let params = timestep::choose(0.05, 0.6, eq.set.max_l1_speed(), None, timestep::DEFAULT_COURANT_SAFETY).unwrap();
+        for c in [[12.3, 11.6], [5.5, 11.6], [18.5, 11.6], [12.3, 5.4], [11.7, 18.6]] {
+            let o = Obstacle { shape: Shape::Cylinder { center: [c[0], c[1], 0.0], radius: 5.0 }, velocity: [0.0; 3], temperature: None };
+            let s =
+                FluidSolver::new(eq.clone(), Grid::new(2, [24, 24, 1]), Boundaries::periodic(), &[o], params, |_| Macro { rho: 1.0, u: [0.0; 3], theta: 0.6 });
+            assert!(!s.layout.ghosts.is_empty());
+            assert!(s.layout.thin_taps.is_empty(), "disc at {c:?}: {} thin taps", s.layout.thin_taps.len());
         }
     }
 }
