@@ -15,7 +15,7 @@ use super::geometry::Obstacle;
 use super::grid::Grid;
 use super::layout::{Layout, NodeKind};
 use super::storage::RowBlocked;
-use super::thin_wall::FULL;
+use super::thin_wall::advect_thin_taps;
 use super::timestep::StepParams;
 use super::upwind::stencils;
 use crate::stages::{FDLB_STEP, RkStage, Stage, StageKind, StageTimings};
@@ -584,37 +584,8 @@ impl Kernels<'_> {
                 }
             },
         );
-        self.thin_wall_advect(h, out, factor);
-    }
-
-    /// Replaces the full upwind stencil by the one-sided one of each thin tap
-    /// ([`super::thin_wall`]): `out −= factor·Δt·|c_a|/6·Σ (w − w_full)·h` for the velocities
-    /// whose component along the tap's axis has the tap's sign.
-    fn thin_wall_advect(&self, h: &[f64], out: &mut [f64], factor: f64) {
-        let taps = &self.layout.thin_taps;
-        if taps.is_empty() {
-            return;
-        }
-        let eq = self.eq;
-        let (nv, q) = (eq.values_per_node(), eq.q());
-        let k = factor * self.params.dt;
         let py = self.layout.grid.padded[1];
-        for t in taps {
-            let mut d = [0i64; 3];
-            d[t.axis] = t.sign;
-            let step = self.pop.neighbour_offset(d, py);
-            let dw: [f64; 4] = std::array::from_fn(|j| t.weights[j] - FULL[j]);
-            for v in 0..nv {
-                let c = eq.set.c[if v < q { v } else { v - q }][t.axis];
-                if c.signum() as i64 != t.sign {
-                    continue;
-                }
-                let i0 = self.pop.index(t.node, v) as isize;
-                let hv = |m: isize| h[(i0 + m * step) as usize];
-                let corr = dw[0] * hv(0) + dw[1] * hv(1) + dw[2] * hv(-1) + dw[3] * hv(-2);
-                out[i0 as usize] -= k * (c.unsigned_abs() as f64 / 6.0) * corr;
-            }
-        }
+        advect_thin_taps(&self.layout.thin_taps, eq, self.pop, py, k, h, out);
     }
 }
 

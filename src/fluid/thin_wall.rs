@@ -30,8 +30,10 @@
 //! Geometries without thin walls have no such taps, and their results are unchanged. The GPU
 //! twin is the `thin_wall` kernel ([`crate::gpu::codegen::thin_wall`]), run after each advection.
 
+use super::equilibrium::Equilibrium;
 use super::grid::Grid;
 use super::layout::{Ghost, NodeKind};
+use super::storage::RowBlocked;
 
 /// The one-sided stencil of one fluid node along one axis and sign.
 #[derive(Clone, Debug, PartialEq)]
@@ -47,6 +49,37 @@ pub struct ThinTap {
 
 /// The full stencil's weights on (0, +s, −s, −2s), times |c_a|/6.
 pub const FULL: [f64; 4] = [3.0, 2.0, -6.0, 1.0];
+
+impl ThinTap {
+    /// What the one-sided stencil adds to the full one: w − w_full on (0, +s, −s, −2s).
+    pub fn correction(&self) -> [f64; 4] {
+        std::array::from_fn(|j| self.weights[j] - FULL[j])
+    }
+}
+
+/// Replaces, after the advection `out −= k·c·∇h` (k = factor·Δt), the full upwind stencil by
+/// the one-sided one of each tap: `out −= k·|c_a|/6·Σ (w − w_full)·h` for the values whose
+/// velocity component along the tap's axis has the tap's sign. `pop`: the CPU layout of `h` and
+/// `out`; `py`: padded rows per z-plane. The GPU twin is [`crate::gpu::codegen::thin_wall`].
+pub fn advect_thin_taps(taps: &[ThinTap], eq: &Equilibrium, pop: RowBlocked, py: usize, k: f64, h: &[f64], out: &mut [f64]) {
+    let (nv, q) = (eq.values_per_node(), eq.q());
+    for t in taps {
+        let mut d = [0i64; 3];
+        d[t.axis] = t.sign;
+        let step = pop.neighbour_offset(d, py);
+        let dw = t.correction();
+        for v in 0..nv {
+            let c = eq.set.c[if v < q { v } else { v - q }][t.axis];
+            if c.signum() as i64 != t.sign {
+                continue;
+            }
+            let i0 = pop.index(t.node, v) as isize;
+            let hv = |m: isize| h[(i0 + m * step) as usize];
+            let corr = dw[0] * hv(0) + dw[1] * hv(1) + dw[2] * hv(-1) + dw[3] * hv(-2);
+            out[i0 as usize] -= k * (c.unsigned_abs() as f64 / 6.0) * corr;
+        }
+    }
+}
 
 /// Every (fluid node, axis, sign) whose upwind stencil reaches across a thin wall, with its
 /// one-sided weights (see the module docs).

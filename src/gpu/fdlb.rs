@@ -64,19 +64,6 @@ struct Entry {
     _p1: f32,
 }
 
-/// A one-sided stencil of [`crate::fluid::thin_wall`] as the `thin_wall` kernel reads it.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable, Default)]
-struct ThinTapEntry {
-    node: u32,
-    axis: u32,
-    sign: i32,
-    /// Offset (nodes) to the +s neighbour.
-    step: i32,
-    /// w − w_full on (0, +s, −s, −2s).
-    w: [f32; 4],
-}
-
 const PIPE_MOMENTS: usize = 0;
 const PIPE_ADVECT: usize = 1;
 const PIPE_GHOST: usize = 2;
@@ -299,23 +286,8 @@ impl GpuFluid {
             uniform(Params { count: counts[2] as u32, ..base }),
         ];
 
-        // Thin-wall taps, grouped by node (the layout lists them node by node).
-        let mut thin_taps: Vec<ThinTapEntry> = Vec::with_capacity(s.layout.thin_taps.len());
-        let mut thin_ranges: Vec<[u32; 2]> = Vec::new();
-        for t in &s.layout.thin_taps {
-            let unit = [1i64, g.padded[0] as i64, (g.padded[0] * g.padded[1]) as i64][t.axis];
-            let w = std::array::from_fn(|j| (t.weights[j] - crate::fluid::thin_wall::FULL[j]) as f32);
-            if thin_ranges.last().is_none_or(|r| thin_taps[r[0] as usize].node != t.node as u32) {
-                thin_ranges.push([thin_taps.len() as u32, 0]);
-            }
-            thin_ranges.last_mut().expect("pushed above")[1] += 1;
-            thin_taps.push(ThinTapEntry { node: t.node as u32, axis: t.axis as u32, sign: t.sign as i32, step: (t.sign * unit) as i32, w });
-        }
+        let (thin_taps, thin_ranges) = super::thin_wall::entries(&s.layout);
         let thin_count = thin_ranges.len() as u32;
-        if thin_taps.is_empty() {
-            // a whole (never read) element, so that the binding holds one
-            thin_taps.push(ThinTapEntry::default());
-        }
         let params_thin = [uniform(Params { stage: 1, count: thin_count, ..base }), uniform(Params { stage: 2, count: thin_count, ..base })];
 
         let bsrc = codegen::boundaries(eq, split);

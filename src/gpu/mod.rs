@@ -9,6 +9,7 @@ pub mod fdlb;
 pub mod lattice_gas;
 pub mod lattice_gas_codegen;
 pub mod solid;
+mod thin_wall;
 
 pub use context::{GpuContext, GpuError};
 pub use fdlb::{GpuArray, GpuFluid};

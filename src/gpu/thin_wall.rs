@@ -1,0 +1,41 @@
+//! The thin-wall one-sided stencils ([`crate::fluid::thin_wall`]) as the `thin_wall` kernel
+//! ([`super::codegen::thin_wall`]) reads them: one entry per tap, grouped by node.
+
+use crate::fluid::layout::Layout;
+use bytemuck::{Pod, Zeroable};
+
+/// A one-sided stencil as the kernel's `ThinTap` struct.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, Default)]
+pub(super) struct ThinTapEntry {
+    node: u32,
+    axis: u32,
+    sign: i32,
+    /// Offset (nodes) to the +s neighbour.
+    step: i32,
+    /// w − w_full on (0, +s, −s, −2s).
+    w: [f32; 4],
+}
+
+/// The taps of `layout` and, per node that has any, (first tap, count): one kernel thread per
+/// node walks its taps, so no two threads write the same value. Never empty (a zero entry,
+/// never read, stands in for none, so that the binding holds one).
+pub(super) fn entries(layout: &Layout) -> (Vec<ThinTapEntry>, Vec<[u32; 2]>) {
+    let g = &layout.grid;
+    let mut taps: Vec<ThinTapEntry> = Vec::with_capacity(layout.thin_taps.len().max(1));
+    let mut ranges: Vec<[u32; 2]> = Vec::new();
+    for t in &layout.thin_taps {
+        let unit = [1i64, g.padded[0] as i64, (g.padded[0] * g.padded[1]) as i64][t.axis];
+        // the layout lists the taps node by node
+        if ranges.last().is_none_or(|r| taps[r[0] as usize].node != t.node as u32) {
+            ranges.push([taps.len() as u32, 0]);
+        }
+        ranges.last_mut().expect("pushed above")[1] += 1;
+        let w = t.correction().map(|x| x as f32);
+        taps.push(ThinTapEntry { node: t.node as u32, axis: t.axis as u32, sign: t.sign as i32, step: (t.sign * unit) as i32, w });
+    }
+    if taps.is_empty() {
+        taps.push(ThinTapEntry::default());
+    }
+    (taps, ranges)
+}
