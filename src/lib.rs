@@ -16,6 +16,7 @@
 //! | [`coupling`] | fluid–structure coupling: surfaces, tractions, prescribed motions, the weak coupling (method 1) |
 //! | [`solid`] | MPS orthotropic viscoelastic solid: materials, particles, forces, contact, explicit and implicit steps, the vocal-fold geometry |
 //! | [`stages`] | the ordered stage list of one step (CPU, GPU, Bevy, timings) |
+//! | [`state`] | a solver's complete state as bytes (checkpoints) and its determinism hash |
 //! | [`step`] | the one step interface of every solver ([`step::Solver`]) and its failure ([`step::Instability`]) |
 //! | [`units`] | physical (cgs / SI) ↔ lattice units, Mach scaling |
 //! | [`scene`] | scene files (TOML), validation of user input, building a solver |
@@ -39,6 +40,7 @@ pub mod run;
 pub mod scene;
 pub mod solid;
 pub mod stages;
+pub mod state;
 pub mod step;
 pub mod two_mass;
 pub mod units;

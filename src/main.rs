@@ -31,6 +31,19 @@ enum Command {
         /// Solver backend: cpu, gpu, or auto (a hardware GPU when present, else the CPU).
         #[arg(long, value_enum, default_value = "auto")]
         backend: Backend,
+        /// Write OUT/checkpoint.bin every this many steps (atomically; the latest replaces the
+        /// previous one).
+        #[arg(long, value_name = "STEPS")]
+        checkpoint_every: Option<u64>,
+        /// Continue a run from its checkpoint, bit for bit, into the checkpoint's directory
+        /// (unless --out says otherwise). The scene is the one stored in the checkpoint; a scene
+        /// given as well must be the same. --steps is then the step to run to.
+        #[arg(long, value_name = "CHECKPOINT")]
+        resume: Option<PathBuf>,
+        /// Stop after this step as if the run were killed there (outputs follow the whole
+        /// run's schedule; continue from a checkpoint written before it).
+        #[arg(long, value_name = "STEP")]
+        stop_at: Option<u64>,
     },
     /// Validate a scene file and print what it resolves to, without running it.
     Check { scene: String },
@@ -68,8 +81,18 @@ fn main() -> anyhow::Result<()> {
         unsafe { std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir()) };
     }
     let cli = Cli::parse();
-    match cli.command.unwrap_or(Command::Run { scene: None, out: None, steps: None, backend: Backend::Auto }) {
-        Command::Run { scene: name, out, steps, backend } => cli::run::run(name, out, steps, backend)?,
+    match cli.command.unwrap_or(Command::Run {
+        scene: None,
+        out: None,
+        steps: None,
+        backend: Backend::Auto,
+        checkpoint_every: None,
+        resume: None,
+        stop_at: None,
+    }) {
+        Command::Run { scene: name, out, steps, backend, checkpoint_every, resume, stop_at } => {
+            cli::run::run(cli::run::RunArgs { name, out, steps, backend, checkpoint_every, resume, stop_at })?
+        }
         Command::Check { scene: name } => cli::run::check(name)?,
         Command::Scenes => cli::run::scenes(),
         Command::Analyze(a) => cli::voice::analyze(a)?,

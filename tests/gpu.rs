@@ -206,7 +206,7 @@ fn headless_run_on_the_gpu_writes_the_same_probes_as_the_cpu() {
     let read = |backend: Backend| -> (String, Vec<Vec<f64>>) {
         let dir = std::env::temp_dir().join(format!("phonation-gpu-run-{backend:?}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
-        let r = run_scene(&sc, &dir, &RunOptions { steps: Some(60), show_progress: false, backend }).unwrap();
+        let r = run_scene(&sc, &dir, &RunOptions { steps: Some(60), show_progress: false, backend, ..Default::default() }).unwrap();
         let rows =
             std::fs::read_to_string(dir.join("probes.csv")).unwrap().lines().skip(1).map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
         let _ = std::fs::remove_dir_all(&dir);
@@ -572,5 +572,51 @@ fn lattice_gas_gpu_is_bit_identical_to_the_cpu_after_100_steps() {
         gpu.download_into(&mut mirror);
         assert_eq!(mirror.step, cpu.step);
         assert_eq!(gpu.device_step(), cpu.step);
+    }
+}
+
+/// Checkpoint and resume on the GPU: a run stopped after its checkpoint and resumed from it
+/// ends where the same GPU run that never stopped ends. The checkpoint holds the GPU state as
+/// the CPU mirror received it (f32 values, exact in f64) and the resume uploads it back
+/// unchanged, so the GPU continues bit for bit: the probes and the state hash are identical
+/// (tighter than the parity bounds the issue allows).
+#[test]
+fn a_gpu_run_resumed_from_its_checkpoint_ends_as_the_whole_run() {
+    use phonation::run::checkpoint::{Checkpoint, Checkpointing, FILE_NAME};
+    use phonation::run::{Backend, RunOptions};
+    use phonation::scene::Scene;
+    let Some(_ctx) = context() else { return };
+    let fluid = std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/good_base.toml")).unwrap();
+    let gas = "name = \"small_wake\"\n[lattice_gas]\ncells = [32, 16, 2]\ndensity = 0.2\ninterference = 0.1\nsteps = 60\n\
+               [lattice_gas.inlet]\nvelocity = 0.2\n[lattice_gas.cylinder]\ncenter = [16.0, 8.0]\nradius = 3.0\n\
+               [lattice_gas.output]\ncoarse_block = 4\nevery = 30\nprobe_every = 5\n";
+    for (kind, text, csv) in [("fluid", fluid.as_str(), "probes.csv"), ("lattice_gas", gas, "probe.csv")] {
+        let run = |dir: &std::path::Path, every: Option<u64>, stop_at: Option<u64>, resume: Option<Checkpoint>| -> String {
+            let o = RunOptions {
+                steps: Some(60),
+                show_progress: false,
+                backend: Backend::Gpu,
+                checkpoint: Checkpointing { every, resume, scene_text: text.to_string() },
+                stop_at,
+            };
+            match Scene::read(text).unwrap() {
+                Scene::Fluid(sc) => phonation::run::run_scene(&sc, dir, &o).unwrap().state_hash,
+                Scene::LatticeGas(sc) => phonation::run::lattice_gas::run_lattice_gas_scene(&sc, dir, &o).unwrap().state_hash,
+                _ => unreachable!(),
+            }
+        };
+        let tmp = |t: &str| std::env::temp_dir().join(format!("phonation-gpu-resume-{kind}-{t}-{}", std::process::id()));
+        let (whole, cut) = (tmp("whole"), tmp("cut"));
+        let _ = (std::fs::remove_dir_all(&whole), std::fs::remove_dir_all(&cut));
+        let h_whole = run(&whole, None, None, None);
+        let h_stopped = run(&cut, Some(30), Some(45), None);
+        assert_ne!(h_stopped, h_whole, "{kind}");
+        let ck = Checkpoint::read(&cut.join(FILE_NAME)).unwrap();
+        assert_eq!(ck.step, 30, "{kind}");
+        let h_resumed = run(&cut, None, None, Some(ck));
+        let (a, b) = (std::fs::read_to_string(whole.join(csv)).unwrap(), std::fs::read_to_string(cut.join(csv)).unwrap());
+        assert!(a == b, "{kind}: {csv} differs after the resume on the GPU");
+        assert_eq!(h_resumed, h_whole, "{kind}: the resumed GPU run's state differs");
+        let _ = (std::fs::remove_dir_all(&whole), std::fs::remove_dir_all(&cut));
     }
 }

@@ -45,7 +45,7 @@ fn headless_run_writes_probes_snapshots_and_summary() {
     let s = scene::load(&std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/good_base.toml")).unwrap()).unwrap();
     let dir = std::env::temp_dir().join(format!("phonation-run-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let r = run_scene(&s, &dir, &RunOptions { steps: Some(40), show_progress: false, backend: Backend::Cpu }).unwrap();
+    let r = run_scene(&s, &dir, &RunOptions { steps: Some(40), show_progress: false, backend: Backend::Cpu, ..Default::default() }).unwrap();
     assert!(matches!(r.status, RunStatus::Completed));
     assert_eq!(r.steps_done, 40);
     let csv = std::fs::read_to_string(dir.join("probes.csv")).unwrap();
@@ -76,7 +76,7 @@ fn unstable_run_stops_with_a_diagnosis_and_keeps_outputs() {
     s.params.a = 0.0;
     let dir = std::env::temp_dir().join(format!("phonation-unstable-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let r = run_scene(&s, &dir, &RunOptions { steps: Some(2000), show_progress: false, backend: Backend::Cpu }).unwrap();
+    let r = run_scene(&s, &dir, &RunOptions { steps: Some(2000), show_progress: false, backend: Backend::Cpu, ..Default::default() }).unwrap();
     let RunStatus::Unstable { step, quantity, position, .. } = &r.status else { panic!("expected instability, got {:?}", r.status) };
     assert!(*step < 2000 && ["density", "temperature", "velocity"].contains(&quantity.as_str()));
     assert!(position[0] >= 0.0 && position[0] <= 1.0 && position[1] >= 0.0 && position[1] <= 0.5);

@@ -374,7 +374,7 @@ fn solid_scenes_validate_and_bad_input_names_the_field() {
     let dir = std::env::temp_dir().join("phonation_solid_scene_test");
     let _ = std::fs::remove_dir_all(&dir);
     let sc = SolidScene::parse(base).unwrap();
-    let r = run_solid_scene(&sc, &dir, Some(400), phonation::run::Backend::Cpu).unwrap();
+    let r = run_solid_scene(&sc, &dir, &phonation::run::RunOptions { steps: Some(400), backend: phonation::run::Backend::Cpu, ..Default::default() }).unwrap();
     let csv = std::fs::read_to_string(dir.join("solid.csv")).unwrap();
     let rows: Vec<&str> = csv.lines().collect();
     assert!(rows[0].contains("left_ux") && rows[0].contains("right_ux"));

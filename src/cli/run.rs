@@ -1,6 +1,7 @@
 //! `phonation run`, `check` and `scenes`: every kind of scene file, read and dispatched.
 
 use anyhow::{Context, bail};
+use phonation::run::checkpoint::{Checkpoint, Checkpointing};
 use phonation::run::{Backend, RunOptions, RunStatus, run_scene};
 use phonation::scene::coupled::CoupledScene;
 use phonation::scene::lattice_gas::LatticeGasScene;
@@ -18,17 +19,62 @@ pub fn scene_text(arg: &str) -> anyhow::Result<String> {
     })
 }
 
-/// Run a scene file or a built-in scene and write its outputs.
-pub fn run(name: Option<String>, out: Option<PathBuf>, steps: Option<u64>, backend: Backend) -> anyhow::Result<()> {
-    let name = name.unwrap_or_else(|| scene::DEFAULT_SCENE.to_string());
-    let scene = Scene::read(&scene_text(&name)?)?;
-    let dir = out.unwrap_or_else(|| PathBuf::from("out").join(scene.name()));
+/// What `phonation run` was asked.
+pub struct RunArgs {
+    pub name: Option<String>,
+    pub out: Option<PathBuf>,
+    pub steps: Option<u64>,
+    pub backend: Backend,
+    pub checkpoint_every: Option<u64>,
+    pub resume: Option<PathBuf>,
+    pub stop_at: Option<u64>,
+}
+
+/// Run a scene file or a built-in scene and write its outputs (or continue from a checkpoint).
+pub fn run(a: RunArgs) -> anyhow::Result<()> {
+    let resume = match &a.resume {
+        Some(path) => Some(Checkpoint::read(path)?),
+        None => None,
+    };
+    let text = match (&a.name, &resume) {
+        (Some(name), Some(ck)) => {
+            let t = scene_text(name)?;
+            ck.check_scene(&t)?;
+            t
+        }
+        (None, Some(ck)) => ck.scene_text.clone(),
+        (name, None) => scene_text(name.as_deref().unwrap_or(scene::DEFAULT_SCENE))?,
+    };
+    let scene = Scene::read(&text)?;
+    let dir = match (a.out, &a.resume) {
+        (Some(d), _) => d,
+        (None, Some(p)) => p.parent().map(Path::to_path_buf).unwrap_or_default(),
+        (None, None) => PathBuf::from("out").join(scene.name()),
+    };
+    if let Some(ck) = &resume {
+        eprintln!("resuming {} from step {} ({})", scene.name(), ck.step, ck.path.display());
+        if a.steps.is_some_and(|s| s <= ck.step) {
+            bail!("--steps: the run is to go beyond the checkpoint's step {}, got {}", ck.step, a.steps.unwrap());
+        }
+    }
+    let opts = RunOptions {
+        steps: a.steps,
+        show_progress: true,
+        backend: a.backend,
+        checkpoint: Checkpointing { every: a.checkpoint_every, resume, scene_text: text },
+        stop_at: a.stop_at,
+    };
     match scene {
-        Scene::Fluid(sc) => run_fluid(&sc, &dir, steps, backend),
-        Scene::Solid(sc) => run_solid(&sc, &dir, steps, backend),
-        Scene::LatticeGas(sc) => run_lattice_gas(&sc, &dir, steps, backend),
-        Scene::Coupled(sc) => run_coupled(&sc, &dir, steps, backend),
-        Scene::TwoMass(sc) => run_two_mass(&sc, &dir, steps, backend),
+        Scene::Fluid(sc) => run_fluid(&sc, &dir, &opts),
+        Scene::Solid(sc) => run_solid(&sc, &dir, &opts),
+        Scene::LatticeGas(sc) => run_lattice_gas(&sc, &dir, &opts),
+        Scene::Coupled(sc) => run_coupled(&sc, &dir, &opts),
+        Scene::TwoMass(sc) => {
+            if opts.checkpoint.every.is_some() || opts.checkpoint.resume.is_some() || opts.stop_at.is_some() {
+                bail!("--checkpoint-every / --resume / --stop-at: a two-mass run takes seconds; it has no checkpoints");
+            }
+            run_two_mass(&sc, &dir, a.steps, a.backend)
+        }
     }
 }
 
@@ -58,21 +104,19 @@ fn run_two_mass(sc: &TwoMassScene, dir: &Path, steps: Option<u64>, backend: Back
     Ok(())
 }
 
-fn run_coupled(sc: &CoupledScene, dir: &Path, steps: Option<u64>, backend: Backend) -> anyhow::Result<()> {
-    if backend == Backend::Gpu {
-        bail!("--backend gpu: the coupled solver runs on the CPU only for now");
-    }
+fn run_coupled(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> anyhow::Result<()> {
     eprintln!(
         "coupled scene {}: {:?} nodes, about {} particles, {:?} coupling",
         sc.fluid.file.name, sc.fluid.grid.n, sc.solid.estimated_particles, sc.coupling.method
     );
-    let r = phonation::run::coupled::run_coupled_scene(sc, dir, steps, true)?;
+    let r = phonation::run::coupled::run_coupled_scene(sc, dir, opts)?;
     eprintln!("backend: {}", r.backend);
     eprintln!(
         "{} particles, {} solid sub-steps per step; {} steps, {:.4e} s simulated in {:.1} s wall ({:.1} coupled steps/s); final force {:?}; max displacement {:.3e}; fluid mass drift {:.2e}",
         r.particles, r.substeps, r.steps, r.simulated_s, r.wall_s, r.coupled_steps_per_s, r.final_forces, r.max_displacement, r.fluid_mass_drift
     );
     eprintln!("stage shares: {}", r.stage_shares.iter().map(|(n, s)| format!("{n} {:.0}%", 100.0 * s)).collect::<Vec<_>>().join(", "));
+    eprintln!("state hash {} (BLAKE3 of the final state: equal for bit-identical runs)", r.state_hash);
     eprintln!("outputs in {}", dir.display());
     if let Some(d) = r.instability {
         bail!("run stopped: {d} (outputs written so far are kept in {})", dir.display());
@@ -80,10 +124,10 @@ fn run_coupled(sc: &CoupledScene, dir: &Path, steps: Option<u64>, backend: Backe
     Ok(())
 }
 
-fn run_lattice_gas(sc: &LatticeGasScene, dir: &Path, steps: Option<u64>, backend: Backend) -> anyhow::Result<()> {
+fn run_lattice_gas(sc: &LatticeGasScene, dir: &Path, opts: &RunOptions) -> anyhow::Result<()> {
     let lg = &sc.file.lattice_gas;
     eprintln!("lattice-gas scene {}: {:?} cells, fill {}, p = {}", sc.file.name, lg.cells, lg.density, lg.interference);
-    let r = phonation::run::lattice_gas::run_lattice_gas_scene(sc, dir, steps, backend)?;
+    let r = phonation::run::lattice_gas::run_lattice_gas_scene(sc, dir, opts)?;
     eprintln!("backend: {}", r.backend);
     eprintln!("{} steps in {:.1} s ({:.3e} site updates/s); particles {} → {}", r.steps, r.wall_s, r.site_updates_per_s, r.particles_start, r.particles_end);
     match (r.wake_peak, r.strouhal) {
@@ -91,18 +135,20 @@ fn run_lattice_gas(sc: &LatticeGasScene, dir: &Path, steps: Option<u64>, backend
         (Some(p), None) => eprintln!("wake: no periodic shedding (peak prominence {:.1}, {:.1} periods)", p.prominence, p.periods),
         _ => {}
     }
+    eprintln!("state hash {} (BLAKE3 of the final state: equal for bit-identical runs)", r.state_hash);
     eprintln!("outputs in {}", dir.display());
     Ok(())
 }
 
-fn run_solid(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend: Backend) -> anyhow::Result<()> {
+fn run_solid(sc: &SolidScene, dir: &Path, opts: &RunOptions) -> anyhow::Result<()> {
     eprintln!("solid scene {}: about {} particles, {:?} integrator", sc.file.name, sc.estimated_particles, sc.file.solid.integrator);
-    let r = phonation::run::solid::run_solid_scene(sc, dir, steps, backend)?;
+    let r = phonation::run::solid::run_solid_scene(sc, dir, opts)?;
     eprintln!("backend: {}", r.backend);
     eprintln!(
         "{} particles, {} bonds, Δt = {:.3e} (explicit limit {:.3e}), {} steps, {:.4e} s simulated in {:.1} s wall ({:.3e} particle updates/s), energy drift {:.2e}",
         r.particles, r.bonds, r.dt, r.explicit_limit, r.steps, r.simulated_time, r.wall_s, r.particle_updates_per_s, r.energy_drift
     );
+    eprintln!("state hash {} (BLAKE3 of the final state: equal for bit-identical runs)", r.state_hash);
     eprintln!("outputs in {}", dir.display());
     if let Some(d) = r.instability {
         bail!("run stopped: {d} (outputs written so far are kept in {})", dir.display());
@@ -110,7 +156,8 @@ fn run_solid(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend: Backend) 
     Ok(())
 }
 
-fn run_fluid(sc: &FluidScene, dir: &Path, steps: Option<u64>, backend: Backend) -> anyhow::Result<()> {
+fn run_fluid(sc: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::Result<()> {
+    let steps = opts.steps;
     let sum = sc.summary();
     eprintln!(
         "scene {}: {:?} {:?} nodes, Δt = {:.4} (τ = {:.4}, A = {:.4}), ν = {:.5} lattice, {} steps, Mach {:.3}{}",
@@ -125,12 +172,13 @@ fn run_fluid(sc: &FluidScene, dir: &Path, steps: Option<u64>, backend: Backend) 
         sum.reference_mach,
         if sum.mach_scaled { " (Mach-scaled)" } else { "" }
     );
-    let report = run_scene(sc, dir, &RunOptions { steps, show_progress: true, backend })?;
+    let report = run_scene(sc, dir, opts)?;
     eprintln!("backend: {}", report.backend);
     eprintln!(
         "{} steps, {:.4e} s simulated in {:.1} s wall ({:.3e} node updates/s), mass drift {:.2e}, max Mach {:.3}",
         report.steps_done, report.simulated_time_s, report.wall_time_s, report.node_updates_per_s, report.mass_drift, report.max_mach
     );
+    eprintln!("state hash {} (BLAKE3 of the final state: equal for bit-identical runs)", report.state_hash);
     eprintln!("outputs in {}", dir.display());
     if let RunStatus::Unstable { diagnosis, .. } = &report.status {
         bail!("run stopped: {diagnosis} (outputs written so far are kept in {})", dir.display());

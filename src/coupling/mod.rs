@@ -16,6 +16,7 @@
 pub mod glottis;
 pub mod level_set;
 pub mod motion;
+pub mod state;
 pub mod surface;
 pub mod traction;
 pub mod weak;

@@ -86,7 +86,7 @@ pub struct WeakCoupling {
     pub timings: [Duration; COUPLED_WEAK_STEP.len()],
     base_load: Vec<DVec3>,
     /// The surface polygons the fluid geometry was last built from.
-    built: Option<Vec<Polygon>>,
+    pub(super) built: Option<Vec<Polygon>>,
 }
 
 impl WeakCoupling {

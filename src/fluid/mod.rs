@@ -10,6 +10,7 @@ pub mod grid;
 pub mod layout;
 pub mod moving;
 pub mod solver;
+pub mod state;
 pub mod storage;
 pub mod thin_wall;
 pub mod timestep;

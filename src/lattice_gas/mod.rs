@@ -30,6 +30,7 @@ pub mod isotropy;
 pub mod lattice;
 pub mod mean_field;
 pub mod spectrum;
+pub mod state;
 pub mod step;
 pub mod velocities;
 pub mod viscosity;

@@ -14,7 +14,18 @@ pub struct ProbeWriter {
 
 impl ProbeWriter {
     pub fn create(path: &Path, s: &FluidSolver, probes: &[(String, [i64; 3])]) -> std::io::Result<Self> {
+        Self::open(path, s, probes, false)
+    }
+
+    /// Creates the file with its header, or with `append` continues an existing one (a resumed
+    /// run: the header and the rows so far are there).
+    pub fn open(path: &Path, s: &FluidSolver, probes: &[(String, [i64; 3])], append: bool) -> std::io::Result<Self> {
         let dim = s.layout.grid.dim;
+        let probes_at = probes.iter().map(|(n, x)| (n.clone(), s.layout.grid.index(*x))).collect();
+        if append {
+            let out = BufWriter::new(std::fs::OpenOptions::new().append(true).open(path)?);
+            return Ok(ProbeWriter { out, probes: probes_at, dim });
+        }
         let mut out = BufWriter::new(std::fs::File::create(path)?);
         write!(out, "step,time_s")?;
         let axes = ["ux", "uy", "uz"];
@@ -26,8 +37,7 @@ impl ProbeWriter {
             write!(out, ",{name}_temperature_ratio")?;
         }
         writeln!(out)?;
-        let probes = probes.iter().map(|(n, x)| (n.clone(), s.layout.grid.index(*x))).collect();
-        Ok(ProbeWriter { out, probes, dim })
+        Ok(ProbeWriter { out, probes: probes_at, dim })
     }
 
     /// Appends one row for the solver's current state and flushes it.

@@ -209,6 +209,13 @@ impl LatticeGasEngine {
         };
         Ok(Self { gas, table, gpu, step_count: 0, timings: LatticeGasTimings::default(), name })
     }
+
+    /// The engine of a gas restored from a checkpoint taken at step `step_count` (the gas keeps
+    /// its own wrapping random-stream position).
+    pub fn starting_at(mut self, step_count: u64) -> Self {
+        self.step_count = step_count;
+        self
+    }
 }
 
 impl Solver for LatticeGasEngine {

@@ -4,6 +4,7 @@
 //! goes unstable stops with the diagnosis and keeps everything written so far (plus a last
 //! snapshot of the last finite state).
 
+use super::{RunOptions, checkpoint};
 use crate::analysis::voice::VoiceOptions;
 use crate::coupling::WeakCoupling;
 use crate::coupling::glottis::GlottalSample;
@@ -11,6 +12,7 @@ use crate::output::probes::ProbeWriter;
 use crate::output::voice::{GlottalSeries, write_voice_outputs};
 use crate::run::solid::write_vtk;
 use crate::scene::coupled::CoupledScene;
+use crate::state::state_hash;
 use serde::Serialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -42,6 +44,10 @@ pub struct CoupledReport {
     pub glottis: Option<GlottisReport>,
     /// None when the run finished; else what went wrong, where and when.
     pub instability: Option<String>,
+    /// BLAKE3 of the final state ([`crate::state::state_hash`]): equal for bit-identical runs.
+    pub state_hash: String,
+    /// The step this run resumed from (a checkpoint), if it did.
+    pub resumed_from_step: Option<u64>,
     pub files: Vec<PathBuf>,
 }
 
@@ -90,10 +96,18 @@ fn glottal_values(s: &GlottalSample) -> [f64; 6] {
     [s.flow, s.area, s.gap, s.narrowest_y, s.lower_margin, s.upper_margin]
 }
 
+/// The inverse of [`glottal_values`].
+fn glottal_from_values(v: &[f64]) -> GlottalSample {
+    GlottalSample { flow: v[0], area: v[1], gap: v[2], narrowest_y: v[3], lower_margin: v[4], upper_margin: v[5] }
+}
+
 impl GlottalRecord {
-    fn create(path: &Path, dt: f64) -> std::io::Result<Self> {
-        let mut csv = std::io::BufWriter::new(std::fs::File::create(path)?);
-        writeln!(csv, "t_s,{}", GLOTTAL_COLUMNS.join(","))?;
+    /// A new file with its header, or (`resumed`) the existing one continued.
+    fn open(path: &Path, dt: f64, resumed: bool) -> std::io::Result<Self> {
+        let mut csv = std::io::BufWriter::new(checkpoint::output_file(path, resumed)?);
+        if !resumed {
+            writeln!(csv, "t_s,{}", GLOTTAL_COLUMNS.join(","))?;
+        }
         Ok(Self { samples: Vec::new(), csv, dt })
     }
 
@@ -145,34 +159,56 @@ fn csv_row(c: &WeakCoupling) -> String {
     r + &format!(",{max_d:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.12e},{},{}", fm.x, fm.y, sm.x, sm.y, totals.mass, c.geometry.uncovered, c.geometry.covered)
 }
 
-/// Runs `sc` for its duration (or `steps`), writing into `dir`.
-pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, steps: Option<u64>, show_progress: bool) -> anyhow::Result<CoupledReport> {
-    std::fs::create_dir_all(dir)?;
+/// Runs `sc` for its duration (or `opts.steps`), writing into `dir`, with checkpoints and
+/// resume as `opts.checkpoint` says. The coupled solver runs on the CPU.
+pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> anyhow::Result<CoupledReport> {
+    let ck = &opts.checkpoint;
+    ck.validate()?;
+    if opts.backend == super::Backend::Gpu {
+        anyhow::bail!("--backend gpu: the coupled solver runs on the CPU only for now");
+    }
     let mut c = sc.build()?;
-    let total = steps.unwrap_or(sc.fluid.steps);
+    std::fs::create_dir_all(dir)?;
+    let record = ck.restore(&mut c, dir)?.cloned();
+    let resumed = record.is_some();
+    let resumed_from_step = resumed.then_some(c.step_count);
+    let total = ck.total(opts.steps, sc.fluid.steps);
     let every = sc.coupling.output_every.unwrap_or(10);
     let fluid_scene = &sc.fluid;
     let mut files = vec![dir.join("coupling.csv"), dir.join("probes.csv")];
-    let mut csv = std::io::BufWriter::new(std::fs::File::create(&files[0])?);
-    writeln!(csv, "{}", csv_header(&c))?;
-    writeln!(csv, "{}", csv_row(&c))?;
-    csv.flush()?;
-    let mut probes = ProbeWriter::create(&files[1], &c.fluid, &fluid_scene.probes)?;
-    probes.sample(&c.fluid, &fluid_scene.units)?;
+    let mut csv = std::io::BufWriter::new(checkpoint::output_file(&files[0], resumed)?);
+    let mut probes = ProbeWriter::open(&files[1], &c.fluid, &fluid_scene.probes, resumed)?;
     let snaps = fluid_scene.file.output.snapshots;
     let snap_every = if snaps > 0 { (total / snaps).max(1) } else { u64::MAX };
     let probe_every = fluid_scene.file.output.probe_every.max(1);
-    let m0 = c.fluid.totals().mass;
     let glottis = sc.glottis(&c);
-    let mut record = match &glottis {
-        Some(g) => {
-            let path = dir.join("glottal_flow.csv");
-            let mut r = GlottalRecord::create(&path, c.dt() * probe_every as f64)?;
-            files.push(path);
-            r.push(g.sample(&c))?;
-            Some(r)
+    let glottal_path = dir.join("glottal_flow.csv");
+    let mut record_g = match &glottis {
+        Some(_) => {
+            files.push(glottal_path.clone());
+            Some(GlottalRecord::open(&glottal_path, c.dt() * probe_every as f64, resumed)?)
         }
         None => None,
+    };
+    let (m0, mut k_snap) = match &record {
+        Some(r) => {
+            files.extend(checkpoint::names(&r["files"]).into_iter().map(|n| dir.join(n)));
+            if let Some(g) = &mut record_g {
+                let v = checkpoint::from_bits(&r["glottal_samples"], "glottal_samples")?;
+                g.samples = v.chunks_exact(GLOTTAL_COLUMNS.len()).map(glottal_from_values).collect();
+            }
+            (checkpoint::from_bits(&r["m0"], "m0")?[0], r["k_snap"].as_u64().unwrap_or(0))
+        }
+        None => {
+            writeln!(csv, "{}", csv_header(&c))?;
+            writeln!(csv, "{}", csv_row(&c))?;
+            csv.flush()?;
+            probes.sample(&c.fluid, &fluid_scene.units)?;
+            if let (Some(g), Some(r)) = (&glottis, &mut record_g) {
+                r.push(g.sample(&c))?;
+            }
+            (c.fluid.totals().mass, 0)
+        }
     };
     let snapshot = |c: &WeakCoupling, k: u64, files: &mut Vec<PathBuf>| -> std::io::Result<()> {
         super::snapshot(&c.fluid, fluid_scene, dir, k, files)?;
@@ -181,9 +217,8 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, steps: Option<u64>, show
         files.push(path);
         Ok(())
     };
-    let mut k_snap = 0;
-    let progress = show_progress.then_some("coupled steps");
-    let outcome = super::driver::drive(&mut c, total, &[every, probe_every, snap_every], progress, |c, t| {
+    let progress = opts.show_progress.then_some("coupled steps");
+    let outcome = super::driver::drive_until(&mut c, total, opts.stop_at, &[every, probe_every, snap_every, ck.period()], progress, |c, t| {
         if t.hit[0] || t.last {
             writeln!(csv, "{}", csv_row(c))?;
             csv.flush()?;
@@ -193,7 +228,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, steps: Option<u64>, show
         }
         // uniformly sampled: the voice measures need a constant interval
         if t.hit[1]
-            && let (Some(g), Some(r)) = (&glottis, &mut record)
+            && let (Some(g), Some(r)) = (&glottis, &mut record_g)
         {
             r.push(g.sample(c))?;
         }
@@ -201,18 +236,33 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, steps: Option<u64>, show
             k_snap += 1;
             snapshot(c, k_snap, &mut files)?;
         }
+        if t.hit[3] {
+            let names: Vec<String> =
+                files[2..].iter().filter(|f| **f != glottal_path).filter_map(|f| f.file_name()).map(|f| f.to_string_lossy().into_owned()).collect();
+            let samples: Vec<f64> = record_g.iter().flat_map(|r| r.samples.iter().flat_map(glottal_values)).collect();
+            let record = serde_json::json!({"m0": checkpoint::bits(&[m0]), "k_snap": k_snap, "files": names, "glottal_samples": checkpoint::bits(&samples)});
+            let mut outputs = vec!["coupling.csv", "probes.csv"];
+            if record_g.is_some() {
+                outputs.push("glottal_flow.csv");
+            }
+            ck.save(dir, t.step, total, &*c, record, &outputs)?;
+        }
         Ok(())
     })?;
+    if ck.writes() {
+        files.push(dir.join(checkpoint::FILE_NAME));
+    }
     let wall = outcome.wall_s;
     let instability = outcome.instability;
     if instability.is_some() {
         snapshot(&c, 999, &mut files)?;
     }
-    let glottis_report = match &record {
+    let glottis_report = match &record_g {
         Some(r) => Some(glottal_outputs(sc, dir, r, &mut files)?),
         None => None,
     };
     let p = &c.solid.particles;
+    let steps_here = c.step_count - resumed_from_step.unwrap_or(0);
     let report = CoupledReport {
         name: fluid_scene.file.name.clone(),
         backend: format!("cpu ({} threads)", rayon::current_num_threads()),
@@ -224,7 +274,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, steps: Option<u64>, show
         steps: c.step_count,
         simulated_s: c.time,
         wall_s: wall,
-        coupled_steps_per_s: c.step_count as f64 / wall.max(1e-9),
+        coupled_steps_per_s: steps_here as f64 / wall.max(1e-9),
         stage_shares: c.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect(),
         final_forces: c.forces.total.iter().map(|f| f.to_array()).collect(),
         max_displacement: (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max),
@@ -233,6 +283,8 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, steps: Option<u64>, show
         covered: c.geometry.covered,
         glottis: glottis_report,
         instability: instability.map(|e| e.to_string()),
+        state_hash: state_hash(&c),
+        resumed_from_step,
         files: files.clone(),
     };
     let mut report = report;
@@ -297,7 +349,7 @@ mod tests {
     fn the_lung_pressure_opens_the_glottis_and_air_flows() {
         let sc = CoupledScene::parse(crate::scene::builtin("glottis_2d_coarse").unwrap()).unwrap();
         let dir = std::env::temp_dir().join(format!("phonation-glottis-{}", std::process::id()));
-        let r = run_coupled_scene(&sc, &dir, Some(3000), false).unwrap();
+        let r = run_coupled_scene(&sc, &dir, &RunOptions { steps: Some(3000), backend: crate::run::Backend::Cpu, ..Default::default() }).unwrap();
         assert!(r.instability.is_none(), "{:?}", r.instability);
         let g = r.glottis.as_ref().expect("a glottis scene reports its glottis");
         // one sample per probe interval (10 steps) and the initial one, streamed to the CSV

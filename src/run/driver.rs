@@ -6,7 +6,7 @@
 use crate::step::{Instability, Solver};
 use std::time::Instant;
 
-/// One output event: the step reached (counted from the start of [`drive`]) and which of the
+/// One output event: the step reached (the solver's step counter) and which of the
 /// schedule's periods it completes.
 #[derive(Clone, Debug)]
 pub struct Tick {
@@ -20,37 +20,55 @@ pub struct Tick {
 /// How a [`drive`] ended.
 #[derive(Clone, Debug)]
 pub struct Outcome {
-    /// Steps taken (up to the failed one).
+    /// The step reached (the solver's counter; the failed step on an instability).
     pub steps: u64,
     /// Wall time of the steps (s), outputs excluded.
     pub wall_s: f64,
     pub instability: Option<Instability>,
 }
 
-/// Advances `solver` by `total` steps, calling `at` at every multiple of each of `periods` and
-/// at the last step. A period of 0 or `u64::MAX` never fires. `at` is not called after an
+/// Advances `solver` from its step counter to step `total`, calling `at` at every multiple of
+/// each of `periods` and at the last step (steps counted by the solver: a run resumed from a
+/// checkpoint meets the same events as one that never stopped). A period of 0 or `u64::MAX` never fires. `at` is not called after an
 /// instability; the caller writes its final diagnosis from [`Outcome::instability`].
 pub fn drive<S: Solver + ?Sized>(
     solver: &mut S,
     total: u64,
     periods: &[u64],
     progress: Option<&str>,
+    at: impl FnMut(&mut S, &Tick) -> anyhow::Result<()>,
+) -> anyhow::Result<Outcome> {
+    drive_until(solver, total, None, periods, progress, at)
+}
+
+/// [`drive`], interrupted after step `stop` (when it comes before `total`) as if the run had
+/// been killed there: the events up to it fire, the schedule stays the whole run's, and no
+/// `last` event fires. A checkpoint written before the stop continues the run as if it had
+/// never stopped.
+pub fn drive_until<S: Solver + ?Sized>(
+    solver: &mut S,
+    total: u64,
+    stop: Option<u64>,
+    periods: &[u64],
+    progress: Option<&str>,
     mut at: impl FnMut(&mut S, &Tick) -> anyhow::Result<()>,
 ) -> anyhow::Result<Outcome> {
+    let end = stop.map_or(total, |s| s.min(total));
     let bar = match progress {
         Some(what) => {
             let b = indicatif::ProgressBar::new(total);
+            b.set_position(solver.step_count().min(total));
             b.set_style(indicatif::ProgressStyle::with_template(&format!("{{bar:40}} {{pos}}/{{len}} {what}  {{per_sec}}  eta {{eta}}"))?);
             b
         }
         None => indicatif::ProgressBar::hidden(),
     };
     let live = |p: u64| p > 0 && p != u64::MAX;
-    let mut step = 0u64;
+    let mut step = solver.step_count();
     let mut wall = 0.0;
     let mut instability = None;
-    while step < total {
-        let next = periods.iter().filter(|&&p| live(p)).map(|&p| (step / p + 1) * p).chain([total]).min().expect("total is a candidate");
+    while step < end {
+        let next = periods.iter().filter(|&&p| live(p)).map(|&p| (step / p + 1) * p).chain([end]).min().expect("the end is a candidate");
         let t0 = Instant::now();
         let r = solver.advance(next - step);
         wall += t0.elapsed().as_secs_f64();
@@ -134,5 +152,22 @@ mod tests {
         .unwrap();
         assert_eq!((calls, o.steps), (2, 13), "events at 5 and 10, then the failure at 13");
         assert_eq!(o.instability.unwrap().site, Site::Particle(7));
+
+        // interrupted at 17 of 25, then continued: the same events as one whole run
+        let mut c = Counter { n: 0, fail_at: u64::MAX };
+        let mut split = Vec::new();
+        let o = drive_until(&mut c, 25, Some(17), &[10, 4], None, |_, t| {
+            split.push((t.step, t.last));
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!((o.steps, c.n), (17, 17));
+        let o = drive(&mut c, 25, &[10, 4], None, |_, t| {
+            split.push((t.step, t.last));
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(o.steps, 25);
+        assert_eq!(split, [(4, false), (8, false), (10, false), (12, false), (16, false), (17, false), (20, false), (24, false), (25, true)]);
     }
 }

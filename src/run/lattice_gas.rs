@@ -1,13 +1,14 @@
 //! Headless run of a lattice-gas scene (CPU or GPU, bit-identical) through the one run loop
 //! ([`super::driver`]): `probe.csv`, coarse-grained fields (CSV, VTK, PNG) and `summary.json`.
 
-use super::backend::{Backend, LatticeGasEngine};
-use super::driver;
+use super::backend::LatticeGasEngine;
+use super::{RunOptions, checkpoint, driver};
 use crate::lattice_gas::coarse::coarse_grain;
 use crate::lattice_gas::lattice::Diagonals;
 use crate::lattice_gas::spectrum::{Peak, dominant_frequency};
 use crate::output::coarse::{write_csv, write_pngs, write_vtk};
 use crate::scene::lattice_gas::{LatticeGasScene, region_velocity};
+use crate::state::state_hash;
 use crate::step::Solver;
 use serde::Serialize;
 use std::io::Write;
@@ -42,6 +43,10 @@ pub struct LatticeGasReport {
     pub shedding_periodic: bool,
     /// St = f D / U (U the inlet velocity), when shedding is periodic.
     pub strouhal: Option<f64>,
+    /// BLAKE3 of the final state ([`crate::state::state_hash`]): equal for bit-identical runs.
+    pub state_hash: String,
+    /// The step this run resumed from (a checkpoint), if it did.
+    pub resumed_from_step: Option<u64>,
     pub files: Vec<String>,
 }
 
@@ -49,19 +54,38 @@ pub struct LatticeGasReport {
 /// upstream), `coarse_NNNNNNN.{csv,vtk}` and `coarse_NNNNNNN_{speed,uy}.png` every
 /// `output.every` steps, and `summary.json`. The GPU backend mirrors its state to the CPU at
 /// every sample.
-pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, steps: Option<u64>, backend: Backend) -> anyhow::Result<LatticeGasReport> {
-    std::fs::create_dir_all(dir)?;
+pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, opts: &RunOptions) -> anyhow::Result<LatticeGasReport> {
+    let ck = &opts.checkpoint;
+    ck.validate()?;
     let s = &sc.file.lattice_gas;
-    let mut engine = LatticeGasEngine::new(backend, sc.build())?;
-    let total = steps.unwrap_or(s.steps).max(1);
+    let mut gas = sc.build();
+    std::fs::create_dir_all(dir)?;
+    let record = ck.restore(&mut gas, dir)?.cloned();
+    let start = match &ck.resume {
+        Some(c) if record.is_some() => c.step,
+        _ => 0,
+    };
+    let mut engine = LatticeGasEngine::new(opts.backend, gas)?.starting_at(start);
+    let total = ck.total(opts.steps, s.steps).max(1);
     let o = &s.output;
     let upstream = s.cylinder.as_ref().map(|c| [(c.center[0] - c.radius) * 0.5, c.center[1]]);
-    let mut probe_csv = std::io::BufWriter::new(std::fs::File::create(dir.join("probe.csv"))?);
-    writeln!(probe_csv, "step,u_x,u_y,upstream_u_x")?;
+    let mut probe_csv = std::io::BufWriter::new(checkpoint::output_file(&dir.join("probe.csv"), record.is_some())?);
     let mut files = vec!["probe.csv".to_string()];
-    let particles_start = engine.gas.invariants().particles;
-    let mut samples = Vec::new();
-    let outcome = driver::drive(&mut engine, total, &[o.probe_every, o.every], Some("steps"), |e, t| {
+    // (particles at the start, probe samples: transverse velocity and upstream velocity)
+    let (particles_start, mut samples) = match &record {
+        Some(r) => {
+            files.extend(checkpoint::names(&r["files"]));
+            let uy = checkpoint::from_bits(&r["samples_uy"], "samples_uy")?;
+            let up = checkpoint::from_bits(&r["samples_upstream"], "samples_upstream")?;
+            let up: Vec<Option<f64>> = if up.is_empty() { vec![None; uy.len()] } else { up.into_iter().map(Some).collect() };
+            (r["particles_start"].as_u64().unwrap_or(0), uy.into_iter().zip(up).collect::<Vec<(f64, Option<f64>)>>())
+        }
+        None => {
+            writeln!(probe_csv, "step,u_x,u_y,upstream_u_x")?;
+            (engine.gas.invariants().particles, Vec::new())
+        }
+    };
+    let outcome = driver::drive_until(&mut engine, total, opts.stop_at, &[o.probe_every, o.every, ck.period()], Some("steps"), |e, t| {
         let (g, done) = (&e.gas, t.step);
         if t.hit[0]
             && let Some(p) = sc.probe
@@ -80,9 +104,25 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, steps: Option<u64
             write_pngs(&dir.join(format!("{stem}_speed.png")), &dir.join(format!("{stem}_uy.png")), &f)?;
             files.extend([format!("{stem}.csv"), format!("{stem}.vtk"), format!("{stem}_speed.png"), format!("{stem}_uy.png")]);
         }
+        if t.hit[2] {
+            probe_csv.flush()?;
+            let uy: Vec<f64> = samples.iter().map(|s| s.0).collect();
+            let up: Vec<f64> = samples.iter().filter_map(|s| s.1).collect();
+            let record = serde_json::json!({
+                "particles_start": particles_start,
+                "samples_uy": checkpoint::bits(&uy),
+                "samples_upstream": checkpoint::bits(&up),
+                "files": files[1..],
+            });
+            ck.save(dir, done, total, g, record, &["probe.csv"])?;
+        }
         Ok(())
     })?;
+    if ck.writes() {
+        files.push(checkpoint::FILE_NAME.into());
+    }
     let (done, wall) = (outcome.steps, outcome.wall_s);
+    let steps_here = done - start;
     let g = &engine.gas;
     probe_csv.flush()?;
     let last_half = &samples[samples.len() / 2..];
@@ -109,7 +149,7 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, steps: Option<u64
         diagonals: s.diagonals,
         steps: done,
         wall_s: wall,
-        site_updates_per_s: sites as f64 * done as f64 / wall.max(1e-12),
+        site_updates_per_s: sites as f64 * steps_here as f64 / wall.max(1e-12),
         stage_shares: engine.stage_shares().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
         particles_start,
         particles_end: g.invariants().particles,
@@ -119,6 +159,8 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, steps: Option<u64
         wake_peak,
         shedding_periodic,
         strouhal,
+        state_hash: state_hash(g),
+        resumed_from_step: (start > 0).then_some(start),
         files,
     };
     std::fs::write(dir.join("summary.json"), serde_json::to_string_pretty(&report)?)?;
@@ -134,7 +176,7 @@ mod tests {
     fn a_small_wake_runs_and_writes_its_outputs() {
         let sc = LatticeGasScene::parse(SMALL).unwrap();
         let dir = std::env::temp_dir().join(format!("phonation_lg_{}", std::process::id()));
-        let r = run_lattice_gas_scene(&sc, &dir, None, Backend::Cpu).unwrap();
+        let r = run_lattice_gas_scene(&sc, &dir, &RunOptions { backend: crate::run::Backend::Cpu, ..Default::default() }).unwrap();
         println!("{}", serde_json::to_string(&r).unwrap());
         assert_eq!(r.steps, 60);
         assert_eq!(r.sites, 32 * 16 * 2 * 16);

@@ -6,15 +6,19 @@ use crate::output::{fields, png_map, probes::ProbeWriter, vtk};
 use crate::scene::FluidScene;
 use crate::scene::build::SceneSummary;
 use crate::scene::schema::Field;
+use crate::state::state_hash;
 use crate::step::Solver;
 pub use backend::{Backend, FluidEngine, LatticeGasEngine, SolidEngine, pick_gpu};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 pub mod backend;
+pub mod checkpoint;
 pub mod coupled;
 pub mod driver;
 pub mod lattice_gas;
+#[cfg(test)]
+mod resume_tests;
 pub mod solid;
 pub mod sweep;
 pub mod two_mass;
@@ -51,6 +55,10 @@ pub struct RunReport {
     pub max_mach: f64,
     /// Fraction of the step's wall time per stage of the stage list.
     pub stage_fractions: Vec<(String, f64)>,
+    /// BLAKE3 of the final state ([`crate::state::state_hash`]): equal for bit-identical runs.
+    pub state_hash: String,
+    /// The step this run resumed from (a checkpoint), if it did.
+    pub resumed_from_step: Option<u64>,
     pub files: Vec<PathBuf>,
 }
 
@@ -61,6 +69,11 @@ pub struct RunOptions {
     pub steps: Option<u64>,
     pub show_progress: bool,
     pub backend: Backend,
+    /// Checkpoints to write and the one to continue from.
+    pub checkpoint: checkpoint::Checkpointing,
+    /// Stop after this step, as if the run were killed there (the output schedule stays that
+    /// of the whole run; a checkpoint written before continues it).
+    pub stop_at: Option<u64>,
 }
 
 pub(crate) fn snapshot(s: &FluidSolver, scene: &FluidScene, dir: &Path, k: u64, files: &mut Vec<PathBuf>) -> std::io::Result<()> {
@@ -82,25 +95,43 @@ pub(crate) fn snapshot(s: &FluidSolver, scene: &FluidScene, dir: &Path, k: u64, 
 /// Runs `scene`, writing into `dir` (created if needed). Returns the report, also written as
 /// `summary.json`; an unstable run is reported in it, not as an `Err`.
 pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::Result<RunReport> {
-    std::fs::create_dir_all(dir)?;
+    let ck = &opts.checkpoint;
+    ck.validate()?;
     let units = scene.units;
-    let total = opts.steps.unwrap_or(scene.steps);
+    let total = opts.checkpoint.total(opts.steps, scene.steps);
+    let mut solver = scene.build_solver();
+    std::fs::create_dir_all(dir)?;
+    let record = ck.restore(&mut solver, dir)?.cloned();
+    let resumed = record.is_some();
+    let resumed_from_step = resumed.then_some(solver.step_count);
+    let mut engine = FluidEngine::new(opts.backend, solver)?;
     let mut files = vec![dir.join("probes.csv")];
-    let mut engine = FluidEngine::new(opts.backend, scene.build_solver())?;
-    let mut probes = ProbeWriter::create(&files[0], &engine.solver, &scene.probes)?;
-    probes.sample(&engine.solver, &units)?;
+    let mut probes = ProbeWriter::open(&files[0], &engine.solver, &scene.probes, resumed)?;
     let snaps = scene.file.output.snapshots;
     let snap_every = if snaps > 0 { (total / snaps).max(1) } else { u64::MAX };
-    let m0 = engine.solver.totals().mass;
-    let mut k_snap = 0;
+    let (m0, mut k_snap) = match &record {
+        Some(r) => {
+            files.extend(checkpoint::names(&r["files"]).into_iter().map(|n| dir.join(n)));
+            (checkpoint::from_bits(&r["m0"], "m0")?[0], r["k_snap"].as_u64().unwrap_or(0))
+        }
+        None => {
+            probes.sample(&engine.solver, &units)?;
+            (engine.solver.totals().mass, 0)
+        }
+    };
     let progress = opts.show_progress.then_some("steps");
-    let outcome = driver::drive(&mut engine, total, &[scene.file.output.probe_every, snap_every], progress, |e, t| {
+    let outcome = driver::drive_until(&mut engine, total, opts.stop_at, &[scene.file.output.probe_every, snap_every, ck.period()], progress, |e, t| {
         if t.hit[0] || t.last {
             probes.sample(&e.solver, &units)?;
         }
         if t.hit[1] && k_snap < snaps {
             k_snap += 1;
             snapshot(&e.solver, scene, dir, k_snap, &mut files)?;
+        }
+        if t.hit[2] {
+            let names: Vec<String> = files[1..].iter().filter_map(|f| f.file_name()).map(|f| f.to_string_lossy().into_owned()).collect();
+            let record = serde_json::json!({"m0": checkpoint::bits(&[m0]), "k_snap": k_snap, "files": names});
+            ck.save(dir, t.step, total, &e.solver, record, &["probes.csv"])?;
         }
         Ok(())
     })?;
@@ -115,6 +146,7 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
     };
     let wall = outcome.wall_s;
     let steps_done = s.step_count;
+    let steps_here = steps_done - resumed_from_step.unwrap_or(0);
     let mut report = RunReport {
         backend: engine.name.clone(),
         scene: scene.summary(),
@@ -122,12 +154,17 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
         steps_done,
         simulated_time_s: units.time_to_physical(s.time),
         wall_time_s: wall,
-        node_updates_per_s: steps_done as f64 * s.layout.fluid_count as f64 / wall.max(1e-9),
+        node_updates_per_s: steps_here as f64 * s.layout.fluid_count as f64 / wall.max(1e-9),
         mass_drift: (s.totals().mass - m0) / m0,
         max_mach: s.max_mach(),
         stage_fractions: engine.stage_shares().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
+        state_hash: state_hash(s),
+        resumed_from_step,
         files,
     };
+    if ck.writes() {
+        report.files.push(dir.join(checkpoint::FILE_NAME));
+    }
     report.files.push(write_summary(dir, &report)?);
     Ok(report)
 }

@@ -3,9 +3,10 @@
 //! `summary.json`, through the one run loop ([`super::driver`]).
 
 use super::backend::{Backend, SolidEngine};
-use super::driver;
+use super::{RunOptions, checkpoint, driver};
 use crate::scene::solid::{SolidScene, inside, vec3};
 use crate::solid::{Integrator, SolidSolver};
+use crate::state::state_hash;
 use crate::step::Solver;
 use glam::DVec3;
 use serde::Serialize;
@@ -32,6 +33,10 @@ pub struct SolidReport {
     pub energy_drift: f64,
     /// None when the run finished; else what went wrong, where and when.
     pub instability: Option<String>,
+    /// BLAKE3 of the final state ([`crate::state::state_hash`]): equal for bit-identical runs.
+    pub state_hash: String,
+    /// The step this run resumed from (a checkpoint), if it did.
+    pub resumed_from_step: Option<u64>,
     pub files: Vec<PathBuf>,
 }
 
@@ -74,13 +79,29 @@ pub fn write_vtk(s: &SolidSolver, path: &Path) -> std::io::Result<()> {
 /// Runs a solid scene, writing `solid.csv` (flushed per row), VTK snapshots and
 /// `summary.json` into `dir`. A non-finite state stops the run with a diagnosis; everything
 /// written so far is kept (plus a final snapshot).
-pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend: Backend) -> anyhow::Result<SolidReport> {
+pub fn run_solid_scene(sc: &SolidScene, dir: &Path, opts: &RunOptions) -> anyhow::Result<SolidReport> {
+    let ck = &opts.checkpoint;
+    ck.validate()?;
+    let mut solver = sc.build()?;
+    // The GPU solid keeps its contact anchors on the device only: checkpoints of a scene with
+    // contact are written on the CPU (`auto` picks it; `gpu` is refused).
+    let mut backend = opts.backend;
+    if ck.writes() && solver.options.contact.is_some() {
+        match backend {
+            Backend::Gpu => anyhow::bail!(
+                "--checkpoint-every: the GPU solid keeps its contact anchors on the device only, so its checkpoints would lose them; use --backend cpu (or auto) for this scene (it has `solid.contact`)"
+            ),
+            _ => backend = Backend::Cpu,
+        }
+    }
     std::fs::create_dir_all(dir)?;
+    let record = ck.restore(&mut solver, dir)?.cloned();
+    let resumed_from_step = record.is_some().then_some(solver.step_count);
     // GPU: the CPU solver mirrors the GPU state at every output (rows, snapshots)
-    let mut engine = SolidEngine::new(backend, sc.build()?, sc.file.solid.cg_tolerance)?;
+    let mut engine = SolidEngine::new(backend, solver, sc.file.solid.cg_tolerance)?;
     let s = &mut engine.solver;
     let dim = sc.file.solid.dimension;
-    let total = steps.unwrap_or((sc.file.run.duration / s.dt).ceil() as u64).max(1);
+    let total = ck.total(opts.steps, (sc.file.run.duration / s.dt).ceil() as u64).max(1);
     let every = sc.file.run.output_every.unwrap_or(10).max(1);
     let snaps = sc.file.run.snapshots.unwrap_or(10).max(1);
     let snap_every = (total / snaps).max(1);
@@ -94,12 +115,7 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend:
         })
         .collect();
     let mut files = vec![dir.join("solid.csv")];
-    let mut csv = std::io::BufWriter::new(std::fs::File::create(dir.join("solid.csv"))?);
-    let mut header = "step,time,kinetic,elastic,external,total,px,py,pz,lx,ly,lz,cg_iterations,cg_residual,max_overlap".to_string();
-    for (n, _) in &probes {
-        header += &format!(",{n}_ux,{n}_uy,{n}_uz");
-    }
-    writeln!(csv, "{header}")?;
+    let mut csv = std::io::BufWriter::new(checkpoint::output_file(&files[0], record.is_some())?);
     let row = |s: &mut SolidSolver, csv: &mut std::io::BufWriter<std::fs::File>| -> anyhow::Result<crate::solid::Energies> {
         let e = s.energies();
         let (pm, am) = (s.particles.linear_momentum(), s.particles.angular_momentum());
@@ -129,18 +145,32 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend:
         csv.flush()?;
         Ok(e)
     };
-    let first = row(s, &mut csv)?;
-    let e0 = first.total();
-    let mut drift: f64 = 0.0;
-    let mut scale_e = first.kinetic + first.elastic;
     let snap = |s: &SolidSolver, k: u64, files: &mut Vec<PathBuf>| -> std::io::Result<()> {
         let f = dir.join(format!("particles_{k:04}.vtk"));
         write_vtk(s, &f)?;
         files.push(f);
         Ok(())
     };
-    snap(s, 0, &mut files)?;
-    let outcome = driver::drive(&mut engine, total, &[every, snap_every], Some("steps"), |e, t| {
+    // (initial energy, largest drift so far, largest kinetic + elastic energy so far)
+    let (e0, mut drift, mut scale_e) = match &record {
+        Some(r) => {
+            files.extend(checkpoint::names(&r["files"]).into_iter().map(|n| dir.join(n)));
+            let v = checkpoint::from_bits(&r["energy"], "energy")?;
+            anyhow::ensure!(v.len() == 3, "checkpoint run record: `energy` holds {} values, not 3", v.len());
+            (v[0], v[1], v[2])
+        }
+        None => {
+            let mut header = "step,time,kinetic,elastic,external,total,px,py,pz,lx,ly,lz,cg_iterations,cg_residual,max_overlap".to_string();
+            for (n, _) in &probes {
+                header += &format!(",{n}_ux,{n}_uy,{n}_uz");
+            }
+            writeln!(csv, "{header}")?;
+            let first = row(s, &mut csv)?;
+            snap(s, 0, &mut files)?;
+            (first.total(), 0.0, first.kinetic + first.elastic)
+        }
+    };
+    let outcome = driver::drive_until(&mut engine, total, opts.stop_at, &[every, snap_every, ck.period()], Some("steps"), |e, t| {
         let s = &mut e.solver;
         if t.hit[0] || t.last {
             let e = row(s, &mut csv)?;
@@ -152,13 +182,22 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend:
         if t.hit[1] {
             snap(s, t.step / snap_every, &mut files)?;
         }
+        if t.hit[2] {
+            let names: Vec<String> = files[1..].iter().filter_map(|f| f.file_name()).map(|f| f.to_string_lossy().into_owned()).collect();
+            let record = serde_json::json!({"energy": checkpoint::bits(&[e0, drift, scale_e]), "files": names});
+            ck.save(dir, t.step, total, &*s, record, &["solid.csv"])?;
+        }
         Ok(())
     })?;
     let s = &engine.solver;
     if outcome.instability.is_some() {
         snap(s, 999, &mut files)?;
     }
+    if ck.writes() {
+        files.push(dir.join(checkpoint::FILE_NAME));
+    }
     let wall = outcome.wall_s;
+    let steps_here = s.step_count - resumed_from_step.unwrap_or(0);
     let report = SolidReport {
         name: sc.file.name.clone(),
         backend: engine.name.clone(),
@@ -170,10 +209,12 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, steps: Option<u64>, backend:
         steps: s.step_count,
         simulated_time: s.time,
         wall_s: wall,
-        particle_updates_per_s: s.particles.len() as f64 * s.step_count as f64 / wall.max(1e-9),
+        particle_updates_per_s: s.particles.len() as f64 * steps_here as f64 / wall.max(1e-9),
         stage_shares: engine.stage_shares(),
         energy_drift: drift,
         instability: outcome.instability.map(|e| e.to_string()),
+        state_hash: state_hash(s),
+        resumed_from_step,
         files: files.clone(),
     };
     std::fs::write(dir.join("summary.json"), serde_json::to_string_pretty(&report)?)?;

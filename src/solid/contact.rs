@@ -37,15 +37,15 @@ pub struct Wall {
 
 /// Tangential-spring anchors in each particle's own (unrotated) frame, (2.29)–(2.30).
 #[derive(Clone, Copy, Debug)]
-struct Anchor {
-    ri: DVec3,
-    rj: DVec3,
+pub(super) struct Anchor {
+    pub(super) ri: DVec3,
+    pub(super) rj: DVec3,
 }
 
 #[derive(Clone, Debug, Default)]
 pub struct Contacts {
-    pairs: HashMap<(u32, u32), Anchor>,
-    walls: HashMap<(u32, u16), Anchor>,
+    pub(super) pairs: HashMap<(u32, u32), Anchor>,
+    pub(super) walls: HashMap<(u32, u16), Anchor>,
     /// Deepest overlap of the last evaluation, as a fraction of the particle diameter l₀.
     pub max_overlap: f64,
     /// Active contacts of the last evaluation (pairs, wall contacts) and how many slid.
@@ -78,6 +78,11 @@ fn friction(p: &ContactParams, cs: DVec3, fn_mag: f64) -> (DVec3, bool) {
 
 impl Contacts {
     /// Adds contact forces and torques to `force`/`torque`.
+    /// Tangential-spring anchors held: (particle pairs, particle–wall contacts).
+    pub fn anchors(&self) -> (usize, usize) {
+        (self.pairs.len(), self.walls.len())
+    }
+
     pub fn apply(&mut self, p: &ContactParams, walls: &[Wall], inp: &ContactInput, force: &mut [DVec3], torque: &mut [DVec3]) {
         let l0 = inp.diameter;
         let n = inp.x.len();

@@ -90,8 +90,13 @@ impl BlockJacobi {
     }
 }
 
+/// Σ a_i·b_i in a fixed order whatever the thread count: sequential partial sums over fixed
+/// chunks, then their sum in chunk order (rayon's own `sum` splits where work is stolen, which
+/// changes the last bits from run to run).
 fn dot(a: &[DVec3], b: &[DVec3]) -> f64 {
-    a.par_iter().zip(b).map(|(x, y)| x.dot(*y)).sum()
+    const CHUNK: usize = 4096;
+    let partial: Vec<f64> = a.par_chunks(CHUNK).zip(b.par_chunks(CHUNK)).map(|(x, y)| x.iter().zip(y).map(|(x, y)| x.dot(*y)).sum::<f64>()).collect();
+    partial.iter().sum()
 }
 
 /// Solves A x = b (A symmetric positive definite, given as `apply(x, out)`), starting from the

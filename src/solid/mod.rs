@@ -25,6 +25,7 @@ pub mod material;
 pub mod particles;
 pub mod rotation;
 pub mod solver;
+pub mod state;
 pub mod timestep;
 
 pub use contact::{ContactParams, Wall};

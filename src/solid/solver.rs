@@ -107,7 +107,7 @@ pub struct SolidSolver {
     rot: Vec<DMat3>,
     stress: StressField,
     forces: ForceField,
-    contacts: Contacts,
+    pub(super) contacts: Contacts,
     total_force: Vec<DVec3>,
     total_torque: Vec<DVec3>,
     precond: Option<BlockJacobi>,

@@ -14,7 +14,7 @@ pub fn run_case(case: BodyCoverCase) -> anyhow::Result<CoupledReport> {
     let (cover, body) = case.young();
     sc.set_fold_moduli(cover, body);
     let dir = PathBuf::from("out/validate").join(format!("glottis_2d_{case:?}").to_lowercase());
-    run_coupled_scene(&sc, &dir, None, true)
+    run_coupled_scene(&sc, &dir, &crate::run::RunOptions { show_progress: true, ..Default::default() })
 }
 
 /// The suite's rows: each case's f0 against the seed's (±20 %), the ordering A < C < B < D,
