@@ -14,26 +14,38 @@ pub struct SceneError {
 
 impl SceneError {
     /// A TOML parse error of a scene whose table is `section`. A bad value (an unknown variant,
-    /// a wrong type) is named by its key, found where the error points in `text`:
-    /// `table.key`; otherwise the key the message names (in backticks) becomes the field,
-    /// `section: key`.
+    /// a wrong type, an unknown key) is named by its key, found where the error points in
+    /// `text`: `table.key`; otherwise (the error points at a table header) the key the message
+    /// names (in backticks) becomes the field, `section: key`.
     pub fn from_toml(section: &str, e: &toml::de::Error, text: &str) -> Self {
         let msg = e.message().to_string();
-        let bad_value = msg.starts_with("unknown variant") || msg.starts_with("invalid type");
-        let located = e.span().filter(|_| bad_value).and_then(|span| value_key(text, span.start));
-        let field = located.or_else(|| msg.split('`').nth(1).map(|s| format!("{section}: {s}"))).unwrap_or_else(|| section.into());
+        let located = e.span().and_then(|span| value_key(text, span.start));
+        let named = msg.split('`').nth(1);
+        let field = match (located, named) {
+            // the error points at the table that lacks the key
+            (Some((table, true)), Some(key)) if msg.starts_with("missing field") => format!("{table}.{key}"),
+            (Some((key, _)), _) => key,
+            (None, Some(key)) => format!("{section}: {key}"),
+            (None, None) => section.into(),
+        };
         SceneError { field, reason: msg }
     }
 }
 
-/// The dotted key (`table.key`) of the `key = value` line holding byte `at` of a TOML text.
-fn value_key(text: &str, at: usize) -> Option<String> {
+/// The dotted key (`table.key`) of the `key = value` line holding byte `at` of a TOML text, or
+/// the table of a `[table]` header line (then `true`).
+fn value_key(text: &str, at: usize) -> Option<(String, bool)> {
     let before = text.get(..at)?;
     let line_start = before.rfind('\n').map_or(0, |i| i + 1);
-    let key = text[line_start..].lines().next()?.split_once('=')?.0.trim();
-    if key.is_empty() || key.starts_with('[') {
+    let line = text[line_start..].lines().next()?.trim();
+    if let Some(header) = line.strip_prefix('[') {
+        let name = header.trim_start_matches('[').split(']').next()?.trim();
+        return (!name.is_empty()).then(|| (name.to_string(), true));
+    }
+    let key = line.split_once('=')?.0.trim();
+    if key.is_empty() {
         return None;
     }
     let table = before[..line_start].lines().rev().find_map(|l| l.trim().strip_prefix('[')?.strip_suffix(']').map(str::to_string));
-    Some(table.map_or_else(|| key.to_string(), |t| format!("{t}.{key}")))
+    Some((table.map_or_else(|| key.to_string(), |t| format!("{t}.{key}")), false))
 }

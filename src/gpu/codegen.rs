@@ -423,31 +423,4 @@ struct ProbeParams { step: u32, count: u32, n_nodes: u32, _pad: u32 };
     s
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::fluid::{GasModel, VelocitySet, VelocitySetKind};
-
-    /// Every generated module parses and validates with naga, for both sets and both gases.
-    #[test]
-    fn generated_wgsl_validates() {
-        for kind in [VelocitySetKind::D2q21, VelocitySetKind::D3q39] {
-            for gas in [GasModel::Monatomic, GasModel::Diatomic] {
-                let eq = Equilibrium::new(VelocitySet::new(kind), gas);
-                let nv = eq.values_per_node();
-                for split in [Split::whole(nv), Split { nv, per_binding: 16 }] {
-                    for (name, src) in
-                        [("moments_collide", moments_collide(&eq, split)), ("advect", advect(&eq, split)), ("boundaries", boundaries(&eq, split))]
-                    {
-                        let module = naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{kind:?} {gas:?} {name}: {}", e.emit_to_string(&src)));
-                        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-                            .validate(&module)
-                            .unwrap_or_else(|e| panic!("{kind:?} {gas:?} {name}: {e:?}"));
-                        // No run-time indexing of const arrays: the only arrays are local accumulators.
-                        assert!(!src.contains("const C"), "{name}");
-                    }
-                }
-            }
-        }
-    }
-}
+// Every generated module is validated by naga in `gpu::wgsl_check`.

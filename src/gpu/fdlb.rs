@@ -600,3 +600,25 @@ pub fn compare_nodes(gpu: &[f32], cpu: &FluidSolver, cpu_arr: &[f64], layout: Ro
     }
     (0..nv).map(|v| diff[v] / scale[v].max(1e-30)).fold(0.0, f64::max)
 }
+
+#[cfg(test)]
+mod mirror_tests {
+    use super::{Entry, Params};
+    use crate::fluid::{Equilibrium, GasModel, VelocitySet, VelocitySetKind};
+    use crate::gpu::codegen::{Split, boundaries};
+    use crate::gpu::wgsl_check::{check_mirror, mirror};
+
+    /// `Params` and `Entry` lay out as the generated WGSL structs (naga reflection).
+    #[test]
+    fn params_and_entries_match_the_shader_layout() {
+        let eq = Equilibrium::new(VelocitySet::new(VelocitySetKind::D3q39), GasModel::Diatomic);
+        let src = boundaries(&eq, Split::whole(eq.values_per_node()));
+        check_mirror(
+            "fdlb boundaries",
+            &src,
+            "Params",
+            mirror!(Params { n_nodes, px, py, pz, nx, ny, nz, hx, hy, hz, count, stage, dt, tau, a, window_lo, window_hi, gx, gy, gz }),
+        );
+        check_mirror("fdlb boundaries", &src, "Entry", mirror!(Entry { node, source, code, n_img, rho, theta, ux, uy, uz, ratio, _p0, _p1 }));
+    }
+}

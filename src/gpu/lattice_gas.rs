@@ -278,3 +278,20 @@ pub fn lattice_gas_speed(ctx: &GpuContext, cells: [usize; 3], steps: u64, bandwi
     };
     Ok(crate::lattice_gas::bench::speed_of(ctx.describe(), &g, steps, s, crate::lattice_gas::bench::GPU_BYTES_PER_SITE_UPDATE, bandwidth, shares))
 }
+
+#[cfg(test)]
+mod mirror_tests {
+    use super::Params;
+    use crate::gpu::wgsl_check::{check_mirror, mirror};
+
+    #[test]
+    fn params_match_the_shader_layout() {
+        let src = crate::gpu::lattice_gas_codegen::shader();
+        check_mirror(
+            "lattice_gas",
+            &src,
+            "Params",
+            mirror!(Params { row_words, ny, nz, words, seed, interference, inlet, groups_x, outlet, diagonals, pad, inlet_thresholds }),
+        );
+    }
+}

@@ -10,6 +10,8 @@ pub mod lattice_gas;
 pub mod lattice_gas_codegen;
 pub mod solid;
 mod thin_wall;
+#[cfg(test)]
+pub(crate) mod wgsl_check;
 
 pub use context::{GpuContext, GpuError};
 pub use fdlb::{GpuArray, GpuFluid};

@@ -69,7 +69,7 @@ struct Params {
     contact: u32,
     pad: u32,
     dt: f32,
-    p: [f32; 3],
+    _p: [f32; 3],
     gravity: [f32; 4],
 }
 
@@ -196,7 +196,7 @@ impl GpuSolid {
         let zeros4 = vec![[0f32; 4]; n];
         let zeros12 = vec![[0f32; 12]; n];
         let mut bufs: HashMap<&'static str, wgpu::Buffer> = HashMap::new();
-        let params = Params { n: n as u32, dim: p.dim as u32, contact: 0, pad: 0, dt: s.dt as f32, p: [0.0; 3], gravity: v4(s.options.gravity, 0.0) };
+        let params = Params { n: n as u32, dim: p.dim as u32, contact: 0, pad: 0, dt: s.dt as f32, _p: [0.0; 3], gravity: v4(s.options.gravity, 0.0) };
         bufs.insert(
             "params",
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -634,4 +634,21 @@ pub fn solid_speed(ctx: &GpuContext, side: usize, integrator: Integrator, steps:
     g.wait();
     let wall = t.elapsed().as_secs_f64();
     Ok(crate::solid::bench::speed_of(&s, steps, wall, iters, setup, Vec::new(), bandwidth))
+}
+
+#[cfg(test)]
+mod mirror_tests {
+    use super::{CONTACT_SHADER, ContactUniform, Params, SHADER};
+    use crate::gpu::wgsl_check::{check_mirror, mirror};
+
+    #[test]
+    fn params_and_contact_uniform_match_the_shader_layout() {
+        check_mirror("solid.wgsl", SHADER, "Params", mirror!(Params { n, dim, contact, pad, dt, _p, gravity }));
+        check_mirror(
+            "solid_contact.wgsl",
+            CONTACT_SHADER,
+            "ContactUniform",
+            mirror!(ContactUniform { kn, kt, mu_s, mu_d, damping, l0, n_walls, multi_body, origin, dims, walls, n, dim, slots, cells }),
+        );
+    }
 }

@@ -39,3 +39,18 @@ pub(super) fn entries(layout: &Layout) -> (Vec<ThinTapEntry>, Vec<[u32; 2]>) {
     }
     (taps, ranges)
 }
+
+#[cfg(test)]
+mod mirror_tests {
+    use super::ThinTapEntry;
+    use crate::fluid::{Equilibrium, GasModel, VelocitySet, VelocitySetKind};
+    use crate::gpu::codegen::{Split, thin_wall};
+    use crate::gpu::wgsl_check::{check_mirror, mirror};
+
+    #[test]
+    fn tap_entries_match_the_shader_layout() {
+        let eq = Equilibrium::new(VelocitySet::new(VelocitySetKind::D2q21), GasModel::Monatomic);
+        let src = thin_wall(&eq, Split::whole(eq.values_per_node()));
+        check_mirror("thin_wall", &src, "ThinTap", mirror!(ThinTapEntry { node, axis, sign, step, w }));
+    }
+}

@@ -176,6 +176,14 @@ impl FluidScene {
         faces.push(("z_max", fs.z_max.as_ref()));
         let mut conds: Vec<FaceCondition> = Vec::new();
         let mut max_u: f64 = 0.0;
+        // which field sets the largest speed (named when it is too fast for the lattice)
+        let mut fastest = String::new();
+        let mut note = |u: f64, field: String, max_u: &mut f64| {
+            if u > *max_u {
+                *max_u = u;
+                fastest = field;
+            }
+        };
         for (k, (name, spec)) in faces.iter().enumerate() {
             let field = format!("boundaries.{name}");
             let axis = k / 2;
@@ -187,7 +195,7 @@ impl FluidScene {
                     FaceSpec::Periodic => FaceCondition::Periodic,
                     FaceSpec::Wall { velocity, temperature_ratio } => {
                         let v = vector(&format!("{field}.velocity"), velocity, dim, true)?;
-                        max_u = max_u.max(v.iter().map(|x| x.abs()).fold(0.0, f64::max));
+                        note(v.iter().map(|x| x.abs()).fold(0.0, f64::max), format!("{field}.velocity"), &mut max_u);
                         let t = match temperature_ratio {
                             Some(r) => Some(theta0 * finite_positive(&format!("{field}.temperature_ratio"), *r)?),
                             None => None,
@@ -203,12 +211,12 @@ impl FluidScene {
                         if p <= 0.0 {
                             return err(format!("{field}.pressure"), format!("gauge pressure {pressure} gives a non-positive absolute pressure"));
                         }
-                        max_u = max_u.max((2.0 * pressure.abs() / rho0).sqrt());
+                        note((2.0 * pressure.abs() / rho0).sqrt(), format!("{field}.pressure"), &mut max_u);
                         FaceCondition::PressureInlet { rho: p / th, theta: th }
                     }
                     FaceSpec::VelocityInlet { velocity, temperature_ratio, profile } => {
                         let v = vector(&format!("{field}.velocity"), velocity, dim, false)?;
-                        max_u = max_u.max(v.iter().map(|x| x.abs()).fold(0.0, f64::max));
+                        note(v.iter().map(|x| x.abs()).fold(0.0, f64::max), format!("{field}.velocity"), &mut max_u);
                         let th = theta0 * finite_positive(&format!("{field}.temperature_ratio"), *temperature_ratio)?;
                         FaceCondition::VelocityInlet { velocity: v.map(|x| units.velocity_to_lattice(x)), theta: th, profile: *profile }
                     }
@@ -289,7 +297,21 @@ impl FluidScene {
         // Initial state and forcing.
         let ini = &file.initial;
         let u0 = vector("initial.velocity", &ini.velocity, dim, true)?;
-        max_u = max_u.max(u0.iter().map(|x| x.abs()).fold(0.0, f64::max));
+        note(u0.iter().map(|x| x.abs()).fold(0.0, f64::max), "initial.velocity".into(), &mut max_u);
+        // The FDLB equilibrium is a low-Mach expansion: no speed the scene sets (walls, inlets,
+        // the Bernoulli speed of a pressure inlet, the initial flow) above lattice Mach 0.5,
+        // the bound of `numerics.mach_scaling.mach`.
+        let mach_of = |u: f64| units.velocity_to_lattice(u) / (gamma * theta0).sqrt();
+        if !(mach_of(max_u) <= 0.5) {
+            return err(
+                fastest,
+                format!(
+                    "speed {max_u:e} is lattice Mach {:.3}, above 0.5{}",
+                    mach_of(max_u),
+                    if mach_scaled { " (raise numerics.mach_scaling.reference_velocity, or lower this speed)" } else { "" }
+                ),
+            );
+        }
         if !(ini.perturbation.is_finite() && ini.perturbation.abs() <= 0.5) {
             return err("initial.perturbation", format!("must be in [−0.5, 0.5], got {}", ini.perturbation));
         }
@@ -335,7 +357,9 @@ impl FluidScene {
         // Memory estimate before allocation.
         let grid = Grid::new(dim, n);
         let nv = eq.values_per_node() as f64;
-        let estimated_bytes = grid.len() as f64 * (8.0 * (3.0 * nv + MACRO_FIELDS as f64) + 1.0);
+        // f, the first stage's output, the second stage's output and the advected field: four
+        // population arrays (FluidSolver), the macro fields and the node kinds
+        let estimated_bytes = grid.len() as f64 * (8.0 * (4.0 * nv + MACRO_FIELDS as f64) + 1.0);
         let limit = nm.max_memory_bytes.unwrap_or(0.75 * available_memory());
         if estimated_bytes > limit {
             return err(

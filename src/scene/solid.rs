@@ -225,6 +225,11 @@ impl SolidScene {
                 return err(format!("{f}.material"), format!("no material {} (there are {})", b.material, materials.len()));
             }
             vec3(&format!("{f}.velocity"), &b.velocity, dim, true)?;
+            if let Some(v) = b.first_mode_tip_speed
+                && !v.is_finite()
+            {
+                return err(format!("{f}.first_mode_tip_speed"), format!("must be finite, got {v}"));
+            }
             if let Some(fold) = &b.fold {
                 if b.radius.is_some() || !b.min.is_empty() || !b.max.is_empty() || !b.center.is_empty() {
                     return err(format!("{f}.fold"), "a body is a box, a ball or a fold, not several");

@@ -179,6 +179,15 @@ impl SolidSolver {
             options,
         };
         s.explicit_limit = stable_time_step(&s.disc, &s.particles, s.options.contact.as_ref());
+        if !(s.explicit_limit.is_finite() && s.explicit_limit > 0.0) {
+            return err(
+                "solid.materials",
+                format!(
+                    "the explicit stability limit {:e} is not a positive finite time: a modulus, density or viscosity is too small or too large for the spacing {}",
+                    s.explicit_limit, s.particles.spacing
+                ),
+            );
+        }
         s.dt = match s.options.time_step {
             Some(dt) => {
                 if !(dt.is_finite() && dt > 0.0) {
