@@ -620,3 +620,30 @@ fn a_gpu_run_resumed_from_its_checkpoint_ends_as_the_whole_run() {
         let _ = (std::fs::remove_dir_all(&whole), std::fs::remove_dir_all(&cut));
     }
 }
+
+/// A lattice larger than the adapter's limits is refused before anything is allocated (the
+/// check is arithmetic on the node count; the run layer makes it before building the CPU
+/// solver) with the figure needed, the adapter's figure and which limit it is.
+#[test]
+fn a_lattice_beyond_the_adapters_limits_is_refused_with_both_figures() {
+    use phonation::gpu::GpuError;
+    let Some(ctx) = context() else { return };
+    let nv = 21;
+    // the adapter's own max_buffer_size: one population array one node too many
+    let max = ctx.limits.max_buffer_size;
+    let nodes = (max / 4 / nv as u64) as usize + 64;
+    let e = GpuFluid::fits(&ctx.limits, nodes, nv).unwrap_err();
+    let GpuError::TooLarge { bytes, limit, limit_name, .. } = &e else { panic!("{e}") };
+    assert!(*bytes > *limit && *limit == max && *limit_name == "max_buffer_size", "{e}");
+    let msg = e.to_string();
+    assert!(msg.contains(&bytes.to_string()) && msg.contains(&max.to_string()), "{msg}");
+    // one population beyond a storage binding, and too many bindings for one kernel
+    let small = context().unwrap().with_binding_limit(4096);
+    let e = GpuFluid::fits(&small.limits, 2048, nv).unwrap_err();
+    assert!(e.to_string().contains("max_storage_buffer_binding_size") && e.to_string().contains("8192"), "{e}");
+    let e = GpuFluid::fits(&small.limits, 1024, nv).unwrap_err();
+    assert!(e.to_string().contains("storage bindings"), "{e}");
+    // and one that fits is split as the kernels expect
+    let split = GpuFluid::fits(&ctx.limits, 4096, nv).unwrap();
+    assert_eq!(split.nv, nv);
+}

@@ -266,17 +266,15 @@ mod fuzz {
         let Some((p, k)) = parent(root, path) else { return "nothing".into() };
         let what = format!("{} at {}", ["drop", "retype", "number", "reverse", "variant", "empty", "enormous", "unknown key"][kind as usize], path.join("."));
         match kind {
-            0 => {
-                match k.strip_prefix('#') {
-                    Some(i) => {
-                        let a = p.as_array_mut().unwrap();
-                        a.remove(i.parse::<usize>().unwrap());
-                    }
-                    None => {
-                        p.as_table_mut().unwrap().remove(&k);
-                    }
+            0 => match k.strip_prefix('#') {
+                Some(i) => {
+                    let a = p.as_array_mut().unwrap();
+                    a.remove(i.parse::<usize>().unwrap());
                 }
-            }
+                None => {
+                    p.as_table_mut().unwrap().remove(&k);
+                }
+            },
             1 => {
                 let v = get(p, &k).unwrap();
                 *v = match (v.clone(), pick % 4) {

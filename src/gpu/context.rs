@@ -9,8 +9,8 @@ pub enum GpuError {
     NoAdapter(String),
     #[error("requesting the device failed: {0}")]
     Device(String),
-    #[error("{what} needs {bytes} bytes in one storage binding, more than the adapter's {limit}")]
-    TooLarge { what: &'static str, bytes: u64, limit: u64 },
+    #[error("{what} needs {bytes} {unit}, more than the adapter's {limit_name} of {limit}")]
+    TooLarge { what: &'static str, bytes: u64, limit: u64, unit: &'static str, limit_name: &'static str },
 }
 
 /// Device, queue and what the adapter is.
@@ -60,6 +60,12 @@ impl GpuContext {
     /// the split-binding path ([`super::codegen::Split`]) on small lattices.
     pub fn with_binding_limit(mut self, bytes: u64) -> Self {
         self.limits.max_storage_buffer_binding_size = self.limits.max_storage_buffer_binding_size.min(bytes);
+        self
+    }
+
+    /// Pretends the adapter allows at most `bytes` per buffer (tests of the refusals).
+    pub fn with_buffer_limit(mut self, bytes: u64) -> Self {
+        self.limits.max_buffer_size = self.limits.max_buffer_size.min(bytes);
         self
     }
 

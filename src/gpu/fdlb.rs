@@ -162,6 +162,40 @@ impl GpuFluid {
         Self::from_device(ctx.device.clone(), ctx.queue.clone(), &ctx.limits, s)
     }
 
+    /// How the populations of `nodes` lattice nodes with `nv` values each are split over storage
+    /// bindings on a device with `limits`, or why they do not fit (the figure needed and the
+    /// adapter's): checked before anything is allocated, on the CPU or the GPU.
+    pub fn fits(limits: &wgpu::Limits, nodes: usize, nv: usize) -> Result<Split, GpuError> {
+        let pop_bytes = (nodes.div_ceil(64) * 64 * 4) as u64;
+        let limit = limits.max_storage_buffer_binding_size as u64;
+        let per_binding = ((limit / pop_bytes) as usize).min(nv);
+        let total = nv as u64 * pop_bytes;
+        if per_binding == 0 {
+            return Err(GpuError::TooLarge { what: "one population", bytes: pop_bytes, limit, unit: "bytes", limit_name: "max_storage_buffer_binding_size" });
+        }
+        if total > limits.max_buffer_size {
+            return Err(GpuError::TooLarge {
+                what: "one population array",
+                bytes: total,
+                limit: limits.max_buffer_size,
+                unit: "bytes",
+                limit_name: "max_buffer_size",
+            });
+        }
+        let split = Split { nv, per_binding };
+        let needed = 3 + 4 * split.groups() as u32;
+        if needed > limits.max_storage_buffers_per_shader_stage {
+            return Err(GpuError::TooLarge {
+                what: "the moments kernel",
+                bytes: needed as u64,
+                limit: limits.max_storage_buffers_per_shader_stage as u64,
+                unit: "storage bindings",
+                limit_name: "max_storage_buffers_per_shader_stage",
+            });
+        }
+        Ok(split)
+    }
+
     /// The same on a device opened elsewhere (Bevy's render device). `limits`: the device's.
     pub fn from_device(device: wgpu::Device, queue: wgpu::Queue, limits: &wgpu::Limits, s: &FluidSolver) -> Result<Self, GpuError> {
         let eq = &s.eq;
@@ -169,25 +203,7 @@ impl GpuFluid {
         let g = &s.layout.grid;
         let n = g.len();
         let stride = n.div_ceil(64) * 64;
-        let pop_bytes = (stride * 4) as u64;
-        let limit = limits.max_storage_buffer_binding_size as u64;
-        let per_binding = ((limit / pop_bytes) as usize).min(nv);
-        let total = nv as u64 * pop_bytes;
-        if per_binding == 0 {
-            return Err(GpuError::TooLarge { what: "one population", bytes: pop_bytes, limit });
-        }
-        if total > limits.max_buffer_size {
-            return Err(GpuError::TooLarge { what: "one population array", bytes: total, limit: limits.max_buffer_size });
-        }
-        let split = Split { nv, per_binding };
-        let needed = 3 + 4 * split.groups() as u32;
-        if needed > limits.max_storage_buffers_per_shader_stage {
-            return Err(GpuError::TooLarge {
-                what: "storage bindings of the moments kernel",
-                bytes: needed as u64,
-                limit: limits.max_storage_buffers_per_shader_stage as u64,
-            });
-        }
+        let split = Self::fits(limits, n, nv)?;
         let mut f0 = vec![0f32; nv * stride];
         let mut vals = vec![0.0; nv];
         for node in 0..n {

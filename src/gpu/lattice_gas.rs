@@ -79,7 +79,7 @@ impl GpuLatticeGas {
         let limit = ctx.limits.max_storage_buffer_binding_size as u64;
         for (what, bytes) in [("lattice gas state", state_bytes), ("collision table members", 4 * table.members.len() as u64)] {
             if bytes > limit {
-                return Err(GpuError::TooLarge { what, bytes, limit });
+                return Err(GpuError::TooLarge { what, bytes, limit, unit: "bytes", limit_name: "max_storage_buffer_binding_size" });
             }
         }
         let init = |label: &str, data: &[u8], usage: wgpu::BufferUsages| {

@@ -181,7 +181,7 @@ impl GpuSolid {
         let limit = ctx.limits.max_storage_buffer_binding_size as u64;
         for (what, bytes) in [("bond arrays", 16 * nb as u64), ("stiffness array", 144 * n as u64), ("CG vectors", 112 * n as u64)] {
             if bytes > limit {
-                return Err(GpuError::TooLarge { what, bytes, limit });
+                return Err(GpuError::TooLarge { what, bytes, limit, unit: "bytes", limit_name: "max_storage_buffer_binding_size" });
             }
         }
         let storage = |label: &str, data: &[u8]| {

@@ -58,6 +58,24 @@ pub struct FluidEngine {
 }
 
 impl FluidEngine {
+    /// Picks the backend and, on the GPU, checks that `nodes` nodes of `nv` values fit the
+    /// adapter's limits before `build` allocates the CPU solver (then uploads it): a lattice too
+    /// large for the GPU is refused with the figure needed and the adapter's, before any
+    /// allocation.
+    pub fn for_scene(backend: Backend, nodes: usize, nv: usize, build: impl FnOnce() -> anyhow::Result<FluidSolver>) -> anyhow::Result<Self> {
+        let (ctx, name) = pick_gpu(backend)?;
+        let gpu = match ctx {
+            Some(ctx) => {
+                GpuFluid::fits(&ctx.limits, nodes, nv)?;
+                let solver = build()?;
+                let g = Box::new(GpuFluid::from_solver(&ctx, &solver)?);
+                return Ok(Self { solver, gpu: Some(g), name });
+            }
+            None => None,
+        };
+        Ok(Self { solver: build()?, gpu, name })
+    }
+
     /// Picks the backend and uploads `solver` to the GPU when it is chosen.
     pub fn new(backend: Backend, solver: FluidSolver) -> Result<Self, GpuError> {
         let (ctx, name) = pick_gpu(backend)?;

@@ -99,12 +99,16 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
     ck.validate()?;
     let units = scene.units;
     let total = opts.checkpoint.total(opts.steps, scene.steps);
-    let mut solver = scene.build_solver();
-    std::fs::create_dir_all(dir)?;
-    let record = ck.restore(&mut solver, dir)?.cloned();
+    let nv = crate::fluid::Equilibrium::new(scene.set.clone(), scene.file.gas.model).values_per_node();
+    let mut record = None;
+    let mut engine = FluidEngine::for_scene(opts.backend, scene.grid.len(), nv, || {
+        let mut solver = scene.build_solver();
+        std::fs::create_dir_all(dir)?;
+        record = ck.restore(&mut solver, dir)?.cloned();
+        Ok(solver)
+    })?;
     let resumed = record.is_some();
-    let resumed_from_step = resumed.then_some(solver.step_count);
-    let mut engine = FluidEngine::new(opts.backend, solver)?;
+    let resumed_from_step = resumed.then_some(ck.resume.as_ref().map_or(0, |c| c.step));
     let mut files = vec![dir.join("probes.csv")];
     let mut probes = ProbeWriter::open(&files[0], &engine.solver, &scene.probes, resumed)?;
     let snaps = scene.file.output.snapshots;

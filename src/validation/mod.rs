@@ -10,6 +10,7 @@ pub mod cylinder;
 pub mod fsi;
 pub mod glottis;
 pub mod riemann;
+pub mod soak;
 pub mod sod;
 pub mod sound;
 pub mod suite;

@@ -162,6 +162,16 @@ pub fn cases() -> Vec<Case> {
             let heavy_ok = rows.iter().filter(|(r, _)| *r >= 0.2).all(|(_, ok)| *ok);
             vec![("lightest stable ρ_s/ρ_f (method 1)".into(), lightest, "≤ 0.2, every heavier one stable".into(), heavy_ok && lightest <= 0.2)]
         }),
+        ("soak", || {
+            // a closed box with a vibrating elastic disc, weak coupling, 10⁵ steps
+            match super::soak::soak(super::soak::SOAK_STEPS) {
+                Ok(r) => {
+                    println!("soak: {}", serde_json::to_string(&r).unwrap_or_default());
+                    super::soak::rows(&r, super::soak::fluid_nodes())
+                }
+                Err(e) => vec![(format!("soak: {e}"), f64::NAN, "runs".into(), false)],
+            }
+        }),
         ("glottis_2d", || {
             // Cases A–D on glottis_2d_coarse (62 × 64 cells, Mach-scaled air), 40 ms each:
             // ~20 min per case on 2 cores.
