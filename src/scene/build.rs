@@ -34,6 +34,9 @@ pub struct FluidScene {
     /// Lattice Mach number of the reference velocity (Mach scaling) or of the largest velocity
     /// the scene prescribes.
     pub reference_mach: f64,
+    /// Mach number of the largest set speed in the real gas (`gas.sound_speed`): what the
+    /// Mach-scaled lattice stands for.
+    pub real_mach: f64,
     pub mach_scaled: bool,
     pub estimated_bytes: f64,
 }
@@ -48,6 +51,9 @@ pub struct SceneSummary {
     pub nu_lattice: f64,
     pub steps: u64,
     pub reference_mach: f64,
+    /// Mach number of the largest set speed in the real gas (`gas.sound_speed`): what the
+    /// Mach-scaled lattice stands for.
+    pub real_mach: f64,
     pub mach_scaled: bool,
 }
 
@@ -195,6 +201,12 @@ impl FluidScene {
                     FaceSpec::Periodic => FaceCondition::Periodic,
                     FaceSpec::Wall { velocity, temperature_ratio } => {
                         let v = vector(&format!("{field}.velocity"), velocity, dim, true)?;
+                        if v[axis] != 0.0 {
+                            return err(
+                                format!("{field}.velocity"),
+                                format!("a wall moves in its own plane: component {axis} (normal to it) must be 0, got {}", v[axis]),
+                            );
+                        }
                         note(v.iter().map(|x| x.abs()).fold(0.0, f64::max), format!("{field}.velocity"), &mut max_u);
                         let t = match temperature_ratio {
                             Some(r) => Some(theta0 * finite_positive(&format!("{field}.temperature_ratio"), *r)?),
@@ -383,6 +395,7 @@ impl FluidScene {
             steps,
             probes,
             reference_mach,
+            real_mach: max_u / c_real,
             mach_scaled,
             estimated_bytes,
             file,
@@ -418,6 +431,7 @@ impl FluidScene {
             nu_lattice: self.nu,
             steps: self.steps,
             reference_mach: self.reference_mach,
+            real_mach: self.real_mach,
             mach_scaled: self.mach_scaled,
         }
     }
