@@ -353,7 +353,7 @@ fn solid_scenes_validate_and_bad_input_names_the_field() {
         ("duration = 0.05", "duration = 0.0", "run.duration"),
         ("normal = [0.0, 1.0]", "normal = [0.0, 0.0]", "solid.walls[0].normal"),
         ("max = [1.0, 1.0]\nvelocity", "max = [0.05, 1.0]\nvelocity", "solid.bodies[0].max"),
-        ("[run]", "[run]\nbogus = 1", "solid: bogus"),
+        ("[run]", "[run]\nbogus = 1", "run.bogus"),
     ];
     for (from, to, field) in cases {
         assert!(base.contains(from), "{from}");

@@ -283,7 +283,7 @@ probe_every = 5
             ("cells = [32, 16, 2]", "cells = [4000, 4000, 4000]", "lattice_gas.cells", "exceed"),
             ("velocity = 0.2", "velocity = 0.6", "lattice_gas.inlet.velocity", "below 0.5"),
             ("coarse_block = 4", "coarse_block = 0", "lattice_gas.output.coarse_block", "at least 1"),
-            ("steps = 60", "steps = 60\nviscosity = 2", "lattice_gas: viscosity", "unknown field"),
+            ("steps = 60", "steps = 60\nviscosity = 2", "lattice_gas.viscosity", "unknown field"),
             ("interference = 0.1", "interference = 0.1\ndiagonals = \"all\"", "lattice_gas.diagonals", "all_perpendicular"),
             ("interference = 0.1", "interference = \"high\"", "lattice_gas.interference", "invalid type"),
             ("cells = [32, 16, 2]", "cells = [1024, 1024, 96]\ndiagonals = \"all_perpendicular\"", "lattice_gas.cells", "all_perpendicular"),

@@ -179,7 +179,9 @@ impl SolidSolver {
             options,
         };
         s.explicit_limit = stable_time_step(&s.disc, &s.particles, s.options.contact.as_ref());
-        if !(s.explicit_limit.is_finite() && s.explicit_limit > 0.0) {
+        // +∞ is right for a body with no free particle (all clamped or moved as prescribed)
+        let free = s.particles.fixed.iter().any(|f| !f);
+        if !(s.explicit_limit > 0.0) || s.explicit_limit.is_infinite() && free {
             return err(
                 "solid.materials",
                 format!(
