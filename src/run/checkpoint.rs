@@ -326,6 +326,11 @@ pub(crate) fn from_bits(v: &Value, what: &str) -> anyhow::Result<Vec<f64>> {
         .ok_or_else(|| anyhow::anyhow!("checkpoint run record: `{what}` is not a list of f64 bit patterns"))
 }
 
+/// The file names of `files` as a run record lists them (the inverse of [`names`]).
+pub(crate) fn file_names<'a>(files: impl IntoIterator<Item = &'a PathBuf>) -> Value {
+    Value::Array(files.into_iter().filter_map(|f| f.file_name()).map(|f| json!(f.to_string_lossy())).collect())
+}
+
 /// Output file names in a run record (snapshots written before the checkpoint).
 pub(crate) fn names(v: &Value) -> Vec<String> {
     v.as_array().map(|a| a.iter().filter_map(|x| x.as_str().map(String::from)).collect()).unwrap_or_default()

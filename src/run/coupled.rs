@@ -237,8 +237,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
             snapshot(c, k_snap, &mut files)?;
         }
         if t.hit[3] {
-            let names: Vec<String> =
-                files[2..].iter().filter(|f| **f != glottal_path).filter_map(|f| f.file_name()).map(|f| f.to_string_lossy().into_owned()).collect();
+            let names = checkpoint::file_names(files[2..].iter().filter(|f| **f != glottal_path));
             let samples: Vec<f64> = record_g.iter().flat_map(|r| r.samples.iter().flat_map(glottal_values)).collect();
             let record = serde_json::json!({"m0": checkpoint::bits(&[m0]), "k_snap": k_snap, "files": names, "glottal_samples": checkpoint::bits(&samples)});
             let mut outputs = vec!["coupling.csv", "probes.csv"];

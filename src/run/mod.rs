@@ -133,8 +133,7 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
             snapshot(&e.solver, scene, dir, k_snap, &mut files)?;
         }
         if t.hit[2] {
-            let names: Vec<String> = files[1..].iter().filter_map(|f| f.file_name()).map(|f| f.to_string_lossy().into_owned()).collect();
-            let record = serde_json::json!({"m0": checkpoint::bits(&[m0]), "k_snap": k_snap, "files": names});
+            let record = serde_json::json!({"m0": checkpoint::bits(&[m0]), "k_snap": k_snap, "files": checkpoint::file_names(&files[1..])});
             ck.save(dir, t.step, total, &e.solver, record, &["probes.csv"])?;
         }
         Ok(())

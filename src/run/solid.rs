@@ -183,8 +183,7 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, opts: &RunOptions) -> anyhow
             snap(s, t.step / snap_every, &mut files)?;
         }
         if t.hit[2] {
-            let names: Vec<String> = files[1..].iter().filter_map(|f| f.file_name()).map(|f| f.to_string_lossy().into_owned()).collect();
-            let record = serde_json::json!({"energy": checkpoint::bits(&[e0, drift, scale_e]), "files": names});
+            let record = serde_json::json!({"energy": checkpoint::bits(&[e0, drift, scale_e]), "files": checkpoint::file_names(&files[1..])});
             ck.save(dir, t.step, total, &*s, record, &["solid.csv"])?;
         }
         Ok(())
