@@ -149,6 +149,9 @@ pub enum CoupledStageKind {
     Fluid,
     /// Fluid → solid: tractions on the surface pieces spread to the surface particles (2.110–2.113).
     SurfaceTraction,
+    /// Fluid → solid (method 2): the momentum the air handed to the wall nodes, link by link,
+    /// shared among the particles near each node with normalised kernel weights (2.127–2.128).
+    MomentumExchange,
     /// Solid sub-steps over the fluid step ([`SOLID_EXPLICIT_STEP`]); prescribed bodies follow
     /// their motion.
     Solid,
@@ -165,5 +168,13 @@ pub const COUPLED_WEAK_STEP: [CoupledStage; 4] = [
     CoupledStage { kind: CoupledStageKind::FluidGeometry, name: "fluid_geometry" },
     CoupledStage { kind: CoupledStageKind::Fluid, name: "fluid" },
     CoupledStage { kind: CoupledStageKind::SurfaceTraction, name: "surface_traction" },
+    CoupledStage { kind: CoupledStageKind::Solid, name: "solid" },
+];
+
+/// One step of the momentum-conserving coupling (method 2, seed §2.4.2), in order.
+pub const COUPLED_CONSERVING_STEP: [CoupledStage; 4] = [
+    CoupledStage { kind: CoupledStageKind::FluidGeometry, name: "fluid_geometry" },
+    CoupledStage { kind: CoupledStageKind::Fluid, name: "fluid" },
+    CoupledStage { kind: CoupledStageKind::MomentumExchange, name: "momentum_exchange" },
     CoupledStage { kind: CoupledStageKind::Solid, name: "solid" },
 ];

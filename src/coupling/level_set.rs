@@ -16,9 +16,8 @@
 //!
 //! Lengths are in lattice cells; particle positions in lattice coordinates.
 //!
-//! Method 2 itself (the incoming momentum handed to the particles (2.127–2.128), the added mass
-//! (2.129), the boundary velocity (2.130) and the outgoing populations (2.131–2.133)) is not
-//! built yet.
+//! Method 2 itself is [`super::conserving`]; its walls evaluate the same level set at any
+//! point ([`crate::fluid::KernelLevelSet`]).
 
 use crate::fluid::Grid;
 use glam::DVec3;

@@ -9,18 +9,22 @@
 //! | [`weak`] | method 1: weak coupling, moving ghost-node walls, explicit solid sub-steps | §2.4.1 |
 //! | [`glottis`] | glottal gap, area, flow through the narrowest section, margin displacements | §3.4.1 |
 //! | [`level_set`] | method 2's geometry: level set from the particles, crossings, normals | 2.124–2.126 |
+//! | [`momentum_exchange`] | the momentum the air hands to each wall node, link by link | 2.120–2.123 |
+//! | [`conserving`] | method 2: level-set walls, momentum shared among the particles | §2.4.2 |
 //!
-//! Method 2 (the momentum-conserving coupling, §2.4.2) has its geometry ([`level_set`]); the
-//! momentum exchange, added mass and outgoing populations (2.127–2.133) are not built yet.
+//! Method 2's added mass in the implicit solve (2.129) is not built yet (see [`conserving`]).
 
+pub mod conserving;
 pub mod glottis;
 pub mod level_set;
+pub mod momentum_exchange;
 pub mod motion;
 pub mod state;
 pub mod surface;
 pub mod traction;
 pub mod weak;
 
+pub use conserving::{ConservingCoupling, ConservingOptions};
 pub use motion::Motion;
 pub use surface::{BodySurface, ReferenceShape, SurfaceError};
 pub use traction::{SurfaceForces, TractionModel, surface_forces};

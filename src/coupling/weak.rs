@@ -233,6 +233,8 @@ impl WeakCoupling {
                 self.built = Some(polys);
             }
             CoupledStageKind::Fluid => self.fluid.step()?,
+            // Not a stage of method 1 (its fluid → solid stage is the surface traction).
+            CoupledStageKind::MomentumExchange => {}
             CoupledStageKind::SurfaceTraction => {
                 let surfaces = self.bodies.iter().map(|b| &b.surface);
                 self.forces = surface_forces(&self.fluid, &self.units, surfaces, &self.solid.particles, self.options.traction, self.options.piece_length);

@@ -2,6 +2,8 @@
 //! coordinate `x`). Every solid is a signed distance function, positive in the fluid, so that
 //! the wall position is known to sub-cell accuracy ([`super::layout`] builds ghost nodes from it).
 
+pub use super::kernel_level_set::KernelLevelSet;
+
 /// A solid shape. Signed distance `sdf` > 0 in the fluid, < 0 inside the solid.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Shape {
@@ -16,6 +18,9 @@ pub enum Shape {
     /// Closed polygon in the x–y plane (a prism along z in 3D) whose vertices move with a
     /// deforming body: the wall seen by the fluid in the coupled solver ([`crate::coupling`]).
     Polygon(Polygon),
+    /// The level set of a body's particles (seed 2.124): the wall of the momentum-conserving
+    /// coupling ([`crate::coupling::conserving`]).
+    KernelLevelSet(KernelLevelSet),
 }
 
 /// A closed, simple polygon in the x–y plane (lattice units), counter-clockwise, with a wall
@@ -150,6 +155,7 @@ impl Shape {
                 norm(q) + inside.min(0.0)
             }
             Shape::Polygon(poly) => poly.sdf([p[0], p[1]]),
+            Shape::KernelLevelSet(k) => k.sdf(p),
         }
     }
 
@@ -159,6 +165,7 @@ impl Shape {
         match self {
             Shape::HalfSpace { normal, .. } => return *normal,
             Shape::Polygon(poly) => return poly.normal([p[0], p[1]]),
+            Shape::KernelLevelSet(k) => return k.normal(p),
             _ => {}
         }
         let h = 1e-4;
@@ -193,6 +200,7 @@ impl Obstacle {
     pub fn velocity_at(&self, p: [f64; 3]) -> [f64; 3] {
         match &self.shape {
             Shape::Polygon(poly) => poly.velocity_at([p[0], p[1]]),
+            Shape::KernelLevelSet(k) => k.velocity_at(p),
             _ => self.velocity,
         }
     }

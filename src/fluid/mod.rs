@@ -7,6 +7,7 @@ pub mod boundary;
 pub mod equilibrium;
 pub mod geometry;
 pub mod grid;
+pub mod kernel_level_set;
 pub mod layout;
 pub mod moving;
 pub mod solver;
@@ -19,7 +20,7 @@ pub mod velocity_set;
 
 pub use boundary::{Boundaries, Face, FaceCondition, InletProfile};
 pub use equilibrium::{Equilibrium, GasModel, Macro};
-pub use geometry::{Obstacle, Polygon, Shape};
+pub use geometry::{KernelLevelSet, Obstacle, Polygon, Shape};
 pub use grid::Grid;
 pub use moving::GeometryChange;
 pub use solver::{FluidSolver, Instability, Totals};

@@ -145,11 +145,18 @@ impl FluidSolver {
 
     /// One full step (every stage of [`FDLB_STEP`]).
     pub fn step(&mut self) -> Result<(), Instability> {
+        self.step_observed(|_, _| {})
+    }
+
+    /// One full step, calling `after(stage, self)` after every stage (the coupling reads the
+    /// advected field of each advection stage, [`Self::stage_arrays`]).
+    pub fn step_observed(&mut self, mut after: impl FnMut(&Stage, &Self)) -> Result<(), Instability> {
         for (k, stage) in FDLB_STEP.iter().enumerate() {
             let t0 = Instant::now();
             let r = self.run_stage(stage);
             self.timings.total[k] += t0.elapsed();
             r?;
+            after(stage, self);
         }
         std::mem::swap(&mut self.f, &mut self.f2);
         self.timings.steps += 1;

@@ -9,7 +9,7 @@
 //! quadrature), or an elastic disc clamped in its inner half and coupled through
 //! [`WeakCoupling`] (the coupled path: surface polygon, moving-wall geometry, tractions).
 
-use crate::coupling::{BodySurface, CoupledBody, ReferenceShape, TractionModel, WeakCoupling, WeakOptions, surface_forces};
+use crate::coupling::{BodySurface, ConservingCoupling, ConservingOptions, CoupledBody, ReferenceShape, TractionModel, WeakCoupling, WeakOptions, surface_forces};
 use crate::fluid::{
     Boundaries, Equilibrium, FaceCondition, FluidSolver, GasModel, Grid, InletProfile, Macro, Obstacle, Shape, VelocitySet, VelocitySetKind, timestep,
 };
@@ -35,6 +35,9 @@ pub enum CylinderBody {
     /// Every particle of the disc clamped, coupled by method 1: the coupled path (polygon
     /// walls, per-step geometry, tractions) without any motion.
     WeakCoupledRigid,
+    /// The elastic disc clamped for r < D/4, coupled by method 2 (level-set walls, momentum
+    /// exchanged link by link); the force is the momentum the particles received per second.
+    ConservingCoupled,
 }
 
 #[derive(Clone, Debug, serde::Serialize)]
@@ -181,6 +184,30 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, bo
                 }
             }
             let p = &c.solid.particles;
+            let max_d = (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max);
+            let shares = c.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
+            (mean_force / (steps - average_from) as f64, shares, c.substeps, max_d, p.len())
+        }
+        CylinderBody::ConservingCoupled => {
+            let f = FluidSolver::new(eq, grid, b, &[], params, init);
+            let solid = SolidSolver::new(particles.clone(), vec![material], SolidOptions::default()).expect("valid disc");
+            let bodies = vec![CoupledBody { surface: surface.clone(), motion: None }];
+            let mut c = ConservingCoupling::new(f, solid, units, bodies, Vec::new(), ConservingOptions::default()).expect("valid coupling");
+            let dt = c.dt();
+            for k in 1..=steps {
+                c.step().expect("Schäfer–Turek stays stable");
+                let force = c.received.iter().copied().sum::<DVec3>() / dt;
+                if k > average_from {
+                    mean_force += force;
+                    mean_drop += pressure_drop(&c.fluid);
+                }
+                if k % sample_every == 0 {
+                    history.push(force.x * coefficient);
+                }
+            }
+            let p = &c.solid.particles;
+            let tr = surface_forces(&c.fluid, &units, std::slice::from_ref(&surface), p, TractionModel::PressureAndShear, 1.0).total[0];
+            eprintln!("SCRATCH traction quadrature cd {:.4} exchange last {:.4}", tr.x * coefficient, c.received.iter().copied().sum::<DVec3>().x / dt * coefficient);
             let max_d = (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max);
             let shares = c.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
             (mean_force / (steps - average_from) as f64, shares, c.substeps, max_d, p.len())
@@ -343,6 +370,11 @@ pub struct MomentumResult {
     pub largest_solid_momentum: f64,
     pub final_fluid_momentum: [f64; 2],
     pub final_solid_momentum: [f64; 2],
+    /// Largest |Δ(P_fluid + P_solid)| of a single step.
+    pub worst_step_change: f64,
+    /// The round-off of one pass over the populations: ε·Σ_nodes Σ_i |c_i| f_i at the start
+    /// (physical units), the size of a step's unavoidable rounding of the air's momentum.
+    pub roundoff_scale: f64,
 }
 
 /// A free, neutrally buoyant elastic disc (D = `cells_per_diameter`) in a periodic box of
@@ -352,9 +384,24 @@ pub fn pressure_pulse_momentum(cells_per_diameter: usize, amplitude: f64, steps:
     pulse_on_a_free_disc(cells_per_diameter, amplitude, steps, 1.0).expect("the pulse stays stable")
 }
 
+/// Which coupling carries a case.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Method 1 (§2.4.1): surface polygon, tractions.
+    Weak,
+    /// Method 2 (§2.4.2): level set, momentum exchanged link by link.
+    Conserving,
+}
+
 /// [`pressure_pulse_momentum`] with a disc of density `density` (the air's is 1); an
 /// instability is returned, not a panic.
 pub fn pulse_on_a_free_disc(cells_per_diameter: usize, amplitude: f64, steps: u64, density: f64) -> Result<MomentumResult, crate::step::Instability> {
+    pulse_on_a_free_disc_by(Method::Weak, cells_per_diameter, amplitude, steps, density)
+}
+
+/// [`pulse_on_a_free_disc`] coupled by `method`.
+pub fn pulse_on_a_free_disc_by(method: Method, cells_per_diameter: usize, amplitude: f64, steps: u64, density: f64) -> Result<MomentumResult, crate::step::Instability> {
     let d = cells_per_diameter as f64;
     let n = 6 * cells_per_diameter;
     let (eq, l1) = d2q21_air();
@@ -372,13 +419,22 @@ pub fn pulse_on_a_free_disc(cells_per_diameter: usize, amplitude: f64, steps: u6
     });
     let solid = SolidSolver::new(particles, vec![material], SolidOptions::default()).expect("valid disc");
     let bodies = vec![CoupledBody { surface, motion: None }];
-    let mut c = WeakCoupling::new(fluid, solid, units, bodies, Vec::new(), WeakOptions::default()).expect("valid coupling");
+    let mut c: Box<dyn MomentumBudget> = match method {
+        Method::Weak => Box::new(WeakCoupling::new(fluid, solid, units, bodies, Vec::new(), WeakOptions::default()).expect("valid coupling")),
+        Method::Conserving => Box::new(ConservingCoupling::new(fluid, solid, units, bodies, Vec::new(), ConservingOptions::default()).expect("valid coupling")),
+    };
     let (f0, s0) = c.momentum();
     let total0 = f0 + s0;
+    let roundoff_scale = f64::EPSILON * c.population_momentum_scale();
     let mut largest: f64 = 0.0;
+    let mut worst_step_change: f64 = 0.0;
+    let mut last = total0;
     for _ in 0..steps {
         c.step()?;
-        largest = largest.max(c.solid.particles.linear_momentum().length());
+        let (f, s) = c.momentum();
+        largest = largest.max(s.length());
+        worst_step_change = worst_step_change.max((f + s - last).length());
+        last = f + s;
     }
     let (f, s) = c.momentum();
     Ok(MomentumResult {
@@ -387,7 +443,59 @@ pub fn pulse_on_a_free_disc(cells_per_diameter: usize, amplitude: f64, steps: u6
         largest_solid_momentum: largest,
         final_fluid_momentum: [f.x, f.y],
         final_solid_momentum: [s.x, s.y],
+        worst_step_change,
+        roundoff_scale,
     })
+}
+
+/// A coupled solver whose air and solid momenta can be read.
+trait MomentumBudget {
+    fn step(&mut self) -> Result<(), crate::step::Instability>;
+    /// (air, solid), physical units.
+    fn momentum(&self) -> (DVec3, DVec3);
+    fn fluid(&self) -> &FluidSolver;
+    fn units(&self) -> &Units;
+    /// Σ_nodes Σ_i |c_i| f_i over the fluid (physical momentum units).
+    fn population_momentum_scale(&self) -> f64 {
+        let (f, u) = (self.fluid(), self.units());
+        let q = f.eq.q();
+        let speed: Vec<f64> = f.eq.cf[..q].iter().map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()).collect();
+        let sum: f64 = (0..f.layout.grid.len())
+            .filter(|&n| f.layout.kind[n] == crate::fluid::layout::NodeKind::Fluid)
+            .map(|n| f.node_populations(n)[..q].iter().zip(&speed).map(|(f, c)| f.abs() * c).sum::<f64>())
+            .sum();
+        sum * u.density * u.velocity * u.dx.powi(f.layout.grid.dim as i32)
+    }
+}
+
+impl MomentumBudget for WeakCoupling {
+    fn step(&mut self) -> Result<(), crate::step::Instability> {
+        WeakCoupling::step(self)
+    }
+    fn momentum(&self) -> (DVec3, DVec3) {
+        WeakCoupling::momentum(self)
+    }
+    fn fluid(&self) -> &FluidSolver {
+        &self.fluid
+    }
+    fn units(&self) -> &Units {
+        &self.units
+    }
+}
+
+impl MomentumBudget for ConservingCoupling {
+    fn step(&mut self) -> Result<(), crate::step::Instability> {
+        ConservingCoupling::step(self)
+    }
+    fn momentum(&self) -> (DVec3, DVec3) {
+        ConservingCoupling::momentum(self)
+    }
+    fn fluid(&self) -> &FluidSolver {
+        &self.fluid
+    }
+    fn units(&self) -> &Units {
+        &self.units
+    }
 }
 
 /// The weak coupling's added-mass limit: the lightest free disc (density relative to the air's,
@@ -452,6 +560,26 @@ mod tests {
     /// pushed by a pressure pulse in a periodic box. Method 1 does not conserve the total
     /// momentum; measured drift after 1000 steps: 2.0 % of the largest momentum the disc
     /// reached (the bound below is that figure with margin, a regression guard).
+    /// Momentum (issue 12): the free elastic disc hit by the pulse, 1000 steps of each method.
+    /// Method 2 hands the body exactly what the air's face fluxes lost, so the total changes
+    /// only by the rounding of the populations' updates: every step's change is below ε·Σ|c_i| f_i
+    /// (the worst-case rounding of one pass over the populations; a leak of a single face's
+    /// flux would be ~10⁶ times that), and over 1000 steps the total drifts by ≤ 1e-12 of the
+    /// momentum the body reached. Method 1's tractions are not the air's momentum loss.
+    /// Measured (this machine): method 2 drift 1.4e-13 of the body's largest momentum (0.20),
+    /// worst step 5.9e-15 = 0.013 of the round-off scale 4.4e-13; method 1 drift 2.1e-2, worst
+    /// step 8.8e-4.
+    #[test]
+    fn method_2_conserves_the_total_momentum_to_round_off() {
+        let conserving = pulse_on_a_free_disc_by(Method::Conserving, 8, 0.05, 1000, 1.0).expect("stable");
+        let weak = pulse_on_a_free_disc_by(Method::Weak, 8, 0.05, 1000, 1.0).expect("stable");
+        eprintln!("momentum drift over 1000 steps: method 2 {:.3e}, method 1 {:.3e}\n{conserving:?}\n{weak:?}", conserving.relative_drift, weak.relative_drift);
+        assert!(conserving.largest_solid_momentum > 0.05, "the pulse moves the disc: {conserving:?}");
+        assert!(conserving.worst_step_change < conserving.roundoff_scale, "{conserving:?}");
+        assert!(conserving.relative_drift <= 1e-12, "{conserving:?}");
+        assert!(conserving.relative_drift * 100.0 <= weak.relative_drift, "method 2 {conserving:?} vs method 1 {weak:?}");
+    }
+
     #[test]
     fn the_weak_coupling_keeps_the_total_momentum_within_a_few_percent() {
         let r = pressure_pulse_momentum(8, 0.01, 1000);
@@ -531,5 +659,17 @@ pub fn disc_in_shear(cells_per_diameter: usize, height_d: usize, reynolds: f64, 
         steps,
         rotation_rate: sum / count as f64 / shear,
         centroid_drift: (xc - centre).length(),
+    }
+}
+#[cfg(test)]
+mod scratch {
+    use super::*;
+    #[test]
+    #[ignore]
+    fn scratch_st() {
+        for body in [CylinderBody::ConservingCoupled] {
+            let r = schafer_turek_2d1(10, 0.1, 3.0, body);
+            eprintln!("{body:?}: cd {:.4} ({:+.3}) dp {:.5} ({:+.3}) steps {} wall {:.1}s change {:.2e} maxd {:.2e} shares {:?}", r.drag_coefficient, r.drag_coefficient / ST_2D1_DRAG - 1.0, r.pressure_drop, r.pressure_drop / ST_2D1_PRESSURE_DROP - 1.0, r.steps, r.wall_s, r.drag_change_last_fifth, r.max_displacement, r.stage_shares);
+        }
     }
 }

@@ -182,10 +182,11 @@ pub fn cases() -> Vec<Case> {
             // ring between the inlet and the constant-pressure outlet). The weakly compressible
             // channel's density near the cylinder is ~1.7 % above ρ₀ at Mach 0.1 (O(Ma²)).
             let mut out = Vec::new();
-            for body in [fsi::CylinderBody::RigidObstacle, fsi::CylinderBody::WeakCoupled(TractionModel::PressureAndShear)] {
+            for body in [fsi::CylinderBody::RigidObstacle, fsi::CylinderBody::WeakCoupled(TractionModel::PressureAndShear), fsi::CylinderBody::ConservingCoupled] {
                 let r = fsi::schafer_turek_2d1(20, 0.1, 6.0, body);
                 let name = match body {
                     fsi::CylinderBody::RigidObstacle => "rigid obstacle",
+                    fsi::CylinderBody::ConservingCoupled => "clamped elastic, method 2",
                     _ => "clamped elastic, method 1",
                 };
                 let cd = r.drag_coefficient / fsi::ST_2D1_DRAG - 1.0;
