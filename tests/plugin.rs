@@ -192,7 +192,7 @@ fn plugin_steps_the_coupled_solver_exactly_like_the_direct_solver_through_pause_
     assert_eq!(sim.solver.step_count, 13);
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(&sim.solver.fluid.f), bits(&direct.fluid.f), "air populations differ");
-    let pos = |s: &phonation::coupling::WeakCoupling| s.solid.particles.position.iter().flat_map(|p| p.to_array()).map(f64::to_bits).collect::<Vec<_>>();
+    let pos = |s: &phonation::coupling::CoupledSolver| s.solid.particles.position.iter().flat_map(|p| p.to_array()).map(f64::to_bits).collect::<Vec<_>>();
     assert_eq!(pos(&sim.solver), pos(&direct), "particle positions differ");
     let d = app.world().get::<CoupledDiagnostics>(e).unwrap();
     assert_eq!(d.steps, 13);

@@ -1,5 +1,5 @@
 //! The momentum-conserving coupling (method 2, seed 000 §2.4.2) on the CPU: one coupled step
-//! runs [`COUPLED_CONSERVING_STEP`].
+//! runs [`crate::stages::COUPLED_CONSERVING_STEP`] ([`super::solver::CoupledSolver`]).
 //!
 //! 1. **fluid_geometry** — every body's particles define a level set on the lattice (2.124);
 //!    its zero contour is the wall the fluid sees (a [`KernelLevelSet`] obstacle: the ghost
@@ -28,15 +28,11 @@
 //! Units: the solid in the scene's physical units, the fluid in lattice units.
 
 use super::momentum_exchange::step_with_exchange;
-use super::weak::{CoupledBody, CouplingSetupError};
+use super::solver::{CoupledBody, CoupledSolver};
 use crate::fluid::layout::NodeKind;
-use crate::fluid::{FluidSolver, GeometryChange, KernelLevelSet, Obstacle, Shape};
-use crate::solid::SolidSolver;
-use crate::stages::{COUPLED_CONSERVING_STEP, CoupledStageKind};
+use crate::fluid::{KernelLevelSet, Macro, Obstacle, Shape};
 use crate::step::{Instability, Part, Site};
-use crate::units::Units;
-use glam::DVec3;
-use std::time::{Duration, Instant};
+use glam::{DVec3, DVec4};
 
 /// Options of the momentum-conserving coupling.
 #[derive(Clone, Copy, Debug)]
@@ -54,204 +50,123 @@ impl Default for ConservingOptions {
     }
 }
 
-/// Fluid + solid + the momentum-conserving coupling between them.
-pub struct ConservingCoupling {
-    pub fluid: FluidSolver,
-    pub solid: SolidSolver,
-    pub units: Units,
-    pub bodies: Vec<CoupledBody>,
-    /// Rigid obstacles of the fluid (lattice units), unchanged by the coupling.
-    pub obstacles: Vec<Obstacle>,
-    pub options: ConservingOptions,
-    /// Solid sub-steps per fluid step.
-    pub substeps: u32,
+/// Method 2's state between stages.
+#[derive(Clone, Debug)]
+pub struct Exchange {
     /// Surface level φ of each body (2.124), from its reference surface.
     pub phi: Vec<f64>,
-    /// Momentum each particle received from the air in the last step (physical units).
-    pub received: Vec<DVec3>,
-    /// Momentum handed over the run to walls that are no coupled body (rigid obstacles, face
-    /// walls: no particle within r_e), physical units.
-    pub walls: DVec3,
-    /// Geometry changes summed over the run.
-    pub geometry: GeometryChange,
-    pub step_count: u64,
-    /// Physical time (s).
-    pub time: f64,
-    /// Wall time per stage of [`COUPLED_CONSERVING_STEP`].
-    pub timings: [Duration; COUPLED_CONSERVING_STEP.len()],
-    base_load: Vec<DVec3>,
-    /// Momentum taken out of the air per padded node in the current step (lattice units).
-    wall: Vec<DVec3>,
-    /// Particle positions (cells) the geometry was last built from.
-    built: Option<Vec<DVec3>>,
     /// Populations of the air at rest in the reference state (ρ = 1, θ₀): the exchange is
     /// counted against it (gauge momentum, [`super::momentum_exchange::add_face_fluxes`]).
     reference: Vec<f64>,
+    /// Momentum (x, y, z) and mass (w) taken out of the air per padded node in the current
+    /// step (lattice units).
+    wall: Vec<DVec4>,
+    /// Particle positions (cells) the geometry was last built from.
+    pub(super) built: Option<Vec<DVec3>>,
+    /// Momentum handed over the run to walls that are no coupled body (rigid obstacles, face
+    /// walls: no particle within r_e), physical units.
+    pub walls: DVec3,
+    /// Momentum the bodies received over the run from nodes they covered minus what the fresh
+    /// nodes they uncovered took (physical units): part of the exchange, reported apart.
+    pub node_changes: DVec3,
+    /// Mass the walls took out of the air over the run (lattice units; ≈ 0 for a closed body).
+    pub mass_to_walls: f64,
+    /// Σ over the run of the momentum the bodies received in their own frame, Σ (p − u_w m)
+    /// per wall node (physical units): Wen et al.'s Galilean-invariant momentum exchange, a
+    /// diagnostic (what the bodies receive is p, which conserves the total exactly).
+    pub wall_frame: DVec3,
 }
 
-impl ConservingCoupling {
-    /// Couples `fluid` (with its rigid `obstacles`, lattice units) and `solid` through the level
-    /// sets of `bodies` (their surfaces calibrate φ). The solid's sub-step is the largest that
-    /// divides the fluid's step into equal parts and does not exceed the solid's own step.
-    pub fn new(
-        fluid: FluidSolver,
-        mut solid: SolidSolver,
-        units: Units,
-        bodies: Vec<CoupledBody>,
-        obstacles: Vec<Obstacle>,
-        options: ConservingOptions,
-    ) -> Result<Self, CouplingSetupError> {
-        if fluid.layout.grid.dim != solid.particles.dim {
-            return Err(CouplingSetupError::Dimensions { fluid: fluid.layout.grid.dim, solid: solid.particles.dim });
-        }
-        let dt = fluid.params.dt * units.time();
-        let substeps = (dt / solid.dt).ceil().max(1.0) as u32;
-        solid.dt = dt / substeps as f64;
-        for b in &bodies {
-            if let Some(m) = &b.motion {
-                let p = &mut solid.particles;
-                for i in 0..p.len() {
-                    if p.body[i] == b.surface.body {
-                        p.fixed[i] = true;
-                    }
-                }
-                m.apply(p, b.surface.body, 0.0);
-            }
-        }
-        let base_load = solid.particles.load.clone();
-        let n = solid.particles.len();
-        let nodes = fluid.layout.grid.len();
-        let mut reference = vec![0.0; fluid.eq.values_per_node()];
-        let mut shell_w = vec![0.0; fluid.eq.set.shells.len()];
-        fluid.eq.feq_into(&crate::fluid::Macro { rho: 1.0, u: [0.0; 3], theta: units.theta0 }, &mut shell_w, &mut reference);
-        let mut c = ConservingCoupling {
-            fluid,
-            solid,
-            units,
-            bodies,
-            obstacles,
-            options,
-            substeps,
-            phi: Vec::new(),
-            received: vec![DVec3::ZERO; n],
-            walls: DVec3::ZERO,
-            geometry: GeometryChange::default(),
-            step_count: 0,
-            time: 0.0,
-            timings: [Duration::ZERO; COUPLED_CONSERVING_STEP.len()],
-            base_load,
-            wall: vec![DVec3::ZERO; nodes],
-            built: None,
-            reference,
-        };
-        c.phi = c.bodies.iter().map(|b| c.surface_level(b)).collect();
-        // The bodies' initial walls: the air inside them leaves now, not as a "covered" change
-        // of the first step (and its momentum is not the body's).
-        c.run_stage(CoupledStageKind::FluidGeometry).expect("the first geometry has no previous one to compare with");
-        c.wall.iter_mut().for_each(|w| *w = DVec3::ZERO);
-        c.geometry = GeometryChange::default();
-        Ok(c)
+impl Exchange {
+    pub(super) fn new(c: &CoupledSolver, o: ConservingOptions) -> Self {
+        let eq = &c.fluid.eq;
+        let mut reference = vec![0.0; eq.values_per_node()];
+        let mut shell_w = vec![0.0; eq.set.shells.len()];
+        eq.feq_into(&Macro { rho: 1.0, u: [0.0; 3], theta: c.units.theta0 }, &mut shell_w, &mut reference);
+        let phi = c.bodies.iter().map(|b| c.surface_level(b, o)).collect();
+        Exchange { phi, reference, wall: vec![DVec4::ZERO; c.fluid.layout.grid.len()], built: None, walls: DVec3::ZERO, node_changes: DVec3::ZERO, mass_to_walls: 0.0, wall_frame: DVec3::ZERO }
     }
 
-    /// Physical time step of one coupled step (s).
-    pub fn dt(&self) -> f64 {
-        self.fluid.params.dt * self.units.time()
+    /// Forgets the momentum booked so far (the air inside the bodies at the start).
+    pub(super) fn clear(&mut self) {
+        self.wall.iter_mut().for_each(|w| *w = DVec4::ZERO);
+        self.node_changes = DVec3::ZERO;
+        self.mass_to_walls = 0.0;
+        self.wall_frame = DVec3::ZERO;
     }
+}
 
+impl CoupledSolver {
     fn r_min(&self) -> f64 {
         0.25 * self.solid.particles.spacing / self.units.dx
     }
 
-    /// Lattice coordinates of a physical position (z = 0 in 2D, the plane of the nodes).
-    fn to_lattice(&self, x: DVec3) -> [f64; 3] {
-        let u = &self.units;
-        let z = if self.fluid.layout.grid.dim == 3 { u.position_to_lattice(x.z) } else { 0.0 };
-        [u.position_to_lattice(x.x), u.position_to_lattice(x.y), z]
+    fn kernel_radius(&self) -> f64 {
+        match self.method {
+            super::solver::Method::Conserving(o) => o.kernel_radius,
+            super::solver::Method::Weak(_) => ConservingOptions::default().kernel_radius,
+        }
     }
 
     /// φ of `body`: the mean kernel sum at its surface points in the reference configuration.
-    fn surface_level(&self, body: &CoupledBody) -> f64 {
+    fn surface_level(&self, body: &CoupledBody, o: ConservingOptions) -> f64 {
         let p = &self.solid.particles;
         let members: Vec<DVec3> = (0..p.len()).filter(|&i| p.body[i] == body.surface.body).map(|i| DVec3::from_array(self.to_lattice(p.position[i]))).collect();
         let surface: Vec<DVec3> = body.surface.points(p).into_iter().map(|x| DVec3::from_array(self.to_lattice(x))).collect();
-        super::level_set::surface_level(&members, &surface, self.options.kernel_radius, self.r_min())
+        super::level_set::surface_level(&members, &surface, o.kernel_radius, self.r_min())
     }
 
-    /// The level set of every body at the particles' current positions and velocities.
+    /// Method 2's surface level φ of every body (empty for method 1).
+    pub fn surface_levels(&self) -> &[f64] {
+        self.exchange.as_ref().map_or(&[], |e| &e.phi)
+    }
+
+    /// Method 2's exchange state (φ, momentum to non-body walls, node changes).
+    pub fn exchange(&self) -> Option<&Exchange> {
+        self.exchange.as_ref()
+    }
+
+    /// Momentum handed over the run to walls that are no coupled body (method 2; physical).
+    pub fn momentum_to_walls(&self) -> DVec3 {
+        self.exchange.as_ref().map_or(DVec3::ZERO, |e| e.walls)
+    }
+
+    /// The level set of every body at the particles' current positions and velocities
+    /// (method 2; φ = 0 under method 1, which has no calibration).
     pub fn level_sets(&self) -> Vec<KernelLevelSet> {
+        let p = &self.solid.particles;
+        let x: Vec<[f64; 3]> = p.position.iter().map(|x| self.to_lattice(*x)).collect();
+        let v: Vec<[f64; 3]> = p.velocity.iter().map(|v| (*v / self.units.velocity).to_array()).collect();
+        self.level_sets_of(&x, &v)
+    }
+
+    /// The level sets of particles at lattice positions `points`, at rest.
+    pub(super) fn level_sets_at(&self, points: &[DVec3]) -> Vec<KernelLevelSet> {
+        let x: Vec<[f64; 3]> = points.iter().map(|p| p.to_array()).collect();
+        self.level_sets_of(&x, &vec![[0.0; 3]; x.len()])
+    }
+
+    fn level_sets_of(&self, x: &[[f64; 3]], v: &[[f64; 3]]) -> Vec<KernelLevelSet> {
         let p = &self.solid.particles;
         self.bodies
             .iter()
-            .zip(&self.phi)
-            .map(|(b, &phi)| {
-                let members = (0..p.len()).filter(|&i| p.body[i] == b.surface.body);
-                let (x, v) = members.map(|i| (self.to_lattice(p.position[i]), (p.velocity[i] / self.units.velocity).to_array())).unzip();
-                KernelLevelSet::new(x, v, self.options.kernel_radius, self.r_min(), phi)
+            .enumerate()
+            .map(|(k, b)| {
+                let phi = self.surface_levels().get(k).copied().unwrap_or(0.0);
+                let members: Vec<usize> = (0..p.len()).filter(|&i| p.body[i] == b.surface.body).collect();
+                KernelLevelSet::new(members.iter().map(|&i| x[i]).collect(), members.iter().map(|&i| v[i]).collect(), self.kernel_radius(), self.r_min(), phi)
             })
             .collect()
     }
 
-    /// One coupled step.
-    pub fn step(&mut self) -> Result<(), Instability> {
-        for (k, st) in COUPLED_CONSERVING_STEP.iter().enumerate() {
-            let t0 = Instant::now();
-            let r = self.run_stage(st.kind);
-            self.timings[k] += t0.elapsed();
-            r?;
-        }
-        self.step_count += 1;
-        self.time += self.dt();
-        Ok(())
-    }
-
-    /// Runs `n` coupled steps, stopping at the first instability.
-    pub fn run(&mut self, n: u64) -> Result<(), Instability> {
-        for _ in 0..n {
-            self.step()?;
-        }
-        Ok(())
-    }
-
-    /// Each stage's share of the wall time so far.
-    pub fn stage_shares(&self) -> Vec<(&'static str, f64)> {
-        crate::stages::time_shares(COUPLED_CONSERVING_STEP.iter().map(|s| s.name).zip(&self.timings))
-    }
-
-    fn run_stage(&mut self, kind: CoupledStageKind) -> Result<(), Instability> {
-        match kind {
-            CoupledStageKind::FluidGeometry => self.fluid_geometry()?,
-            CoupledStageKind::Fluid => {
-                let flux = step_with_exchange(&mut self.fluid, Some(&self.reference))?;
-                self.wall.iter_mut().zip(flux).for_each(|(w, f)| *w += f);
-            }
-            CoupledStageKind::MomentumExchange => self.momentum_exchange(),
-            CoupledStageKind::Solid => {
-                let dts = self.solid.dt;
-                for k in 0..self.substeps {
-                    if let Err(mut e) = self.solid.step() {
-                        e.reason = format!("{} (solid sub-step {} of {})", e.reason, k + 1, self.substeps);
-                        (e.step, e.time) = (self.step_count, self.time);
-                        return Err(e);
-                    }
-                    let t = self.time + (k + 1) as f64 * dts;
-                    for b in &self.bodies {
-                        if let Some(m) = &b.motion {
-                            m.apply(&mut self.solid.particles, b.surface.body, t);
-                        }
-                    }
-                }
-            }
-            CoupledStageKind::SurfaceTraction => {} // method 1's fluid → solid stage
-        }
-        Ok(())
-    }
-
-    /// Stage 1: the level-set walls; covered and uncovered nodes' momentum booked to the walls.
-    fn fluid_geometry(&mut self) -> Result<(), Instability> {
+    /// Method 2's fluid_geometry stage: the level-set walls; covered and uncovered nodes'
+    /// momentum booked to the walls.
+    pub(super) fn level_set_geometry(&mut self, o: ConservingOptions) -> Result<(), Instability> {
         let points: Vec<DVec3> = self.solid.particles.position.iter().map(|x| DVec3::from_array(self.to_lattice(*x))).collect();
-        if let Some(old) = &self.built {
+        let ex = self.exchange.as_ref().expect("method 2 has its exchange state");
+        if let Some(old) = &ex.built {
             let (i, d) = old.iter().zip(&points).map(|(a, b)| (*a - *b).length()).enumerate().fold((0, 0.0), |m, (i, d)| if d > m.1 { (i, d) } else { m });
-            if d > self.options.max_cells_per_step {
+            if d > o.max_cells_per_step {
                 return Err(Instability {
                     part: Part::Coupling,
                     step: self.step_count,
@@ -260,86 +175,92 @@ impl ConservingCoupling {
                     site: Site::Particle(i),
                     quantity: "particle displacement in one step (cells)",
                     value: d,
-                    reason: format!("a particle may move at most {} cell per fluid step (use a smaller time step or a slower body)", self.options.max_cells_per_step),
+                    reason: format!("a particle may move at most {} cell per fluid step (use a smaller time step or a slower body)", o.max_cells_per_step),
                 });
             }
         }
+        self.rebuild_level_set_walls();
+        self.exchange.as_mut().expect("method 2").built = Some(points);
+        Ok(())
+    }
+
+    /// The fluid's geometry from the bodies' level sets; nodes that change side book their
+    /// momentum to the walls (covered: the air's momentum to the body; uncovered: the body
+    /// pays for the fresh node's).
+    pub(super) fn rebuild_level_set_walls(&mut self) {
         let mut all = self.obstacles.clone();
         all.extend(self.level_sets().into_iter().map(|k| Obstacle { shape: Shape::KernelLevelSet(k), velocity: [0.0; 3], temperature: None }));
         let was: Vec<bool> = self.fluid.layout.kind.iter().map(|k| *k == NodeKind::Fluid).collect();
         let ch = self.fluid.set_obstacles(&all);
         let q = self.fluid.eq.q();
+        let unit = self.momentum_unit();
+        let ex = self.exchange.as_mut().expect("method 2");
         for (node, was) in was.into_iter().enumerate() {
             let is = self.fluid.layout.kind[node] == NodeKind::Fluid;
             if was == is {
                 continue;
             }
             let f = self.fluid.node_populations(node);
-            let m: DVec3 = self.fluid.eq.cf[..q].iter().zip(&f[..q]).map(|(c, f)| DVec3::from_array(*c) * *f).sum();
-            // Covered: the air's momentum goes to the body; uncovered: the body pays for it.
-            self.wall[node] += if was { m } else { -m };
+            let m: DVec4 = self.fluid.eq.cf[..q].iter().zip(&f[..q]).map(|(c, f)| DVec4::new(c[0], c[1], c[2], 1.0) * *f).sum();
+            let m = if was { m } else { -m };
+            ex.wall[node] += m;
+            ex.node_changes += m.truncate() * unit;
         }
         self.geometry.uncovered += ch.uncovered;
         self.geometry.covered += ch.covered;
         self.geometry.isolated += ch.isolated;
         self.geometry.mass_change += ch.mass_change;
-        self.built = Some(points);
+    }
+
+    /// Method 2's fluid stage: one fluid step, recording what each wall node took out of the air.
+    pub(super) fn fluid_step_with_exchange(&mut self) -> Result<(), Instability> {
+        let ex = self.exchange.as_mut().expect("method 2");
+        let flux = step_with_exchange(&mut self.fluid, Some(&ex.reference))?;
+        ex.wall.iter_mut().zip(flux).for_each(|(w, f)| *w += f);
         Ok(())
     }
 
-    /// Stage 3: each wall node's momentum to the particles near it (2.127–2.128), as loads.
-    fn momentum_exchange(&mut self) {
-        let u = &self.units;
-        let cell = u.dx.powi(self.fluid.layout.grid.dim as i32);
-        let to_physical = u.density * u.velocity * cell;
+    /// Method 2's momentum_exchange stage: each wall node's momentum to the particles near it
+    /// (2.127–2.128), as loads over the step.
+    pub(super) fn momentum_exchange(&mut self) {
+        let to_physical = self.momentum_unit();
+        let dt = self.dt();
         let sets = self.level_sets();
         let p = &self.solid.particles;
         // particle index of each level set's j-th point
         let members: Vec<Vec<usize>> = self.bodies.iter().map(|b| (0..p.len()).filter(|&i| p.body[i] == b.surface.body).collect()).collect();
-        self.received.iter_mut().for_each(|r| *r = DVec3::ZERO);
+        let body_of: Vec<Option<usize>> = (0..p.len()).map(|i| self.bodies.iter().position(|b| b.surface.body == p.body[i])).collect();
+        let mut force = vec![DVec3::ZERO; p.len()];
+        let mut total = vec![DVec3::ZERO; self.bodies.len()];
         let grid = &self.fluid.layout.grid;
+        let ex = self.exchange.as_mut().expect("method 2");
         for node in 0..grid.len() {
-            let w = std::mem::take(&mut self.wall[node]);
-            if w == DVec3::ZERO {
+            let w4 = std::mem::take(&mut ex.wall[node]);
+            if w4 == DVec4::ZERO {
                 continue;
             }
+            let w = w4.truncate();
             let x = grid.coords(node);
             let at = [x[0] as f64, x[1] as f64, x[2] as f64];
+            ex.mass_to_walls += w4.w;
+            let uw = sets.iter().find_map(|s| s.weights(at).next().map(|_| DVec3::from_array(s.velocity_at(at)))).unwrap_or(DVec3::ZERO);
+            ex.wall_frame += (w - uw * w4.w) * to_physical;
             let weights: Vec<(usize, f64)> = sets.iter().zip(&members).flat_map(|(s, m)| s.weights(at).map(move |(j, wj)| (m[j], wj))).collect();
             let sum: f64 = weights.iter().map(|(_, wj)| wj).sum();
             if sum > 0.0 {
                 for (i, wj) in weights {
-                    self.received[i] += (wj / sum) * w * to_physical;
+                    let f = (wj / sum) * w * to_physical / dt;
+                    force[i] += f;
+                    if let Some(b) = body_of[i] {
+                        total[b] += f;
+                    }
                 }
             } else {
-                self.walls += w * to_physical;
+                ex.walls += w * to_physical;
             }
         }
-        let dt = self.dt();
-        let p = &mut self.solid.particles;
-        for i in 0..p.len() {
-            p.load[i] = self.base_load[i] + self.received[i] / dt;
-        }
-    }
-
-    /// Linear momentum of the air (Σ ρu over fluid nodes) and of the particles (Σ m v),
-    /// physical units (per unit depth in 2D).
-    pub fn momentum(&self) -> (DVec3, DVec3) {
-        let u = &self.units;
-        let cell = u.dx.powi(self.fluid.layout.grid.dim as i32);
-        let air = DVec3::from_array(self.fluid.totals().momentum) * u.density * u.velocity * cell;
-        (air, self.solid.particles.linear_momentum())
-    }
-}
-
-impl crate::step::Solver for ConservingCoupling {
-    fn step(&mut self) -> Result<(), Instability> {
-        ConservingCoupling::step(self)
-    }
-    fn step_count(&self) -> u64 {
-        self.step_count
-    }
-    fn stage_shares(&self) -> Vec<(&'static str, f64)> {
-        ConservingCoupling::stage_shares(self)
+        self.forces.force = force;
+        self.forces.total = total;
+        self.apply_forces();
     }
 }

@@ -2,14 +2,14 @@
 //! glottal gap and area, the glottal volume flow through the narrowest section, and the lateral
 //! displacement of the lower and upper margins of the medial surface.
 //!
-//! The two folds are bodies of a [`WeakCoupling`] on either side of the glottal mid-line x = x₀
+//! The two folds are bodies of a [`CoupledSolver`] on either side of the glottal mid-line x = x₀
 //! (left below, right above; the flow runs along +y from the trachea to the vocal tract).
 //! Units: the scene's (cgs: cm, s); in 2D a quantity per unit fold length is turned into the
 //! fold's by multiplying with its `length` (the seed's 1.4 cm), so that areas are cm² and flows
 //! cm³/s as in the two-mass model and the literature.
 
 use super::surface::BodySurface;
-use super::weak::WeakCoupling;
+use super::solver::CoupledSolver;
 use crate::fluid::layout::NodeKind;
 use crate::solid::Particles;
 use glam::DVec3;
@@ -17,7 +17,7 @@ use glam::DVec3;
 /// The glottis of a coupled 2D scene: which bodies are the folds and where their margins are.
 #[derive(Clone, Debug)]
 pub struct Glottis {
-    /// Indices into [`WeakCoupling::bodies`] of the left (x < x₀) and right (x > x₀) folds.
+    /// Indices into [`CoupledSolver::bodies`] of the left (x < x₀) and right (x > x₀) folds.
     pub left: usize,
     pub right: usize,
     /// Glottal mid-line x₀ (scene units).
@@ -52,7 +52,7 @@ impl Glottis {
     /// The glottis between the bodies `left` and `right` of `c` about x = `mid_line`; the
     /// margins are the surface particles nearest the reference points `lower` and `upper` of
     /// the right fold's medial surface (mirrored for the left one).
-    pub fn new(c: &WeakCoupling, left: usize, right: usize, mid_line: f64, length: f64, lower: DVec3, upper: DVec3) -> Self {
+    pub fn new(c: &CoupledSolver, left: usize, right: usize, mid_line: f64, length: f64, lower: DVec3, upper: DVec3) -> Self {
         let p = &c.solid.particles;
         let nearest = |s: &BodySurface, q: DVec3| {
             *s.particles
@@ -73,7 +73,7 @@ impl Glottis {
     }
 
     /// Samples the glottis of `c` now.
-    pub fn sample(&self, c: &WeakCoupling) -> GlottalSample {
+    pub fn sample(&self, c: &CoupledSolver) -> GlottalSample {
         let p = &c.solid.particles;
         let left = c.bodies[self.left].surface.points(p);
         let right = c.bodies[self.right].surface.points(p);

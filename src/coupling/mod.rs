@@ -11,6 +11,7 @@
 //! | [`level_set`] | method 2's geometry: level set from the particles, crossings, normals | 2.124–2.126 |
 //! | [`momentum_exchange`] | the momentum the air hands to each wall node, link by link | 2.120–2.123 |
 //! | [`conserving`] | method 2: level-set walls, momentum shared among the particles | §2.4.2 |
+//! | [`solver`] | the coupled solver: fluid + solid + either method, stage by stage | §2.4 |
 //!
 //! Method 2's added mass in the implicit solve (2.129) is not built yet (see [`conserving`]).
 
@@ -19,13 +20,15 @@ pub mod glottis;
 pub mod level_set;
 pub mod momentum_exchange;
 pub mod motion;
+pub mod solver;
 pub mod state;
 pub mod surface;
 pub mod traction;
 pub mod weak;
 
-pub use conserving::{ConservingCoupling, ConservingOptions};
+pub use conserving::ConservingOptions;
 pub use motion::Motion;
 pub use surface::{BodySurface, ReferenceShape, SurfaceError};
 pub use traction::{SurfaceForces, TractionModel, surface_forces};
-pub use weak::{CoupledBody, CouplingSetupError, WeakCoupling, WeakOptions};
+pub use solver::{CoupledBody, CoupledSolver, CouplingSetupError, Method};
+pub use weak::WeakOptions;

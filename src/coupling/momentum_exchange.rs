@@ -28,7 +28,7 @@
 use crate::fluid::FluidSolver;
 use crate::fluid::layout::NodeKind;
 use crate::stages::{RkStage, Stage, StageKind};
-use glam::DVec3;
+use glam::{DVec3, DVec4};
 
 /// The weight of an advection stage's face fluxes in the step's result: the stage's
 /// advection factor times Δt, times ½ for the first Heun stage (fⁿ⁺¹ = ½ fⁿ + ½ f¹ + …);
@@ -49,12 +49,12 @@ fn is_wall(kind: NodeKind) -> bool {
 /// Adds to `wall[node]` the momentum that the advection stage just run (advected field h in
 /// [`FluidSolver::stage_arrays`]) moved from the fluid into the wall node `node` through its
 /// faces with fluid nodes, times `weight` ([`stage_weight`]). `wall` has one entry per padded
-/// node. With `reference` (the populations of the air at rest in its reference state, one per
+/// node, momentum in x, y, z and mass in w. With `reference` (the populations of the air at rest in its reference state, one per
 /// velocity), each face's flux is counted against that state's: the walls receive the gauge
 /// momentum, so that the ambient pressure p₀ does not squeeze a body whose reference shape is
 /// its shape in air at p₀. The reference fluxes of a closed wall cancel (along every lattice
 /// line a wall has as many upstream as downstream faces), so the total is unchanged.
-pub fn add_face_fluxes(fluid: &FluidSolver, weight: f64, reference: Option<&[f64]>, wall: &mut [DVec3]) {
+pub fn add_face_fluxes(fluid: &FluidSolver, weight: f64, reference: Option<&[f64]>, wall: &mut [DVec4]) {
     let (_, _, h, _) = fluid.stage_arrays();
     let layout = &fluid.layout;
     let grid = &layout.grid;
@@ -63,9 +63,11 @@ pub fn add_face_fluxes(fluid: &FluidSolver, weight: f64, reference: Option<&[f64
     let c = &fluid.eq.set.c;
     let q = fluid.eq.q();
     let at = |node: usize, d: isize| (node as isize + d) as usize;
-    let cv = |i: usize| DVec3::new(c[i][0] as f64, c[i][1] as f64, c[i][2] as f64);
+    // (c_i, 1): momentum and mass of one unit of population i
+    let cv = |i: usize| DVec4::new(c[i][0] as f64, c[i][1] as f64, c[i][2] as f64, 1.0);
     for node in 0..grid.len() {
-        if kind[node] != NodeKind::Fluid {
+        // Only a fluid node with a wall next to it along an axis has a wall face.
+        if kind[node] != NodeKind::Fluid || !(0..grid.dim).any(|a| is_wall(kind[at(node, grid.stride[a] as isize)]) || is_wall(kind[at(node, -(grid.stride[a] as isize))])) {
             continue;
         }
         for (i, ci) in c.iter().enumerate().take(q) {
@@ -112,9 +114,9 @@ pub fn add_face_fluxes(fluid: &FluidSolver, weight: f64, reference: Option<&[f64
 }
 
 /// Runs one fluid step and returns what every wall node received (lattice units, one entry
-/// per padded node).
-pub fn step_with_exchange(fluid: &mut FluidSolver, reference: Option<&[f64]>) -> Result<Vec<DVec3>, crate::step::Instability> {
-    let mut wall = vec![DVec3::ZERO; fluid.layout.grid.len()];
+/// per padded node: momentum in x, y, z, mass in w).
+pub fn step_with_exchange(fluid: &mut FluidSolver, reference: Option<&[f64]>) -> Result<Vec<DVec4>, crate::step::Instability> {
+    let mut wall = vec![DVec4::ZERO; fluid.layout.grid.len()];
     let dt = fluid.params.dt;
     fluid.step_observed(|stage, f| {
         if let Some(w) = stage_weight(stage, dt) {
@@ -155,7 +157,7 @@ mod tests {
             for _ in 0..50 {
                 let before = DVec3::from_array(f.totals().momentum);
                 let wall = step_with_exchange(&mut f, None).unwrap();
-                let w: DVec3 = wall.iter().copied().sum();
+                let w: DVec3 = wall.iter().copied().sum::<DVec4>().truncate();
                 let after = DVec3::from_array(f.totals().momentum);
                 worst = worst.max((after - before + w).length() / p0.length());
                 received += w;

@@ -2,14 +2,17 @@
 //! forces of the last step (the loads they set are in the solid's state), the geometry
 //! changes so far, the surface polygons the fluid's geometry was last built from (restoring
 //! them rebuilds the same lattice geometry), then the fluid's and the solid's own states.
+//! Method 2 adds the particle positions its level-set walls were last built from (restoring
+//! them rebuilds the same lattice geometry) and the momentum handed to non-body walls.
 
-use super::WeakCoupling;
+use super::CoupledSolver;
+use super::solver::Method;
 use super::traction::SurfaceForces;
 use crate::fluid::{Obstacle, Polygon, Shape};
 use crate::state::{SaveState, StateError, StateReader, StateWriter};
 use glam::DVec3;
 
-impl SaveState for WeakCoupling {
+impl SaveState for CoupledSolver {
     fn save_state(&self, w: &mut StateWriter) {
         w.u64("coupling.step_count", self.step_count);
         w.f64("coupling.time", self.time);
@@ -24,6 +27,11 @@ impl SaveState for WeakCoupling {
         for p in polys {
             w.f64s("coupling.polygon_vertices", p.vertices.as_flattened());
             w.f64s("coupling.polygon_velocities", p.velocities.as_flattened());
+        }
+        if let Some(ex) = &self.exchange {
+            let pts: Vec<DVec3> = ex.built.clone().unwrap_or_default();
+            w.vec3s("coupling.level_set_points", &pts);
+            w.f64s("coupling.momentum_to_walls", &ex.walls.to_array());
         }
         self.fluid.save_state(w);
         self.solid.save_state(w);
@@ -48,8 +56,10 @@ impl SaveState for WeakCoupling {
         self.geometry.isolated = isolated as usize;
         self.geometry.mass_change = r.f64("coupling.geometry_mass_change")?;
         let sizes = r.u64s("coupling.polygon_sizes")?;
-        if sizes.len() != self.bodies.len() {
-            return Err(StateError::Length { what: "coupling.polygon_sizes".into(), expected: self.bodies.len(), found: sizes.len() });
+        // method 1 keeps one polygon per body; method 2 has none (its walls are level sets)
+        let expected = if let Method::Weak(_) = self.method { self.bodies.len() } else { 0 };
+        if sizes.len() != expected {
+            return Err(StateError::Length { what: "coupling.polygon_sizes".into(), expected, found: sizes.len() });
         }
         let mut polys = Vec::with_capacity(sizes.len());
         for &m in &sizes {
@@ -61,9 +71,28 @@ impl SaveState for WeakCoupling {
         }
         // the lattice geometry of those surfaces (then the populations, whole, from the state)
         let mut all = self.obstacles.clone();
+        if let Method::Conserving(_) = self.method {
+            let mut pts = vec![DVec3::ZERO; self.solid.particles.len()];
+            r.vec3s_into("coupling.level_set_points", &mut pts)?;
+            let walls = r.f64s("coupling.momentum_to_walls")?;
+            let &[wx, wy, wz] = walls.as_slice() else {
+                return Err(StateError::Length { what: "coupling.momentum_to_walls".into(), expected: 3, found: walls.len() });
+            };
+            // The level sets at the positions of the last build (the wall velocities are set
+            // again by the next step's geometry stage, before the air sees them).
+            for set in self.level_sets_at(&pts) {
+                all.push(Obstacle { shape: Shape::KernelLevelSet(set), velocity: [0.0; 3], temperature: None });
+            }
+            let ex = self.exchange.as_mut().expect("method 2 has its exchange state");
+            ex.built = Some(pts);
+            ex.walls = DVec3::new(wx, wy, wz);
+            ex.clear();
+        }
         all.extend(polys.iter().cloned().map(|p| Obstacle { shape: Shape::Polygon(p), velocity: [0.0; 3], temperature: None }));
         self.fluid.set_obstacles(&all);
-        self.built = Some(polys);
+        if let Method::Weak(_) = self.method {
+            self.built = Some(polys);
+        }
         self.fluid.load_state(r)?;
         self.solid.load_state(r)
     }

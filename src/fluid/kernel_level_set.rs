@@ -87,12 +87,44 @@ impl KernelLevelSet {
         (l, g)
     }
 
-    /// Signed distance estimate −L/|∇L| (cells), positive outside; φ/[`FLAT`] (far) where no
-    /// particle is within r_e.
+    /// Signed distance (cells), positive outside. Outside (L ≤ 0) the first-order estimate
+    /// −L/|∇L| (φ/[`FLAT`], far, where no particle is within r_e), enough for the layout's
+    /// inside/outside and pinch tests. Inside, where ghost nodes need their distance to the
+    /// wall and L flattens away from the surface (−L/|∇L| there overestimates the depth several
+    /// times, which would put a ghost's image point far out in the flow), the distance to the
+    /// zero contour found by Newton steps along ∇L from the point.
     pub fn sdf(&self, p: [f64; 3]) -> f64 {
         let (l, g) = self.level(p);
         let n = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-        -l / n.max(FLAT)
+        if l <= 0.0 {
+            return -l / n.max(FLAT);
+        }
+        -self.depth(p).unwrap_or(l / n.max(FLAT))
+    }
+
+    /// Distance from an inside point to the zero contour by Newton steps x ← x − L ∇L/|∇L|²
+    /// (each at most half a cell); `None` if L is flat or the steps do not reach the contour.
+    fn depth(&self, p: [f64; 3]) -> Option<f64> {
+        let mut x = p;
+        for _ in 0..32 {
+            let (l, g) = self.level(x);
+            let g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+            if g2 < FLAT * FLAT {
+                return None;
+            }
+            let mut step = [-l * g[0] / g2, -l * g[1] / g2, -l * g[2] / g2];
+            let len = (step[0] * step[0] + step[1] * step[1] + step[2] * step[2]).sqrt();
+            if len > 0.5 {
+                step = step.map(|s| s * 0.5 / len);
+            }
+            for a in 0..3 {
+                x[a] += step[a];
+            }
+            if len < 1e-9 {
+                return Some(((x[0] - p[0]).powi(2) + (x[1] - p[1]).powi(2) + (x[2] - p[2]).powi(2)).sqrt());
+            }
+        }
+        None
     }
 
     /// Outward unit normal −∇L/|∇L| (2.126); zero where L is flat.
@@ -130,10 +162,14 @@ mod tests {
         let r0 = re / (1.0 + phi);
         let (l, _) = s.level([5.0 + r0, 5.0, 0.0]);
         assert!(l.abs() < 1e-14, "{l}");
-        // Slightly outside and inside: sign and first-order distance.
+        // Slightly outside: sign and first-order distance; inside, deep or not: the distance
+        // to the circle (Newton steps), where −L/|∇L| would say 0.33 at half the radius.
         let d = s.sdf([5.0 + r0 + 0.01, 5.0, 0.0]);
         assert!((d - 0.01).abs() < 2e-4, "{d}");
-        assert!(s.sdf([5.0 + r0 - 0.01, 5.0, 0.0]) < 0.0);
+        for depth in [0.01, 0.3, 0.5] {
+            let d = s.sdf([5.0 + r0 - depth, 5.0, 0.0]);
+            assert!((d + depth).abs() < 1e-9, "{depth}: {d}");
+        }
         let n = s.normal([5.0, 5.0 + 0.7, 0.0]);
         assert!((n[1] - 1.0).abs() < 1e-12 && n[0].abs() < 1e-12, "{n:?}");
         let v = s.velocity_at([5.5, 5.0, 0.0]);

@@ -1,5 +1,5 @@
 //! The coupled fluid–solid solver in the Bevy schedule: every entity with a
-//! [`CoupledSimulation`] advances by the frame's steps of [`crate::stages::COUPLED_WEAK_STEP`]
+//! [`CoupledSimulation`] advances by the frame's steps of [`crate::coupling::CoupledSolver::stages`] (method 1 or 2)
 //! on the CPU, in [`super::PhonationSystems::CoupledStep`]. An instability marks the entity
 //! [`CoupledStatus::Unstable`] (with the diagnosis) and stops it; its state is kept.
 //!
@@ -9,7 +9,7 @@
 
 use super::{PhonationSystems, StepsThisFrame, VoiceDiagnostics};
 use crate::analysis::voice::{VoiceOptions, voice_measures};
-use crate::coupling::WeakCoupling;
+use crate::coupling::CoupledSolver;
 use crate::coupling::glottis::Glottis;
 use bevy::prelude::*;
 use std::collections::VecDeque;
@@ -17,7 +17,7 @@ use std::collections::VecDeque;
 /// A coupled air + bodies simulation owned by an entity.
 #[derive(Component)]
 pub struct CoupledSimulation {
-    pub solver: WeakCoupling,
+    pub solver: CoupledSolver,
 }
 
 /// The glottis of a [`CoupledSimulation`] (two folds) and its recent glottal flow.
@@ -35,7 +35,7 @@ pub struct CoupledGlottis {
 impl CoupledGlottis {
     /// The glottis of `scene` as built into `solver`, keeping `history_s` seconds of flow;
     /// `None` when the scene has no pair of folds.
-    pub fn of(scene: &crate::scene::coupled::CoupledScene, solver: &WeakCoupling, history_s: f64) -> Option<Self> {
+    pub fn of(scene: &crate::scene::coupled::CoupledScene, solver: &CoupledSolver, history_s: f64) -> Option<Self> {
         let glottis = scene.glottis(solver)?;
         let area = glottis.sample(solver).area;
         Some(Self { glottis, history_s, flow: VecDeque::new(), area })

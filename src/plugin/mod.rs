@@ -35,8 +35,8 @@ pub enum PhonationSystems {
     /// Advances every [`LatticeGasSimulation`] by the same number of steps of
     /// [`crate::stages::LATTICE_GAS_STEP`].
     LatticeGasStep,
-    /// Advances every [`CoupledSimulation`] by the same number of steps of
-    /// [`crate::stages::COUPLED_WEAK_STEP`].
+    /// Advances every [`CoupledSimulation`] by the same number of steps of its coupling's stage
+    /// list ([`crate::stages::COUPLED_WEAK_STEP`] or [`crate::stages::COUPLED_CONSERVING_STEP`]).
     CoupledStep,
     /// Advances every [`TwoMassSimulation`] by the same number of steps and updates its
     /// [`VoiceDiagnostics`].

@@ -1,4 +1,4 @@
-//! Headless run of a coupled scene (CPU): steps [`WeakCoupling`], writes `coupling.csv`
+//! Headless run of a coupled scene (CPU): steps [`CoupledSolver`], writes `coupling.csv`
 //! (forces on each body, displacements, momenta, fluid mass, uncovered/covered nodes — flushed
 //! per row), fluid probes and snapshots, particle VTK snapshots and `summary.json`. A run that
 //! goes unstable stops with the diagnosis and keeps everything written so far (plus a last
@@ -6,7 +6,7 @@
 
 use super::{RunOptions, checkpoint};
 use crate::analysis::voice::VoiceOptions;
-use crate::coupling::WeakCoupling;
+use crate::coupling::CoupledSolver;
 use crate::coupling::glottis::GlottalSample;
 use crate::output::probes::ProbeWriter;
 use crate::output::voice::{GlottalSeries, write_voice_outputs};
@@ -128,7 +128,7 @@ impl GlottalRecord {
     }
 }
 
-fn csv_header(c: &WeakCoupling) -> String {
+fn csv_header(c: &CoupledSolver) -> String {
     let mut h = String::from("step,time_s");
     for b in &c.bodies {
         let k = b.surface.body;
@@ -137,7 +137,7 @@ fn csv_header(c: &WeakCoupling) -> String {
     h + ",max_displacement,fluid_px,fluid_py,solid_px,solid_py,fluid_mass,uncovered,covered"
 }
 
-fn csv_row(c: &WeakCoupling) -> String {
+fn csv_row(c: &CoupledSolver) -> String {
     let p = &c.solid.particles;
     let mut r = format!("{},{:.9e}", c.step_count, c.time);
     for (k, b) in c.bodies.iter().enumerate() {
@@ -210,7 +210,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
             (c.fluid.totals().mass, 0)
         }
     };
-    let snapshot = |c: &WeakCoupling, k: u64, files: &mut Vec<PathBuf>| -> std::io::Result<()> {
+    let snapshot = |c: &CoupledSolver, k: u64, files: &mut Vec<PathBuf>| -> std::io::Result<()> {
         super::snapshot(&c.fluid, fluid_scene, dir, k, files)?;
         let path = dir.join(format!("particles_{k:03}.vtk"));
         write_vtk(&c.solid, &path)?;

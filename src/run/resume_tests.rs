@@ -66,6 +66,7 @@ fn interrupted_equals_whole(tag: &str, text: &str, n: u64, csvs: &[&str]) -> (Ch
 const FLUID: &str = include_str!("../../assets/scenes/lid_cavity.toml");
 const SOLID: &str = include_str!("../../assets/scenes/solid/two_blocks.toml");
 const GLOTTIS: &str = include_str!("../../assets/scenes/glottis/glottis_2d_coarse.toml");
+const CONSERVING: &str = include_str!("../../assets/scenes/coupled/fsi_cylinder_conserving.toml");
 
 #[test]
 fn a_fluid_run_resumed_from_its_checkpoint_is_bit_identical() {
@@ -101,6 +102,13 @@ fn a_coupled_glottis_run_resumed_is_bit_identical() {
     let cut = ck.parent().unwrap().to_path_buf();
     refusals(&ck, &cut);
     let _ = std::fs::remove_dir_all(&cut);
+}
+
+#[test]
+fn a_method_2_run_resumed_is_bit_identical() {
+    // the level-set walls are rebuilt from the particle positions in the checkpoint
+    let (_, ck) = interrupted_equals_whole("conserving", CONSERVING, 40, &["coupling.csv"]);
+    let _ = std::fs::remove_dir_all(ck.parent().unwrap());
 }
 
 /// Damaged, truncated, foreign and other-version checkpoints are refused with what is wrong,

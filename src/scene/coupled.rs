@@ -4,9 +4,10 @@
 //!
 //! ```toml
 //! [coupling]
-//! method = "weak"                  # seed §2.4.1; "momentum_conserving" (§2.4.2) is not built yet
-//! traction = "pressure_and_shear"  # or "seed_pressure" (2.110: static + dynamic pressure only)
-//! piece_length = 1.0               # longest surface piece of the traction quadrature (cells)
+//! method = "weak"                  # seed §2.4.1, or "momentum_conserving" (§2.4.2)
+//! traction = "pressure_and_shear"  # weak only; or "seed_pressure" (2.110: static + dynamic pressure)
+//! piece_length = 1.0               # weak only: longest surface piece of the traction quadrature (cells)
+//! # kernel_radius = 2.0            # momentum_conserving only: r_e of the level set (cells)
 //! output_every = 10                # coupling.csv row every this many steps
 //! [[coupling.motions]]             # optional: a body with a prescribed rigid motion
 //! body = 0
@@ -21,7 +22,7 @@ use super::fold::{FoldBodySpec, FoldSide};
 use super::schema::SceneFile;
 use super::solid::{BodySpec, SolidRun, SolidScene, SolidSceneFile, SolidSpec, vec3};
 use crate::coupling::glottis::Glottis;
-use crate::coupling::{BodySurface, CoupledBody, Motion, ReferenceShape, TractionModel, WeakCoupling, WeakOptions};
+use crate::coupling::{BodySurface, ConservingOptions, CoupledBody, CoupledSolver, Method, Motion, ReferenceShape, TractionModel, WeakOptions};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
@@ -31,7 +32,7 @@ pub enum CouplingMethod {
     /// Method 1 (seed §2.4.1).
     #[default]
     Weak,
-    /// Method 2 (seed §2.4.2): refused until it is built.
+    /// Method 2 (seed §2.4.2).
     MomentumConserving,
 }
 
@@ -47,9 +48,12 @@ pub struct MotionSpec {
 pub struct CouplingSpec {
     #[serde(default)]
     pub method: CouplingMethod,
-    #[serde(default)]
-    pub traction: TractionModel,
+    /// Method 1's traction model (default pressure and shear).
+    pub traction: Option<TractionModel>,
+    /// Method 1's longest surface piece (cells, default 1).
     pub piece_length: Option<f64>,
+    /// Method 2's kernel radius r_e of the level set (cells, default 2).
+    pub kernel_radius: Option<f64>,
     pub output_every: Option<u64>,
     #[serde(default)]
     pub motions: Vec<MotionSpec>,
@@ -103,8 +107,29 @@ impl CoupledScene {
         let solid = SolidScene::new(solid_file)?;
         let s = &solid.file.solid;
         let dim = fluid.grid.dim;
-        if coupling.method == CouplingMethod::MomentumConserving {
-            return err("coupling.method", "\"momentum_conserving\" (seed §2.4.2) is not built yet; use \"weak\"");
+        match coupling.method {
+            CouplingMethod::Weak => {
+                if coupling.kernel_radius.is_some() {
+                    return err("coupling.kernel_radius", "is a setting of method = \"momentum_conserving\" (the level set's kernel); the weak coupling has a surface polygon");
+                }
+            }
+            CouplingMethod::MomentumConserving => {
+                if coupling.traction.is_some() {
+                    return err("coupling.traction", "is a setting of method = \"weak\"; method 2 hands the body the air's momentum link by link, not a traction");
+                }
+                if coupling.piece_length.is_some() {
+                    return err("coupling.piece_length", "is a setting of method = \"weak\" (its traction quadrature)");
+                }
+                if let Some(r) = coupling.kernel_radius {
+                    let min = (1.0f64).max(2.0 * s.spacing / fluid.units.dx);
+                    if !(r.is_finite() && r >= min && r <= 4.0) {
+                        return err(
+                            "coupling.kernel_radius",
+                            format!("must lie in [{min:.3}, 4] cells (at least one cell and two particle spacings, so that the level set is smooth), got {r}"),
+                        );
+                    }
+                }
+            }
         }
         if s.dimension != dim {
             return err("solid.dimension", format!("the fluid lattice is {dim}D, the solid {}D", s.dimension));
@@ -112,7 +137,7 @@ impl CoupledScene {
         if dim == 3 {
             return err("solid.dimension", "coupled scenes run in 2D for now (3D surfaces are not triangulated yet)");
         }
-        if s.integrator != crate::solid::Integrator::Explicit {
+        if coupling.method == CouplingMethod::Weak && s.integrator != crate::solid::Integrator::Explicit {
             return err("solid.integrator", "the weak coupling (method 1) uses the explicit solid step");
         }
         let dx = fluid.units.dx;
@@ -200,7 +225,7 @@ impl CoupledScene {
 
     /// Builds the coupled solver: samples the particles, checks that no free particle lies in
     /// a rigid obstacle, builds each body's surface, allocates the fluid.
-    pub fn build(&self) -> Result<WeakCoupling, SceneError> {
+    pub fn build(&self) -> Result<CoupledSolver, SceneError> {
         let solid = self.solid.build()?;
         let p = &solid.particles;
         let units = self.fluid.units;
@@ -223,8 +248,17 @@ impl CoupledScene {
             bodies.push(CoupledBody { surface, motion });
         }
         let fluid = self.fluid.build_solver();
-        let options = WeakOptions { traction: self.coupling.traction, piece_length: self.coupling.piece_length.unwrap_or(1.0), ..Default::default() };
-        WeakCoupling::new(fluid, solid, units, bodies, self.fluid.obstacles.clone(), options)
+        let c = &self.coupling;
+        let method = match c.method {
+            CouplingMethod::Weak => {
+                Method::Weak(WeakOptions { traction: c.traction.unwrap_or_default(), piece_length: c.piece_length.unwrap_or(1.0), ..Default::default() })
+            }
+            CouplingMethod::MomentumConserving => {
+                let d = ConservingOptions::default();
+                Method::Conserving(ConservingOptions { kernel_radius: c.kernel_radius.unwrap_or(d.kernel_radius), ..d })
+            }
+        };
+        CoupledSolver::new(fluid, solid, units, bodies, self.fluid.obstacles.clone(), method)
             .map_err(|e| SceneError { field: "coupling".into(), reason: e.to_string() })
     }
 }
@@ -232,7 +266,7 @@ impl CoupledScene {
 impl CoupledScene {
     /// The glottis when the solid has exactly one left and one right fold about the same
     /// mid-line: glottal gap, flow and margins are then sampled during a run.
-    pub fn glottis(&self, c: &WeakCoupling) -> Option<Glottis> {
+    pub fn glottis(&self, c: &CoupledSolver) -> Option<Glottis> {
         let folds: Vec<(usize, &FoldBodySpec)> = self.solid.file.solid.bodies.iter().enumerate().filter_map(|(k, b)| b.fold.as_ref().map(|f| (k, f))).collect();
         let [(a, fa), (b, fb)] = folds[..] else { return None };
         let ((l, _), (r, fr)) = match (fa.side, fb.side) {
@@ -321,8 +355,14 @@ mod tests {
 
     #[test]
     fn bad_coupled_scenes_are_refused_with_the_field_and_the_reason() {
-        let cases: [(&str, &str, &str); 7] = [
-            ("method = \"weak\"", "method = \"momentum_conserving\"", "coupling.method"),
+        let cases: [(&str, &str, &str); 9] = [
+            ("method = \"weak\"", "method = \"momentum_conserving\"", "coupling.traction"),
+            ("output_every = 10", "output_every = 10\nkernel_radius = 2.0", "coupling.kernel_radius"),
+            (
+                "method = \"weak\"\ntraction = \"pressure_and_shear\"",
+                "method = \"momentum_conserving\"\nkernel_radius = 0.5",
+                "coupling.kernel_radius",
+            ),
             ("spacing = 0.005 ", "spacing = 0.05 ", "solid.spacing"),
             ("center = [0.2, 0.2], radius = 0.05", "center = [2.18, 0.2], radius = 0.05", "solid.bodies[0]"),
             ("dimension = 2", "dimension = 2\nintegrator = \"implicit\"", "solid.integrator"),

@@ -38,6 +38,7 @@ pub const SOLID_BUILTIN: &[(&str, &str)] = &[
 /// Built-in coupled (fluid–structure) scenes.
 pub const COUPLED_BUILTIN: &[(&str, &str)] = &[
     ("fsi_cylinder", include_str!("../../assets/scenes/coupled/fsi_cylinder.toml")),
+    ("fsi_cylinder_conserving", include_str!("../../assets/scenes/coupled/fsi_cylinder_conserving.toml")),
     ("glottis_2d_a", include_str!("../../assets/scenes/glottis/glottis_2d_a.toml")),
     ("glottis_2d_b", include_str!("../../assets/scenes/glottis/glottis_2d_b.toml")),
     ("glottis_2d_c", include_str!("../../assets/scenes/glottis/glottis_2d_c.toml")),

@@ -7,9 +7,9 @@
 //! The cylinder is either the fluid's rigid ghost-node obstacle, with the force found by the
 //! same surface quadrature the coupling uses (a cross-check of the fluid and of the
 //! quadrature), or an elastic disc clamped in its inner half and coupled through
-//! [`WeakCoupling`] (the coupled path: surface polygon, moving-wall geometry, tractions).
+//! [`CoupledSolver`] (the coupled path: surface polygon, moving-wall geometry, tractions).
 
-use crate::coupling::{BodySurface, ConservingCoupling, ConservingOptions, CoupledBody, ReferenceShape, TractionModel, WeakCoupling, WeakOptions, surface_forces};
+use crate::coupling::{BodySurface, ConservingOptions, CoupledBody, CoupledSolver, Method, ReferenceShape, TractionModel, WeakOptions, surface_forces};
 use crate::fluid::{
     Boundaries, Equilibrium, FaceCondition, FluidSolver, GasModel, Grid, InletProfile, Macro, Obstacle, Shape, VelocitySet, VelocitySetKind, timestep,
 };
@@ -172,7 +172,7 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, bo
             let f = FluidSolver::new(eq, grid, b, &[], params, init);
             let solid = SolidSolver::new(particles.clone(), vec![material], SolidOptions::default()).expect("valid disc");
             let bodies = vec![CoupledBody { surface: surface.clone(), motion: None }];
-            let mut c = WeakCoupling::new(f, solid, units, bodies, Vec::new(), WeakOptions { traction, ..Default::default() }).expect("valid coupling");
+            let mut c = CoupledSolver::new(f, solid, units, bodies, Vec::new(), Method::Weak(WeakOptions { traction, ..Default::default() })).expect("valid coupling");
             for k in 1..=steps {
                 c.step().expect("Schäfer–Turek stays stable");
                 if k > average_from {
@@ -192,11 +192,10 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, bo
             let f = FluidSolver::new(eq, grid, b, &[], params, init);
             let solid = SolidSolver::new(particles.clone(), vec![material], SolidOptions::default()).expect("valid disc");
             let bodies = vec![CoupledBody { surface: surface.clone(), motion: None }];
-            let mut c = ConservingCoupling::new(f, solid, units, bodies, Vec::new(), ConservingOptions::default()).expect("valid coupling");
-            let dt = c.dt();
+            let mut c = CoupledSolver::new(f, solid, units, bodies, Vec::new(), Method::Conserving(ConservingOptions::default())).expect("valid coupling");
             for k in 1..=steps {
                 c.step().expect("Schäfer–Turek stays stable");
-                let force = c.received.iter().copied().sum::<DVec3>() / dt;
+                let force = c.forces.total[0];
                 if k > average_from {
                     mean_force += force;
                     mean_drop += pressure_drop(&c.fluid);
@@ -206,8 +205,6 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, bo
                 }
             }
             let p = &c.solid.particles;
-            let tr = surface_forces(&c.fluid, &units, std::slice::from_ref(&surface), p, TractionModel::PressureAndShear, 1.0).total[0];
-            eprintln!("SCRATCH traction quadrature cd {:.4} exchange last {:.4}", tr.x * coefficient, c.received.iter().copied().sum::<DVec3>().x / dt * coefficient);
             let max_d = (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max);
             let shares = c.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
             (mean_force / (steps - average_from) as f64, shares, c.substeps, max_d, p.len())
@@ -258,7 +255,7 @@ pub struct GalileanResult {
 /// A rigid (fully clamped, or towed) disc of `cells_per_diameter` in a periodic box of 12 × 8
 /// diameters, Reynolds number `reynolds` on the relative speed (Mach `mach`), for `distance`
 /// diameters of relative travel.
-pub fn towed_cylinder(cells_per_diameter: usize, mach: f64, reynolds: f64, distance: f64) -> GalileanResult {
+pub fn towed_cylinder(method: Method, cells_per_diameter: usize, mach: f64, reynolds: f64, distance: f64) -> GalileanResult {
     let d = cells_per_diameter as f64;
     let (nx, ny) = (12 * cells_per_diameter, 8 * cells_per_diameter);
     let (eq, l1) = d2q21_air();
@@ -282,7 +279,7 @@ pub fn towed_cylinder(cells_per_diameter: usize, mach: f64, reynolds: f64, dista
         let solid = SolidSolver::new(particles.clone(), vec![material.clone()], SolidOptions::default()).expect("valid disc");
         let motion = towed.then_some(crate::coupling::Motion::Translation { velocity: [-units.velocity_to_physical(u), 0.0, 0.0] });
         let bodies = vec![CoupledBody { surface: surface.clone(), motion }];
-        let mut c = WeakCoupling::new(fluid, solid, units, bodies, Vec::new(), WeakOptions::default()).expect("valid coupling");
+        let mut c = CoupledSolver::new(fluid, solid, units, bodies, Vec::new(), method).expect("valid coupling");
         let m0 = c.fluid.totals().mass;
         let mut sum = 0.0;
         let mut count = 0;
@@ -331,7 +328,7 @@ pub struct OscillatingResult {
 
 /// A rigid disc of `cells_per_diameter`, oscillating harmonically along x with amplitude one
 /// diameter and peak speed Mach `mach`, in a periodic box of 6 × 4 diameters, for `steps` steps.
-pub fn oscillating_cylinder(cells_per_diameter: usize, mach: f64, steps: u64) -> Result<OscillatingResult, crate::step::Instability> {
+pub fn oscillating_cylinder(method: Method, cells_per_diameter: usize, mach: f64, steps: u64) -> Result<OscillatingResult, crate::step::Instability> {
     let d = cells_per_diameter as f64;
     let (nx, ny) = (6 * cells_per_diameter, 4 * cells_per_diameter);
     let (eq, l1) = d2q21_air();
@@ -347,7 +344,7 @@ pub fn oscillating_cylinder(cells_per_diameter: usize, mach: f64, steps: u64) ->
     // Amplitude d, peak speed u: frequency u / (2π d).
     let motion = crate::coupling::Motion::Harmonic { amplitude: [d, 0.0, 0.0], frequency: u / (std::f64::consts::TAU * d) };
     let bodies = vec![CoupledBody { surface, motion: Some(motion) }];
-    let mut c = WeakCoupling::new(fluid, solid, units, bodies, Vec::new(), WeakOptions::default()).expect("valid coupling");
+    let mut c = CoupledSolver::new(fluid, solid, units, bodies, Vec::new(), method).expect("valid coupling");
     let m0 = c.fluid.totals().mass;
     let t0 = Instant::now();
     c.run(steps)?;
@@ -384,20 +381,10 @@ pub fn pressure_pulse_momentum(cells_per_diameter: usize, amplitude: f64, steps:
     pulse_on_a_free_disc(cells_per_diameter, amplitude, steps, 1.0).expect("the pulse stays stable")
 }
 
-/// Which coupling carries a case.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Method {
-    /// Method 1 (§2.4.1): surface polygon, tractions.
-    Weak,
-    /// Method 2 (§2.4.2): level set, momentum exchanged link by link.
-    Conserving,
-}
-
 /// [`pressure_pulse_momentum`] with a disc of density `density` (the air's is 1); an
 /// instability is returned, not a panic.
 pub fn pulse_on_a_free_disc(cells_per_diameter: usize, amplitude: f64, steps: u64, density: f64) -> Result<MomentumResult, crate::step::Instability> {
-    pulse_on_a_free_disc_by(Method::Weak, cells_per_diameter, amplitude, steps, density)
+    pulse_on_a_free_disc_by(Method::Weak(WeakOptions::default()), cells_per_diameter, amplitude, steps, density)
 }
 
 /// [`pulse_on_a_free_disc`] coupled by `method`.
@@ -419,13 +406,10 @@ pub fn pulse_on_a_free_disc_by(method: Method, cells_per_diameter: usize, amplit
     });
     let solid = SolidSolver::new(particles, vec![material], SolidOptions::default()).expect("valid disc");
     let bodies = vec![CoupledBody { surface, motion: None }];
-    let mut c: Box<dyn MomentumBudget> = match method {
-        Method::Weak => Box::new(WeakCoupling::new(fluid, solid, units, bodies, Vec::new(), WeakOptions::default()).expect("valid coupling")),
-        Method::Conserving => Box::new(ConservingCoupling::new(fluid, solid, units, bodies, Vec::new(), ConservingOptions::default()).expect("valid coupling")),
-    };
+    let mut c = CoupledSolver::new(fluid, solid, units, bodies, Vec::new(), method).expect("valid coupling");
     let (f0, s0) = c.momentum();
     let total0 = f0 + s0;
-    let roundoff_scale = f64::EPSILON * c.population_momentum_scale();
+    let roundoff_scale = f64::EPSILON * population_momentum_scale(&c);
     let mut largest: f64 = 0.0;
     let mut worst_step_change: f64 = 0.0;
     let mut last = total0;
@@ -448,61 +432,23 @@ pub fn pulse_on_a_free_disc_by(method: Method, cells_per_diameter: usize, amplit
     })
 }
 
-/// A coupled solver whose air and solid momenta can be read.
-trait MomentumBudget {
-    fn step(&mut self) -> Result<(), crate::step::Instability>;
-    /// (air, solid), physical units.
-    fn momentum(&self) -> (DVec3, DVec3);
-    fn fluid(&self) -> &FluidSolver;
-    fn units(&self) -> &Units;
-    /// Σ_nodes Σ_i |c_i| f_i over the fluid (physical momentum units).
-    fn population_momentum_scale(&self) -> f64 {
-        let (f, u) = (self.fluid(), self.units());
-        let q = f.eq.q();
-        let speed: Vec<f64> = f.eq.cf[..q].iter().map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()).collect();
-        let sum: f64 = (0..f.layout.grid.len())
-            .filter(|&n| f.layout.kind[n] == crate::fluid::layout::NodeKind::Fluid)
-            .map(|n| f.node_populations(n)[..q].iter().zip(&speed).map(|(f, c)| f.abs() * c).sum::<f64>())
-            .sum();
-        sum * u.density * u.velocity * u.dx.powi(f.layout.grid.dim as i32)
-    }
-}
-
-impl MomentumBudget for WeakCoupling {
-    fn step(&mut self) -> Result<(), crate::step::Instability> {
-        WeakCoupling::step(self)
-    }
-    fn momentum(&self) -> (DVec3, DVec3) {
-        WeakCoupling::momentum(self)
-    }
-    fn fluid(&self) -> &FluidSolver {
-        &self.fluid
-    }
-    fn units(&self) -> &Units {
-        &self.units
-    }
-}
-
-impl MomentumBudget for ConservingCoupling {
-    fn step(&mut self) -> Result<(), crate::step::Instability> {
-        ConservingCoupling::step(self)
-    }
-    fn momentum(&self) -> (DVec3, DVec3) {
-        ConservingCoupling::momentum(self)
-    }
-    fn fluid(&self) -> &FluidSolver {
-        &self.fluid
-    }
-    fn units(&self) -> &Units {
-        &self.units
-    }
+/// Σ_nodes Σ_i |c_i| f_i over the fluid of `c` (physical momentum units).
+fn population_momentum_scale(c: &CoupledSolver) -> f64 {
+    let f = &c.fluid;
+    let q = f.eq.q();
+    let speed: Vec<f64> = f.eq.cf[..q].iter().map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()).collect();
+    let sum: f64 = (0..f.layout.grid.len())
+        .filter(|&n| f.layout.kind[n] == crate::fluid::layout::NodeKind::Fluid)
+        .map(|n| f.node_populations(n)[..q].iter().zip(&speed).map(|(f, c)| f.abs() * c).sum::<f64>())
+        .sum();
+    sum * c.momentum_unit()
 }
 
 /// The weak coupling's added-mass limit: the lightest free disc (density relative to the air's,
 /// wave speed kept at twice the sound speed) that the pulse case carries through `steps` steps,
 /// from `ratios` tried heaviest first. Returns each ratio with whether it stayed stable.
-pub fn added_mass_stability(ratios: &[f64], steps: u64) -> Vec<(f64, bool)> {
-    ratios.iter().map(|&r| (r, pulse_on_a_free_disc(8, 0.01, steps, r).is_ok())).collect()
+pub fn added_mass_stability(method: Method, ratios: &[f64], steps: u64) -> Vec<(f64, bool)> {
+    ratios.iter().map(|&r| (r, pulse_on_a_free_disc_by(method, 8, 0.01, steps, r).is_ok())).collect()
 }
 
 #[cfg(test)]
@@ -516,11 +462,29 @@ mod tests {
     /// +2.6·10⁻⁴.
     #[test]
     fn a_towed_cylinder_feels_the_drag_of_a_fixed_one_in_the_moving_frame() {
-        let r = towed_cylinder(10, 0.1, 20.0, 2.0);
+        let r = towed_cylinder(Method::Weak(WeakOptions::default()), 10, 0.1, 20.0, 2.0);
         assert!(r.relative_difference.abs() < 0.03, "{r:?}");
         assert!(r.fixed_drag > 0.1 && r.fixed_drag < 0.3, "{r:?}");
         // The disc sweeps 20 cells: about 20 diameters' worth of nodes on each side.
         assert!(r.uncovered == r.covered && (180..=220).contains(&r.uncovered), "{r:?}");
+        assert!(r.towed_mass_drift.abs() < 2e-3, "{r:?}");
+    }
+
+    /// The Galilean check with method 2: the level-set walls move with the particles, covered
+    /// and uncovered nodes book their momentum to the body, and the drag is the momentum the
+    /// particles receive. Measured (D = 10): fixed 0.1750 (method 1's quadrature: 0.1710),
+    /// towed 0.1883: **+7.6 %, outside the 3 %** — an open item (the node flips give
+    /// the towed body −6 % of its drag; the face fluxes of the moving ghost walls carry the
+    /// rest). The bound is a regression guard at that figure: before the ghosts inside the
+    /// level set took their depth from Newton steps (−L/|∇L| overestimated it several times),
+    /// the difference was +19 %.
+    #[test]
+    fn method_2_tows_a_cylinder_with_the_drag_of_the_fixed_one() {
+        let r = towed_cylinder(Method::Conserving(ConservingOptions::default()), 10, 0.1, 20.0, 2.0);
+        eprintln!("method 2 towed cylinder: {r:?}");
+        assert!(r.relative_difference.abs() < 0.10, "{r:?}");
+        assert!(r.fixed_drag > 0.1 && r.fixed_drag < 0.3, "{r:?}");
+        assert!(r.uncovered > 100 && r.covered > 100, "{r:?}");
         assert!(r.towed_mass_drift.abs() < 2e-3, "{r:?}");
     }
 
@@ -530,8 +494,21 @@ mod tests {
     /// fresh-node fill do not conserve mass; method 2 is the conservative coupling).
     #[test]
     fn an_oscillating_cylinder_stays_stable_for_ten_thousand_steps() {
-        let r = oscillating_cylinder(8, 0.1, 10_000).expect("stays stable");
+        let r = oscillating_cylinder(Method::Weak(WeakOptions::default()), 8, 0.1, 10_000).expect("stays stable");
         assert!(r.uncovered > 900 && r.covered > 900, "{r:?}");
+        assert!(r.max_mach.is_finite() && r.max_mach < 0.2, "{r:?}");
+        assert!(r.mass_drift.abs() < 0.03, "{r:?}");
+    }
+
+    /// Stability with moving level-set walls (method 2): the oscillating disc for 2000 steps
+    /// (a quarter period; `validate --case fsi_oscillating_cylinder` runs 10⁴ steps of both
+    /// methods). Measured: 192 nodes uncovered and 192 covered, fluid mass −9.5·10⁻⁴, peak
+    /// Mach 0.05 at the end.
+    #[test]
+    fn method_2_carries_an_oscillating_cylinder() {
+        let r = oscillating_cylinder(Method::Conserving(ConservingOptions::default()), 8, 0.1, 2000).expect("stays stable");
+        eprintln!("method 2 oscillating cylinder: {r:?}");
+        assert!(r.uncovered > 50 && r.covered > 50, "{r:?}");
         assert!(r.max_mach.is_finite() && r.max_mach < 0.2, "{r:?}");
         assert!(r.mass_drift.abs() < 0.03, "{r:?}");
     }
@@ -566,13 +543,13 @@ mod tests {
     /// (the worst-case rounding of one pass over the populations; a leak of a single face's
     /// flux would be ~10⁶ times that), and over 1000 steps the total drifts by ≤ 1e-12 of the
     /// momentum the body reached. Method 1's tractions are not the air's momentum loss.
-    /// Measured (this machine): method 2 drift 1.4e-13 of the body's largest momentum (0.20),
-    /// worst step 5.9e-15 = 0.013 of the round-off scale 4.4e-13; method 1 drift 2.1e-2, worst
+    /// Measured (this machine): method 2 drift 4.5e-14 of the body's largest momentum (0.20),
+    /// worst step 6.2e-15 = 0.014 of the round-off scale 4.4e-13; method 1 drift 2.1e-2, worst
     /// step 8.8e-4.
     #[test]
     fn method_2_conserves_the_total_momentum_to_round_off() {
-        let conserving = pulse_on_a_free_disc_by(Method::Conserving, 8, 0.05, 1000, 1.0).expect("stable");
-        let weak = pulse_on_a_free_disc_by(Method::Weak, 8, 0.05, 1000, 1.0).expect("stable");
+        let conserving = pulse_on_a_free_disc_by(Method::Conserving(ConservingOptions::default()), 8, 0.05, 1000, 1.0).expect("stable");
+        let weak = pulse_on_a_free_disc_by(Method::Weak(WeakOptions::default()), 8, 0.05, 1000, 1.0).expect("stable");
         eprintln!("momentum drift over 1000 steps: method 2 {:.3e}, method 1 {:.3e}\n{conserving:?}\n{weak:?}", conserving.relative_drift, weak.relative_drift);
         assert!(conserving.largest_solid_momentum > 0.05, "the pulse moves the disc: {conserving:?}");
         assert!(conserving.worst_step_change < conserving.roundoff_scale, "{conserving:?}");
@@ -630,8 +607,8 @@ pub fn disc_in_shear(cells_per_diameter: usize, height_d: usize, reynolds: f64, 
         FluidSolver::new(eq, Grid::new(2, [nx, ny, 1]), b, &[], params, move |x| Macro { rho: 1.0, u: [shear * (x[1] - y_mid), 0.0, 0.0], theta: theta0 });
     let solid = SolidSolver::new(particles, vec![material], SolidOptions::default()).expect("valid disc");
     let bodies = vec![CoupledBody { surface, motion: None }];
-    let mut c = WeakCoupling::new(fluid, solid, units, bodies, Vec::new(), WeakOptions::default()).expect("valid coupling");
-    let spin = |c: &WeakCoupling| {
+    let mut c = CoupledSolver::new(fluid, solid, units, bodies, Vec::new(), Method::Weak(WeakOptions::default())).expect("valid coupling");
+    let spin = |c: &CoupledSolver| {
         let p = &c.solid.particles;
         let m: f64 = p.mass.iter().sum();
         let xc = (0..p.len()).map(|i| p.mass[i] * p.position[i]).sum::<DVec3>() / m;
@@ -659,17 +636,5 @@ pub fn disc_in_shear(cells_per_diameter: usize, height_d: usize, reynolds: f64, 
         steps,
         rotation_rate: sum / count as f64 / shear,
         centroid_drift: (xc - centre).length(),
-    }
-}
-#[cfg(test)]
-mod scratch {
-    use super::*;
-    #[test]
-    #[ignore]
-    fn scratch_st() {
-        for body in [CylinderBody::ConservingCoupled] {
-            let r = schafer_turek_2d1(10, 0.1, 3.0, body);
-            eprintln!("{body:?}: cd {:.4} ({:+.3}) dp {:.5} ({:+.3}) steps {} wall {:.1}s change {:.2e} maxd {:.2e} shares {:?}", r.drag_coefficient, r.drag_coefficient / ST_2D1_DRAG - 1.0, r.pressure_drop, r.pressure_drop / ST_2D1_PRESSURE_DROP - 1.0, r.steps, r.wall_s, r.drag_change_last_fifth, r.max_displacement, r.stage_shares);
-        }
     }
 }

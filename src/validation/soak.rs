@@ -4,7 +4,7 @@
 //! moving disc covers and uncovers change it), its total energy, the momentum of air and disc,
 //! the disc's displacement, and the largest change of each in one step.
 
-use crate::coupling::WeakCoupling;
+use crate::coupling::CoupledSolver;
 use crate::scene::coupled::CoupledScene;
 
 /// The soak's scene (SI): 64 × 48 cells of 1 cm, D2Q21 air at Mach 0.1 (scaled), a disc of
@@ -79,7 +79,7 @@ pub struct SoakReport {
     pub instability: Option<String>,
 }
 
-fn max_displacement(c: &WeakCoupling) -> f64 {
+fn max_displacement(c: &CoupledSolver) -> f64 {
     let p = &c.solid.particles;
     (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max)
 }

@@ -144,8 +144,27 @@ pub fn cases() -> Vec<Case> {
         }),
         ("fsi_towed_cylinder", || {
             // Galilean check of the moving walls: D = 20 cells, Re = 20, Mach 0.1, 3 D of travel.
-            let r = fsi::towed_cylinder(20, 0.1, 20.0, 3.0);
-            vec![("towed / fixed drag − 1".into(), r.relative_difference, "|Δ| ≤ 0.03".into(), r.relative_difference.abs() <= 0.03)]
+            let mut out = Vec::new();
+            for (name, method) in methods() {
+                let r = fsi::towed_cylinder(method, 20, 0.1, 20.0, 3.0);
+                out.push((format!("towed / fixed drag − 1 ({name})"), r.relative_difference, "|Δ| ≤ 0.03".into(), r.relative_difference.abs() <= 0.03));
+            }
+            out
+        }),
+        ("fsi_oscillating_cylinder", || {
+            // A rigid disc (D = 8) oscillating by one diameter at peak Mach 0.1 for 10⁴ steps,
+            // covering and uncovering nodes throughout: stays finite; the air's mass drift is
+            // reported (fresh nodes take their neighbours' mean state).
+            let mut out = Vec::new();
+            for (name, method) in methods() {
+                match fsi::oscillating_cylinder(method, 8, 0.1, 10_000) {
+                    Ok(r) => {
+                        out.push((format!("fluid mass drift over 10⁴ steps ({name}, {} uncovered)", r.uncovered), r.mass_drift, "|Δ| ≤ 0.03".into(), r.mass_drift.abs() <= 0.03));
+                    }
+                    Err(e) => out.push((format!("{name}: {e}"), f64::NAN, "stable".into(), false)),
+                }
+            }
+            out
         }),
         ("fsi_disc_in_shear", || {
             // A neutrally buoyant free disc in simple shear at Re = 0.1 turns at γ̇/2.
@@ -157,10 +176,16 @@ pub fn cases() -> Vec<Case> {
             // The weak coupling's added-mass limit: the lightest free disc a pressure pulse can
             // push for 1000 steps. Measured 0.2 stable, 0.15 unstable (explicit weak coupling
             // fails for light bodies; the seed's method 2 is meant to remove that limit).
-            let rows = fsi::added_mass_stability(&[1.0, 0.5, 0.3, 0.2, 0.15, 0.1, 0.05], 1000);
-            let lightest = rows.iter().filter(|(_, ok)| *ok).map(|(r, _)| *r).fold(f64::INFINITY, f64::min);
-            let heavy_ok = rows.iter().filter(|(r, _)| *r >= 0.2).all(|(_, ok)| *ok);
-            vec![("lightest stable ρ_s/ρ_f (method 1)".into(), lightest, "≤ 0.2, every heavier one stable".into(), heavy_ok && lightest <= 0.2)]
+            // Method 2 here hands the momentum over one step late as well (its added mass in the
+            // implicit solve, 2.129, is not built), so it is measured, not expected to do better.
+            let mut out = Vec::new();
+            for (name, method) in methods() {
+                let rows = fsi::added_mass_stability(method, &[1.0, 0.5, 0.3, 0.2, 0.15, 0.1, 0.05], 1000);
+                let lightest = rows.iter().filter(|(_, ok)| *ok).map(|(r, _)| *r).fold(f64::INFINITY, f64::min);
+                let heavy_ok = rows.iter().filter(|(r, _)| *r >= 0.2).all(|(_, ok)| *ok);
+                out.push((format!("lightest stable ρ_s/ρ_f ({name})"), lightest, "≤ 0.2, every heavier one stable".into(), heavy_ok && lightest <= 0.2));
+            }
+            out
         }),
         ("soak", || {
             // a closed box with a vibrating elastic disc, weak coupling, 10⁵ steps
@@ -197,6 +222,12 @@ pub fn cases() -> Vec<Case> {
             out
         }),
     ]
+}
+
+/// Both couplings, named.
+fn methods() -> [(&'static str, crate::coupling::Method); 2] {
+    use crate::coupling::{ConservingOptions, Method, WeakOptions};
+    [("method 1", Method::Weak(WeakOptions::default())), ("method 2", Method::Conserving(ConservingOptions::default()))]
 }
 
 /// Runs every case whose name contains `filter`.

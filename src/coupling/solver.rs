@@ -1,0 +1,263 @@
+//! The coupled solver: fluid + solid + one of the two couplings of seed 000 §2.4, stepped by
+//! the coupling's ordered stage list ([`COUPLED_WEAK_STEP`] or [`COUPLED_CONSERVING_STEP`]).
+//! The stages themselves live with their method: [`super::weak`] (method 1: surface polygons,
+//! tractions) and [`super::conserving`] (method 2: level sets, momentum exchange); the solid
+//! sub-steps are shared.
+//!
+//! Units: the solid works in the scene's physical units; the fluid in lattice units; positions
+//! map through [`Units::position_to_lattice`] (the same origin).
+
+use super::conserving::{ConservingOptions, Exchange};
+use super::motion::Motion;
+use super::surface::{BodySurface, SurfaceError};
+use super::traction::SurfaceForces;
+use super::weak::WeakOptions;
+use crate::fluid::{FluidSolver, GeometryChange, Obstacle, Polygon, Totals};
+use crate::solid::{Integrator, SolidSolver};
+use crate::stages::{COUPLED_CONSERVING_STEP, COUPLED_WEAK_STEP, CoupledStage, CoupledStageKind};
+use crate::step::Instability;
+use crate::units::Units;
+use glam::DVec3;
+use std::time::{Duration, Instant};
+
+/// A body of the solid that the air sees: its surface (the polygon of method 1; the reference
+/// surface that calibrates method 2's level set) and, optionally, a prescribed motion.
+#[derive(Clone, Debug)]
+pub struct CoupledBody {
+    pub surface: BodySurface,
+    pub motion: Option<Motion>,
+}
+
+/// Which coupling, with its options.
+#[derive(Clone, Copy, Debug)]
+pub enum Method {
+    /// Method 1 (weak, §2.4.1).
+    Weak(WeakOptions),
+    /// Method 2 (momentum-conserving, §2.4.2).
+    Conserving(ConservingOptions),
+}
+
+/// Errors of the coupled set-up, naming the field.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum CouplingSetupError {
+    #[error("coupling.method: the weak coupling uses the explicit solid step (solid.integrator = \"explicit\")")]
+    NeedsExplicitSolid,
+    #[error("coupling: the fluid is {fluid}D and the solid {solid}D")]
+    Dimensions { fluid: usize, solid: usize },
+    #[error("coupling.bodies: {0}")]
+    Surface(#[from] SurfaceError),
+}
+
+/// Fluid + solid + the coupling between them.
+pub struct CoupledSolver {
+    pub fluid: FluidSolver,
+    pub solid: SolidSolver,
+    pub units: Units,
+    pub bodies: Vec<CoupledBody>,
+    /// Rigid obstacles of the fluid (lattice units), unchanged by the coupling.
+    pub obstacles: Vec<Obstacle>,
+    pub method: Method,
+    /// Solid sub-steps per fluid step.
+    pub substeps: u32,
+    /// The air's forces on the particles over the last step (method 1: tractions; method 2:
+    /// the momentum received divided by the step).
+    pub forces: SurfaceForces,
+    /// Geometry changes summed over the run.
+    pub geometry: GeometryChange,
+    pub step_count: u64,
+    /// Physical time (s).
+    pub time: f64,
+    /// Wall time per stage of [`Self::stages`].
+    pub timings: Vec<Duration>,
+    pub(super) base_load: Vec<DVec3>,
+    /// Method 1: the surface polygons the fluid geometry was last built from.
+    pub(super) built: Option<Vec<Polygon>>,
+    /// Method 2: the level sets' calibration and the momentum on its way to the particles.
+    pub(super) exchange: Option<Exchange>,
+}
+
+impl CoupledSolver {
+    /// Couples `fluid` (with its rigid `obstacles`, lattice units) and `solid` through the
+    /// `bodies` by `method`. The solid's sub-step is the largest that divides the fluid's step
+    /// into equal parts and does not exceed the solid's own step.
+    pub fn new(fluid: FluidSolver, mut solid: SolidSolver, units: Units, bodies: Vec<CoupledBody>, obstacles: Vec<Obstacle>, method: Method) -> Result<Self, CouplingSetupError> {
+        if matches!(method, Method::Weak(_)) && solid.options.integrator != Integrator::Explicit {
+            return Err(CouplingSetupError::NeedsExplicitSolid);
+        }
+        if fluid.layout.grid.dim != solid.particles.dim {
+            return Err(CouplingSetupError::Dimensions { fluid: fluid.layout.grid.dim, solid: solid.particles.dim });
+        }
+        let dt = fluid.params.dt * units.time();
+        let substeps = (dt / solid.dt).ceil().max(1.0) as u32;
+        solid.dt = dt / substeps as f64;
+        for b in &bodies {
+            if let Some(m) = &b.motion {
+                let p = &mut solid.particles;
+                for i in 0..p.len() {
+                    if p.body[i] == b.surface.body {
+                        p.fixed[i] = true;
+                    }
+                }
+                m.apply(p, b.surface.body, 0.0);
+            }
+        }
+        let base_load = solid.particles.load.clone();
+        let n = solid.particles.len();
+        let stages = Self::stages_of(&method).len();
+        let mut c = CoupledSolver {
+            fluid,
+            solid,
+            units,
+            bodies,
+            obstacles,
+            method,
+            substeps,
+            forces: SurfaceForces { force: vec![DVec3::ZERO; n], ..Default::default() },
+            geometry: GeometryChange::default(),
+            step_count: 0,
+            time: 0.0,
+            timings: vec![Duration::ZERO; stages],
+            base_load,
+            built: None,
+            exchange: None,
+        };
+        if let Method::Conserving(o) = method {
+            c.exchange = Some(Exchange::new(&c, o));
+        }
+        // The bodies' initial walls: the fluid inside them leaves the fluid now, not as a
+        // "covered" change of the first step (nor as momentum handed to the bodies).
+        c.run_stage(CoupledStageKind::FluidGeometry).expect("the first geometry has no previous one to compare with");
+        c.geometry = GeometryChange::default();
+        if let Some(e) = &mut c.exchange {
+            e.clear();
+        }
+        Ok(c)
+    }
+
+    fn stages_of(method: &Method) -> &'static [CoupledStage] {
+        match method {
+            Method::Weak(_) => &COUPLED_WEAK_STEP,
+            Method::Conserving(_) => &COUPLED_CONSERVING_STEP,
+        }
+    }
+
+    /// The ordered stages of one step of this coupling.
+    pub fn stages(&self) -> &'static [CoupledStage] {
+        Self::stages_of(&self.method)
+    }
+
+    /// Physical time step of one coupled step (s).
+    pub fn dt(&self) -> f64 {
+        self.fluid.params.dt * self.units.time()
+    }
+
+    /// One coupled step.
+    pub fn step(&mut self) -> Result<(), Instability> {
+        for (k, st) in self.stages().iter().enumerate() {
+            let t0 = Instant::now();
+            let r = self.run_stage(st.kind);
+            self.timings[k] += t0.elapsed();
+            r?;
+        }
+        self.step_count += 1;
+        self.time += self.dt();
+        Ok(())
+    }
+
+    /// Runs `n` coupled steps, stopping at the first instability.
+    pub fn run(&mut self, n: u64) -> Result<(), Instability> {
+        for _ in 0..n {
+            self.step()?;
+        }
+        Ok(())
+    }
+
+    /// Each stage's share of the wall time so far.
+    pub fn stage_shares(&self) -> Vec<(&'static str, f64)> {
+        crate::stages::time_shares(self.stages().iter().map(|s| s.name).zip(&self.timings))
+    }
+
+    pub(super) fn run_stage(&mut self, kind: CoupledStageKind) -> Result<(), Instability> {
+        match (kind, self.method) {
+            (CoupledStageKind::FluidGeometry, Method::Weak(o)) => self.polygon_geometry(o),
+            (CoupledStageKind::FluidGeometry, Method::Conserving(o)) => self.level_set_geometry(o),
+            (CoupledStageKind::Fluid, Method::Weak(_)) => self.fluid.step(),
+            (CoupledStageKind::Fluid, Method::Conserving(_)) => self.fluid_step_with_exchange(),
+            (CoupledStageKind::SurfaceTraction, Method::Weak(o)) => {
+                self.surface_traction(o);
+                Ok(())
+            }
+            (CoupledStageKind::MomentumExchange, Method::Conserving(_)) => {
+                self.momentum_exchange();
+                Ok(())
+            }
+            (CoupledStageKind::Solid, _) => self.solid_substeps(),
+            // a stage of the other method's list
+            (CoupledStageKind::SurfaceTraction, Method::Conserving(_)) | (CoupledStageKind::MomentumExchange, Method::Weak(_)) => Ok(()),
+        }
+    }
+
+    /// The air's forces become the particles' loads (on top of the scene's own loads).
+    pub(super) fn apply_forces(&mut self) {
+        let p = &mut self.solid.particles;
+        for i in 0..p.len() {
+            p.load[i] = self.base_load[i] + self.forces.force[i];
+        }
+    }
+
+    /// Solid sub-steps over the fluid step; prescribed bodies follow their motion.
+    fn solid_substeps(&mut self) -> Result<(), Instability> {
+        let dts = self.solid.dt;
+        for k in 0..self.substeps {
+            if let Err(mut e) = self.solid.step() {
+                // stamped with the coupled step and time
+                e.reason = format!("{} (solid sub-step {} of {})", e.reason, k + 1, self.substeps);
+                (e.step, e.time) = (self.step_count, self.time);
+                return Err(e);
+            }
+            let t = self.time + (k + 1) as f64 * dts;
+            for b in &self.bodies {
+                if let Some(m) = &b.motion {
+                    m.apply(&mut self.solid.particles, b.surface.body, t);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Lattice coordinates of a physical position (z = 0 in 2D, the plane of the nodes).
+    pub fn to_lattice(&self, x: DVec3) -> [f64; 3] {
+        let u = &self.units;
+        let z = if self.fluid.layout.grid.dim == 3 { u.position_to_lattice(x.z) } else { 0.0 };
+        [u.position_to_lattice(x.x), u.position_to_lattice(x.y), z]
+    }
+
+    /// Linear momentum of the air (Σ ρu over fluid nodes) and of the particles (Σ m v),
+    /// physical units (per unit depth in 2D).
+    pub fn momentum(&self) -> (DVec3, DVec3) {
+        (self.fluid_momentum(&self.fluid.totals()), self.solid.particles.linear_momentum())
+    }
+
+    /// The air's momentum Σ ρu of fluid `totals` (lattice units) in physical units.
+    pub fn fluid_momentum(&self, totals: &Totals) -> DVec3 {
+        DVec3::from_array(totals.momentum) * self.momentum_unit()
+    }
+
+    /// Physical momentum of one lattice unit of momentum in one cell (ρ₀ U Δx^D).
+    pub fn momentum_unit(&self) -> f64 {
+        let u = &self.units;
+        u.density * u.velocity * u.dx.powi(self.fluid.layout.grid.dim as i32)
+    }
+}
+
+impl crate::step::Solver for CoupledSolver {
+    fn step(&mut self) -> Result<(), Instability> {
+        CoupledSolver::step(self)
+    }
+    fn step_count(&self) -> u64 {
+        self.step_count
+    }
+    fn stage_shares(&self) -> Vec<(&'static str, f64)> {
+        CoupledSolver::stage_shares(self)
+    }
+}
