@@ -183,6 +183,8 @@ pub fn two_mass_speed_vs_error() -> Vec<TwoMassSpeed> {
 /// One resolution of the coupled speed-vs-error table.
 #[derive(Clone, Debug, Serialize)]
 pub struct CoupledSpeed {
+    /// "method 1" (weak) or "method 2" (momentum-conserving).
+    pub method: &'static str,
     pub cells_per_diameter: usize,
     pub nodes: usize,
     pub particles: usize,
@@ -199,15 +201,23 @@ pub struct CoupledSpeed {
     pub stage_shares: Vec<(String, f64)>,
 }
 
-/// The coupled rows: D = 10, 20, 30 cells (quick: 10, 20) for `duration` simulated seconds.
+/// The coupled rows: D = 10, 20, 30 cells (quick: 10, 20) for `duration` simulated seconds,
+/// method 1 then method 2 (each against its own finest run).
 pub fn coupled_speed_vs_error(quick: bool) -> Vec<CoupledSpeed> {
     use crate::coupling::TractionModel;
-    use crate::validation::fsi::{CylinderBody, ST_2D1_DRAG, schafer_turek_2d1};
+    use crate::validation::fsi::CylinderBody;
     let (sizes, duration): (&[usize], f64) = if quick { (&[10, 20], 0.1) } else { (&[10, 20, 30], 1.0) };
-    let runs: Vec<_> = sizes.iter().map(|&d| (d, schafer_turek_2d1(d, 0.1, duration, CylinderBody::WeakCoupled(TractionModel::PressureAndShear)))).collect();
+    let methods = [("method 1", CylinderBody::WeakCoupled(TractionModel::PressureAndShear)), ("method 2", CylinderBody::ConservingCoupled)];
+    methods.into_iter().flat_map(|(name, body)| coupled_rows(name, body, sizes, duration)).collect()
+}
+
+fn coupled_rows(method: &'static str, body: crate::validation::fsi::CylinderBody, sizes: &[usize], duration: f64) -> Vec<CoupledSpeed> {
+    use crate::validation::fsi::{ST_2D1_DRAG, schafer_turek_2d1};
+    let runs: Vec<_> = sizes.iter().map(|&d| (d, schafer_turek_2d1(d, 0.1, duration, body))).collect();
     let finest = runs.last().map(|(_, r)| r.drag_coefficient).unwrap_or(f64::NAN);
     runs.into_iter()
         .map(|(d, r)| CoupledSpeed {
+            method,
             cells_per_diameter: d,
             nodes: (22 * d) * (41 * d / 10),
             particles: r.particles,

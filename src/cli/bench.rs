@@ -112,15 +112,16 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             cpu_gas = Some(v.site_updates_per_s);
         }
         if !r.coupled.is_empty() {
-            println!("coupled, weak (method 1), clamped elastic cylinder, Schäfer–Turek 2D-1 (Mach 0.1): speed vs error");
+            println!("coupled, clamped elastic cylinder, Schäfer–Turek 2D-1 (Mach 0.1): speed vs error, method 1 (weak) and 2 (momentum-conserving)");
             println!(
-                "{:>4} {:>8} {:>9} {:>8} {:>12} {:>14} {:>8} {:>10} {:>10}",
-                "D", "nodes", "particles", "substeps", "steps/s", "wall s / sim s", "C_D", "vs finest", "vs 5.5795"
+                "{:>8} {:>4} {:>8} {:>9} {:>8} {:>12} {:>14} {:>8} {:>10} {:>10}",
+                "method", "D", "nodes", "particles", "substeps", "steps/s", "wall s / sim s", "C_D", "vs finest", "vs 5.5795"
             );
         }
         for c in &r.coupled {
             println!(
-                "{:>4} {:>8} {:>9} {:>8} {:>12.1} {:>14.1} {:>8.4} {:>9.2}% {:>9.2}%",
+                "{:>8} {:>4} {:>8} {:>9} {:>8} {:>12.1} {:>14.1} {:>8.4} {:>9.2}% {:>9.2}%",
+                c.method,
                 c.cells_per_diameter,
                 c.nodes,
                 c.particles,

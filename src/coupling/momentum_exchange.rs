@@ -28,7 +28,7 @@
 use crate::fluid::FluidSolver;
 use crate::fluid::layout::NodeKind;
 use crate::stages::{RkStage, Stage, StageKind};
-use glam::{DVec3, DVec4};
+use glam::DVec4;
 
 /// The weight of an advection stage's face fluxes in the step's result: the stage's
 /// advection factor times Δt, times ½ for the first Heun stage (fⁿ⁺¹ = ½ fⁿ + ½ f¹ + …);
@@ -130,6 +130,7 @@ pub fn step_with_exchange(fluid: &mut FluidSolver, reference: Option<&[f64]>) ->
 mod tests {
     use super::*;
     use crate::fluid::{Boundaries, Equilibrium, GasModel, Grid, Macro, Obstacle, Shape, VelocitySet, VelocitySetKind, timestep};
+    use glam::DVec3;
 
     /// A fixed disc in a fully periodic box of air moving at Mach ≈ 0.1 with a pressure bump:
     /// over every step, the air's momentum changes by exactly minus what the wall nodes

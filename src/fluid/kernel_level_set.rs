@@ -28,6 +28,11 @@ pub struct KernelLevelSet {
     pub phi: f64,
     /// Bounding box of the points grown by r_e (min, max).
     bounds: ([f64; 3], [f64; 3]),
+    /// Bins of side r_e over the box: bin b holds the points `order[start[b]..start[b + 1]]`,
+    /// so that a point's kernel sum visits the 3ᴰ bins around it only.
+    bins: [usize; 3],
+    start: Vec<u32>,
+    order: Vec<u32>,
 }
 
 /// Smallest |∇L| (per cell) used in −L/|∇L|: deep inside a body, or far outside it, where L is
@@ -45,7 +50,25 @@ impl KernelLevelSet {
                 hi[a] = hi[a].max(p[a] + re);
             }
         }
-        KernelLevelSet { points, velocities, re, r_min, phi, bounds: (lo, hi) }
+        let bins: [usize; 3] = std::array::from_fn(|a| if points.is_empty() { 1 } else { (((hi[a] - lo[a]) / re).ceil() as usize).max(1) });
+        let mut s = KernelLevelSet { points, velocities, re, r_min, phi, bounds: (lo, hi), bins, start: Vec::new(), order: Vec::new() };
+        let n_bins = bins[0] * bins[1] * bins[2];
+        let key: Vec<usize> = s.points.iter().map(|p| s.bin_of(*p).expect("a point lies in its own box")).collect();
+        let mut count = vec![0u32; n_bins + 1];
+        for &k in &key {
+            count[k + 1] += 1;
+        }
+        for b in 0..n_bins {
+            count[b + 1] += count[b];
+        }
+        let mut fill = count.clone();
+        let mut order = vec![0u32; key.len()];
+        for (j, &k) in key.iter().enumerate() {
+            order[fill[k] as usize] = j as u32;
+            fill[k] += 1;
+        }
+        (s.start, s.order) = (count, order);
+        s
     }
 
     fn near(&self, p: [f64; 3]) -> bool {
@@ -53,10 +76,31 @@ impl KernelLevelSet {
         (0..3).all(|a| p[a] >= lo[a] && p[a] <= hi[a])
     }
 
+    fn cell_of(&self, p: [f64; 3]) -> [i64; 3] {
+        std::array::from_fn(|a| ((p[a] - self.bounds.0[a]) / self.re).floor() as i64)
+    }
+
+    fn bin_of(&self, p: [f64; 3]) -> Option<usize> {
+        let c = self.cell_of(p);
+        (0..3).all(|a| c[a] >= 0 && (c[a] as usize) < self.bins[a]).then(|| (c[2] as usize * self.bins[1] + c[1] as usize) * self.bins[0] + c[0] as usize)
+    }
+
+    /// The particles in the bins around `p` (every particle within r_e of it, and some more).
+    fn candidates(&self, p: [f64; 3]) -> impl Iterator<Item = usize> + '_ {
+        let near = self.near(p);
+        let c = self.cell_of(p);
+        let b = self.bins;
+        let range = move |a: usize| (c[a] - 1).max(0)..=(c[a] + 1).min(b[a] as i64 - 1);
+        range(2)
+            .filter(move |_| near)
+            .flat_map(move |z| range(1).flat_map(move |y| range(0).map(move |x| (z as usize * b[1] + y as usize) * b[0] + x as usize)))
+            .flat_map(move |bin| self.order[self.start[bin] as usize..self.start[bin + 1] as usize].iter().map(|&j| j as usize))
+    }
+
     /// The kernel weight of every particle within r_e of `p`: (particle, w) (2.124).
     pub fn weights(&self, p: [f64; 3]) -> impl Iterator<Item = (usize, f64)> + '_ {
-        let near = self.near(p);
-        self.points.iter().enumerate().filter(move |_| near).filter_map(move |(j, x)| {
+        self.candidates(p).filter_map(move |j| {
+            let x = self.points[j];
             let r = ((x[0] - p[0]).powi(2) + (x[1] - p[1]).powi(2) + (x[2] - p[2]).powi(2)).sqrt();
             (r <= self.re).then(|| (j, self.re / r.max(self.r_min) - 1.0))
         })
@@ -66,10 +110,8 @@ impl KernelLevelSet {
     pub fn level(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
         let mut l = -self.phi;
         let mut g = [0.0; 3];
-        if !self.near(p) {
-            return (l, g);
-        }
-        for x in &self.points {
+        for j in self.candidates(p) {
+            let x = &self.points[j];
             let d = [p[0] - x[0], p[1] - x[1], p[2] - x[2]];
             let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
             if r > self.re {
@@ -177,6 +219,27 @@ mod tests {
         // Far away: positive, no particle seen.
         assert!(s.sdf([20.0, 20.0, 0.0]) > 10.0);
         assert_eq!(s.weights([20.0, 20.0, 0.0]).count(), 0);
+    }
+
+    /// The binned kernel sum equals the sum over every particle (a scattered cloud, points
+    /// in and out of its box).
+    #[test]
+    fn the_binned_sum_sees_every_particle_within_reach() {
+        let pts: Vec<[f64; 3]> = (0..300).map(|k| {
+            let t = k as f64 * 0.618_033_988_75;
+            [10.0 + 6.0 * (t * 7.1).sin() * t.fract(), 9.0 + 5.0 * (t * 3.3).cos() * (1.0 - t.fract()), 0.0]
+        }).collect();
+        let s = KernelLevelSet::new(pts.clone(), vec![[0.0; 3]; pts.len()], 2.2, 0.1, 3.0);
+        for k in 0..200 {
+            let p = [2.0 + 0.09 * k as f64, 1.0 + 0.085 * k as f64, 0.0];
+            let brute: f64 = pts.iter().map(|x| {
+                let r = ((x[0] - p[0]).powi(2) + (x[1] - p[1]).powi(2)).sqrt();
+                if r <= 2.2 { 2.2 / r.max(0.1) - 1.0 } else { 0.0 }
+            }).sum::<f64>() - 3.0;
+            let (l, _) = s.level(p);
+            assert!((l - brute).abs() < 1e-9 * brute.abs().max(1.0), "{p:?}: {l} vs {brute}");
+            assert_eq!(s.weights(p).count(), pts.iter().filter(|x| ((x[0] - p[0]).powi(2) + (x[1] - p[1]).powi(2)).sqrt() <= 2.2).count());
+        }
     }
 
     /// (2.130): two particles' velocities mix in the ratio of their kernel weights.

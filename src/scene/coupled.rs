@@ -156,7 +156,8 @@ impl CoupledScene {
         if coupling.output_every == Some(0) {
             return err("coupling.output_every", "must be at least 1");
         }
-        // The weak coupling hands the air's force to the solid one step late: with air denser
+        // Both couplings hand the air's force to the solid one step late (method 2's added mass
+        // in the implicit solve, 2.129, is not built): with air denser
         // than the body its added mass makes that explicit exchange unstable. Measured: a free
         // disc hit by a pressure pulse is stable at ρ_f/ρ_s = 5 and diverges at 6.7
         // (validation::fsi::added_mass_stability); a clamped one (fsi_cylinder) holds to 30;
