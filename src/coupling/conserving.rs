@@ -3,8 +3,9 @@
 //!
 //! 1. **fluid_geometry** — every body's particles define a level set on the lattice (2.124);
 //!    its zero contour is the wall the fluid sees (a [`KernelLevelSet`] obstacle: the ghost
-//!    nodes take the wall position −L/|∇L| and normal −∇L/|∇L| (2.125–2.126) and the wall
-//!    velocity interpolated from the particles with the kernel weights, 2.130). A node the
+//!    nodes take their depth by Newton steps on L (the zero crossing of 2.125, found along ∇L
+//!    rather than along a lattice link), the normal −∇L/|∇L| (2.126) and the wall velocity
+//!    interpolated from the particles with the kernel weights, 2.130). A node the
 //!    body covers leaves the fluid with its momentum, which the body receives; a node it
 //!    uncovers enters the fluid with momentum the body gives up.
 //! 2. **fluid** — one FDLB step; the momentum each wall node takes out of the air through its
@@ -31,7 +32,7 @@ use super::momentum_exchange::step_with_exchange;
 use super::solver::{CoupledBody, CoupledSolver};
 use crate::fluid::layout::NodeKind;
 use crate::fluid::{KernelLevelSet, Macro, Obstacle, Shape};
-use crate::step::{Instability, Part, Site};
+use crate::step::{Instability, Site};
 use glam::{DVec3, DVec4};
 
 /// Options of the momentum-conserving coupling.
@@ -167,16 +168,7 @@ impl CoupledSolver {
         if let Some(old) = &ex.built {
             let (i, d) = old.iter().zip(&points).map(|(a, b)| (*a - *b).length()).enumerate().fold((0, 0.0), |m, (i, d)| if d > m.1 { (i, d) } else { m });
             if d > o.max_cells_per_step {
-                return Err(Instability {
-                    part: Part::Coupling,
-                    step: self.step_count,
-                    time: self.time,
-                    time_unit: "s",
-                    site: Site::Particle(i),
-                    quantity: "particle displacement in one step (cells)",
-                    value: d,
-                    reason: format!("a particle may move at most {} cell per fluid step (use a smaller time step or a slower body)", o.max_cells_per_step),
-                });
+                return Err(self.moved_too_far(Site::Particle(i), "particle displacement in one step (cells)", d, o.max_cells_per_step));
             }
         }
         self.rebuild_level_set_walls();

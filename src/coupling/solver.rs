@@ -15,7 +15,7 @@ use super::weak::WeakOptions;
 use crate::fluid::{FluidSolver, GeometryChange, Obstacle, Polygon, Totals};
 use crate::solid::{Integrator, SolidSolver};
 use crate::stages::{COUPLED_CONSERVING_STEP, COUPLED_WEAK_STEP, CoupledStage, CoupledStageKind};
-use crate::step::Instability;
+use crate::step::{Instability, Part, Site};
 use crate::units::Units;
 use glam::DVec3;
 use std::time::{Duration, Instant};
@@ -223,6 +223,20 @@ impl CoupledSolver {
             }
         }
         Ok(())
+    }
+
+    /// The instability of a wall that moved `value` cells in one step, more than `limit`.
+    pub(super) fn moved_too_far(&self, site: Site, quantity: &'static str, value: f64, limit: f64) -> Instability {
+        Instability {
+            part: Part::Coupling,
+            step: self.step_count,
+            time: self.time,
+            time_unit: "s",
+            site,
+            quantity,
+            value,
+            reason: format!("a wall may move at most {limit} cell per fluid step (use a smaller time step or a slower body)"),
+        }
     }
 
     /// Lattice coordinates of a physical position (z = 0 in 2D, the plane of the nodes).

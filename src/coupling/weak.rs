@@ -22,7 +22,7 @@
 use super::solver::CoupledSolver;
 use super::traction::{TractionModel, surface_forces};
 use crate::fluid::{Obstacle, Polygon, Shape};
-use crate::step::{Instability, Part, Site};
+use crate::step::{Instability, Site};
 
 /// Options of the weak coupling.
 #[derive(Clone, Copy, Debug)]
@@ -66,19 +66,7 @@ impl CoupledSolver {
             for (k, (a, b)) in old.iter().zip(&polys).enumerate() {
                 let d = a.vertices.iter().zip(&b.vertices).map(|(p, q)| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt()).fold(0.0, f64::max);
                 if d > o.max_cells_per_step {
-                    return Err(Instability {
-                        part: Part::Coupling,
-                        step: self.step_count,
-                        time: self.time,
-                        time_unit: "s",
-                        site: Site::Body(self.bodies[k].surface.body),
-                        quantity: "surface displacement in one step (cells)",
-                        value: d,
-                        reason: format!(
-                            "a surface may move at most {} cell per fluid step (use a smaller time step or a slower body)",
-                            o.max_cells_per_step
-                        ),
-                    });
+                    return Err(self.moved_too_far(Site::Body(self.bodies[k].surface.body), "surface displacement in one step (cells)", d, o.max_cells_per_step));
                 }
                 // Wall velocities change even when the vertices do not (a body set moving).
                 moved |= d > 0.0 || a.velocities != b.velocities;
