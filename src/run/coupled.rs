@@ -265,7 +265,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
     let report = CoupledReport {
         name: fluid_scene.file.name.clone(),
         backend: format!("cpu ({} threads)", rayon::current_num_threads()),
-        method: "weak".into(),
+        method: sc.coupling.method.name().into(),
         nodes: fluid_scene.grid.n,
         particles: p.len(),
         substeps: c.substeps,

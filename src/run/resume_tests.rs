@@ -108,6 +108,8 @@ fn a_coupled_glottis_run_resumed_is_bit_identical() {
 fn a_method_2_run_resumed_is_bit_identical() {
     // the level-set walls are rebuilt from the particle positions in the checkpoint
     let (_, ck) = interrupted_equals_whole("conserving", CONSERVING, 40, &["coupling.csv"]);
+    let summary = std::fs::read_to_string(ck.parent().unwrap().join("summary.json")).unwrap();
+    assert!(summary.contains("\"method\": \"momentum_conserving\"") || summary.contains("\"method\":\"momentum_conserving\""), "{summary}");
     let _ = std::fs::remove_dir_all(ck.parent().unwrap());
 }
 

@@ -36,6 +36,16 @@ pub enum CouplingMethod {
     MomentumConserving,
 }
 
+impl CouplingMethod {
+    /// The name scene files use.
+    pub fn name(self) -> &'static str {
+        match self {
+            CouplingMethod::Weak => "weak",
+            CouplingMethod::MomentumConserving => "momentum_conserving",
+        }
+    }
+}
+
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MotionSpec {
