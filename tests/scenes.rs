@@ -488,7 +488,8 @@ fn every_scene_key_changes_the_state_or_is_refused() {
             None => v.as_table_mut().unwrap().get_mut(k).unwrap(),
         })
     }
-    let small = ["lid_cavity", "two_blocks", "cantilever", "oscillating_plate", "orthotropic_block", "fsi_cylinder", "fsi_cylinder_conserving", "glottis_2d_coarse"];
+    let small =
+        ["lid_cavity", "two_blocks", "cantilever", "oscillating_plate", "orthotropic_block", "fsi_cylinder", "fsi_cylinder_conserving", "glottis_2d_coarse"];
     let mut ignored = Vec::new();
     let mut checked = 0;
     for name in small {

@@ -107,7 +107,10 @@ fn run_two_mass(sc: &TwoMassScene, dir: &Path, steps: Option<u64>, backend: Back
 fn run_coupled(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> anyhow::Result<()> {
     eprintln!(
         "coupled scene {}: {:?} nodes, about {} particles, {} coupling",
-        sc.fluid.file.name, sc.fluid.grid.n, sc.solid.estimated_particles, sc.coupling.method.name()
+        sc.fluid.file.name,
+        sc.fluid.grid.n,
+        sc.solid.estimated_particles,
+        sc.coupling.method.name()
     );
     let r = phonation::run::coupled::run_coupled_scene(sc, dir, opts)?;
     eprintln!("backend: {}", r.backend);

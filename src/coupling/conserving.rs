@@ -85,7 +85,16 @@ impl Exchange {
         let mut shell_w = vec![0.0; eq.set.shells.len()];
         eq.feq_into(&Macro { rho: 1.0, u: [0.0; 3], theta: c.units.theta0 }, &mut shell_w, &mut reference);
         let phi = c.bodies.iter().map(|b| c.surface_level(b, o)).collect();
-        Exchange { phi, reference, wall: vec![DVec4::ZERO; c.fluid.layout.grid.len()], built: None, walls: DVec3::ZERO, node_changes: DVec3::ZERO, mass_to_walls: 0.0, wall_frame: DVec3::ZERO }
+        Exchange {
+            phi,
+            reference,
+            wall: vec![DVec4::ZERO; c.fluid.layout.grid.len()],
+            built: None,
+            walls: DVec3::ZERO,
+            node_changes: DVec3::ZERO,
+            mass_to_walls: 0.0,
+            wall_frame: DVec3::ZERO,
+        }
     }
 
     /// Forgets the momentum booked so far (the air inside the bodies at the start).

@@ -8,8 +8,8 @@
 //! fold's by multiplying with its `length` (the seed's 1.4 cm), so that areas are cm² and flows
 //! cm³/s as in the two-mass model and the literature.
 
-use super::surface::BodySurface;
 use super::solver::CoupledSolver;
+use super::surface::BodySurface;
 use crate::fluid::layout::NodeKind;
 use crate::solid::Particles;
 use glam::DVec3;

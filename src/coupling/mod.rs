@@ -28,7 +28,7 @@ pub mod weak;
 
 pub use conserving::ConservingOptions;
 pub use motion::Motion;
+pub use solver::{CoupledBody, CoupledSolver, CouplingSetupError, Method};
 pub use surface::{BodySurface, ReferenceShape, SurfaceError};
 pub use traction::{SurfaceForces, TractionModel, surface_forces};
-pub use solver::{CoupledBody, CoupledSolver, CouplingSetupError, Method};
 pub use weak::WeakOptions;

@@ -67,7 +67,9 @@ pub fn add_face_fluxes(fluid: &FluidSolver, weight: f64, reference: Option<&[f64
     let cv = |i: usize| DVec4::new(c[i][0] as f64, c[i][1] as f64, c[i][2] as f64, 1.0);
     for node in 0..grid.len() {
         // Only a fluid node with a wall next to it along an axis has a wall face.
-        if kind[node] != NodeKind::Fluid || !(0..grid.dim).any(|a| is_wall(kind[at(node, grid.stride[a] as isize)]) || is_wall(kind[at(node, -(grid.stride[a] as isize))])) {
+        if kind[node] != NodeKind::Fluid
+            || !(0..grid.dim).any(|a| is_wall(kind[at(node, grid.stride[a] as isize)]) || is_wall(kind[at(node, -(grid.stride[a] as isize))]))
+        {
             continue;
         }
         for (i, ci) in c.iter().enumerate().take(q) {

@@ -80,7 +80,14 @@ impl CoupledSolver {
     /// Couples `fluid` (with its rigid `obstacles`, lattice units) and `solid` through the
     /// `bodies` by `method`. The solid's sub-step is the largest that divides the fluid's step
     /// into equal parts and does not exceed the solid's own step.
-    pub fn new(fluid: FluidSolver, mut solid: SolidSolver, units: Units, bodies: Vec<CoupledBody>, obstacles: Vec<Obstacle>, method: Method) -> Result<Self, CouplingSetupError> {
+    pub fn new(
+        fluid: FluidSolver,
+        mut solid: SolidSolver,
+        units: Units,
+        bodies: Vec<CoupledBody>,
+        obstacles: Vec<Obstacle>,
+        method: Method,
+    ) -> Result<Self, CouplingSetupError> {
         if matches!(method, Method::Weak(_)) && solid.options.integrator != Integrator::Explicit {
             return Err(CouplingSetupError::NeedsExplicitSolid);
         }

@@ -225,17 +225,23 @@ mod tests {
     /// in and out of its box).
     #[test]
     fn the_binned_sum_sees_every_particle_within_reach() {
-        let pts: Vec<[f64; 3]> = (0..300).map(|k| {
-            let t = k as f64 * 0.618_033_988_75;
-            [10.0 + 6.0 * (t * 7.1).sin() * t.fract(), 9.0 + 5.0 * (t * 3.3).cos() * (1.0 - t.fract()), 0.0]
-        }).collect();
+        let pts: Vec<[f64; 3]> = (0..300)
+            .map(|k| {
+                let t = k as f64 * 0.618_033_988_75;
+                [10.0 + 6.0 * (t * 7.1).sin() * t.fract(), 9.0 + 5.0 * (t * 3.3).cos() * (1.0 - t.fract()), 0.0]
+            })
+            .collect();
         let s = KernelLevelSet::new(pts.clone(), vec![[0.0; 3]; pts.len()], 2.2, 0.1, 3.0);
         for k in 0..200 {
             let p = [2.0 + 0.09 * k as f64, 1.0 + 0.085 * k as f64, 0.0];
-            let brute: f64 = pts.iter().map(|x| {
-                let r = ((x[0] - p[0]).powi(2) + (x[1] - p[1]).powi(2)).sqrt();
-                if r <= 2.2 { 2.2 / r.max(0.1) - 1.0 } else { 0.0 }
-            }).sum::<f64>() - 3.0;
+            let brute: f64 = pts
+                .iter()
+                .map(|x| {
+                    let r = ((x[0] - p[0]).powi(2) + (x[1] - p[1]).powi(2)).sqrt();
+                    if r <= 2.2 { 2.2 / r.max(0.1) - 1.0 } else { 0.0 }
+                })
+                .sum::<f64>()
+                - 3.0;
             let (l, _) = s.level(p);
             assert!((l - brute).abs() < 1e-9 * brute.abs().max(1.0), "{p:?}: {l} vs {brute}");
             assert_eq!(s.weights(p).count(), pts.iter().filter(|x| ((x[0] - p[0]).powi(2) + (x[1] - p[1]).powi(2)).sqrt() <= 2.2).count());

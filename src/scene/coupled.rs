@@ -120,12 +120,18 @@ impl CoupledScene {
         match coupling.method {
             CouplingMethod::Weak => {
                 if coupling.kernel_radius.is_some() {
-                    return err("coupling.kernel_radius", "is a setting of method = \"momentum_conserving\" (the level set's kernel); the weak coupling has a surface polygon");
+                    return err(
+                        "coupling.kernel_radius",
+                        "is a setting of method = \"momentum_conserving\" (the level set's kernel); the weak coupling has a surface polygon",
+                    );
                 }
             }
             CouplingMethod::MomentumConserving => {
                 if coupling.traction.is_some() {
-                    return err("coupling.traction", "is a setting of method = \"weak\"; method 2 hands the body the air's momentum link by link, not a traction");
+                    return err(
+                        "coupling.traction",
+                        "is a setting of method = \"weak\"; method 2 hands the body the air's momentum link by link, not a traction",
+                    );
                 }
                 if coupling.piece_length.is_some() {
                     return err("coupling.piece_length", "is a setting of method = \"weak\" (its traction quadrature)");
@@ -369,11 +375,7 @@ mod tests {
         let cases: [(&str, &str, &str); 9] = [
             ("method = \"weak\"", "method = \"momentum_conserving\"", "coupling.traction"),
             ("output_every = 10", "output_every = 10\nkernel_radius = 2.0", "coupling.kernel_radius"),
-            (
-                "method = \"weak\"\ntraction = \"pressure_and_shear\"",
-                "method = \"momentum_conserving\"\nkernel_radius = 0.5",
-                "coupling.kernel_radius",
-            ),
+            ("method = \"weak\"\ntraction = \"pressure_and_shear\"", "method = \"momentum_conserving\"\nkernel_radius = 0.5", "coupling.kernel_radius"),
             ("spacing = 0.005 ", "spacing = 0.05 ", "solid.spacing"),
             ("center = [0.2, 0.2], radius = 0.05", "center = [2.18, 0.2], radius = 0.05", "solid.bodies[0]"),
             ("dimension = 2", "dimension = 2\nintegrator = \"implicit\"", "solid.integrator"),

@@ -172,7 +172,8 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, bo
             let f = FluidSolver::new(eq, grid, b, &[], params, init);
             let solid = SolidSolver::new(particles.clone(), vec![material], SolidOptions::default()).expect("valid disc");
             let bodies = vec![CoupledBody { surface: surface.clone(), motion: None }];
-            let mut c = CoupledSolver::new(f, solid, units, bodies, Vec::new(), Method::Weak(WeakOptions { traction, ..Default::default() })).expect("valid coupling");
+            let mut c =
+                CoupledSolver::new(f, solid, units, bodies, Vec::new(), Method::Weak(WeakOptions { traction, ..Default::default() })).expect("valid coupling");
             for k in 1..=steps {
                 c.step().expect("Schäfer–Turek stays stable");
                 if k > average_from {
@@ -388,7 +389,13 @@ pub fn pulse_on_a_free_disc(cells_per_diameter: usize, amplitude: f64, steps: u6
 }
 
 /// [`pulse_on_a_free_disc`] coupled by `method`.
-pub fn pulse_on_a_free_disc_by(method: Method, cells_per_diameter: usize, amplitude: f64, steps: u64, density: f64) -> Result<MomentumResult, crate::step::Instability> {
+pub fn pulse_on_a_free_disc_by(
+    method: Method,
+    cells_per_diameter: usize,
+    amplitude: f64,
+    steps: u64,
+    density: f64,
+) -> Result<MomentumResult, crate::step::Instability> {
     let d = cells_per_diameter as f64;
     let n = 6 * cells_per_diameter;
     let (eq, l1) = d2q21_air();

@@ -159,7 +159,12 @@ pub fn cases() -> Vec<Case> {
             for (name, method) in methods() {
                 match fsi::oscillating_cylinder(method, 8, 0.1, 10_000) {
                     Ok(r) => {
-                        out.push((format!("fluid mass drift over 10⁴ steps ({name}, {} uncovered)", r.uncovered), r.mass_drift, "|Δ| ≤ 0.03".into(), r.mass_drift.abs() <= 0.03));
+                        out.push((
+                            format!("fluid mass drift over 10⁴ steps ({name}, {} uncovered)", r.uncovered),
+                            r.mass_drift,
+                            "|Δ| ≤ 0.03".into(),
+                            r.mass_drift.abs() <= 0.03,
+                        ));
                     }
                     Err(e) => out.push((format!("{name}: {e}"), f64::NAN, "stable".into(), false)),
                 }
@@ -207,7 +212,9 @@ pub fn cases() -> Vec<Case> {
             // ring between the inlet and the constant-pressure outlet). The weakly compressible
             // channel's density near the cylinder is ~1.7 % above ρ₀ at Mach 0.1 (O(Ma²)).
             let mut out = Vec::new();
-            for body in [fsi::CylinderBody::RigidObstacle, fsi::CylinderBody::WeakCoupled(TractionModel::PressureAndShear), fsi::CylinderBody::ConservingCoupled] {
+            for body in
+                [fsi::CylinderBody::RigidObstacle, fsi::CylinderBody::WeakCoupled(TractionModel::PressureAndShear), fsi::CylinderBody::ConservingCoupled]
+            {
                 let r = fsi::schafer_turek_2d1(20, 0.1, 6.0, body);
                 let name = match body {
                     fsi::CylinderBody::RigidObstacle => "rigid obstacle",
