@@ -62,6 +62,9 @@ pub struct Exchange {
     /// Momentum (x, y, z) and mass (w) taken out of the air per padded node in the current
     /// step (lattice units).
     wall: Vec<DVec4>,
+    /// The level sets the walls of the current step were built from (the particles do not move
+    /// before the exchange hands them the momentum).
+    sets: Vec<KernelLevelSet>,
     /// Particle positions (cells) the geometry was last built from.
     pub(super) built: Option<Vec<DVec3>>,
     /// Momentum handed over the run to walls that are no coupled body (rigid obstacles, face
@@ -89,6 +92,7 @@ impl Exchange {
             phi,
             reference,
             wall: vec![DVec4::ZERO; c.fluid.layout.grid.len()],
+            sets: Vec::new(),
             built: None,
             walls: DVec3::ZERO,
             node_changes: DVec3::ZERO,
@@ -189,13 +193,15 @@ impl CoupledSolver {
     /// momentum to the walls (covered: the air's momentum to the body; uncovered: the body
     /// pays for the fresh node's).
     pub(super) fn rebuild_level_set_walls(&mut self) {
+        let sets = self.level_sets();
         let mut all = self.obstacles.clone();
-        all.extend(self.level_sets().into_iter().map(|k| Obstacle { shape: Shape::KernelLevelSet(k), velocity: [0.0; 3], temperature: None }));
+        all.extend(sets.iter().cloned().map(|k| Obstacle { shape: Shape::KernelLevelSet(k), velocity: [0.0; 3], temperature: None }));
         let was: Vec<bool> = self.fluid.layout.kind.iter().map(|k| *k == NodeKind::Fluid).collect();
         let ch = self.fluid.set_obstacles(&all);
         let q = self.fluid.eq.q();
         let unit = self.momentum_unit();
         let ex = self.exchange.as_mut().expect("method 2");
+        ex.sets = sets;
         for (node, was) in was.into_iter().enumerate() {
             let is = self.fluid.layout.kind[node] == NodeKind::Fluid;
             if was == is {
@@ -226,7 +232,6 @@ impl CoupledSolver {
     pub(super) fn momentum_exchange(&mut self) {
         let to_physical = self.momentum_unit();
         let dt = self.dt();
-        let sets = self.level_sets();
         let p = &self.solid.particles;
         // particle index of each level set's j-th point
         let members: Vec<Vec<usize>> = self.bodies.iter().map(|b| (0..p.len()).filter(|&i| p.body[i] == b.surface.body).collect()).collect();
@@ -243,13 +248,16 @@ impl CoupledSolver {
             let w = w4.truncate();
             let x = grid.coords(node);
             let at = [x[0] as f64, x[1] as f64, x[2] as f64];
+            // (particle, weight, its velocity in c units)
+            let weights: Vec<(usize, f64, DVec3)> =
+                ex.sets.iter().zip(&members).flat_map(|(s, m)| s.weights(at).map(move |(j, wj)| (m[j], wj, DVec3::from_array(s.velocities[j])))).collect();
+            let sum: f64 = weights.iter().map(|(_, wj, _)| wj).sum();
+            // the wall velocity there (2.130), for the wall-frame diagnostic
+            let uw = if sum > 0.0 { weights.iter().map(|(_, wj, v)| *wj * *v).sum::<DVec3>() / sum } else { DVec3::ZERO };
             ex.mass_to_walls += w4.w;
-            let uw = sets.iter().find_map(|s| s.weights(at).next().map(|_| DVec3::from_array(s.velocity_at(at)))).unwrap_or(DVec3::ZERO);
             ex.wall_frame += (w - uw * w4.w) * to_physical;
-            let weights: Vec<(usize, f64)> = sets.iter().zip(&members).flat_map(|(s, m)| s.weights(at).map(move |(j, wj)| (m[j], wj))).collect();
-            let sum: f64 = weights.iter().map(|(_, wj)| wj).sum();
             if sum > 0.0 {
-                for (i, wj) in weights {
+                for (i, wj, _) in weights {
                     let f = (wj / sum) * w * to_physical / dt;
                     force[i] += f;
                     if let Some(b) = body_of[i] {

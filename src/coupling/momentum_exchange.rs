@@ -27,18 +27,16 @@
 
 use crate::fluid::FluidSolver;
 use crate::fluid::layout::NodeKind;
-use crate::stages::{RkStage, Stage, StageKind};
+use crate::stages::{Stage, StageKind};
 use glam::DVec4;
 
 /// The weight of an advection stage's face fluxes in the step's result: the stage's
 /// advection factor times Δt, times ½ for the first Heun stage (fⁿ⁺¹ = ½ fⁿ + ½ f¹ + …);
 /// `None` for the stages that do not advect.
+/// Both Heun stages come to ½Δt: the first advects with factor 1 into f¹, which enters with
+/// ½; the second advects with factor ½ into fⁿ⁺¹ directly.
 pub fn stage_weight(stage: &Stage, dt: f64) -> Option<f64> {
-    match (stage.kind, stage.rk) {
-        (StageKind::Advect, RkStage::First) => Some(0.5 * dt),
-        (StageKind::Advect, RkStage::Second) => Some(0.5 * dt),
-        _ => None,
-    }
+    (stage.kind == StageKind::Advect).then_some(0.5 * dt)
 }
 
 /// Whether the fluid's stencils read `kind` as a wall (not fluid, not a periodic copy).
