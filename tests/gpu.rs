@@ -27,7 +27,8 @@ fn context() -> Option<GpuContext> {
 }
 
 /// A 2D channel with an inlet, an outlet, walls, a moving lid segment and a cylinder; or a 3D
-/// box periodic in x with walls and a sphere. Diatomic gas, A > 0, body force: every code path.
+/// box with slip (mirror) faces in x, walls, an inlet, an outlet and a sphere (periodic faces
+/// are covered by the GPU validations). Diatomic gas, A > 0, body force: every code path.
 fn scene(dim3: bool, gas: GasModel) -> FluidSolver {
     let (kind, n) = if dim3 { (VelocitySetKind::D3q39, [12, 10, 8]) } else { (VelocitySetKind::D2q21, [40, 24, 1]) };
     let vs = VelocitySet::new(kind);
@@ -37,6 +38,8 @@ fn scene(dim3: bool, gas: GasModel) -> FluidSolver {
     let mut b = Boundaries::periodic();
     let obstacles;
     if dim3 {
+        b.faces[0] = FaceCondition::Slip;
+        b.faces[1] = FaceCondition::Slip;
         b.faces[2] = FaceCondition::Wall { velocity: [0.0; 3], temperature: Some(0.6) };
         b.faces[3] = FaceCondition::Wall { velocity: [0.05, 0.0, 0.0], temperature: None };
         b.faces[4] = FaceCondition::Outlet;

@@ -4,6 +4,7 @@
 
 pub mod fit;
 pub mod lag;
+pub mod oscillation;
 pub mod pitch;
 pub mod resample;
 pub mod spectrum;

@@ -119,6 +119,15 @@ fn run_coupled(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> anyhow::Resu
         r.particles, r.substeps, r.steps, r.simulated_s, r.wall_s, r.coupled_steps_per_s, r.final_forces, r.max_displacement, r.fluid_mass_drift
     );
     eprintln!("stage shares: {}", r.stage_shares.iter().map(|(n, s)| format!("{n} {:.0}%", 100.0 * s)).collect::<Vec<_>>().join(", "));
+    for p in &r.particle_probes {
+        match &p.oscillation {
+            Some(o) => eprintln!(
+                "probe {}: largest |dy| {:.4e}; from t = {:.3} s: {} cycles at {:.4} Hz, last half range {:.4e}, mean {:.3e}",
+                p.name, p.max_abs_dy, p.window_start_s, o.cycles, o.frequency, o.last_half_range, o.mean
+            ),
+            None => eprintln!("probe {}: largest |dy| {:.4e}; fewer than two cycles from t = {:.3} s", p.name, p.max_abs_dy, p.window_start_s),
+        }
+    }
     eprintln!("state hash {} (BLAKE3 of the final state: equal for bit-identical runs)", r.state_hash);
     eprintln!("outputs in {}", dir.display());
     if let Some(d) = r.instability {

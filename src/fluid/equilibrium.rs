@@ -95,6 +95,13 @@ impl Equilibrium {
         self.q() * self.gas.distributions()
     }
 
+    /// For each value index of a node (f_i, then the diatomic G_i), the index of the value that
+    /// a node mirrored across a plane normal to `axis` holds there.
+    pub fn mirror_permutation(&self, axis: usize) -> Vec<usize> {
+        let q = self.q();
+        (0..self.values_per_node()).map(|v| (v / q) * q + self.set.mirror(axis, v % q)).collect()
+    }
+
     /// Equilibrium (2.78) with B = −1/(2θ):
     /// f⁰_i = F_i(θ) ρ [1 + ξ/θ + ξ²/(2θ²) − u²/(2θ) − ξu²/(2θ²) + ξ³/(6θ³)], ξ = c_i·u.
     /// For the diatomic gas, G⁰_i = f⁰_i E with E = ζθ/2 (2.97–2.98) is written after the f's.

@@ -39,7 +39,8 @@ pub struct Ghost {
 pub struct FaceHalo {
     pub node: usize,
     pub face: Face,
-    /// First interior node on the same line normal to the face.
+    /// First interior node on the same line normal to the face (a slip face: the interior node
+    /// as far inside as the halo node is outside, its mirror image).
     pub source: usize,
 }
 
@@ -216,7 +217,14 @@ impl Layout {
                     let a = (0..3).find(|&a| x[a] < 0 || x[a] >= grid.n[a] as i64).unwrap();
                     let face = if x[a] < 0 { Face::ALL[2 * a] } else { Face::ALL[2 * a + 1] };
                     let mut s = x;
-                    s[a] = if x[a] < 0 { 0 } else { grid.n[a] as i64 - 1 };
+                    let n_a = grid.n[a] as i64;
+                    s[a] = match (boundaries.face(face), x[a] < 0) {
+                        // The mirror image across the plane half a cell outside the last node.
+                        (FaceCondition::Slip, true) => -1 - x[a],
+                        (FaceCondition::Slip, false) => 2 * n_a - 1 - x[a],
+                        (_, true) => 0,
+                        (_, false) => n_a - 1,
+                    };
                     face_halos.push(FaceHalo { node: idx, face, source: grid.index(s) });
                 }
                 NodeKind::Periodic => {

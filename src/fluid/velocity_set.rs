@@ -152,6 +152,14 @@ impl VelocitySet {
         }
     }
 
+    /// Index of the mirror image of velocity `i` across a plane normal to `axis` (c_i with its
+    /// `axis` component negated).
+    pub fn mirror(&self, axis: usize, i: usize) -> usize {
+        let mut v = self.c[i];
+        v[axis] = -v[axis];
+        self.c.iter().position(|w| *w == v).expect("symmetric set")
+    }
+
     /// Index of the velocity opposite to `i` (c_opp = −c_i).
     pub fn opposite(&self, i: usize) -> usize {
         let v = self.c[i];

@@ -338,6 +338,20 @@ struct Entry {
         );
     }
     s += "    for (var k = 0u; k < 5u; k = k + 1u) { mac[k * N + d] = mac[k * N + s]; }\n}\n";
+    // mirror_node: the mirror image of node s across a plane normal to `axis` onto node d (a
+    // slip face; fluid::boundary::mirror_node): values permuted, u[axis] negated.
+    s += "fn mirror_node(s: u32, d: u32, axis: u32) {\n    let N = P.n_nodes;\n";
+    for axis in 0..eq.set.dim {
+        let perm = eq.mirror_permutation(axis);
+        let _ = writeln!(s, "    if (axis == {axis}u) {{");
+        for (v, &p) in perm.iter().enumerate() {
+            let _ = writeln!(s, "        {} = {};", split.at("fv", v, "d"), split.at("fv", p, "s"));
+            let _ = writeln!(s, "        {} = {};", split.at("h", v, "d"), split.at("h", p, "s"));
+        }
+        s += "    }\n";
+    }
+    s += "    for (var k = 0u; k < 5u; k = k + 1u) { mac[k * N + d] = mac[k * N + s]; }\n";
+    s += "    mac[(1u + axis) * N + d] = -mac[(1u + axis) * N + s];\n}\n";
     s += r#"
 // Ghost nodes: image-point state extrapolated through the wall (see fluid::boundary).
 @compute @workgroup_size(WG)
@@ -369,7 +383,8 @@ fn ghost_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     set_node(e.node, m[0] * m[4] / theta, ux, uy, uz, theta, n);
 }
 
-// Inlet / outlet halos: code 0 outlet (copy), 1 pressure inlet, 2 velocity inlet.
+// Inlet / outlet / slip halos: code 0 outlet (copy), 1 pressure inlet, 2 velocity inlet,
+// 3 + axis slip (mirror image).
 @compute @workgroup_size(WG)
 fn face_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let t = thread_index(gid, nwg);
@@ -379,6 +394,10 @@ fn face_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     let s = e.source;
     if (e.code == 0u) {
         copy_node(s, e.node);
+        return;
+    }
+    if (e.code >= 3u) {
+        mirror_node(s, e.node, e.code - 3u);
         return;
     }
     let n = neq_of(s);

@@ -245,6 +245,7 @@ impl GpuFluid {
             let mut e = Entry { node: fh.node as u32, source: fh.source as u32, ..Default::default() };
             match &s.layout.boundaries.faces[fh.face as usize] {
                 FaceCondition::Outlet => e.code = 0,
+                FaceCondition::Slip => e.code = 3 + fh.face.axis() as u32,
                 FaceCondition::PressureInlet { rho, theta } => {
                     e.code = 1;
                     e.rho = *rho as f32;

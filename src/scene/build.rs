@@ -233,6 +233,7 @@ impl FluidScene {
                         FaceCondition::VelocityInlet { velocity: v.map(|x| units.velocity_to_lattice(x)), theta: th, profile: *profile }
                     }
                     FaceSpec::Outlet => FaceCondition::Outlet,
+                    FaceSpec::Slip => FaceCondition::Slip,
                 },
             };
             conds.push(c);

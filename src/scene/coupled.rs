@@ -67,6 +67,10 @@ pub struct CouplingSpec {
     pub output_every: Option<u64>,
     #[serde(default)]
     pub motions: Vec<MotionSpec>,
+    /// Particle probes: the mean displacement of the particles whose reference position lies in
+    /// the box [min, max] (e.g. a flap's tip), written to `coupling.csv` as `<name>_dx`, `_dy`.
+    #[serde(default)]
+    pub probes: Vec<crate::scene::solid::RegionProbe>,
 }
 
 /// Admissible particle spacing per lattice cell l₀/Δx: finer than 0.1 costs particles without
@@ -169,6 +173,17 @@ impl CoupledScene {
         {
             return err("coupling.piece_length", format!("must be in (0, 4] cells, got {p}"));
         }
+        for (k, p) in coupling.probes.iter().enumerate() {
+            let f = format!("coupling.probes[{k}]");
+            let lo = crate::scene::solid::vec3(&format!("{f}.min"), &p.min, dim, false)?;
+            let hi = crate::scene::solid::vec3(&format!("{f}.max"), &p.max, dim, false)?;
+            if (0..dim).any(|a| lo[a] > hi[a]) {
+                return err(format!("{f}.max"), "must not be below min on any axis");
+            }
+            if p.name.is_empty() || !p.name.chars().all(|ch| ch.is_ascii_alphanumeric() || ch == '_') {
+                return err(format!("{f}.name"), format!("must be a non-empty column name of letters, digits and _, got {:?}", p.name));
+            }
+        }
         if coupling.output_every == Some(0) {
             return err("coupling.output_every", "must be at least 1");
         }
@@ -242,6 +257,14 @@ impl CoupledScene {
 
     /// Builds the coupled solver: samples the particles, checks that no free particle lies in
     /// a rigid obstacle, builds each body's surface, allocates the fluid.
+    /// The particles whose reference position lies in particle probe `k`'s box.
+    pub fn probe_particles(&self, p: &crate::solid::Particles, k: usize) -> Vec<usize> {
+        let pr = &self.coupling.probes[k];
+        let v = |x: &[f64]| crate::scene::solid::vec3("", x, p.dim, false).expect("validated by the scene");
+        let (lo, hi) = (v(&pr.min), v(&pr.max));
+        (0..p.len()).filter(|&i| crate::scene::solid::inside(p.reference[i], lo, hi, p.dim)).collect()
+    }
+
     pub fn build(&self) -> Result<CoupledSolver, SceneError> {
         let solid = self.solid.build()?;
         let p = &solid.particles;
@@ -255,6 +278,11 @@ impl CoupledScene {
                     format!("solid.bodies[{}]", p.body[i]),
                     format!("particle {i} at {:?} lies inside obstacles[{j}] and is not clamped", p.reference[i].to_array()),
                 );
+            }
+        }
+        for (k, pr) in self.coupling.probes.iter().enumerate() {
+            if self.probe_particles(p, k).is_empty() {
+                return err(format!("coupling.probes[{k}]"), format!("the box of probe {:?} holds no particle's reference position", pr.name));
             }
         }
         let mut bodies = Vec::new();

@@ -124,6 +124,8 @@ pub enum FaceSpec {
     },
     /// Zero-gradient outflow.
     Outlet,
+    /// Free-slip wall (symmetry plane): no normal flow, no shear stress.
+    Slip,
 }
 
 fn one() -> f64 {

@@ -118,7 +118,8 @@ pub struct BodySpec {
     pub material: usize,
     #[serde(default)]
     pub velocity: Vec<f64>,
-    /// Release in the first clamped–free bending mode along x (clamp at x = 0): tip speed.
+    /// Release in the first clamped–free bending mode along x, measured from the clamp line (the
+    /// far x edge of the clamps that hold the body; x = 0 if none): tip speed.
     pub first_mode_tip_speed: Option<f64>,
     /// … or a vocal fold (seed Fig. 3.9, 2D): `material` is its body layer's.
     pub fold: Option<FoldBodySpec>,
@@ -348,14 +349,23 @@ impl SolidScene {
                 }
             }
             if let Some(v) = b.first_mode_tip_speed {
-                first_mode.push((start..p.len(), hi.x, v));
+                // The clamp line: the far x edge of the clamps that hold this body (x = 0 if none).
+                let root = s
+                    .clamps
+                    .iter()
+                    .filter(|r| (start..p.len()).any(|i| inside(p.reference[i], v3(&r.min), v3(&r.max), dim)))
+                    .map(|r| v3(&r.max).x)
+                    .reduce(f64::max)
+                    .unwrap_or(0.0);
+                first_mode.push((start..p.len(), root, hi.x - root, v));
             }
         }
-        for (range, length, v) in first_mode {
+        for (range, root, length, v) in first_mode {
             let fl = crate::validation::beam::first_mode_shape(length, length);
             for i in range {
-                if !p.fixed[i] && p.reference[i].x >= 0.0 {
-                    p.velocity[i] = DVec3::new(0.0, v * crate::validation::beam::first_mode_shape(p.reference[i].x, length) / fl, 0.0);
+                let x = p.reference[i].x - root;
+                if !p.fixed[i] && x >= 0.0 {
+                    p.velocity[i] = DVec3::new(0.0, v * crate::validation::beam::first_mode_shape(x, length) / fl, 0.0);
                 }
             }
         }

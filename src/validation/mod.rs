@@ -8,6 +8,7 @@ pub mod channel;
 pub mod contact;
 pub mod cylinder;
 pub mod fsi;
+pub mod fsi_flap;
 pub mod fsi_momentum;
 pub mod glottis;
 pub mod riemann;

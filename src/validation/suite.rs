@@ -192,6 +192,12 @@ pub fn cases() -> Vec<Case> {
             }
             out
         }),
+        ("fsi_wall_flap", || {
+            // The Wall flap, both methods, 3 s each at D = 10 cells (~40 min each on 2 cores).
+            let mut out = super::fsi_flap::rows("wall_flap", "method 1");
+            out.extend(super::fsi_flap::rows("wall_flap_conserving", "method 2"));
+            out
+        }),
         ("soak", || {
             // a closed box with a vibrating elastic disc, weak coupling, 10⁵ steps
             match super::soak::soak(super::soak::SOAK_STEPS) {

@@ -1,0 +1,52 @@
+//! The Wall flexible flap (Wall & Ramm 1998; seed 000 §3.2; ../shared/reference "Wall
+//! flexible-flap benchmark") on the built-in scenes `wall_flap` (method 1, weak) and
+//! `wall_flap_conserving` (method 2): D = 10 cells (Δx = 0.1 cm), three particles across the
+//! 0.06 cm flap, lattice Mach 0.1, released in its first bending mode. The tip's transverse
+//! oscillation over the second half of the run against the published envelope of coupled codes:
+//! frequency 2.94–3.31 Hz, largest tip displacement 1.0–1.42 cm. Outputs are kept in
+//! `out/validate/<scene>/`.
+
+use crate::run::coupled::{CoupledReport, run_coupled_scene};
+use crate::scene::coupled::CoupledScene;
+use std::path::PathBuf;
+
+/// Published envelope of the limit cycle (../shared/reference).
+pub const FREQUENCY_HZ: (f64, f64) = (2.94, 3.31);
+pub const TIP_DISPLACEMENT_CM: (f64, f64) = (1.0, 1.42);
+
+/// Runs the built-in flap scene `scene` (for `duration` s instead of the scene's, if given).
+pub fn run(scene: &str, duration: Option<f64>) -> anyhow::Result<CoupledReport> {
+    let sc = CoupledScene::parse(crate::scene::builtin(scene).ok_or_else(|| anyhow::anyhow!("no built-in scene {scene}"))?)?;
+    let steps = duration.map(|d| (d / (sc.fluid.units.time() * sc.fluid.params.dt)).ceil() as u64);
+    let dir = PathBuf::from("out/validate").join(scene);
+    run_coupled_scene(&sc, &dir, &crate::run::RunOptions { show_progress: true, steps, ..Default::default() })
+}
+
+/// The suite's rows for one scene: stable, tip frequency and largest tip displacement in the
+/// envelope.
+pub fn rows(scene: &str, label: &str) -> Vec<(String, f64, String, bool)> {
+    let r = match run(scene, None) {
+        Ok(r) => r,
+        Err(e) => return vec![(format!("{label}: {e}"), f64::NAN, "runs".into(), false)],
+    };
+    let mut out = vec![(
+        format!("{label}: stable (fluid mass drift)"),
+        r.fluid_mass_drift,
+        r.instability.clone().unwrap_or_else(|| "finite".into()),
+        r.instability.is_none(),
+    )];
+    let tip = r.particle_probes.iter().find(|p| p.name == "tip");
+    let (f, d) = match tip {
+        Some(p) => (p.oscillation.as_ref().map_or(f64::NAN, |o| o.frequency), p.oscillation.as_ref().map_or(f64::NAN, |o| o.last_half_range)),
+        None => (f64::NAN, f64::NAN),
+    };
+    let inside = |v: f64, (lo, hi): (f64, f64)| v >= lo && v <= hi;
+    out.push((format!("{label}: tip frequency (Hz)"), f, format!("{}–{} Hz", FREQUENCY_HZ.0, FREQUENCY_HZ.1), inside(f, FREQUENCY_HZ)));
+    out.push((
+        format!("{label}: tip amplitude, last cycle (cm)"),
+        d,
+        format!("{}–{} cm", TIP_DISPLACEMENT_CM.0, TIP_DISPLACEMENT_CM.1),
+        inside(d, TIP_DISPLACEMENT_CM),
+    ));
+    out
+}
