@@ -652,3 +652,126 @@ fn a_lattice_beyond_the_adapters_limits_is_refused_with_both_figures() {
     let split = GpuFluid::fits(&ctx.limits, 4096, nv).unwrap();
     assert_eq!(split.nv, nv);
 }
+
+/// Method 2's coupling kernels (shaders/coupling.wgsl) against their CPU twins: the level set,
+/// its gradient and the wall velocity at query points (2.124–2.126, 2.130), and the hand-over of
+/// the wall nodes' momentum to the particles (2.127–2.128) — on random inputs (a jittered disc of
+/// particles with random velocities, random wall momenta near it) and on the built-in scene
+/// `fsi_cylinder_conserving` after five coupled steps.
+#[test]
+fn coupling_kernels_match_their_cpu_twins() {
+    use glam::{DVec3, DVec4};
+    use phonation::fluid::KernelLevelSet;
+    use phonation::gpu::coupling::CouplingKernels;
+    use phonation::stages::CoupledStageKind;
+    let Some(ctx) = context() else { return };
+    let kernels = CouplingKernels::new(&ctx);
+    // a deterministic pseudo-random stream in [0, 1)
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut rand = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    // f32 sums of up to ~60 kernel terms that partly cancel: each quantity is compared relative
+    // to the sum of its terms' magnitudes (L: φ + Σw; ∇L: Σ r_e/r²; the wall velocity: the
+    // fastest particle's speed). The positions go to the GPU in f32: ~30 cells from the origin
+    // they carry ~2e-6 cells of rounding, so a gradient term at r ≈ 0.2 cells (r_e/r² ≈ 50) is
+    // off by 3·(4e-6)/0.2 ≈ 6e-5 of itself: 1e-4 bounds ∇L; L and the wall velocity, whose
+    // terms scale as 1/r, get 2e-5.
+    let compare = |label: &str, set: &KernelLevelSet, queries: &[[f64; 3]]| {
+        let gpu = kernels.level_set_at(&ctx, set, queries);
+        let (mut dl, mut dg, mut dv) = (0f64, 0f64, 0f64);
+        let mut inside = 0;
+        let v_max = set.velocities.iter().map(|v| DVec3::from_array(*v).length()).fold(1e-12, f64::max);
+        for (q, (l, g, v, sw)) in queries.iter().zip(&gpu) {
+            let (l_cpu, g_cpu) = set.level(*q);
+            let v_cpu = DVec3::from_array(set.velocity_at(*q));
+            let scale = 1.0 + set.phi + sw;
+            dl = dl.max((l - l_cpu).abs() / scale);
+            // |d(r_e/r)/dr| = r_e/r² = (w + 1)²/r_e
+            let gs: f64 = 1.0 + set.weights(*q).map(|(_, w)| (w + 1.0) * (w + 1.0) / set.re).sum::<f64>();
+            dg = dg.max((*g - DVec3::from_array(g_cpu)).length() / gs);
+            dv = dv.max((*v - v_cpu).length() / v_max);
+            inside += (l_cpu > 0.0) as usize;
+        }
+        eprintln!("{label}: {} queries ({inside} inside): L {dl:.2e}, ∇L {dg:.2e}, wall velocity {dv:.2e}", queries.len());
+        assert!(inside > 0 && inside < queries.len(), "{label}: the queries must straddle the surface");
+        assert!(dl < 2e-5 && dg < 1e-4 && dv < 2e-5, "{label}: L {dl:e} ∇L {dg:e} v {dv:e}");
+    };
+    let exchange = |label: &str, set: &KernelLevelSet, grid: &phonation::fluid::Grid, wall: &[DVec4], factor: f64, cpu: &[DVec3]| {
+        let gpu = kernels.momentum_to_particles(&ctx, set, grid, wall, factor);
+        let scale = cpu.iter().map(|f| f.length()).fold(0.0, f64::max);
+        let d = gpu.iter().zip(cpu).map(|(g, c)| (*g - *c).length()).fold(0.0, f64::max) / scale;
+        let (sg, sc) = (gpu.iter().sum::<DVec3>(), cpu.iter().sum::<DVec3>());
+        eprintln!("{label}: {} particles, force {d:.2e} of the largest; total {sg:?} vs {sc:?}", cpu.len());
+        assert!(scale > 0.0, "{label}: no force to compare");
+        assert!(d < 1e-5, "{label}: {d:e}");
+    };
+
+    // Random inputs: a disc of radius 6 cells at (20.3, 17.6), spacing 0.5 jittered by ±0.1.
+    let (c0, radius) = ([20.3, 17.6, 0.0], 6.0);
+    let mut pts = Vec::new();
+    let mut vel = Vec::new();
+    for i in -14..=14 {
+        for j in -14..=14 {
+            let p = [c0[0] + 0.5 * i as f64 + 0.2 * (rand() - 0.5), c0[1] + 0.5 * j as f64 + 0.2 * (rand() - 0.5), 0.0];
+            if (p[0] - c0[0]).hypot(p[1] - c0[1]) <= radius {
+                pts.push(p);
+                vel.push([rand() - 0.5, rand() - 0.5, 0.0]);
+            }
+        }
+    }
+    let set = KernelLevelSet::new(pts.clone(), vel, 2.0, 0.125, 40.0);
+    let queries: Vec<[f64; 3]> = (0..2000).map(|_| [c0[0] + 20.0 * (rand() - 0.5), c0[1] + 20.0 * (rand() - 0.5), 0.0]).collect();
+    compare("random disc", &set, &queries);
+    let grid = phonation::fluid::Grid::new(2, [40, 36, 1]);
+    let mut wall = vec![DVec4::ZERO; grid.len()];
+    let mut cpu = vec![DVec3::ZERO; pts.len()];
+    let factor = 0.37;
+    for (node, w) in wall.iter_mut().enumerate() {
+        let x = grid.coords(node);
+        let at = [x[0] as f64, x[1] as f64, 0.0];
+        let r = (at[0] - c0[0]).hypot(at[1] - c0[1]);
+        if (r - radius).abs() < 2.5 && rand() < 0.8 {
+            *w = DVec4::new(rand() - 0.5, rand() - 0.5, 0.0, rand() - 0.5);
+            // the CPU twin's rule (coupling::conserving::momentum_exchange), written out
+            let ws: Vec<(usize, f64)> = set.weights(at).collect();
+            let sum: f64 = ws.iter().map(|(_, x)| x).sum();
+            if sum > 0.0 {
+                for (j, wj) in ws {
+                    cpu[j] += (wj / sum) * w.truncate() * factor;
+                }
+            }
+        }
+    }
+    exchange("random wall momenta", &set, &grid, &wall, factor, &cpu);
+
+    // The built-in scene: a clamped elastic cylinder in the Schäfer–Turek channel, method 2.
+    let sc = phonation::scene::coupled::CoupledScene::parse(phonation::scene::builtin("fsi_cylinder_conserving").unwrap()).unwrap();
+    let mut c = sc.build().unwrap();
+    c.run(5).unwrap();
+    for st in c.stages() {
+        if st.kind == CoupledStageKind::MomentumExchange {
+            break;
+        }
+        c.run_stage(st.kind).unwrap();
+    }
+    let ex = c.exchange().expect("method 2");
+    let (set, wall) = (ex.sets()[0].clone(), ex.wall().to_vec());
+    let grid = c.fluid.layout.grid.clone();
+    let nodes: Vec<[f64; 3]> = (0..grid.len())
+        .filter_map(|n| {
+            let x = grid.coords(n);
+            let p = [x[0] as f64, x[1] as f64, 0.0];
+            (set.level(p).0 > -set.phi).then_some(p)
+        })
+        .collect();
+    compare("fsi_cylinder_conserving, nodes within r_e of a particle", &set, &nodes);
+    let factor = c.momentum_unit() / c.dt();
+    c.run_stage(CoupledStageKind::MomentumExchange).unwrap();
+    let members: Vec<usize> = (0..c.solid.particles.len()).filter(|&i| c.solid.particles.body[i] == 0).collect();
+    let cpu: Vec<DVec3> = members.iter().map(|&i| c.forces.force[i]).collect();
+    exchange("fsi_cylinder_conserving, one step's wall momenta", &set, &grid, &wall, factor, &cpu);
+}

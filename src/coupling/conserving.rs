@@ -82,6 +82,18 @@ pub struct Exchange {
 }
 
 impl Exchange {
+    /// Momentum (xyz) and mass (w) each padded lattice node took out of the air in the current
+    /// step (lattice units; consumed by the momentum_exchange stage).
+    pub fn wall(&self) -> &[DVec4] {
+        &self.wall
+    }
+
+    /// The level sets of the current step's walls, one per coupled body (its particles in
+    /// index order).
+    pub fn sets(&self) -> &[KernelLevelSet] {
+        &self.sets
+    }
+
     pub(super) fn new(c: &CoupledSolver, o: ConservingOptions) -> Self {
         let eq = &c.fluid.eq;
         let mut reference = vec![0.0; eq.values_per_node()];

@@ -184,7 +184,9 @@ impl CoupledSolver {
         crate::stages::time_shares(self.stages().iter().map(|s| s.name).zip(&self.timings))
     }
 
-    pub(super) fn run_stage(&mut self, kind: CoupledStageKind) -> Result<(), Instability> {
+    /// Runs one stage of the step (the stages of [`Self::stages`], in order, make a step; the
+    /// step counter and time advance in [`Self::step`] only): for kernel parity tests.
+    pub fn run_stage(&mut self, kind: CoupledStageKind) -> Result<(), Instability> {
         match (kind, self.method) {
             (CoupledStageKind::FluidGeometry, Method::Weak(o)) => self.polygon_geometry(o),
             (CoupledStageKind::FluidGeometry, Method::Conserving(o)) => self.level_set_geometry(o),

@@ -71,6 +71,17 @@ impl KernelLevelSet {
         s
     }
 
+    /// The bins' box (lower and upper corner: the points' bounding box grown by r_e) and the
+    /// number of bins per axis (each of side r_e).
+    pub fn bin_box(&self) -> ([f64; 3], [f64; 3], [usize; 3]) {
+        (self.bounds.0, self.bounds.1, self.bins)
+    }
+
+    /// The bins as lists: bin b holds the points `order[start[b]..start[b + 1]]`.
+    pub fn bin_lists(&self) -> (&[u32], &[u32]) {
+        (&self.start, &self.order)
+    }
+
     fn near(&self, p: [f64; 3]) -> bool {
         let (lo, hi) = self.bounds;
         (0..3).all(|a| p[a] >= lo[a] && p[a] <= hi[a])

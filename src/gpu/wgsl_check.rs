@@ -70,6 +70,7 @@ mod tests {
         let mut n = 0;
         for (name, src) in [
             ("shaders/copy.wgsl", include_str!("../../shaders/copy.wgsl").to_string()),
+            ("shaders/coupling.wgsl", include_str!("../../shaders/coupling.wgsl").to_string()),
             ("shaders/solid.wgsl", include_str!("../../shaders/solid.wgsl").to_string()),
             ("shaders/solid_contact.wgsl", include_str!("../../shaders/solid_contact.wgsl").to_string()),
             ("lattice_gas (shaders/lattice_gas.wgsl + generated)", crate::gpu::lattice_gas_codegen::shader()),
@@ -98,7 +99,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(n, 4 + 2 * 2 * 2 * 5);
+        assert_eq!(n, 5 + 2 * 2 * 2 * 5);
     }
 
     /// A mirror that differs from its shader is caught (the check can fail).

@@ -1,0 +1,152 @@
+// Method 2's coupling kernels (seed 000 §2.4.2), f32 — GPU twins of
+// src/fluid/kernel_level_set.rs (`level`, `velocity_at`) and src/coupling/conserving.rs
+// (`momentum_exchange`). Lattice coordinates (cells), c units. Particles are binned by the CPU
+// twin's bins of side r_e (CSR: bin b holds order[start[b] .. start[b + 1]]); every kernel is a
+// gather (one thread per query, node or particle), so no atomics and no order dependence.
+
+struct Params {
+    // bins' origin (the points' bounding box grown by r_e), .w unused
+    lo: vec4<f32>,
+    // bounding box's far corner, .w unused
+    hi: vec4<f32>,
+    // bins per axis, .w number of points
+    bins: vec4<u32>,
+    // padded lattice: px, py, pz and the halo width (the same on every axis of the lattice)
+    padded: vec4<u32>,
+    halo: vec4<u32>,
+    re: f32,
+    r_min: f32,
+    phi: f32,
+    // momentum → force: the physical momentum per lattice unit over the step (seed units)
+    factor: f32,
+    // queries, nodes or particles
+    count: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+};
+
+@group(0) @binding(0) var<uniform> P: Params;
+@group(0) @binding(1) var<storage, read> points: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> velocities: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> bin_start: array<u32>;
+@group(0) @binding(4) var<storage, read> bin_order: array<u32>;
+// level_set_at: query points; exchange_gather: the particles' positions
+@group(0) @binding(5) var<storage, read> queries: array<vec4<f32>>;
+// level_set_at: (L, ∇L) and (wall velocity, Σw) per query
+@group(0) @binding(6) var<storage, read_write> level_out: array<vec4<f32>>;
+// each lattice node's wall momentum (xyz) and mass (w) over the step
+@group(0) @binding(7) var<storage, read> wall: array<vec4<f32>>;
+// exchange_weights: wall / Σ_j w_j at each node (zero where no particle is within r_e)
+@group(0) @binding(8) var<storage, read_write> scaled: array<vec4<f32>>;
+// exchange_gather: the force on each particle (xyz)
+@group(0) @binding(9) var<storage, read_write> force: array<vec4<f32>>;
+
+fn thread_index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
+    return gid.x + gid.y * nwg.x * 64u;
+}
+
+fn near(p: vec3<f32>) -> bool {
+    return all(p >= P.lo.xyz) && all(p <= P.hi.xyz);
+}
+
+// The kernel weight w(r) = r_e / max(r, r_min) − 1 (2.124), for r ≤ r_e.
+fn weight(r: f32) -> f32 {
+    return P.re / max(r, P.r_min) - 1.0;
+}
+
+// Visits the particles in the 3ᴰ bins around p (CPU twin: KernelLevelSet::candidates) and sums
+// L, ∇L, Σ w v and Σ w over those within r_e.
+struct Sums { l: f32, g: vec3<f32>, wv: vec3<f32>, w: f32 };
+
+fn kernel_sums(p: vec3<f32>) -> Sums {
+    var s = Sums(-P.phi, vec3<f32>(0.0), vec3<f32>(0.0), 0.0);
+    if (!near(p)) { return s; }
+    let c = vec3<i32>(floor((p - P.lo.xyz) / P.re));
+    let b = vec3<i32>(P.bins.xyz);
+    let lo = max(c - vec3<i32>(1), vec3<i32>(0));
+    let hi = min(c + vec3<i32>(1), b - vec3<i32>(1));
+    for (var z = lo.z; z <= hi.z; z = z + 1) {
+        for (var y = lo.y; y <= hi.y; y = y + 1) {
+            for (var x = lo.x; x <= hi.x; x = x + 1) {
+                let bin = u32((z * b.y + y) * b.x + x);
+                for (var k = bin_start[bin]; k < bin_start[bin + 1u]; k = k + 1u) {
+                    let j = bin_order[k];
+                    let d = p - points[j].xyz;
+                    let r = length(d);
+                    if (r > P.re) { continue; }
+                    let w = weight(r);
+                    s.l += w;
+                    s.w += w;
+                    s.wv += w * velocities[j].xyz;
+                    if (r > P.r_min) {
+                        s.g += (-P.re / (r * r * r)) * d;
+                    }
+                }
+            }
+        }
+    }
+    return s;
+}
+
+// L, ∇L (2.124–2.126) and the wall velocity (2.130) at each query point.
+@compute @workgroup_size(64)
+fn level_set_at(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let t = thread_index(gid, nwg);
+    if (t >= P.count) { return; }
+    let s = kernel_sums(queries[t].xyz);
+    var v = vec3<f32>(0.0);
+    if (s.w > 0.0) { v = s.wv / s.w; }
+    level_out[2u * t] = vec4<f32>(s.l, s.g);
+    level_out[2u * t + 1u] = vec4<f32>(v, s.w);
+}
+
+fn node_coords(t: u32) -> vec3<f32> {
+    let px = P.padded.x;
+    let py = P.padded.y;
+    let x = i32(t % px) - i32(P.halo.x);
+    let y = i32((t / px) % py) - i32(P.halo.y);
+    let z = i32(t / (px * py)) - i32(P.halo.z);
+    return vec3<f32>(f32(x), f32(y), f32(z));
+}
+
+// (2.127–2.128), first half: each wall node's momentum over the kernel weights' sum there, so
+// that the particles' shares sum to what the node took out of the air.
+@compute @workgroup_size(64)
+fn exchange_weights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let t = thread_index(gid, nwg);
+    if (t >= P.count) { return; }
+    let w4 = wall[t];
+    var out = vec4<f32>(0.0);
+    if (any(w4 != vec4<f32>(0.0))) {
+        let s = kernel_sums(node_coords(t));
+        if (s.w > 0.0) { out = w4 / s.w; }
+    }
+    scaled[t] = out;
+}
+
+// Second half: each particle gathers w_ij · scaled_j from the lattice nodes within r_e of it.
+@compute @workgroup_size(64)
+fn exchange_gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = thread_index(gid, nwg);
+    if (i >= P.count) { return; }
+    let x = queries[i].xyz;
+    let h = vec3<i32>(P.halo.xyz);
+    let n = vec3<i32>(P.padded.xyz) - h;
+    let lo = max(vec3<i32>(ceil(x - vec3<f32>(P.re))), -h);
+    let hi = min(vec3<i32>(floor(x + vec3<f32>(P.re))), n - vec3<i32>(1));
+    var f = vec3<f32>(0.0);
+    for (var z = lo.z; z <= hi.z; z = z + 1) {
+        for (var y = lo.y; y <= hi.y; y = y + 1) {
+            for (var xx = lo.x; xx <= hi.x; xx = xx + 1) {
+                let node = u32(((z + h.z) * i32(P.padded.y) + (y + h.y)) * i32(P.padded.x) + (xx + h.x));
+                let m = scaled[node];
+                if (all(m.xyz == vec3<f32>(0.0))) { continue; }
+                let r = length(vec3<f32>(f32(xx), f32(y), f32(z)) - x);
+                if (r > P.re) { continue; }
+                f += weight(r) * m.xyz;
+            }
+        }
+    }
+    force[i] = vec4<f32>(f * P.factor, 0.0);
+}
