@@ -352,6 +352,7 @@ struct Entry {
     }
     s += "    for (var k = 0u; k < 5u; k = k + 1u) { mac[k * N + d] = mac[k * N + s]; }\n";
     s += "    mac[(1u + axis) * N + d] = -mac[(1u + axis) * N + s];\n}\n";
+    s += &face_codes_wgsl();
     s += r#"
 // Ghost nodes: image-point state extrapolated through the wall (see fluid::boundary).
 @compute @workgroup_size(WG)
@@ -379,12 +380,12 @@ fn ghost_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     let uy = e.uy + r * (m[2] - e.uy);
     let uz = e.uz + r * (m[3] - e.uz);
     var theta = m[4];
-    if (e.code == 1u) { theta = e.theta + r * (m[4] - e.theta); }
+    if (e.code == GHOST_ISOTHERMAL) { theta = e.theta + r * (m[4] - e.theta); }
     set_node(e.node, m[0] * m[4] / theta, ux, uy, uz, theta, n);
 }
 
-// Inlet / outlet / slip halos: code 0 outlet (copy), 1 pressure inlet, 2 velocity inlet,
-// 3 + axis slip (mirror image).
+// Inlet / outlet / slip halos: FACE_OUTLET (copy), FACE_PRESSURE_INLET, FACE_VELOCITY_INLET,
+// FACE_SLIP + axis (mirror image).
 @compute @workgroup_size(WG)
 fn face_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let t = thread_index(gid, nwg);
@@ -392,16 +393,16 @@ fn face_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     let e = entries[t];
     let N = P.n_nodes;
     let s = e.source;
-    if (e.code == 0u) {
+    if (e.code == FACE_OUTLET) {
         copy_node(s, e.node);
         return;
     }
-    if (e.code >= 3u) {
-        mirror_node(s, e.node, e.code - 3u);
+    if (e.code >= FACE_SLIP) {
+        mirror_node(s, e.node, e.code - FACE_SLIP);
         return;
     }
     let n = neq_of(s);
-    if (e.code == 1u) {
+    if (e.code == FACE_PRESSURE_INLET) {
         set_node(e.node, e.rho, mac[N + s], mac[2u * N + s], mac[3u * N + s], e.theta, n);
     } else {
         set_node(e.node, mac[s], e.ux, e.uy, e.uz, e.theta, n);
@@ -417,6 +418,32 @@ fn periodic_copy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
 }
 "#;
     s
+}
+
+/// The codes of the boundary kernels' entries (`Entry.code`), defined once here and written
+/// into the WGSL by [`face_codes_wgsl`]: a ghost's code says whether its wall is isothermal; a
+/// face halo's says its condition (a slip face adds its axis to [`FaceCode::Slip`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub enum FaceCode {
+    Outlet = 0,
+    PressureInlet = 1,
+    VelocityInlet = 2,
+    Slip = 3,
+}
+
+/// `Entry.code` of a ghost node whose wall holds its temperature (else 0: adiabatic).
+pub const GHOST_ISOTHERMAL: u32 = 1;
+
+fn face_codes_wgsl() -> String {
+    format!(
+        "const FACE_OUTLET: u32 = {}u;\nconst FACE_PRESSURE_INLET: u32 = {}u;\nconst FACE_VELOCITY_INLET: u32 = {}u;\nconst FACE_SLIP: u32 = {}u;\nconst GHOST_ISOTHERMAL: u32 = {}u;\n",
+        FaceCode::Outlet as u32,
+        FaceCode::PressureInlet as u32,
+        FaceCode::VelocityInlet as u32,
+        FaceCode::Slip as u32,
+        GHOST_ISOTHERMAL
+    )
 }
 
 /// `probes`: the macroscopic state of listed nodes of the state array, with the step index, in

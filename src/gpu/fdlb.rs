@@ -13,7 +13,7 @@
 //! h and f¹ and writes f¹ (3 NV); stage 2 also reads fⁿ: (13 NV + 10)·4 bytes, neighbours of
 //! the stencil assumed served from cache.
 
-use super::codegen::{self, Split, WORKGROUP};
+use super::codegen::{self, FaceCode, GHOST_ISOTHERMAL, Split, WORKGROUP};
 use super::context::{GpuContext, GpuError};
 use crate::fluid::layout::NodeKind;
 use crate::fluid::storage::RowBlocked;
@@ -227,7 +227,7 @@ impl GpuFluid {
             assert!(gh.image.len() <= 8);
             ghost_entries.push(Entry {
                 node: gh.node as u32,
-                code: gh.wall_temperature.is_some() as u32,
+                code: if gh.wall_temperature.is_some() { GHOST_ISOTHERMAL } else { 0 },
                 n_img: gh.image.len() as u32,
                 theta: gh.wall_temperature.unwrap_or(0.0) as f32,
                 ux: gh.wall_velocity[0] as f32,
@@ -244,16 +244,16 @@ impl GpuFluid {
         for fh in &s.layout.face_halos {
             let mut e = Entry { node: fh.node as u32, source: fh.source as u32, ..Default::default() };
             match &s.layout.boundaries.faces[fh.face as usize] {
-                FaceCondition::Outlet => e.code = 0,
-                FaceCondition::Slip => e.code = 3 + fh.face.axis() as u32,
+                FaceCondition::Outlet => e.code = FaceCode::Outlet as u32,
+                FaceCondition::Slip => e.code = FaceCode::Slip as u32 + fh.face.axis() as u32,
                 FaceCondition::PressureInlet { rho, theta } => {
-                    e.code = 1;
+                    e.code = FaceCode::PressureInlet as u32;
                     e.rho = *rho as f32;
                     e.theta = *theta as f32;
                 }
                 FaceCondition::VelocityInlet { velocity, theta, profile } => {
                     let k = profile.factor(g, fh.face, g.coords(fh.node));
-                    e.code = 2;
+                    e.code = FaceCode::VelocityInlet as u32;
                     e.theta = *theta as f32;
                     e.ux = (k * velocity[0]) as f32;
                     e.uy = (k * velocity[1]) as f32;

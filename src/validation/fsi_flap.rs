@@ -50,3 +50,36 @@ pub fn rows(scene: &str, label: &str) -> Vec<(String, f64, String, bool)> {
     ));
     out
 }
+
+/// One rung of the time-step ladder: the flap scene at a lattice Mach number (the fluid step,
+/// hence the coupling step, grows with it at fixed Δx: Δt ∝ Ma), stepped from the start.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct StepRung {
+    pub mach: f64,
+    /// Coupled (fluid) step (s).
+    pub dt: f64,
+    pub solid_substeps: u32,
+    pub steps: u64,
+    /// None: finite after `steps`; else the diagnosis.
+    pub instability: Option<String>,
+}
+
+/// The coupled time-step ladder of the built-in flap scene `scene`: for each lattice Mach
+/// number in `machs`, `steps` coupled steps from the start (the flap released in its first
+/// mode: every rung sees the same motion). The largest stable step of a method is the last
+/// stable rung's `dt`.
+pub fn time_step_ladder(scene: &str, machs: &[f64], steps: u64) -> anyhow::Result<Vec<StepRung>> {
+    let text = crate::scene::builtin(scene).ok_or_else(|| anyhow::anyhow!("no built-in scene {scene}"))?;
+    let mut out = Vec::new();
+    for &mach in machs {
+        let mut table: toml::Table = text.parse()?;
+        let numerics = table.get_mut("numerics").and_then(|n| n.as_table_mut()).ok_or_else(|| anyhow::anyhow!("{scene}: no [numerics]"))?;
+        let scaling = numerics.get_mut("mach_scaling").and_then(|m| m.as_table_mut()).ok_or_else(|| anyhow::anyhow!("{scene}: no Mach scaling"))?;
+        scaling.insert("mach".into(), toml::Value::Float(mach));
+        let sc = CoupledScene::parse(&toml::to_string(&table)?)?;
+        let mut c = sc.build()?;
+        let instability = c.run(steps).err().map(|e| e.to_string());
+        out.push(StepRung { mach, dt: c.dt(), solid_substeps: c.substeps, steps: c.step_count, instability });
+    }
+    Ok(out)
+}
