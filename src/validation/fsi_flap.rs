@@ -83,3 +83,22 @@ pub fn time_step_ladder(scene: &str, machs: &[f64], steps: u64) -> anyhow::Resul
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    /// The ladder's premise: at fixed Δx the coupled step grows with the lattice Mach number
+    /// (Δt = Ma c_s Δx / U in lattice units), and the explicit solid takes proportionally more
+    /// sub-steps; the first rungs of both methods are stable.
+    #[test]
+    fn the_coupling_step_grows_with_the_lattice_mach_number() {
+        for scene in ["wall_flap", "wall_flap_conserving"] {
+            let rungs = super::time_step_ladder(scene, &[0.1, 0.2], 20).unwrap();
+            let (a, b) = (&rungs[0], &rungs[1]);
+            assert!(a.instability.is_none() && b.instability.is_none(), "{rungs:?}");
+            assert!((b.dt / a.dt - 2.0).abs() < 1e-9, "{scene}: Δt {} → {}", a.dt, b.dt);
+            // the solid's sub-step count is a ceiling: within one of twice the first
+            assert!((b.solid_substeps as i64 - 2 * a.solid_substeps as i64).abs() <= 1, "{rungs:?}");
+            assert_eq!((a.steps, b.steps), (20, 20));
+        }
+    }
+}
