@@ -12,11 +12,9 @@ use super::context::{GpuContext, buffer_layout, compute_pipelines, read_buffer};
 use crate::fluid::{Grid, KernelLevelSet};
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, DVec4};
-use std::collections::HashMap;
 use wgpu::util::DeviceExt;
 
 const SHADER: &str = include_str!("../../shaders/coupling.wgsl");
-const ENTRIES: [&str; 3] = ["level_set_at", "exchange_weights", "exchange_gather"];
 
 /// The kernels' uniform (`Params` in the shader).
 #[repr(C)]
@@ -37,9 +35,30 @@ struct Params {
     _pad2: u32,
 }
 
-/// The compiled kernels (one pipeline layout); buffers are made per call.
+/// One kernel of shaders/coupling.wgsl.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kernel {
+    LevelSetAt,
+    ExchangeWeights,
+    ExchangeGather,
+}
+
+impl Kernel {
+    const ALL: [Kernel; 3] = [Kernel::LevelSetAt, Kernel::ExchangeWeights, Kernel::ExchangeGather];
+    /// The WGSL entry point.
+    fn entry(self) -> &'static str {
+        match self {
+            Kernel::LevelSetAt => "level_set_at",
+            Kernel::ExchangeWeights => "exchange_weights",
+            Kernel::ExchangeGather => "exchange_gather",
+        }
+    }
+}
+
+/// The compiled kernels (one pipeline layout, pipelines indexed by [`Kernel`]); buffers are
+/// made per call.
 pub struct CouplingKernels {
-    pipelines: HashMap<&'static str, wgpu::ComputePipeline>,
+    pipelines: [wgpu::ComputePipeline; 3],
     layout: wgpu::BindGroupLayout,
 }
 
@@ -67,7 +86,9 @@ impl CouplingKernels {
         let layout = buffer_layout(device, "coupling", &kinds);
         let pl =
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("coupling"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
-        CouplingKernels { pipelines: compute_pipelines(device, &module, &pl, &ENTRIES), layout }
+        let mut map = compute_pipelines(device, &module, &pl, &Kernel::ALL.map(Kernel::entry));
+        let pipelines = Kernel::ALL.map(|k| map.remove(k.entry()).expect("one pipeline per entry point"));
+        CouplingKernels { pipelines, layout }
     }
 
     fn params(set: &KernelLevelSet) -> Params {
@@ -85,7 +106,7 @@ impl CouplingKernels {
 
     /// Runs `entries` in order over `count` threads each, with the given buffers (None: a
     /// one-element placeholder), and reads back the buffers named in `read`.
-    fn run(&self, ctx: &GpuContext, p: Params, data: [Option<&[u8]>; 9], entries: &[(&str, u32)], read: &[usize]) -> Vec<Vec<u8>> {
+    fn run(&self, ctx: &GpuContext, p: Params, data: [Option<&[u8]>; 9], kernels: &[(Kernel, u32)], read: &[usize]) -> Vec<Vec<u8>> {
         let device = &ctx.device;
         let mut buffers = vec![device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("coupling params"),
@@ -104,8 +125,8 @@ impl CouplingKernels {
             buffers.iter().enumerate().map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() }).collect();
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("coupling"), layout: &self.layout, entries: &entries_bg });
         let mut enc = device.create_command_encoder(&Default::default());
-        for &(entry, count) in entries {
-            // each entry's thread count goes in through its own uniform copy
+        for &(kernel, count) in kernels {
+            // each kernel's thread count goes in through its own uniform copy
             let mut q = p;
             q.count = count;
             let ub = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -114,8 +135,8 @@ impl CouplingKernels {
                 usage: wgpu::BufferUsages::COPY_SRC,
             });
             enc.copy_buffer_to_buffer(&ub, 0, &buffers[0], 0, std::mem::size_of::<Params>() as u64);
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(entry), timestamp_writes: None });
-            pass.set_pipeline(&self.pipelines[entry]);
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(kernel.entry()), timestamp_writes: None });
+            pass.set_pipeline(&self.pipelines[kernel as usize]);
             pass.set_bind_group(0, &group, &[]);
             let w = count.div_ceil(64).max(1);
             if w <= 65_535 { pass.dispatch_workgroups(w, 1, 1) } else { pass.dispatch_workgroups(65_535, w.div_ceil(65_535), 1) }
@@ -143,7 +164,7 @@ impl CouplingKernels {
             None,
             None,
         ];
-        let bytes = self.run(ctx, Self::params(set), data, &[("level_set_at", queries.len() as u32)], &[6]);
+        let bytes = self.run(ctx, Self::params(set), data, &[(Kernel::LevelSetAt, queries.len() as u32)], &[6]);
         let o: &[[f32; 4]] = bytemuck::cast_slice(&bytes[0]);
         (0..queries.len())
             .map(|k| {
@@ -179,7 +200,7 @@ impl CouplingKernels {
             Some(bytemuck::cast_slice(&zeros)),
             Some(bytemuck::cast_slice(&force)),
         ];
-        let bytes = self.run(ctx, p, data, &[("exchange_weights", wall.len() as u32), ("exchange_gather", pts.len() as u32)], &[9]);
+        let bytes = self.run(ctx, p, data, &[(Kernel::ExchangeWeights, wall.len() as u32), (Kernel::ExchangeGather, pts.len() as u32)], &[9]);
         let f: &[[f32; 4]] = bytemuck::cast_slice(&bytes[0]);
         f.iter().map(|v| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect()
     }
