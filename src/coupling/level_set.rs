@@ -3,8 +3,9 @@
 //!
 //! * (2.124) At every lattice node, L(x) = Σ_{j: r_j ≤ r_e} (r_e/r_j − 1) − φ over the particles
 //!   j at distance r_j: positive inside a body, negative outside, zero on the surface. The
-//!   weight is the MPS kernel (2.20); it is singular at r = 0, so r is clamped at l₀/4 (a node on
-//!   a particle gets the weight of one a quarter spacing away).
+//!   weight is the MPS kernel (2.20); it is singular at r = 0, so r is clamped at `r_min` (the
+//!   coupling uses r_e/2, which keeps L smooth at the lattice's scale: see
+//!   `CoupledSolver::r_min` in [`super::conserving`]).
 //! * φ, "the constant that gives the surface level", is calibrated per scene as the mean of
 //!   the kernel sum Σ(r_e/r_j − 1) at the bodies' surface points in the reference configuration
 //!   ([`surface_level`]), so that the zero contour passes through the true surface on average.
