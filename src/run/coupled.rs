@@ -405,7 +405,7 @@ mod tests {
 
     /// The Wall flap's first 20 steps: released in its first clamped–free bending mode measured
     /// from the clamp line at x = 5.5 cm (the square's rear face), the tip probe (a column of
-    /// `coupling.csv` and the summary) moves at the release speed, 10 cm/s, and the whole body
+    /// `coupling.csv` and the summary) moves at just under the release speed, 10 cm/s, and the whole body
     /// (its clamped root, 1/9 of the particles, at rest) at 8/9 of the mode's mean/tip ratio,
     /// ∫φ/φ(L) = 0.3915 (Euler–Bernoulli). Measured from x = 0 instead, the root would move.
     #[test]
@@ -420,7 +420,11 @@ mod tests {
         let col = |name: &str| last[header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"))];
         let (t, tip, mean) = (col("time_s"), col("tip_dy"), col("mean_dy_0"));
         println!("t = {t:.3e} s: tip dy {tip:.4e} cm (10 t = {:.4e}), body mean / tip {:.4}", 10.0 * t, mean / tip);
-        assert!((tip / (10.0 * t) - 1.0).abs() < 0.03, "tip {tip} after {t} s");
+        // The air's reaction (the flap's added mass) can only slow the tip: measured 0.964 of
+        // 10 t at D = 20 cells (0.989 at D = 10, where the flap was thinner than a cell and the
+        // air barely saw it).
+        let ratio = tip / (10.0 * t);
+        assert!(ratio > 0.9 && ratio < 1.0, "tip {tip} after {t} s: {ratio} of the release speed");
         let expected = 0.3915 * 4.0 / 4.5;
         assert!((mean / tip / expected - 1.0).abs() < 0.03, "mean/tip {} vs {expected}", mean / tip);
         let p = &r.particle_probes[0];

@@ -1,7 +1,8 @@
 //! The Wall flexible flap (Wall & Ramm 1998; seed 000 §3.2; ../shared/reference "Wall
 //! flexible-flap benchmark") on the built-in scenes `wall_flap` (method 1, weak) and
-//! `wall_flap_conserving` (method 2): D = 10 cells (Δx = 0.1 cm), three particles across the
-//! 0.06 cm flap, lattice Mach 0.1, released in its first bending mode. The tip's transverse
+//! `wall_flap_conserving` (method 2): D = 20 cells (Δx = 0.05 cm; the flap 1.2 cells thick,
+//! thick enough that a row of nodes always lies inside it), three particles across the 0.06 cm
+//! flap, lattice Mach 0.1, released in its first bending mode. The tip's transverse
 //! oscillation over the second half of the run against the published envelope of coupled codes:
 //! frequency 2.94–3.31 Hz, largest tip displacement 1.0–1.42 cm. Outputs are kept in
 //! `out/validate/<scene>/`.
