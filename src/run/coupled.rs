@@ -280,8 +280,11 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
     let outcome = super::driver::drive_until(&mut c, total, opts.stop_at, &[every, probe_every, snap_every, ck.period()], progress, |c, t| {
         if t.hit[0] || t.last {
             writeln!(csv, "{}", csv_row(c, &particle_probes))?;
-            probe_samples.push((c.time, probe_displacements(c, &particle_probes).iter().map(|d| d.y).collect()));
             csv.flush()?;
+        }
+        // uniformly sampled (not the last step's extra row): the oscillation needs a constant interval
+        if t.hit[0] {
+            probe_samples.push((c.time, probe_displacements(c, &particle_probes).iter().map(|d| d.y).collect()));
         }
         if t.hit[1] || t.last {
             probes.sample(&c.fluid, &fluid_scene.units)?;
