@@ -136,7 +136,6 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
     let mut fe = vec![0.0; nv];
     let mut neq = vec![0.0; nv];
     let mut fk = vec![0.0; nv];
-    let mirror: [Vec<usize>; 3] = std::array::from_fn(|a| eq.mirror_permutation(a));
 
     // Ghost nodes inside walls and obstacles.
     for g in &layout.ghosts {
@@ -173,7 +172,8 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
                 copy_node(fields, src, h.node);
             }
             FaceCondition::Slip => {
-                mirror_node(fields, src, h.node, h.face.axis(), &mirror[h.face.axis()], &mut fk);
+                let axis = h.face.axis();
+                mirror_node(fields, src, h.node, axis, eq.mirror_permutation(axis), &mut fk, &mut fe);
             }
             FaceCondition::PressureInlet { rho, theta } => {
                 let ms = read_macro(fields, src);
@@ -221,14 +221,14 @@ fn copy_node(fields: &mut StageFields, src: usize, dst: usize) {
 
 /// Writes the mirror image of node `src` across a plane normal to `axis` into `dst`:
 /// values permuted by `perm` ([`Equilibrium::mirror_permutation`]), u[axis] negated.
-fn mirror_node(fields: &mut StageFields, src: usize, dst: usize, axis: usize, perm: &[usize], scratch: &mut [f64]) {
-    let mut out = vec![0.0; perm.len()];
+/// `scratch` and `out` hold a node's values.
+fn mirror_node(fields: &mut StageFields, src: usize, dst: usize, axis: usize, perm: &[usize], scratch: &mut [f64], out: &mut [f64]) {
     for a in [&mut *fields.f, &mut *fields.h] {
         fields.pop.gather(a, src, scratch);
         for (o, &p) in out.iter_mut().zip(perm) {
             *o = scratch[p];
         }
-        fields.pop.scatter(a, dst, &out);
+        fields.pop.scatter(a, dst, out);
     }
     let mut m = [0.0; MACRO_FIELDS];
     fields.mac_layout.gather(fields.mac, src, &mut m);

@@ -76,6 +76,8 @@ pub struct Equilibrium {
     pub energy_dof_half: f64,
     /// ζ/2: rotational energy per unit θ (E of 2.98 divided by θ).
     pub rot_half: f64,
+    /// Per axis, [`Self::mirror_permutation`] (built once: the slip faces use it every stage).
+    mirror: [Vec<usize>; 3],
 }
 
 impl Equilibrium {
@@ -83,7 +85,10 @@ impl Equilibrium {
         let cf: Vec<[f64; 3]> = set.c.iter().map(|v| [v[0] as f64, v[1] as f64, v[2] as f64]).collect();
         let half_c2 = cf.iter().map(|v| 0.5 * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])).collect();
         let zeta = gas.extra_dof(set.dim);
-        Equilibrium { energy_dof_half: 0.5 * (set.dim as f64 + zeta), rot_half: 0.5 * zeta, set, gas, cf, half_c2 }
+        let q = set.c.len();
+        let nv = q * gas.distributions();
+        let mirror = std::array::from_fn(|axis| (0..nv).map(|v| (v / q) * q + set.mirror(axis, v % q)).collect());
+        Equilibrium { energy_dof_half: 0.5 * (set.dim as f64 + zeta), rot_half: 0.5 * zeta, set, gas, cf, half_c2, mirror }
     }
 
     pub fn q(&self) -> usize {
@@ -97,9 +102,8 @@ impl Equilibrium {
 
     /// For each value index of a node (f_i, then the diatomic G_i), the index of the value that
     /// a node mirrored across a plane normal to `axis` holds there.
-    pub fn mirror_permutation(&self, axis: usize) -> Vec<usize> {
-        let q = self.q();
-        (0..self.values_per_node()).map(|v| (v / q) * q + self.set.mirror(axis, v % q)).collect()
+    pub fn mirror_permutation(&self, axis: usize) -> &[usize] {
+        &self.mirror[axis]
     }
 
     /// Equilibrium (2.78) with B = −1/(2θ):

@@ -190,7 +190,9 @@ fn probe_reports(probes: &[(String, Vec<usize>)], samples: &[(f64, Vec<f64>)]) -
         .collect()
 }
 
-fn csv_row(c: &CoupledSolver, probes: &[(String, Vec<usize>)]) -> String {
+/// One row of `coupling.csv`; `probe_d`: each particle probe's displacement
+/// ([`probe_displacements`]).
+fn csv_row(c: &CoupledSolver, probe_d: &[glam::DVec3]) -> String {
     let p = &c.solid.particles;
     let mut r = format!("{},{:.9e}", c.step_count, c.time);
     for (k, b) in c.bodies.iter().enumerate() {
@@ -205,7 +207,7 @@ fn csv_row(c: &CoupledSolver, probes: &[(String, Vec<usize>)]) -> String {
         d /= n;
         r += &format!(",{:.9e},{:.9e},{:.9e},{:.9e}", f.x, f.y, d.x, d.y);
     }
-    for d in probe_displacements(c, probes) {
+    for d in probe_d {
         r += &format!(",{:.9e},{:.9e}", d.x, d.y);
     }
     let max_d = (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max);
@@ -259,8 +261,9 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
         }
         None => {
             writeln!(csv, "{}", csv_header(&c, &particle_probes))?;
-            writeln!(csv, "{}", csv_row(&c, &particle_probes))?;
-            probe_samples.push((c.time, probe_displacements(&c, &particle_probes).iter().map(|d| d.y).collect()));
+            let d = probe_displacements(&c, &particle_probes);
+            writeln!(csv, "{}", csv_row(&c, &d))?;
+            probe_samples.push((c.time, d.iter().map(|d| d.y).collect()));
             csv.flush()?;
             probes.sample(&c.fluid, &fluid_scene.units)?;
             if let (Some(g), Some(r)) = (&glottis, &mut record_g) {
@@ -279,12 +282,14 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
     let progress = opts.show_progress.then_some("coupled steps");
     let outcome = super::driver::drive_until(&mut c, total, opts.stop_at, &[every, probe_every, snap_every, ck.period()], progress, |c, t| {
         if t.hit[0] || t.last {
-            writeln!(csv, "{}", csv_row(c, &particle_probes))?;
+            let d = probe_displacements(c, &particle_probes);
+            writeln!(csv, "{}", csv_row(c, &d))?;
             csv.flush()?;
-        }
-        // uniformly sampled (not the last step's extra row): the oscillation needs a constant interval
-        if t.hit[0] {
-            probe_samples.push((c.time, probe_displacements(c, &particle_probes).iter().map(|d| d.y).collect()));
+            // uniformly sampled (not the last step's extra row): the oscillation needs a
+            // constant interval
+            if t.hit[0] {
+                probe_samples.push((c.time, d.iter().map(|d| d.y).collect()));
+            }
         }
         if t.hit[1] || t.last {
             probes.sample(&c.fluid, &fluid_scene.units)?;
