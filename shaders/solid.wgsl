@@ -32,7 +32,7 @@ struct Params {
 @group(0) @binding(10) var<storage, read_write> vel: array<vec4<f32>>;
 @group(0) @binding(11) var<storage, read_write> spin: array<vec4<f32>>;
 @group(0) @binding(12) var<storage, read_write> quat: array<vec4<f32>>;
-// constant load.xyz; added mass of the implicit method in .w (seed 2.129)
+// constant load.xyz; added mass M_a in .w (seed 2.129; both integrators)
 @group(0) @binding(13) var<storage, read> load: array<vec4<f32>>;
 @group(0) @binding(14) var<storage, read_write> rot: array<mat3x3<f32>>;
 @group(0) @binding(15) var<storage, read_write> qmat: array<mat3x3<f32>>;
@@ -245,7 +245,8 @@ fn integrate_explicit(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let dt = P.dt;
     let f = force[i].xyz + extra_force[i].xyz + load[i].xyz + info.x * P.gravity.xyz;
-    let v = vel[i].xyz + dt * f / info.x;
+    // (M + M_a) ΔV = Δt f: the fluid's added mass of a momentum-conserving coupling (2.129)
+    let v = vel[i].xyz + dt * f / (info.x + load[i].w);
     let w = spin[i].xyz + dt * (torque[i].xyz + extra_torque[i].xyz) / info.y;
     vel[i] = vec4<f32>(v, 0.0);
     spin[i] = vec4<f32>(w, 0.0);

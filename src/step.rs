@@ -15,6 +15,18 @@ pub enum Part {
     Solid,
     /// The coupling between them (a body that moved too far in one step).
     Coupling,
+    /// The GPU the solver ran on (lost, out of memory, or a command rejected).
+    Device,
+}
+
+impl Part {
+    /// What happened to it: a solver goes unstable, a device fails.
+    pub fn verb(&self) -> &'static str {
+        match self {
+            Part::Device => "failed",
+            _ => "unstable",
+        }
+    }
 }
 
 impl fmt::Display for Part {
@@ -23,6 +35,7 @@ impl fmt::Display for Part {
             Part::Fluid => "fluid",
             Part::Solid => "solid",
             Part::Coupling => "coupling",
+            Part::Device => "device",
         })
     }
 }
@@ -36,6 +49,8 @@ pub enum Site {
     Particle(usize),
     /// A body of the solid (its body index).
     Body(u16),
+    /// The whole state (a failure of the device, not of one place).
+    Everywhere,
 }
 
 impl fmt::Display for Site {
@@ -44,6 +59,7 @@ impl fmt::Display for Site {
             Site::Node(x) => write!(f, "node {x:?}"),
             Site::Particle(i) => write!(f, "particle {i}"),
             Site::Body(b) => write!(f, "body {b}"),
+            Site::Everywhere => f.write_str("the whole state"),
         }
     }
 }
@@ -51,7 +67,7 @@ impl fmt::Display for Site {
 /// Why a solver stopped: which part, where, when, and which quantity left its admissible range.
 /// Every solver reports this one type.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("{part} unstable at step {step} (t = {time:.6} {time_unit}), {site}: {quantity} = {value:e} ({reason})")]
+#[error("{part} {} at step {step} (t = {time:.6} {time_unit}), {site}: {quantity} = {value:e} ({reason})", .part.verb())]
 pub struct Instability {
     pub part: Part,
     pub step: u64,

@@ -200,6 +200,28 @@ fn gpu_reports_instability() {
     assert!(cpu.layout.kind[node] == NodeKind::Fluid && (1..=3).contains(&code));
 }
 
+/// Issue 15 §4: a device lost in the middle of a run (here destroyed, as a driver reset would
+/// lose it) stops the run with a diagnosis naming the device, not a panic; the mirror keeps
+/// the last state downloaded (so the run loop keeps the outputs written so far).
+#[test]
+fn a_lost_device_stops_the_run_with_a_diagnosis() {
+    use phonation::run::{Backend, FluidEngine};
+    use phonation::step::{Part, Solver};
+    if context().is_none() {
+        return;
+    }
+    let mut e = FluidEngine::new(Backend::Gpu, scene(false, GasModel::Monatomic)).unwrap();
+    e.advance(3).expect("a healthy device steps");
+    let kept = phonation::state::state_hash(&e.solver);
+    e.lose_device();
+    let err = e.advance(3).expect_err("a lost device must stop the run");
+    eprintln!("{err}");
+    assert_eq!(err.part, Part::Device, "{err}");
+    assert!(err.reason.contains("device lost"), "{err}");
+    assert_eq!(e.solver.step_count, 3, "the mirror keeps the last downloaded state");
+    assert_eq!(phonation::state::state_hash(&e.solver), kept, "the mirror keeps the last downloaded state");
+}
+
 #[test]
 fn headless_run_on_the_gpu_writes_the_same_probes_as_the_cpu() {
     use phonation::run::{Backend, RunOptions, run_scene};

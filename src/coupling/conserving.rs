@@ -15,16 +15,18 @@
 //!    r_e of it with the kernel weights w_j normalised to sum to one (2.127–2.128; the seed
 //!    normalises by |L|, which does not sum to one, and the sum must be one for the solid to
 //!    receive exactly what the air lost) and becomes a load over the step.
-//! 4. **solid** — the solid steps (explicit sub-steps or implicit) with those loads.
+//! 4. **solid** — the solid steps (explicit sub-steps or implicit) with those loads and the
+//!    air's added mass in its mass matrix (2.129, [`super::added_mass`]).
 //!
-//! Everything the air loses, the particles gain: fluid + solid momentum is conserved to
-//! round-off (the solid's internal forces are pairwise), with no surface polygon. The exchange
+//! Everything the air loses, the particles gain: fluid + solid momentum (+ the added mass's
+//! Σ m_a v in transit) is conserved to round-off (the solid's internal forces are pairwise),
+//! with no surface polygon. The exchange
 //! is counted against the air at rest at the reference pressure p₀ (gauge), as method 1's
 //! tractions are: a body's reference shape is its shape in air at p₀.
 //!
-//! Not built yet: the fluid's added mass in the implicit solve (2.129), which lets the seed take
-//! larger steps with light bodies; here the wall velocity of a step is the particles' velocity
-//! at its start (a staggered exchange), as in method 1.
+//! The walls of a step move at the particles' velocity at its start (a staggered exchange, as
+//! in method 1); the added mass (2.129) puts the air's answer to the new velocity into the
+//! solid's update, which is what lets light bodies be carried.
 //!
 //! Units: the solid in the scene's physical units, the fluid in lattice units.
 
@@ -43,11 +45,14 @@ pub struct ConservingOptions {
     pub kernel_radius: f64,
     /// Largest particle displacement per fluid step (cells).
     pub max_cells_per_step: f64,
+    /// The air's added mass in the solid's update (2.129, [`super::added_mass`]); without it
+    /// the exchange is purely staggered.
+    pub added_mass: bool,
 }
 
 impl Default for ConservingOptions {
     fn default() -> Self {
-        Self { kernel_radius: 2.0, max_cells_per_step: 1.0 }
+        Self { kernel_radius: 2.0, max_cells_per_step: 1.0, added_mass: true }
     }
 }
 

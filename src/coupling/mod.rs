@@ -11,10 +11,10 @@
 //! | [`level_set`] | method 2's geometry: level set from the particles, crossings, normals | 2.124–2.126 |
 //! | [`momentum_exchange`] | the momentum the air hands to each wall node, link by link | 2.120–2.123 |
 //! | [`conserving`] | method 2: level-set walls, momentum shared among the particles | §2.4.2 |
+//! | [`added_mass`] | method 2: the air's added mass in the solid's update | 2.129 |
 //! | [`solver`] | the coupled solver: fluid + solid + either method, stage by stage | §2.4 |
-//!
-//! Method 2's added mass in the implicit solve (2.129) is not built yet (see [`conserving`]).
 
+pub mod added_mass;
 pub mod conserving;
 pub mod glottis;
 pub mod level_set;

@@ -40,7 +40,7 @@ pub fn stage_weight(stage: &Stage, dt: f64) -> Option<f64> {
 }
 
 /// Whether the fluid's stencils read `kind` as a wall (not fluid, not a periodic copy).
-fn is_wall(kind: NodeKind) -> bool {
+pub(crate) fn is_wall(kind: NodeKind) -> bool {
     !matches!(kind, NodeKind::Fluid | NodeKind::Periodic)
 }
 

@@ -44,6 +44,10 @@ pub enum CouplingSetupError {
     NeedsExplicitSolid,
     #[error("coupling: the fluid is {fluid}D and the solid {solid}D")]
     Dimensions { fluid: usize, solid: usize },
+    #[error(
+        "coupling.method: the weak coupling needs the bodies' surface triangles in 3D, which are not built yet; use method = \"momentum_conserving\" (level sets need no surface mesh)"
+    )]
+    WeakIn3d,
     #[error("coupling.bodies: {0}")]
     Surface(#[from] SurfaceError),
 }
@@ -94,6 +98,9 @@ impl CoupledSolver {
         if fluid.layout.grid.dim != solid.particles.dim {
             return Err(CouplingSetupError::Dimensions { fluid: fluid.layout.grid.dim, solid: solid.particles.dim });
         }
+        if matches!(method, Method::Weak(_)) && fluid.layout.grid.dim == 3 {
+            return Err(CouplingSetupError::WeakIn3d);
+        }
         let dt = fluid.params.dt * units.time();
         let substeps = (dt / solid.dt).ceil().max(1.0) as u32;
         solid.dt = dt / substeps as f64;
@@ -137,6 +144,12 @@ impl CoupledSolver {
         c.geometry = GeometryChange::default();
         if let Some(e) = &mut c.exchange {
             e.clear();
+        }
+        if let Method::Conserving(o) = method
+            && o.added_mass
+        {
+            let m = c.fluid_added_mass();
+            c.solid.set_added_mass(m);
         }
         Ok(c)
     }

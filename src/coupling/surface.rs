@@ -13,7 +13,10 @@
 //! * The connectivity: surface particles in order of their angle about the centroid of the
 //!   surface points, counter-clockwise — correct for star-shaped bodies (boxes, discs, flaps,
 //!   the fold section); the builder checks that the result is a simple polygon and refuses
-//!   the body otherwise. 3D surfaces (triangles) are not built yet.
+//!   the body otherwise.
+//! * In 3D the surface particles and their offsets are built the same way (six axis
+//!   neighbours), without connectivity: method 2 needs only the surface points (to calibrate
+//!   its level set); method 1's triangles are not built yet, and it refuses 3D bodies.
 
 use crate::solid::Particles;
 use glam::{DMat3, DVec3};
@@ -24,8 +27,10 @@ use std::collections::HashSet;
 pub enum ReferenceShape {
     /// Axis-aligned box [min, max].
     Box { min: DVec3, max: DVec3 },
-    /// Disc (2D) of `radius` about `centre`.
+    /// Disc (2D; a cylinder along z in 3D) of `radius` about `centre`.
     Disc { centre: DVec3, radius: f64 },
+    /// Sphere (3D) of `radius` about `centre`.
+    Ball { centre: DVec3, radius: f64 },
     /// A closed polygon (2D, x–y; the last vertex joins the first), e.g. the vocal-fold section
     /// of [`crate::solid::fold::FoldSection::outline`] with its arcs cut finely.
     Outline(Vec<DVec3>),
@@ -57,6 +62,10 @@ impl ReferenceShape {
             ReferenceShape::Disc { centre, radius } => {
                 let mut d = x - *centre;
                 d.z = 0.0;
+                ((d.length() - radius).abs() <= spacing).then(|| *centre + d.normalize_or(DVec3::X) * *radius)
+            }
+            ReferenceShape::Ball { centre, radius } => {
+                let d = x - *centre;
                 ((d.length() - radius).abs() <= spacing).then(|| *centre + d.normalize_or(DVec3::X) * *radius)
             }
             ReferenceShape::Outline(v) => {
@@ -92,49 +101,57 @@ pub enum SurfaceError {
         "body {body}: surface particle {particle} lies more than a spacing inside the body's reference shape (the particles are not a sample of that shape)"
     )]
     NotOnShape { body: u16, particle: usize },
-    #[error("3D surfaces (triangulated) are not built yet; the coupling runs in 2D")]
-    ThreeDimensional,
 }
 
-/// The closed surface polygon of one body.
+/// The closed surface polygon of one body (2D), or its surface particles (3D).
 #[derive(Clone, Debug)]
 pub struct BodySurface {
     pub body: u16,
-    /// Surface particles, counter-clockwise.
+    /// Surface particles, counter-clockwise in 2D; in index order in 3D.
     pub particles: Vec<usize>,
     /// Reference offsets o_i from each surface particle to its surface point.
     pub offsets: Vec<DVec3>,
 }
 
 impl BodySurface {
-    /// Builds the polygon of `body` from the reference configuration.
+    /// Builds the polygon (2D) or the surface particles (3D) of `body` from the reference
+    /// configuration.
     pub fn build(p: &Particles, body: u16, shape: &ReferenceShape) -> Result<Self, SurfaceError> {
-        if p.dim != 2 {
-            return Err(SurfaceError::ThreeDimensional);
-        }
         let l0 = p.spacing;
+        let dim = p.dim;
         let members: Vec<usize> = (0..p.len()).filter(|&i| p.body[i] == body).collect();
         let Some(&first) = members.first() else { return Err(SurfaceError::TooFew { body }) };
         let origin = p.reference[first];
-        let key = |x: DVec3| (((x.x - origin.x) / l0).round() as i64, ((x.y - origin.y) / l0).round() as i64);
-        let sites: HashSet<(i64, i64)> = members.iter().map(|&i| key(p.reference[i])).collect();
+        let key = |x: DVec3| {
+            let k = ((x - origin) / l0).round();
+            [k.x as i64, k.y as i64, if dim == 3 { k.z as i64 } else { 0 }]
+        };
+        let sites: HashSet<[i64; 3]> = members.iter().map(|&i| key(p.reference[i])).collect();
         let mut surface = Vec::new();
         for &i in &members {
-            let (kx, ky) = key(p.reference[i]);
-            let empty = |dx: i64, dy: i64| !sites.contains(&(kx + dx, ky + dy));
-            if (empty(1, 0) && empty(-1, 0)) || (empty(0, 1) && empty(0, -1)) {
+            let k = key(p.reference[i]);
+            let empty = |a: usize, s: i64| {
+                let mut n = k;
+                n[a] += s;
+                !sites.contains(&n)
+            };
+            if (0..dim).any(|a| empty(a, 1) && empty(a, -1)) {
                 return Err(SurfaceError::TooThin { body, particle: i });
             }
-            if empty(1, 0) || empty(-1, 0) || empty(0, 1) || empty(0, -1) {
+            if (0..dim).any(|a| empty(a, 1) || empty(a, -1)) {
                 surface.push(i);
             }
         }
-        if surface.len() < 3 {
+        if surface.len() < dim + 1 {
             return Err(SurfaceError::TooFew { body });
         }
         let mut points = Vec::with_capacity(surface.len());
         for &i in &surface {
             points.push(shape.surface_point(p.reference[i], l0).ok_or(SurfaceError::NotOnShape { body, particle: i })?);
+        }
+        if dim == 3 {
+            let offsets = surface.iter().zip(&points).map(|(&i, x)| *x - p.reference[i]).collect();
+            return Ok(BodySurface { body, particles: surface, offsets });
         }
         let centroid = points.iter().copied().sum::<DVec3>() / points.len() as f64;
         let mut order: Vec<usize> = (0..surface.len()).collect();

@@ -1,6 +1,7 @@
 //! A headless wgpu device (no window, no Bevy): a real GPU when one exists, or Mesa's software
 //! Vulkan ("lavapipe") on machines without one.
 
+use std::sync::{Arc, Mutex};
 use thiserror::Error;
 
 #[derive(Debug, Error)]
@@ -11,6 +12,63 @@ pub enum GpuError {
     Device(String),
     #[error("{what} needs {bytes} {unit}, more than the adapter's {limit_name} of {limit}")]
     TooLarge { what: &'static str, bytes: u64, limit: u64, unit: &'static str, limit_name: &'static str },
+    #[error("the device failed while the state was uploaded: {0}")]
+    Failed(String),
+}
+
+/// What went wrong with a device after it was opened — lost (driver reset, removed, destroyed),
+/// out of memory, or a command it rejected — recorded by wgpu's callbacks instead of wgpu's
+/// default panic, so that a run can stop with a diagnosis and keep the outputs written so far
+/// (the run layer checks it after every advance). A loss outranks the errors it causes.
+#[derive(Clone, Debug)]
+pub struct DeviceHealth {
+    state: Arc<Mutex<Health>>,
+    device: wgpu::Device,
+}
+
+#[derive(Debug, Default)]
+struct Health {
+    lost: Option<String>,
+    error: Option<String>,
+}
+
+impl DeviceHealth {
+    /// Installs the callbacks on `device`.
+    pub fn watch(device: &wgpu::Device) -> Self {
+        let h = DeviceHealth { state: Arc::default(), device: device.clone() };
+        let lost = h.state.clone();
+        device.set_device_lost_callback(move |reason, msg| {
+            lost.lock().expect("device health").lost.get_or_insert_with(|| format!("device lost ({reason:?}): {msg}"));
+        });
+        let err = h.state.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            let what = match &e {
+                wgpu::Error::OutOfMemory { .. } => format!("out of GPU memory: {e}"),
+                _ => format!("the device rejected a command: {e}"),
+            };
+            eprintln!("gpu: {what}");
+            err.lock().expect("device health").error.get_or_insert(what);
+        }));
+        h
+    }
+
+    /// The first failure since the device was opened, a loss first (None: healthy).
+    pub fn failure(&self) -> Option<String> {
+        let h = self.state.lock().expect("device health");
+        h.lost.clone().or_else(|| h.error.clone())
+    }
+
+    /// Destroys the device (tests: what a driver reset does to a run).
+    #[doc(hidden)]
+    pub fn destroy_device(&self) {
+        self.device.destroy();
+    }
+
+    /// Waits for the work submitted so far, then [`Self::failure`].
+    pub fn settle(&self) -> Option<String> {
+        let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
+        self.failure()
+    }
 }
 
 /// Device, queue and what the adapter is.
@@ -21,6 +79,8 @@ pub struct GpuContext {
     pub limits: wgpu::Limits,
     /// Timestamp queries available (per-stage GPU timings).
     pub timestamps: bool,
+    /// Loss and errors of the device since it was opened.
+    pub health: DeviceHealth,
 }
 
 impl GpuContext {
@@ -53,7 +113,8 @@ impl GpuContext {
             ..Default::default()
         }))
         .map_err(|e| GpuError::Device(e.to_string()))?;
-        Ok(GpuContext { device, queue, info, limits, timestamps })
+        let health = DeviceHealth::watch(&device);
+        Ok(GpuContext { device, queue, info, limits, timestamps, health })
     }
 
     /// Pretends the adapter allows at most `bytes` per storage binding, so that tests can drive
@@ -87,8 +148,16 @@ pub fn read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buffer)
     enc.copy_buffer_to_buffer(b, 0, &staging, 0, b.size());
     queue.submit([enc.finish()]);
     let slice = staging.slice(..);
-    slice.map_async(wgpu::MapMode::Read, |r| r.expect("map readback buffer"));
+    let mapped = Arc::new(Mutex::new(None));
+    let done = mapped.clone();
+    slice.map_async(wgpu::MapMode::Read, move |r| *done.lock().expect("readback") = Some(r));
     let _ = device.poll(wgpu::PollType::wait_indefinitely());
+    // A lost device fails the map: zeros come back, and the run layer, which checks the
+    // device's health after every download, stops with the loss (DeviceHealth).
+    if !matches!(mapped.lock().expect("readback").take(), Some(Ok(()))) {
+        eprintln!("gpu: reading a buffer back failed (device lost?)");
+        return vec![0; b.size() as usize];
+    }
     let out = slice.get_mapped_range().to_vec();
     staging.unmap();
     out

@@ -14,5 +14,5 @@ mod thin_wall;
 #[cfg(test)]
 pub(crate) mod wgsl_check;
 
-pub use context::{GpuContext, GpuError};
+pub use context::{DeviceHealth, GpuContext, GpuError};
 pub use fdlb::{GpuArray, GpuFluid};

@@ -6,7 +6,7 @@
 use crate::fluid::{FluidSolver, Instability};
 use crate::gpu::lattice_gas::GpuLatticeGas;
 use crate::gpu::solid::GpuSolid;
-use crate::gpu::{GpuContext, GpuError, GpuFluid};
+use crate::gpu::{DeviceHealth, GpuContext, GpuError, GpuFluid};
 use crate::lattice_gas::collision::CollisionTable;
 use crate::lattice_gas::lattice::LatticeGas;
 use crate::lattice_gas::step::LatticeGasTimings;
@@ -48,11 +48,37 @@ pub fn pick_gpu(backend: Backend) -> Result<(Option<GpuContext>, String), GpuErr
     Ok((None, format!("cpu ({threads} threads)")))
 }
 
+/// The health of a device just given a solver's state: a failure during the upload (out of
+/// memory, most often) refuses the run before it starts.
+fn uploaded(ctx: &GpuContext) -> Result<DeviceHealth, GpuError> {
+    match ctx.health.settle() {
+        Some(why) => Err(GpuError::Failed(why)),
+        None => Ok(ctx.health.clone()),
+    }
+}
+
+/// The instability a run stops with when its device fails (lost, out of memory, a rejected
+/// command) during the advance that ended at `step`: the run loop then keeps the outputs
+/// written so far, and the mirror holds the last state downloaded before the failure.
+fn device_failure(why: String, step: u64, time: f64, time_unit: &'static str, n: u64) -> Instability {
+    Instability {
+        part: Part::Device,
+        step,
+        time,
+        time_unit,
+        site: Site::Everywhere,
+        quantity: "device state",
+        value: f64::NAN,
+        reason: format!("{why} (within the last {n} steps; the state kept is the last one downloaded)"),
+    }
+}
+
 /// The FDLB fluid on a backend. On the GPU, [`FluidEngine::solver`] mirrors the GPU state after
 /// every [`Solver::advance`].
 pub struct FluidEngine {
     pub solver: FluidSolver,
     gpu: Option<Box<GpuFluid>>,
+    health: Option<DeviceHealth>,
     /// What runs it ("cpu (2 threads)", "gpu: …").
     pub name: String,
 }
@@ -69,21 +95,30 @@ impl FluidEngine {
                 GpuFluid::fits(&ctx.limits, nodes, nv)?;
                 let solver = build()?;
                 let g = Box::new(GpuFluid::from_solver(&ctx, &solver)?);
-                return Ok(Self { solver, gpu: Some(g), name });
+                let health = Some(uploaded(&ctx)?);
+                return Ok(Self { solver, gpu: Some(g), health, name });
             }
             None => None,
         };
-        Ok(Self { solver: build()?, gpu, name })
+        Ok(Self { solver: build()?, gpu, health: None, name })
     }
 
     /// Picks the backend and uploads `solver` to the GPU when it is chosen.
     pub fn new(backend: Backend, solver: FluidSolver) -> Result<Self, GpuError> {
         let (ctx, name) = pick_gpu(backend)?;
-        let gpu = match ctx {
-            Some(ctx) => Some(Box::new(GpuFluid::from_solver(&ctx, &solver)?)),
-            None => None,
+        let (gpu, health) = match ctx {
+            Some(ctx) => (Some(Box::new(GpuFluid::from_solver(&ctx, &solver)?)), Some(uploaded(&ctx)?)),
+            None => (None, None),
         };
-        Ok(Self { solver, gpu, name })
+        Ok(Self { solver, gpu, health, name })
+    }
+
+    /// Destroys the GPU device, as a driver reset would lose it (tests of the diagnosis).
+    #[doc(hidden)]
+    pub fn lose_device(&self) {
+        if let Some(h) = &self.health {
+            h.destroy_device();
+        }
     }
 }
 
@@ -102,6 +137,9 @@ impl Solver for FluidEngine {
         let Some(g) = self.gpu.as_mut() else { return self.solver.run(n) };
         let s = &mut self.solver;
         g.run(n);
+        if let Some(why) = self.health.as_ref().and_then(|h| h.settle()) {
+            return Err(device_failure(why, g.step_count, g.step_count as f64 * s.params.dt, "lattice units", n));
+        }
         if let Some((node, code)) = g.instability() {
             let quantity = ["", "density", "velocity", "temperature"][code as usize];
             return Err(Instability {
@@ -132,6 +170,7 @@ impl Solver for FluidEngine {
 pub struct SolidEngine {
     pub solver: SolidSolver,
     gpu: Option<GpuSolid>,
+    health: Option<DeviceHealth>,
     pub name: String,
 }
 
@@ -143,9 +182,11 @@ impl SolidEngine {
     /// is out of f32's reach).
     pub fn new(backend: Backend, mut solver: SolidSolver, cg_tolerance: Option<f64>) -> anyhow::Result<Self> {
         let (ctx, name) = pick_gpu(backend)?;
+        let mut health = None;
         let gpu = match ctx {
             Some(ctx) => {
                 let mut g = GpuSolid::from_solver(&ctx, &mut solver)?;
+                health = Some(uploaded(&ctx)?);
                 g.cg_tolerance = match cg_tolerance {
                     Some(t) if t < GPU_CG_FLOOR => anyhow::bail!(crate::error::SceneError {
                         field: "solid.cg_tolerance".into(),
@@ -160,7 +201,7 @@ impl SolidEngine {
             }
             None => None,
         };
-        Ok(Self { solver, gpu, name })
+        Ok(Self { solver, gpu, health, name })
     }
 
     /// Iterations and relative residual of the last GPU conjugate-gradient solve (None on the
@@ -188,6 +229,10 @@ impl Solver for SolidEngine {
     fn advance(&mut self, n: u64) -> Result<(), Instability> {
         let Some(g) = self.gpu.as_mut() else { return Solver::advance(&mut self.solver, n) };
         g.run(n);
+        if let Some(why) = self.health.as_ref().and_then(|h| h.settle()) {
+            let s = &self.solver;
+            return Err(device_failure(why, s.step_count + n, s.time + n as f64 * s.dt, "s", n));
+        }
         g.download_into(&mut self.solver);
         match self.solver.non_finite() {
             None => Ok(()),
@@ -212,6 +257,7 @@ pub struct LatticeGasEngine {
     pub gas: LatticeGas,
     table: &'static CollisionTable,
     gpu: Option<GpuLatticeGas>,
+    health: Option<DeviceHealth>,
     step_count: u64,
     pub timings: LatticeGasTimings,
     pub name: String,
@@ -221,11 +267,11 @@ impl LatticeGasEngine {
     pub fn new(backend: Backend, gas: LatticeGas) -> Result<Self, GpuError> {
         let table = CollisionTable::shared();
         let (ctx, name) = pick_gpu(backend)?;
-        let gpu = match &ctx {
-            Some(ctx) => Some(GpuLatticeGas::new(ctx, &gas, table)?),
-            None => None,
+        let (gpu, health) = match &ctx {
+            Some(ctx) => (Some(GpuLatticeGas::new(ctx, &gas, table)?), Some(uploaded(ctx)?)),
+            None => (None, None),
         };
-        Ok(Self { gas, table, gpu, step_count: 0, timings: LatticeGasTimings::default(), name })
+        Ok(Self { gas, table, gpu, health, step_count: 0, timings: LatticeGasTimings::default(), name })
     }
 
     /// The engine of a gas restored from a checkpoint taken at step `step_count` (the gas keeps
@@ -249,6 +295,9 @@ impl Solver for LatticeGasEngine {
         match self.gpu.as_mut() {
             Some(g) => {
                 g.advance(n);
+                if let Some(why) = self.health.as_ref().and_then(|h| h.settle()) {
+                    return Err(device_failure(why, self.step_count + n, (self.step_count + n) as f64, "lattice units", n));
+                }
                 g.download_into(&mut self.gas);
             }
             None => {

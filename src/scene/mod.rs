@@ -41,6 +41,7 @@ pub const COUPLED_BUILTIN: &[(&str, &str)] = &[
     ("fsi_cylinder_conserving", include_str!("../../assets/scenes/coupled/fsi_cylinder_conserving.toml")),
     ("wall_flap", include_str!("../../assets/scenes/coupled/wall_flap.toml")),
     ("wall_flap_conserving", include_str!("../../assets/scenes/coupled/wall_flap_conserving.toml")),
+    ("wall_flap_3d", include_str!("../../assets/scenes/coupled/wall_flap_3d.toml")),
     ("glottis_2d_a", include_str!("../../assets/scenes/glottis/glottis_2d_a.toml")),
     ("glottis_2d_b", include_str!("../../assets/scenes/glottis/glottis_2d_b.toml")),
     ("glottis_2d_c", include_str!("../../assets/scenes/glottis/glottis_2d_c.toml")),

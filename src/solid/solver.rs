@@ -234,6 +234,15 @@ impl SolidSolver {
         &self.total_torque
     }
 
+    /// Sets the added mass M_a of every particle (kg, or kg/m in 2D; seed 2.129: the fluid's
+    /// share of the inertia in the velocity update, [`crate::coupling`] method 2). The implicit
+    /// preconditioner, whose diagonal holds M + M_a, is rebuilt on its next use.
+    pub fn set_added_mass(&mut self, added_mass: Vec<f64>) {
+        assert_eq!(added_mass.len(), self.particles.len(), "one added mass per particle");
+        self.particles.added_mass = added_mass;
+        self.precond = None;
+    }
+
     /// The implicit method's preconditioner (built on first use).
     pub fn preconditioner(&mut self) -> &BlockJacobi {
         if self.precond.is_none() {
@@ -338,7 +347,7 @@ impl SolidSolver {
                 let dt = self.dt;
                 let (f, t) = (&self.total_force, &self.total_torque);
                 let p = &mut self.particles;
-                let Particles { position, velocity, rotation, spin, mass, inertia, fixed, .. } = p;
+                let Particles { position, velocity, rotation, spin, mass, added_mass, inertia, fixed, .. } = p;
                 (position.par_iter_mut(), velocity.par_iter_mut(), rotation.par_iter_mut(), spin.par_iter_mut()).into_par_iter().enumerate().for_each(
                     |(i, (x, v, q, w))| {
                         if fixed[i] {
@@ -347,8 +356,10 @@ impl SolidSolver {
                             return;
                         }
                         if !implicit {
-                            // (2.44)–(2.45), (2.52)–(2.56)
-                            *v += dt * f[i] / mass[i];
+                            // (2.44)–(2.45), (2.52)–(2.56); with the fluid's added mass M_a of a
+                            // momentum-conserving coupling, (M + M_a) ΔV = Δt f is (2.129)
+                            // written for an explicit step (zero otherwise)
+                            *v += dt * f[i] / (mass[i] + added_mass[i]);
                             *w += dt * t[i] / inertia[i];
                             *q = advance_quaternion(*q, *w, dt);
                         }

@@ -109,7 +109,7 @@ pub fn soak(steps: u64) -> anyhow::Result<SoakReport> {
         r.displacement_step = r.displacement_step.max((d - prev_d).abs());
         let (air, disc) = (c.fluid_momentum(&t), c.solid.particles.linear_momentum());
         disc_p = disc_p.max(disc.length());
-        r.momentum_max = r.momentum_max.max((air + disc).length());
+        r.momentum_max = r.momentum_max.max((air + disc + c.added_mass_momentum()).length());
         (prev_m, prev_e, prev_d) = (t.mass, t.energy, d);
     }
     r.momentum_max /= disc_p;
