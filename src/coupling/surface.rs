@@ -20,7 +20,7 @@
 
 use crate::solid::Particles;
 use glam::{DMat3, DVec3};
-use std::collections::HashSet;
+use std::collections::HashMap;
 
 /// The reference shape of a body (physical units), used to place the surface points.
 #[derive(Clone, Debug, PartialEq)]
@@ -31,6 +31,10 @@ pub enum ReferenceShape {
     Disc { centre: DVec3, radius: f64 },
     /// Sphere (3D) of `radius` about `centre`.
     Ball { centre: DVec3, radius: f64 },
+    /// 3D: the shape of the particle sample itself — each surface particle stands for the
+    /// point half a spacing out towards each of its empty axis neighbours (the faces, edges
+    /// and corners of its cell), e.g. the 3D vocal fold, whose sections shift along its length.
+    Sampled,
     /// A closed polygon (2D, x–y; the last vertex joins the first), e.g. the vocal-fold section
     /// of [`crate::solid::fold::FoldSection::outline`] with its arcs cut finely.
     Outline(Vec<DVec3>),
@@ -64,6 +68,7 @@ impl ReferenceShape {
                 d.z = 0.0;
                 ((d.length() - radius).abs() <= spacing).then(|| *centre + d.normalize_or(DVec3::X) * *radius)
             }
+            ReferenceShape::Sampled => None,
             ReferenceShape::Ball { centre, radius } => {
                 let d = x - *centre;
                 ((d.length() - radius).abs() <= spacing).then(|| *centre + d.normalize_or(DVec3::X) * *radius)
@@ -126,16 +131,32 @@ impl BodySurface {
             let k = ((x - origin) / l0).round();
             [k.x as i64, k.y as i64, if dim == 3 { k.z as i64 } else { 0 }]
         };
-        let sites: HashSet<[i64; 3]> = members.iter().map(|&i| key(p.reference[i])).collect();
+        let mut sites: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+        for &i in &members {
+            sites.entry(key(p.reference[i])).or_default().push(i);
+        }
+        // Whether a particle of the body lies within l₀/2 of `q`: by distance, not by key, so
+        // that a sample whose rows are sheared by a fraction of l₀ (the 3D fold, whose sections
+        // shift along its length) sees its true neighbours wherever the rounding of the keys
+        // jumps.
+        let occupied = |q: DVec3| {
+            let k = key(q);
+            let near =
+                |d: [i64; 3]| sites.get(&[k[0] + d[0], k[1] + d[1], k[2] + d[2]]).is_some_and(|v| v.iter().any(|&j| (p.reference[j] - q).length() < 0.5 * l0));
+            let zs: &[i64] = if dim == 3 { &[-1, 0, 1] } else { &[0] };
+            zs.iter().any(|&dz| (-1..=1).any(|dy| (-1..=1).any(|dx| near([dx, dy, dz]))))
+        };
+        let empty_at = |x: DVec3, a: usize, s: i64| {
+            let mut q = x;
+            q[a] += s as f64 * l0;
+            !occupied(q)
+        };
         let mut surface = Vec::new();
         for &i in &members {
-            let k = key(p.reference[i]);
-            let empty = |a: usize, s: i64| {
-                let mut n = k;
-                n[a] += s;
-                !sites.contains(&n)
-            };
-            if (0..dim).any(|a| empty(a, 1) && empty(a, -1)) {
+            let x = p.reference[i];
+            let empty = |a: usize, s: i64| empty_at(x, a, s);
+            // (the polygon's need: in 3D, which has no connectivity, a one-particle sheet is fine)
+            if dim == 2 && (0..dim).any(|a| empty(a, 1) && empty(a, -1)) {
                 return Err(SurfaceError::TooThin { body, particle: i });
             }
             if (0..dim).any(|a| empty(a, 1) || empty(a, -1)) {
@@ -147,7 +168,22 @@ impl BodySurface {
         }
         let mut points = Vec::with_capacity(surface.len());
         for &i in &surface {
-            points.push(shape.surface_point(p.reference[i], l0).ok_or(SurfaceError::NotOnShape { body, particle: i })?);
+            let x = p.reference[i];
+            let point = match shape {
+                ReferenceShape::Sampled => {
+                    let mut o = DVec3::ZERO;
+                    for a in 0..dim {
+                        for s in [1i64, -1] {
+                            if empty_at(x, a, s) {
+                                o[a] += 0.5 * l0 * s as f64;
+                            }
+                        }
+                    }
+                    Some(x + o)
+                }
+                _ => shape.surface_point(x, l0),
+            };
+            points.push(point.ok_or(SurfaceError::NotOnShape { body, particle: i })?);
         }
         if dim == 3 {
             let offsets = surface.iter().zip(&points).map(|(&i, x)| *x - p.reference[i]).collect();

@@ -323,6 +323,11 @@ impl CoupledScene {
     /// The glottis when the solid has exactly one left and one right fold about the same
     /// mid-line: glottal gap, flow and margins are then sampled during a run.
     pub fn glottis(&self, c: &CoupledSolver) -> Option<Glottis> {
+        // the glottal readouts (gap, area, flow through the narrowest section, margins) are
+        // built for the 2D section; a 3D glottis runs without them for now
+        if self.fluid.grid.dim != 2 {
+            return None;
+        }
         let folds: Vec<(usize, &FoldBodySpec)> = self.solid.file.solid.bodies.iter().enumerate().filter_map(|(k, b)| b.fold.as_ref().map(|f| (k, f))).collect();
         let [(a, fa), (b, fb)] = folds[..] else { return None };
         let ((l, _), (r, fr)) = match (fa.side, fb.side) {
@@ -377,7 +382,7 @@ fn body_bounds(b: &BodySpec, dim: usize, spacing: f64) -> (DVec3, DVec3) {
 fn reference_shape(b: &BodySpec, dim: usize) -> ReferenceShape {
     let v = |a: &[f64]| vec3("", a, dim, false).expect("validated");
     if let Some(f) = &b.fold {
-        return ReferenceShape::Outline(f.outline());
+        return if dim == 3 { ReferenceShape::Sampled } else { ReferenceShape::Outline(f.outline()) };
     }
     match b.radius {
         Some(r) if dim == 3 => ReferenceShape::Ball { centre: v(&b.center), radius: r },
@@ -478,6 +483,58 @@ mod tests {
         }
     }
 
+    /// The CPU-sized 3D glottis (seed §3.4.3) builds the two extruded folds of the seed's
+    /// three layers — cover 1/9, the thyroarytenoid layer outside the quarter ellipse, the body —
+    /// mirrored about the mid-line, the glottis widening by 0.06 cm from the anterior to the
+    /// posterior end, the anterior face clamped and the posterior face clamped but its cover;
+    /// coupled by method 2 it takes steps with a finite state.
+    #[test]
+    fn the_3d_glottis_builds_three_layer_folds_and_runs() {
+        let sc = CoupledScene::parse(glottis_text("glottis_3d_coarse")).unwrap();
+        let mut c = sc.build().unwrap();
+        assert!(sc.glottis(&c).is_none(), "the glottal readouts are 2D");
+        let p = &c.solid.particles;
+        let section = crate::solid::fold::FoldSection::default();
+        let l0 = p.spacing;
+        // each fold holds its volume in particles of l₀³ (within the lattice sampling's 2 %)
+        let expected = 2.0 * section.area() * section.length / l0.powi(3);
+        assert!((p.len() as f64 / expected - 1.0).abs() < 0.02, "{} particles, expected {expected:.0}", p.len());
+        let share = |m: u16| p.material.iter().filter(|x| **x == m).count() as f64 / p.len() as f64;
+        let (cover, ta) = (share(1), share(2));
+        assert!((cover - 1.0 / 9.0).abs() < 0.015, "cover fraction {cover}");
+        // outside a quarter ellipse of semi-axes width × length: 1 − π/4 of the section's
+        // bounding box, less the cover — a sizeable layer
+        assert!(ta > 0.05 && ta < 0.3, "thyroarytenoid fraction {ta}");
+        let x0 = 1.6625 / 2.0;
+        let (l, r): (Vec<usize>, Vec<usize>) = (0..p.len()).partition(|&i| p.body[i] == 0);
+        assert_eq!(l.len(), r.len());
+        assert!(l.iter().all(|&i| p.reference[i].x < x0) && r.iter().all(|&i| p.reference[i].x > x0));
+        // the medial surface of the right fold: G/2 from the mid-line at the anterior end,
+        // G/2 + 0.03 cm at the posterior end
+        let medial = |z: f64| r.iter().filter(|&&i| (p.reference[i].z - z).abs() < 0.5 * l0).map(|&i| p.reference[i].x - x0).fold(f64::INFINITY, f64::min);
+        let (front, back) = (medial(0.5 * l0), medial(section.length - 0.5 * l0));
+        assert!((back - front - 0.06 * (1.0 - l0 / section.length) / 2.0).abs() < 0.6 * l0, "medial surface at {front} (anterior), {back} (posterior)");
+        // anterior face clamped, posterior cover free
+        let at = |z: f64, m: u16| r.iter().filter(|&&i| (p.reference[i].z - z).abs() < 0.5 * l0 && p.material[i] == m).map(|&i| p.fixed[i]).collect::<Vec<_>>();
+        assert!(at(0.5 * l0, 1).iter().all(|f| *f), "the anterior face is clamped");
+        // (but where the cover meets the clamped lateral strip)
+        let back_cover = at(section.length - 0.5 * l0, 1);
+        let free = back_cover.iter().filter(|f| !**f).count() as f64 / back_cover.len() as f64;
+        assert!(free > 0.8, "the posterior cover is free: {free} of it");
+        assert!(at(section.length - 0.5 * l0, 0).iter().all(|f| *f), "the posterior body is clamped");
+        // the lattice sees mirror-image folds: every node's kind equals its mirror's about x₀
+        // (a sheared sample's surface once broke this: 90 nodes, see BodySurface::build)
+        let (g, kind) = (&c.fluid.layout.grid, &c.fluid.layout.kind);
+        let n = g.n;
+        let asymmetric = (0..n[2] as i64)
+            .flat_map(|z| (0..n[1] as i64).flat_map(move |y| (0..n[0] as i64).map(move |x| [x, y, z])))
+            .filter(|x| kind[g.index(*x)] != kind[g.index([n[0] as i64 - 1 - x[0], x[1], x[2]])])
+            .count();
+        assert_eq!(asymmetric, 0, "nodes whose mirror image has another kind");
+        c.run(3).expect("the 3D glottis steps");
+        assert!(c.solid.non_finite().is_none() && c.fluid.totals().mass.is_finite());
+    }
+
     #[test]
     fn the_glottis_builds_two_folds_with_their_layers_clamps_and_gap() {
         let sc = CoupledScene::parse(glottis_text("glottis_2d_coarse")).unwrap();
@@ -546,7 +603,13 @@ mod tests {
         let base = glottis_text("glottis_2d_coarse");
         let left = "{ fold = { side = \"left\", origin = [0.7568359375, 0.45], cover_material = 1, fixed_depth = 0.025 }, material = 0 }";
         assert!(base.contains(left));
-        let cases: [(&str, &str); 6] = [
+        let cases: [(&str, &str); 8] = [
+            // settings of the 3D fold in a 2D scene
+            ("{ fold = { side = \"left\", origin = [0.7568359375, 0.45], cover_material = 1, opening = 0.06 }, material = 0 }", "solid.bodies[0].fold.opening"),
+            (
+                "{ fold = { side = \"left\", origin = [0.7568359375, 0.45], cover_material = 1, ta_material = 1 }, material = 0 }",
+                "solid.bodies[0].fold.ta_material",
+            ),
             (
                 "{ fold = { side = \"left\", origin = [0.7568359375, 0.45], cover_material = 1, fixed_depth = 0.025 }, material = 0, radius = 0.1 }",
                 "solid.bodies[0].fold",
@@ -569,6 +632,15 @@ mod tests {
         ];
         for (to, field) in cases {
             let e = CoupledScene::parse(&base.replacen(left, to, 1)).err().unwrap_or_else(|| panic!("{to} accepted"));
+            assert_eq!(e.field, field, "{to}: {e}");
+        }
+        // the 3D fold: a missing thyroarytenoid material, an opening as wide as the fold
+        let base3 = glottis_text("glottis_3d_coarse");
+        for (from, to, field) in
+            [("ta_material = 2", "ta_material = 3", "solid.bodies[0].fold.ta_material"), ("opening = 0.06", "opening = 0.9", "solid.bodies[0].fold.opening")]
+        {
+            assert!(base3.contains(from));
+            let e = CoupledScene::parse(&base3.replacen(from, to, 1)).err().unwrap_or_else(|| panic!("{to} accepted"));
             assert_eq!(e.field, field, "{to}: {e}");
         }
         // particles coarser than the cover layer (≈ 0.02 cm)

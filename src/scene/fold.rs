@@ -17,6 +17,11 @@ fn err<T>(field: impl Into<String>, reason: impl Into<String>) -> Result<T, Scen
 /// free surface) of `cover_material`, the inner part of the body's `material`, and the particles
 /// within `fixed_depth` of the lateral face clamped (the thyroid cartilage). The lateral axis
 /// is x, the vertical (flow) axis y: the tracheal (lung) side is below, the vocal tract above.
+///
+/// In 3D (seed §3.4.3, [`FoldSection::sample_3d`]) the section is extruded along z over the
+/// fold's `length`, from the anterior end at `origin.z`: the glottis widens by `opening` from
+/// the anterior to the posterior end, the thyroarytenoid layer is of `ta_material`, and the
+/// anterior face and the posterior face (but its cover) are clamped as well.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FoldBodySpec {
@@ -29,6 +34,11 @@ pub struct FoldBodySpec {
     pub cover_material: usize,
     /// Depth under the lateral face that is clamped; default 2 l₀.
     pub fixed_depth: Option<f64>,
+    /// 3D: how much wider the glottis is at the posterior end than at the anterior end (scene
+    /// units; the seed's 0.06 cm); default 0.
+    pub opening: Option<f64>,
+    /// 3D: the material of the thyroarytenoid layer; default the body's `material`.
+    pub ta_material: Option<usize>,
 }
 
 /// Which fold: the left one lies at x below the mid-line, the right one above it.
@@ -58,6 +68,22 @@ impl FoldBodySpec {
         (0..s.position.len()).map(|i| (self.to_scene(s.position[i]), s.layer[i], s.fixed[i])).collect()
     }
 
+    /// 3D fold coordinates (lateral, along the fold from the anterior end, vertical) → scene
+    /// position (x lateral, y vertical, z along the fold).
+    pub fn to_scene_3d(&self, p: [f64; 3]) -> DVec3 {
+        DVec3::new(self.origin[0] + self.sign() * p[0], self.origin[1] + p[2], self.origin[2] + p[1])
+    }
+
+    /// The particles of this fold in `dim` dimensions (2D: [`Self::sample`]; 3D: the extruded
+    /// fold of [`FoldSection::sample_3d`]).
+    pub fn sample_in(&self, dim: usize, spacing: f64) -> Vec<(DVec3, Layer, bool)> {
+        if dim == 2 {
+            return self.sample(spacing);
+        }
+        let s = self.section.sample_3d(spacing, self.clamp_depth(spacing), self.opening.unwrap_or(0.0));
+        (0..s.position.len()).filter(|&i| s.side[i] == 1).map(|i| (self.to_scene_3d(s.position[i]), s.layer[i], s.fixed[i])).collect()
+    }
+
     /// The section's outline in scene coordinates, counter-clockwise.
     pub fn outline(&self) -> Vec<DVec3> {
         let mut v: Vec<DVec3> = self.section.outline(16).into_iter().map(|p| self.to_scene(p)).collect();
@@ -78,6 +104,11 @@ impl FoldBodySpec {
     pub fn free_bounds(&self, spacing: f64) -> (DVec3, DVec3) {
         let m = 0.5 * self.section.gap;
         let lateral = m + self.section.width - self.clamp_depth(spacing);
+        if self.origin.len() == 3 {
+            let widen = 0.5 * self.opening.unwrap_or(0.0);
+            let (a, b) = (self.to_scene_3d([m, 0.0, 0.0]), self.to_scene_3d([lateral + widen, self.section.length, self.section.height]));
+            return (a.min(b), a.max(b));
+        }
         let (a, b) = (self.to_scene([m, 0.0]), self.to_scene([lateral, self.section.height]));
         (a.min(b), a.max(b))
     }
@@ -85,16 +116,32 @@ impl FoldBodySpec {
 
 /// Checks a fold body `f` and returns its particle count estimate.
 pub(super) fn check_fold(fold: &FoldBodySpec, f: &str, s: &SolidSpec, units: crate::scene::schema::UnitSystem, materials: usize) -> Result<f64, SceneError> {
-    if s.dimension != 2 {
-        return err(format!("{f}.fold"), "fold bodies are 2D sections (solid.dimension = 2); the 3D fold is not a scene body yet");
-    }
+    let dim = s.dimension;
     fold.section.check(&format!("{f}.fold.section"))?;
     if units == crate::scene::schema::UnitSystem::Si && fold.section == FoldSection::default() {
         return err(format!("{f}.fold.section"), "the default dimensions are the seed's, in cm: give them in m for an SI scene (or use units = \"cgs\")");
     }
-    vec3(&format!("{f}.fold.origin"), &fold.origin, 2, false)?;
+    vec3(&format!("{f}.fold.origin"), &fold.origin, dim, false)?;
     if fold.cover_material >= materials {
         return err(format!("{f}.fold.cover_material"), format!("no material {} (there are {materials})", fold.cover_material));
+    }
+    if dim == 2 {
+        if fold.opening.is_some() {
+            return err(format!("{f}.fold.opening"), "is a setting of the 3D fold (solid.dimension = 3): a 2D section has no length to widen along");
+        }
+        if fold.ta_material.is_some() {
+            return err(format!("{f}.fold.ta_material"), "is a setting of the 3D fold (solid.dimension = 3): the 2D section has body and cover only");
+        }
+    }
+    if let Some(o) = fold.opening
+        && !(o.is_finite() && o >= 0.0 && o < fold.section.width)
+    {
+        return err(format!("{f}.fold.opening"), format!("must lie in [0, width = {}), got {o}", fold.section.width));
+    }
+    if let Some(m) = fold.ta_material
+        && m >= materials
+    {
+        return err(format!("{f}.fold.ta_material"), format!("no material {m} (there are {materials})"));
     }
     if let Some(d) = fold.fixed_depth
         && !(d.is_finite() && d >= s.spacing && d < fold.section.width)
@@ -112,7 +159,10 @@ pub(super) fn check_fold(fold: &FoldBodySpec, f: &str, s: &SolidSpec, units: cra
             ),
         );
     }
-    Ok(fold.section.area() / (s.spacing * s.spacing))
+    Ok(match dim {
+        3 => fold.section.area() * fold.section.length / s.spacing.powi(3),
+        _ => fold.section.area() / (s.spacing * s.spacing),
+    })
 }
 
 #[cfg(test)]

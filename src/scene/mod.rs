@@ -47,6 +47,8 @@ pub const COUPLED_BUILTIN: &[(&str, &str)] = &[
     ("glottis_2d_c", include_str!("../../assets/scenes/glottis/glottis_2d_c.toml")),
     ("glottis_2d_d", include_str!("../../assets/scenes/glottis/glottis_2d_d.toml")),
     ("glottis_2d_coarse", include_str!("../../assets/scenes/glottis/glottis_2d_coarse.toml")),
+    ("glottis_3d", include_str!("../../assets/scenes/glottis/glottis_3d.toml")),
+    ("glottis_3d_coarse", include_str!("../../assets/scenes/glottis/glottis_3d_coarse.toml")),
 ];
 
 /// Built-in two-mass (Ishizaka–Flanagan) scenes.

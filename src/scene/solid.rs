@@ -121,7 +121,8 @@ pub struct BodySpec {
     /// Release in the first clamped–free bending mode along x, measured from the clamp line (the
     /// far x edge of the clamps that hold the body; x = 0 if none): tip speed.
     pub first_mode_tip_speed: Option<f64>,
-    /// … or a vocal fold (seed Fig. 3.9, 2D): `material` is its body layer's.
+    /// … or a vocal fold (seed Fig. 3.9; 2D section or 3D extrusion): `material` is its body
+    /// layer's.
     pub fold: Option<FoldBodySpec>,
 }
 
@@ -333,9 +334,16 @@ impl SolidScene {
             // (position, material before the scene's layers, clamped by the body itself)
             let points: Vec<(DVec3, usize, bool)> = match (&b.fold, b.radius) {
                 (Some(fold), _) => fold
-                    .sample(s.spacing)
+                    .sample_in(dim, s.spacing)
                     .into_iter()
-                    .map(|(x, layer, fixed)| (x, if layer == Layer::Cover { fold.cover_material } else { b.material }, fixed))
+                    .map(|(x, layer, fixed)| {
+                        let mat = match layer {
+                            Layer::Cover => fold.cover_material,
+                            Layer::Thyroarytenoid => fold.ta_material.unwrap_or(b.material),
+                            Layer::Body => b.material,
+                        };
+                        (x, mat, fixed)
+                    })
                     .collect(),
                 (None, Some(r)) => sample_ball(dim, v3(&b.center), r, s.spacing).into_iter().map(|x| (x, b.material, false)).collect(),
                 (None, None) => sample_box(dim, lo, hi, s.spacing).into_iter().map(|x| (x, b.material, false)).collect(),
