@@ -51,7 +51,7 @@ impl CoupledSolver {
             }
             let faces = (0..dim)
                 .flat_map(|a| [1isize, -1].map(|s| node as isize + s * grid.stride[a] as isize))
-                .filter(|&n| n >= 0 && (n as usize) < grid.len() && kind[n as usize] == NodeKind::Fluid)
+                .filter(|&n| n >= 0 && (n as usize) < grid.len() && matches!(kind[n as usize], NodeKind::Fluid | NodeKind::Periodic))
                 .count();
             if faces == 0 {
                 continue;

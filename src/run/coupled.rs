@@ -415,37 +415,46 @@ fn glottal_outputs(sc: &CoupledScene, dir: &Path, record: &GlottalRecord, files:
 mod tests {
     use super::*;
 
-    /// The Wall flap's first 20 steps: released in its first clamped–free bending mode measured
-    /// from the clamp line at x = 5.5 cm (the square's rear face), the tip probe (a column of
-    /// `coupling.csv` and the summary) moves at just under the release speed, 10 cm/s, and the whole body
-    /// (its clamped root, 1/9 of the particles, at rest) at 8/9 of the mode's mean/tip ratio,
-    /// ∫φ/φ(L) = 0.3915 (Euler–Bernoulli). Measured from x = 0 instead, the root would move.
-    #[test]
-    fn the_flap_tip_probe_follows_the_first_mode_release() {
-        let sc = CoupledScene::parse(crate::scene::builtin("wall_flap").unwrap()).unwrap();
-        let dir = std::env::temp_dir().join(format!("phonation-flap-{}", std::process::id()));
-        let r = run_coupled_scene(&sc, &dir, &RunOptions { steps: Some(20), backend: crate::run::Backend::Cpu, ..Default::default() }).unwrap();
+    /// Runs the flap scene `sc` for 20 steps and returns the report, the last coupling.csv
+    /// row's time and the tip probe's dy, after checking that the tip moves at
+    /// just under the release speed (10 cm/s) and the body's mean at the first mode's ratio.
+    fn flap_release(sc: &CoupledScene, tag: &str) -> (CoupledReport, f64, f64) {
+        let dir = std::env::temp_dir().join(format!("phonation-{tag}-{}", std::process::id()));
+        let r = run_coupled_scene(sc, &dir, &RunOptions { steps: Some(20), backend: crate::run::Backend::Cpu, ..Default::default() }).unwrap();
+        assert!(r.instability.is_none(), "{:?}", r.instability);
         let text = std::fs::read_to_string(dir.join("coupling.csv")).unwrap();
         let mut lines = text.lines();
         let header: Vec<&str> = lines.next().unwrap().split(',').collect();
         let last: Vec<f64> = lines.last().unwrap().split(',').map(|v| v.parse().unwrap()).collect();
         let col = |name: &str| last[header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"))];
         let (t, tip, mean) = (col("time_s"), col("tip_dy"), col("mean_dy_0"));
-        println!("t = {t:.3e} s: tip dy {tip:.4e} cm (10 t = {:.4e}), body mean / tip {:.4}", 10.0 * t, mean / tip);
-        // The air's reaction (the flap's added mass) can only slow the tip: measured 0.964 of
-        // 10 t at D = 20 cells (0.989 at D = 10, where the flap was thinner than a cell and the
-        // air barely saw it).
+        println!("{tag}: t = {t:.3e} s: tip dy {tip:.4e} cm (10 t = {:.4e}), body mean / tip {:.4}", 10.0 * t, mean / tip);
+        // The air's reaction (the flap's added mass) can only slow the tip.
         let ratio = tip / (10.0 * t);
         assert!(ratio > 0.9 && ratio < 1.0, "tip {tip} after {t} s: {ratio} of the release speed");
         let expected = 0.3915 * 4.0 / 4.5;
         assert!((mean / tip / expected - 1.0).abs() < 0.03, "mean/tip {} vs {expected}", mean / tip);
+        std::fs::remove_dir_all(&dir).ok();
+        (r, t, tip)
+    }
+
+    /// The Wall flap's first 20 steps: released in its first clamped–free bending mode measured
+    /// from the clamp line at x = 5.5 cm (the square's rear face), the tip probe (a column of
+    /// `coupling.csv` and the summary) moves at just under the release speed, 10 cm/s, and the whole body
+    /// (its clamped root, 1/9 of the particles, at rest) at 8/9 of the mode's mean/tip ratio,
+    /// ∫φ/φ(L) = 0.3915 (Euler–Bernoulli). Measured from x = 0 instead, the root would move.
+    /// Measured: the tip at 0.964 of 10 t at D = 20 cells (0.989 at D = 10, where the flap was
+    /// thinner than a cell and the air barely saw it).
+    #[test]
+    fn the_flap_tip_probe_follows_the_first_mode_release() {
+        let sc = CoupledScene::parse(crate::scene::builtin("wall_flap").unwrap()).unwrap();
+        let (r, _, tip) = flap_release(&sc, "flap");
         let p = &r.particle_probes[0];
         // the summary's largest |dy| is the last row's, as the tip moves away (the CSV holds
         // ten significant digits)
         assert_eq!(p.name, "tip");
         assert!((p.max_abs_dy / tip - 1.0).abs() < 1e-9, "{} vs {tip}", p.max_abs_dy);
         assert!(p.oscillation.is_none(), "20 steps hold no cycle");
-        std::fs::remove_dir_all(&dir).ok();
     }
 
     /// The 3D Wall flap (method 2 in 3D), its span cut from 1 cm to 0.2 cm (4 cells; the
@@ -470,21 +479,7 @@ mod tests {
             thin = thin.replace(a, b);
         }
         let sc = CoupledScene::parse(&thin).unwrap();
-        let dir = std::env::temp_dir().join(format!("phonation-flap3d-{}", std::process::id()));
-        let r = run_coupled_scene(&sc, &dir, &RunOptions { steps: Some(20), backend: crate::run::Backend::Cpu, ..Default::default() }).unwrap();
-        assert!(r.instability.is_none(), "{:?}", r.instability);
-        let text = std::fs::read_to_string(dir.join("coupling.csv")).unwrap();
-        let mut lines = text.lines();
-        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-        let last: Vec<f64> = lines.last().unwrap().split(',').map(|v| v.parse().unwrap()).collect();
-        let col = |name: &str| last[header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"))];
-        let (t, tip, mean) = (col("time_s"), col("tip_dy"), col("mean_dy_0"));
-        println!("3D: t = {t:.3e} s: tip dy {tip:.4e} cm (10 t = {:.4e}), body mean / tip {:.4}", 10.0 * t, mean / tip);
-        let ratio = tip / (10.0 * t);
-        assert!(ratio > 0.9 && ratio < 1.0, "tip {tip} after {t} s: {ratio} of the release speed");
-        let expected = 0.3915 * 4.0 / 4.5;
-        assert!((mean / tip / expected - 1.0).abs() < 0.03, "mean/tip {} vs {expected}", mean / tip);
-        std::fs::remove_dir_all(&dir).ok();
+        flap_release(&sc, "flap3d");
     }
 
     /// The CPU-sized glottis for 3000 coupled steps (0.96 ms): the lung pressure reaches the
