@@ -9,6 +9,7 @@
 //! | module | what |
 //! |---|---|
 //! | [`fluid`] | FDLB: velocity sets, equilibrium, boundaries, CPU reference solver |
+//! | [`mesh`] | marching cubes (a generated, watertight case table shared with the GPU kernel) and the surface of a body of particles: the fold mesh drawn and written for ParaView |
 //! | [`lattice_gas`] | FCHC integer lattice gas (second fluid backend, seed 002): collision classes, interference, bit-parallel propagation, channel and cylinder, coarse-graining, viscosity tables, scenes; GPU twin in [`gpu::lattice_gas`] |
 //! | [`analysis`] | fits, spectra, f0, the glottal-flow (voice) measures, band-limited resampling, synthetic test signals |
 //! | [`two_mass`] | the Ishizaka–Flanagan two-mass model of the folds (the yardstick of the glottis) |
@@ -33,6 +34,7 @@ pub mod error;
 pub mod fluid;
 pub mod gpu;
 pub mod lattice_gas;
+pub mod mesh;
 pub mod output;
 #[cfg(feature = "bevy")]
 pub mod plugin;

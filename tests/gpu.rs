@@ -797,3 +797,44 @@ fn coupling_kernels_match_their_cpu_twins() {
     let cpu: Vec<DVec3> = members.iter().map(|&i| c.forces.force[i]).collect();
     exchange("fsi_cylinder_conserving, one step's wall momenta", &set, &grid, &wall, factor, &cpu);
 }
+
+/// Marching cubes on the GPU gives the CPU twin's triangles: the same count, the same cells,
+/// vertices within f32 rounding, on a sphere and on the 2D glottis's folds (their level set as
+/// the coupling sees it, as a slab). Bounds: a vertex is origin + h·(n₀ + s(n₁ − n₀)) evaluated
+/// in f32, so it carries ~1e-7 of the largest coordinate plus h·1e-7 from s: 1e-5 of the
+/// grid's extent bounds it; the normals come from f32 differences of the same f32 values: 1e-4.
+#[test]
+fn marching_cubes_matches_its_cpu_twin() {
+    use phonation::gpu::marching_cubes::GpuMarchingCubes;
+    use phonation::mesh::{ScalarGrid, extract};
+    let Some(ctx) = context() else { return };
+    let mc = GpuMarchingCubes::new(&ctx);
+    let compare = |label: &str, grid: &ScalarGrid| {
+        let cpu = extract(grid, 0.0);
+        let n = cpu.triangles.len() as u32;
+        let (gpu, count) = mc.extract(&ctx, grid, 0.0, n + 16);
+        let extent = grid.origin.abs().max_element() + grid.spacing * *grid.dims.iter().max().unwrap() as f64;
+        assert!(n > 100, "{label}: {n} triangles");
+        assert_eq!(count, n, "{label}: triangle count");
+        let (mut dp, mut dn) = (0f64, 0f64);
+        for (t, g) in gpu.iter().enumerate() {
+            assert_eq!((g.cell, g.rank), (cpu.cells[t], (t - cpu.cells.partition_point(|c| *c < g.cell)) as u32), "{label}: triangle {t}");
+            let idx = cpu.triangles[t];
+            for k in 0..3 {
+                dp = dp.max((g.positions[k] - cpu.positions[idx[k] as usize]).length());
+                dn = dn.max((g.normals[k] - cpu.normals[idx[k] as usize]).length());
+            }
+        }
+        eprintln!("{label}: {n} triangles, vertices within {:.2e} of the extent {extent}, normals within {dn:.2e}", dp / extent);
+        assert!(dp < 1e-5 * extent && dn < 1e-4, "{label}: positions {dp:e}, normals {dn:e}");
+        // too small a buffer: counted, not written past its end
+        let (part, count) = mc.extract(&ctx, grid, 0.0, n / 2);
+        assert_eq!((part.len() as u32, count), (n / 2, n), "{label}: overflow");
+    };
+    let c = DVec3::new(20.3, 19.6, 21.1);
+    compare("sphere r = 14 at 40³", &ScalarGrid::sample([40; 3], DVec3::new(-0.5, 0.25, 0.0), 1.0, |x| 14.0 - (x - c).length()));
+    let glottis = phonation::scene::coupled::CoupledScene::parse(phonation::scene::builtin("glottis_2d_c").unwrap()).unwrap().build().unwrap();
+    for (k, set) in glottis.drawn_level_sets().iter().enumerate() {
+        compare(&format!("glottis_2d_c fold {k}"), &phonation::mesh::particle_field::level_set_grid(set, 0.5, 2));
+    }
+}

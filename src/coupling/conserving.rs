@@ -178,6 +178,19 @@ impl CoupledSolver {
         self.level_sets_of(&x, &v)
     }
 
+    /// The level set of every body for drawing its surface (lattice coordinates): method 2's
+    /// walls as the air sees them; under method 1 (which needs no φ) the same level sets with φ
+    /// calibrated on the bodies' reference surfaces as method 2 would.
+    pub fn drawn_level_sets(&self) -> Vec<KernelLevelSet> {
+        let mut sets = self.level_sets();
+        if self.exchange.is_none() {
+            for (set, b) in sets.iter_mut().zip(&self.bodies) {
+                set.phi = self.surface_level(b, ConservingOptions::default());
+            }
+        }
+        sets
+    }
+
     /// The level sets of particles at lattice positions `points`, at rest.
     pub(super) fn level_sets_at(&self, points: &[DVec3]) -> Vec<KernelLevelSet> {
         let x: Vec<[f64; 3]> = points.iter().map(|p| p.to_array()).collect();

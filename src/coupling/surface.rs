@@ -203,6 +203,11 @@ impl BodySurface {
         Ok(s)
     }
 
+    /// Surface points in the reference configuration, X_i + o_i (physical units).
+    pub fn reference_points(&self, p: &Particles) -> Vec<DVec3> {
+        self.particles.iter().zip(&self.offsets).map(|(&i, o)| p.reference[i] + *o).collect()
+    }
+
     /// Current surface points x_i + R_i·o_i (physical units).
     pub fn points(&self, p: &Particles) -> Vec<DVec3> {
         self.particles.iter().zip(&self.offsets).map(|(&i, o)| p.position[i] + DMat3::from_quat(p.rotation[i]) * *o).collect()

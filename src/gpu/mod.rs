@@ -9,6 +9,7 @@ pub mod coupling;
 pub mod fdlb;
 pub mod lattice_gas;
 pub mod lattice_gas_codegen;
+pub mod marching_cubes;
 pub mod solid;
 mod thin_wall;
 #[cfg(test)]

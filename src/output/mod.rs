@@ -4,6 +4,7 @@
 
 pub mod coarse;
 pub mod fields;
+pub mod mesh;
 pub mod png_map;
 pub mod probes;
 pub mod voice;

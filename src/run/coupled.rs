@@ -1,6 +1,6 @@
 //! Headless run of a coupled scene (CPU): steps [`CoupledSolver`], writes `coupling.csv`
 //! (forces on each body, displacements, momenta, fluid mass, uncovered/covered nodes — flushed
-//! per row), fluid probes and snapshots, particle VTK snapshots and `summary.json`. A run that
+//! per row), fluid probes and snapshots, particle and surface VTK snapshots and `summary.json`. A run that
 //! goes unstable stops with the diagnosis and keeps everything written so far (plus a last
 //! snapshot of the last finite state).
 
@@ -280,6 +280,9 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
         super::snapshot(&c.fluid, fluid_scene, dir, k, files)?;
         let path = dir.join(format!("particles_{k:03}.vtk"));
         write_vtk(&c.solid, &path)?;
+        files.push(path);
+        let path = dir.join(format!("surface_{k:03}.vtk"));
+        crate::output::mesh::write_mesh_vtk(&path, &super::surface::coupled_surface(c), &format!("phonation body surfaces t = {:.6e} s", c.time))?;
         files.push(path);
         Ok(())
     };

@@ -20,6 +20,7 @@ pub mod lattice_gas;
 #[cfg(test)]
 mod resume_tests;
 pub mod solid;
+pub mod surface;
 pub mod sweep;
 pub mod two_mass;
 

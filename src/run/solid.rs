@@ -149,6 +149,9 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, opts: &RunOptions) -> anyhow
         let f = dir.join(format!("particles_{k:04}.vtk"));
         write_vtk(s, &f)?;
         files.push(f);
+        let f = dir.join(format!("surface_{k:04}.vtk"));
+        crate::output::mesh::write_mesh_vtk(&f, &super::surface::solid_surface(s), &format!("phonation solid surface t = {:.6e}", s.time))?;
+        files.push(f);
         Ok(())
     };
     // (initial energy, largest drift so far, largest kinetic + elastic energy so far)
