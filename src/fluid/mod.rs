@@ -15,6 +15,7 @@ pub mod state;
 pub mod storage;
 pub mod thin_wall;
 pub mod timestep;
+pub mod tracers;
 pub mod upwind;
 pub mod velocity_set;
 

@@ -545,6 +545,13 @@ impl GpuFluid {
     }
 
     /// First inadmissible node and its code (1 density, 2 velocity, 3 temperature), if any.
+    /// The macro buffer (ρ, ux, uy, uz, θ of every padded node, quantity k at `k · stride +
+    /// node`, written by each step's first stage), the node kinds (0 = fluid) and the stride:
+    /// what drawing kernels (tracers, slices) read without a copy.
+    pub fn macro_buffers(&self) -> (&wgpu::Buffer, &wgpu::Buffer, u32) {
+        (&self.mac, &self.kind, (self.mac.size() / (5 * 4)) as u32)
+    }
+
     pub fn instability(&self) -> Option<(usize, u32)> {
         let s: Vec<u32> = bytemuck::cast_slice(&self.read_buffer(&self.status)).to_vec();
         (s[0] != u32::MAX).then(|| (s[0] as usize, s[1]))

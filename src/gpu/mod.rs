@@ -12,6 +12,7 @@ pub mod lattice_gas_codegen;
 pub mod marching_cubes;
 pub mod solid;
 mod thin_wall;
+pub mod tracers;
 #[cfg(test)]
 pub(crate) mod wgsl_check;
 
