@@ -25,7 +25,8 @@
 //! | [`output`] | probes CSV, PNG colour maps, VTK, summary JSON, voice outputs (voice.json, plots, WAV) |
 //! | [`validation`] | analytic references and validation cases (Taylor–Green, Sod, …) |
 //! | [`bench`] | memory bandwidth and cells/s measurements |
-//! | `plugin` | Bevy plugin (feature `bevy`, on by default) |
+//! | `plugin` | Bevy plugin that steps simulations (feature `bevy`) |
+//! | `render` | drawing in Bevy (feature `render`, on by default): `render::PhonationPlugins`, the fold mesh, tracers, slices, the egui panel |
 
 pub mod analysis;
 pub mod bench;
@@ -38,6 +39,8 @@ pub mod mesh;
 pub mod output;
 #[cfg(feature = "bevy")]
 pub mod plugin;
+#[cfg(feature = "render")]
+pub mod render;
 pub mod run;
 pub mod scene;
 pub mod solid;

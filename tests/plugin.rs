@@ -12,6 +12,14 @@ fn scene() -> scene::FluidScene {
     scene::load(&text).unwrap()
 }
 
+/// Bevy's default plugins without the window loop (winit needs a display; these apps are
+/// updated by hand).
+fn headless_default_plugins(p: bevy::app::PluginGroupBuilder) -> bevy::app::PluginGroupBuilder {
+    #[cfg(feature = "render")]
+    let p = p.disable::<bevy::winit::WinitPlugin>();
+    p
+}
+
 fn app() -> App {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, PhonationPlugin));
@@ -91,7 +99,9 @@ fn gpu_stepping_in_the_render_world_matches_the_cpu() {
     let sc = scene();
     let mut app = App::new();
     app.add_plugins((
-        DefaultPlugins.set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() }).disable::<bevy::log::LogPlugin>(),
+        headless_default_plugins(
+            DefaultPlugins.set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() }).disable::<bevy::log::LogPlugin>(),
+        ),
         PhonationPlugin,
         PhonationGpuPlugin,
     ));
@@ -319,4 +329,159 @@ fn plugin_steps_the_two_mass_model_and_measures_its_voice_live() {
         full.f0_autocorrelation_hz
     );
     assert!((m.peak_flow / full.peak_flow - 1.0).abs() < 0.01, "live peak {} vs {}", m.peak_flow, full.peak_flow);
+}
+
+/// The panel's state rebuilds the simulation when it changes, without a click: the lung
+/// pressure reaches the inlet, a preset brings its own folds.
+#[cfg(feature = "render")]
+#[test]
+fn the_panel_state_rebuilds_the_simulation_with_its_parameters() {
+    use phonation::plugin::CoupledSimulation;
+    use phonation::render::panel::{PanelState, PanelTarget, apply_panel, scene_of};
+    use phonation::render::{DrawPlugin, DrawSystems};
+    let mut app = app();
+    app.add_plugins(DrawPlugin)
+        .insert_resource(PanelState { preset: "glottis_2d_coarse".into(), ..default() })
+        .add_systems(Update, apply_panel.in_set(DrawSystems::Panel));
+    let e = app.world_mut().spawn(PanelTarget::default()).id();
+    app.update();
+    let inlet_rho = |app: &App| match app.world().get::<CoupledSimulation>(e).expect("built").solver.fluid.layout.boundaries.faces[2] {
+        phonation::fluid::FaceCondition::PressureInlet { rho, .. } => rho,
+        ref f => panic!("y_min is {f:?}"),
+    };
+    let rho_8000 = inlet_rho(&app);
+    app.update();
+    assert!(app.world().get::<CoupledSimulation>(e).unwrap().solver.step_count > 0, "it steps");
+    // halve the lung pressure through the state
+    app.world_mut().resource_mut::<PanelState>().lung_pressure = Some(4000.0);
+    app.update();
+    let rho_4000 = inlet_rho(&app);
+    let direct = scene_of(&PanelState { preset: "glottis_2d_coarse".into(), lung_pressure: Some(4000.0), ..default() }).unwrap().build().unwrap();
+    assert_eq!(app.world().get::<CoupledSimulation>(e).unwrap().solver.step_count, 0, "rebuilt");
+    match direct.fluid.layout.boundaries.faces[2] {
+        phonation::fluid::FaceCondition::PressureInlet { rho, .. } => assert_eq!(rho, rho_4000),
+        ref f => panic!("{f:?}"),
+    }
+    // ρ_in − 1 ∝ the gauge pressure: half of it
+    assert!(((rho_4000 - 1.0) / (rho_8000 - 1.0) - 0.5).abs() < 1e-9, "inlet ρ {rho_8000} → {rho_4000}");
+    // the folds' moduli and a refused value
+    app.world_mut().resource_mut::<PanelState>().fold_moduli = Some((2e5, 2e7));
+    app.update();
+    let young: Vec<f64> = app.world().get::<CoupledSimulation>(e).unwrap().solver.solid.materials.iter().map(|m| m.young[0]).collect();
+    assert!(young.contains(&2e5) && young.contains(&2e7), "moduli {young:?}");
+    app.world_mut().resource_mut::<PanelState>().fold_moduli = Some((-1.0, 2e7));
+    app.update();
+    let t = app.world().get::<PanelTarget>(e).unwrap();
+    assert!(t.error.as_deref().is_some_and(|m| m.starts_with("fold_moduli")), "{:?}", t.error);
+    // a preset
+    *app.world_mut().resource_mut::<PanelState>() = PanelState { preset: "wall_flap".into(), ..default() };
+    app.update();
+    let flap = phonation::scene::coupled::CoupledScene::parse(phonation::scene::builtin("wall_flap").unwrap()).unwrap().build().unwrap();
+    let sim = &app.world().get::<CoupledSimulation>(e).unwrap().solver;
+    assert_eq!((sim.solid.particles.len(), sim.fluid.layout.grid.n), (flap.solid.particles.len(), flap.fluid.layout.grid.n));
+    assert!(app.world().get::<PanelTarget>(e).unwrap().error.is_none());
+}
+
+/// A headless app with the renderer (lavapipe in CI) and no window draws the coarse glottis
+/// into an image: the folds' mesh in the fold colour, the tracers, the slice; the PNGs are kept
+/// in the test's target directory.
+#[cfg(feature = "render")]
+#[test]
+fn the_glottis_renders_headless_with_folds_tracers_and_slice() {
+    use bevy::app::PluginsState;
+    use bevy::asset::RenderAssetUsages;
+    use bevy::camera::RenderTarget;
+    use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat, TextureUsages};
+    use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
+    use bevy::window::{ExitCondition, WindowPlugin};
+    use phonation::plugin::CoupledSimulation;
+    use phonation::render::panel::PanelPlugin;
+    use phonation::render::view::FrameSimulation;
+    use phonation::render::{DrawSettings, PhonationPlugins};
+    use std::sync::{Arc, Mutex};
+    if let Err(e) = phonation::gpu::GpuContext::new() {
+        if std::env::var("CI").is_ok_and(|v| v == "true") {
+            panic!("CI must run the GPU tests, but {e}");
+        }
+        eprintln!("SKIPPED: no GPU adapter ({e})");
+        return;
+    }
+    let mut app = App::new();
+    app.add_plugins((
+        headless_default_plugins(
+            DefaultPlugins
+                .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
+                .set(bevy::render::RenderPlugin { synchronous_pipeline_compilation: true, ..default() })
+                .disable::<bevy::log::LogPlugin>(),
+        ),
+        PhonationPlugins.build().disable::<PanelPlugin>(),
+    ));
+    while app.plugins_state() == PluginsState::Adding {
+        bevy::tasks::tick_global_task_pools_on_main_thread();
+    }
+    app.finish();
+    app.cleanup();
+    let (w, h) = (480u32, 320u32);
+    let mut target = Image::new_uninit(
+        Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        TextureDimension::D2,
+        TextureFormat::Rgba8UnormSrgb,
+        RenderAssetUsages::RENDER_WORLD,
+    );
+    target.texture_descriptor.usage |= TextureUsages::RENDER_ATTACHMENT;
+    let handle = app.world_mut().resource_mut::<Assets<Image>>().add(target);
+    let background = Color::srgb(0.08, 0.08, 0.1);
+    app.insert_resource(ClearColor(background));
+    app.world_mut().spawn((Camera3d::default(), RenderTarget::from(handle.clone()), FrameSimulation));
+    app.world_mut().spawn((DirectionalLight { illuminance: 8000.0, ..default() }, Transform::from_xyz(0.3, 0.5, 1.0).looking_at(Vec3::ZERO, Vec3::Y)));
+    let sc = phonation::scene::coupled::CoupledScene::parse(phonation::scene::builtin("glottis_2d_coarse").unwrap()).unwrap();
+    app.world_mut().spawn(CoupledSimulation { solver: sc.build().unwrap() });
+    let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
+    // a frame's pixels (RGBA8, sRGB)
+    let capture = |app: &mut App, name: &str| -> Vec<u8> {
+        for _ in 0..3 {
+            app.update();
+        }
+        let got: Arc<Mutex<Option<Image>>> = Arc::default();
+        let sink = got.clone();
+        app.world_mut().spawn(Screenshot::image(handle.clone())).observe(move |c: On<ScreenshotCaptured>| {
+            *sink.lock().unwrap() = Some(c.image.clone());
+        });
+        for _ in 0..30 {
+            app.update();
+            if got.lock().unwrap().is_some() {
+                break;
+            }
+        }
+        let img = got.lock().unwrap().take().expect("a screenshot within 30 frames");
+        let dynamic = img.clone().try_into_dynamic().expect("an RGBA image");
+        dynamic.to_rgb8().save(out.join(name)).unwrap();
+        img.data.expect("pixels")
+    };
+    let bg = background.to_srgba();
+    let bg = [bg.red, bg.green, bg.blue].map(|c| (c * 255.0).round() as i32);
+    let share =
+        |px: &[u8], f: &dyn Fn(i32, i32, i32) -> bool| px.chunks(4).filter(|p| f(p[0] as i32, p[1] as i32, p[2] as i32)).count() as f64 / (w * h) as f64;
+    let not_background = |r: i32, g: i32, b: i32| (r - bg[0]).abs() + (g - bg[1]).abs() + (b - bg[2]).abs() > 40;
+    // rose (the folds' colours lit): red well above green and blue
+    let fold_colour = |r: i32, g: i32, b: i32| r > 80 && r - g > 50 && r - b > 30;
+    // the folds alone
+    *app.world_mut().resource_mut::<DrawSettings>() = DrawSettings { folds: true, tracers: false, slice: None, ..default() };
+    let folds = capture(&mut app, "render_folds.png");
+    let (fold_share, other) = (share(&folds, &fold_colour), share(&folds, &|r, g, b| not_background(r, g, b) && !fold_colour(r, g, b)));
+    // the tracers alone, after a few frames of flow
+    *app.world_mut().resource_mut::<DrawSettings>() = DrawSettings { folds: false, tracers: true, slice: None, ..default() };
+    let tracers = capture(&mut app, "render_tracers.png");
+    let tracer_share = share(&tracers, &not_background);
+    // everything: the slice fills the domain
+    *app.world_mut().resource_mut::<DrawSettings>() = DrawSettings::default();
+    let all = capture(&mut app, "render_all.png");
+    let all_share = share(&all, &not_background);
+    eprintln!(
+        "rendered {w}×{h}: folds {fold_share:.3} of the image (other {other:.4}), tracers {tracer_share:.4}, with the slice {all_share:.3}; PNGs in {}",
+        out.display()
+    );
+    assert!(fold_share > 0.01 && other < 0.01, "folds {fold_share}, other {other}");
+    assert!(tracer_share > 0.0005, "tracers {tracer_share}");
+    assert!(all_share > 0.3, "slice {all_share}");
 }

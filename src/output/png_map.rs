@@ -19,6 +19,16 @@ fn ramp(stops: &[[f64; 3]], t: f64) -> [u8; 3] {
 const SEQUENTIAL: [[f64; 3]; 5] = [[0.05, 0.03, 0.25], [0.35, 0.1, 0.5], [0.75, 0.2, 0.4], [0.98, 0.55, 0.15], [0.99, 0.95, 0.4]];
 const DIVERGING: [[f64; 3]; 3] = [[0.15, 0.3, 0.75], [0.97, 0.97, 0.97], [0.75, 0.1, 0.1]];
 
+/// The dark-to-yellow map of magnitudes at `t` ∈ [0, 1] (clamped).
+pub fn sequential(t: f64) -> [u8; 3] {
+    ramp(&SEQUENTIAL, t)
+}
+
+/// The blue–white–red map of signed fields at `t` ∈ [0, 1] (0.5: zero; clamped).
+pub fn diverging(t: f64) -> [u8; 3] {
+    ramp(&DIVERGING, t)
+}
+
 /// Writes `slice` as an RGB PNG, scaled up by an integer factor so that small grids stay
 /// visible. `signed`: symmetric range around zero.
 pub fn write_png(path: &Path, slice: &Slice, signed: bool) -> std::io::Result<(f64, f64)> {

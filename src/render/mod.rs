@@ -1,0 +1,82 @@
+//! Drawing a simulation in a Bevy app (feature `render`): the folds as a marching-cubes mesh,
+//! the air as tracers and a colour-mapped slice, an egui panel, and [`PhonationPlugins`], the
+//! plugin group that puts them together with the simulation stepping.
+//!
+//! | plugin | what it adds | system set |
+//! |---|---|---|
+//! | [`crate::plugin::PhonationPlugin`] | steps every simulation entity on the CPU (pause, single step, steps per frame) | [`crate::plugin::PhonationSystems`] (one set per solver stage list) |
+//! | [`fold_mesh::FoldMeshPlugin`] | each coupled or solid simulation's bodies as a mesh ([`crate::mesh`]: the level set the air sees, marching cubes), coloured per body | [`DrawSystems::FoldMesh`] |
+//! | [`tracers::TracerPlugin`] | tracers born at the inlet and carried by the air ([`crate::fluid::tracers`], RK2), drawn as streaks coloured by speed | [`DrawSystems::Tracers`] |
+//! | [`slice::SlicePlugin`] | the plane of the 2D lattice as an image of speed, pressure or vorticity, with its range in physical units | [`DrawSystems::Slice`] |
+//! | [`panel::PanelPlugin`] | the egui panel: presets, lung pressure, fold moduli, coupling method, pause / step / steps per frame, what to draw, live glottal flow and diagnostics | [`DrawSystems::Panel`] |
+//!
+//! The drawing systems run after the simulation's sets in `Update`; every plugin can be left
+//! out of the group (`PhonationPlugins.build().disable::<TracerPlugin>()`). What is drawn is
+//! chosen by the [`DrawSettings`] resource. The drawing reads the CPU solvers (meshes and images
+//! are uploaded each frame); the GPU kernels of the same steps (marching cubes:
+//! [`crate::gpu::marching_cubes`], tracers: [`crate::gpu::tracers`]) exist and are checked
+//! against these CPU twins, but are not yet wired into the render world.
+
+use crate::plugin::{PhonationPlugin, PhonationSystems};
+use bevy::app::PluginGroupBuilder;
+use bevy::prelude::*;
+
+pub mod fold_mesh;
+pub mod panel;
+pub mod slice;
+pub mod tracers;
+pub mod view;
+
+/// What the drawing plugins draw (the panel edits it).
+#[derive(Resource, Debug, Clone, PartialEq)]
+pub struct DrawSettings {
+    pub folds: bool,
+    pub tracers: bool,
+    /// Tracers per simulation.
+    pub tracer_count: usize,
+    /// The field of the slice, `None` for no slice.
+    pub slice: Option<crate::scene::schema::Field>,
+}
+
+impl Default for DrawSettings {
+    fn default() -> Self {
+        DrawSettings { folds: true, tracers: true, tracer_count: 4000, slice: Some(crate::scene::schema::Field::Speed) }
+    }
+}
+
+/// The drawing systems, after the simulation's sets.
+#[derive(SystemSet, Debug, Clone, PartialEq, Eq, Hash)]
+pub enum DrawSystems {
+    FoldMesh,
+    Tracers,
+    Slice,
+    Panel,
+}
+
+/// The simulation stepping plus every drawing plugin.
+pub struct PhonationPlugins;
+
+impl PluginGroup for PhonationPlugins {
+    fn build(self) -> PluginGroupBuilder {
+        PluginGroupBuilder::start::<Self>()
+            .add(PhonationPlugin)
+            .add(DrawPlugin)
+            .add(fold_mesh::FoldMeshPlugin)
+            .add(tracers::TracerPlugin)
+            .add(slice::SlicePlugin)
+            .add(panel::PanelPlugin)
+    }
+}
+
+/// The drawing's shared settings and system order.
+pub struct DrawPlugin;
+
+impl Plugin for DrawPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<DrawSettings>().configure_sets(
+            Update,
+            (DrawSystems::Panel, DrawSystems::FoldMesh, DrawSystems::Tracers, DrawSystems::Slice).chain().after(PhonationSystems::Diagnostics),
+        );
+        app.add_systems(Update, view::frame_simulations.after(DrawSystems::Panel).before(DrawSystems::FoldMesh));
+    }
+}
