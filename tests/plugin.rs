@@ -485,3 +485,64 @@ fn the_glottis_renders_headless_with_folds_tracers_and_slice() {
     assert!(tracer_share > 0.0005, "tracers {tracer_share}");
     assert!(all_share > 0.3, "slice {all_share}");
 }
+
+/// The diagnostics plugin puts the simulations' figures in Bevy's store: particles and node
+/// updates counted from the entities, the Mach number and mass drift of the air.
+#[test]
+fn the_diagnostics_store_carries_the_simulation_figures() {
+    use bevy::diagnostic::DiagnosticsStore;
+    use phonation::plugin::diagnostics::{MASS_DRIFT, MAX_MACH, NODE_UPDATES_PER_SECOND, PARTICLES, STEPS_PER_SECOND};
+    use phonation::plugin::{CoupledSimulation, PhonationDiagnosticsPlugin};
+    let mut app = app();
+    app.add_plugins(PhonationDiagnosticsPlugin).insert_resource(SimulationControl { paused: false, steps_per_frame: 2, single_steps: 0 });
+    let sc = phonation::scene::coupled::CoupledScene::parse(phonation::scene::builtin("glottis_2d_coarse").unwrap()).unwrap();
+    let solver = sc.build().unwrap();
+    let (particles, nodes) = (solver.solid.particles.len(), solver.fluid.layout.grid.interior_len());
+    let e = app.world_mut().spawn(CoupledSimulation { solver }).id();
+    for _ in 0..4 {
+        app.update();
+    }
+    let store = app.world().resource::<DiagnosticsStore>();
+    let value = |p: &bevy::diagnostic::DiagnosticPath| store.get(p).and_then(|d| d.value()).unwrap_or_else(|| panic!("{p:?} measured"));
+    assert_eq!(value(&PARTICLES), particles as f64);
+    let (steps_s, nodes_s) = (value(&STEPS_PER_SECOND), value(&NODE_UPDATES_PER_SECOND));
+    assert!(steps_s > 0.0 && ((nodes_s / steps_s) / nodes as f64 - 1.0).abs() < 1e-12, "{steps_s} steps/s, {nodes_s} nodes/s");
+    let sim = &app.world().get::<CoupledSimulation>(e).unwrap().solver;
+    assert_eq!(value(&MAX_MACH), sim.fluid.max_mach());
+    let drift = value(&MASS_DRIFT);
+    assert!(drift != 0.0 && drift.abs() < 0.05, "mass drift {drift}");
+}
+
+/// The simulation plugins, the diagnostics, the drawing's order and the panel's rebuild have no
+/// ambiguous system order in `Update` (Bevy's ambiguity detection set to error): two runs of
+/// the same app step their systems in the same order.
+#[cfg(feature = "render")]
+#[test]
+fn the_plugin_group_has_no_ambiguous_system_order() {
+    use bevy::ecs::schedule::{LogLevel, ScheduleBuildSettings};
+    use phonation::plugin::PhonationDiagnosticsPlugin;
+    use phonation::render::panel::{PanelState, PanelTarget, apply_panel};
+    use phonation::render::{DrawPlugin, DrawSystems};
+    let mut app = app();
+    app.add_plugins((PhonationDiagnosticsPlugin, DrawPlugin))
+        .insert_resource(PanelState { preset: "glottis_2d_coarse".into(), ..default() })
+        .add_systems(Update, apply_panel.in_set(DrawSystems::Panel))
+        .edit_schedule(Update, |s| {
+            s.set_build_settings(ScheduleBuildSettings { ambiguity_detection: LogLevel::Error, ..default() });
+        });
+    app.world_mut().spawn(PanelTarget::default());
+    app.world_mut().spawn(FluidSimulation::from_scene(&scene()));
+    // building the schedule fails (panics) on an ambiguity
+    app.update();
+    app.update();
+    // and the check can fail: two unordered systems that write the same resource
+    let mut bad = App::new();
+    bad.add_plugins(MinimalPlugins)
+        .init_resource::<SimulationControl>()
+        .add_systems(Update, (|mut c: ResMut<SimulationControl>| c.single_steps += 1, |mut c: ResMut<SimulationControl>| c.paused = true))
+        .edit_schedule(Update, |s| {
+            s.set_build_settings(ScheduleBuildSettings { ambiguity_detection: LogLevel::Error, ..default() });
+        });
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| bad.update()));
+    assert!(r.is_err(), "an ambiguity must be reported");
+}

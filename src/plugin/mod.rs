@@ -15,11 +15,13 @@ use crate::units::Units;
 use bevy::prelude::*;
 
 pub mod coupled;
+pub mod diagnostics;
 pub mod gpu;
 pub mod lattice_gas;
 pub mod solid;
 pub mod two_mass;
 pub use coupled::{CoupledDiagnostics, CoupledGlottis, CoupledSimulation, CoupledStatus};
+pub use diagnostics::PhonationDiagnosticsPlugin;
 pub use gpu::{GpuFluidHandle, GpuProbes, GpuStepping, PhonationGpuPlugin};
 pub use lattice_gas::{LatticeGasDiagnostics, LatticeGasSimulation};
 pub use solid::{SolidDiagnostics, SolidSimulation, SolidStatus};

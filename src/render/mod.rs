@@ -5,6 +5,8 @@
 //! | plugin | what it adds | system set |
 //! |---|---|---|
 //! | [`crate::plugin::PhonationPlugin`] | steps every simulation entity on the CPU (pause, single step, steps per frame) | [`crate::plugin::PhonationSystems`] (one set per solver stage list) |
+//! | [`crate::plugin::PhonationDiagnosticsPlugin`] | steps/s, node updates/s, particles, max Mach, mass drift in Bevy's `DiagnosticsStore` | [`crate::plugin::PhonationSystems::Diagnostics`] |
+//! | [`DrawPlugin`] | [`DrawSettings`] and the drawing's order; [`view::FrameSimulation`] cameras | [`DrawSystems`] |
 //! | [`fold_mesh::FoldMeshPlugin`] | each coupled or solid simulation's bodies as a mesh ([`crate::mesh`]: the level set the air sees, marching cubes), coloured per body | [`DrawSystems::FoldMesh`] |
 //! | [`tracers::TracerPlugin`] | tracers born at the inlet and carried by the air ([`crate::fluid::tracers`], RK2), drawn as streaks coloured by speed | [`DrawSystems::Tracers`] |
 //! | [`slice::SlicePlugin`] | the plane of the 2D lattice as an image of speed, pressure or vorticity, with its range in physical units | [`DrawSystems::Slice`] |
@@ -17,7 +19,7 @@
 //! [`crate::gpu::marching_cubes`], tracers: [`crate::gpu::tracers`]) exist and are checked
 //! against these CPU twins, but are not yet wired into the render world.
 
-use crate::plugin::{PhonationPlugin, PhonationSystems};
+use crate::plugin::{PhonationDiagnosticsPlugin, PhonationPlugin, PhonationSystems};
 use bevy::app::PluginGroupBuilder;
 use bevy::prelude::*;
 
@@ -60,6 +62,7 @@ impl PluginGroup for PhonationPlugins {
     fn build(self) -> PluginGroupBuilder {
         PluginGroupBuilder::start::<Self>()
             .add(PhonationPlugin)
+            .add(PhonationDiagnosticsPlugin)
             .add(DrawPlugin)
             .add(fold_mesh::FoldMeshPlugin)
             .add(tracers::TracerPlugin)

@@ -151,6 +151,7 @@ fn panel_ui(
     )>,
     targets: Query<(), With<PanelTarget>>,
     time: Res<Time>,
+    store: Option<Res<bevy::diagnostic::DiagnosticsStore>>,
 ) -> Result {
     let ctx = contexts.ctx_mut()?;
     let has_target = !targets.is_empty();
@@ -187,7 +188,15 @@ fn panel_ui(
             }
             let s = &sim.solver;
             ui.label(format!("CPU backend · {} nodes · {} particles", s.fluid.layout.grid.interior_len(), s.solid.particles.len()));
-            ui.label(format!("t = {:.3} ms ({} steps) · {:.0} frames/s", s.time * 1e3, s.step_count, 1.0 / time.delta_secs().max(1e-6)));
+            let smoothed = |p: &bevy::diagnostic::DiagnosticPath| store.as_ref().and_then(|d| d.get(p)).and_then(|d| d.smoothed()).unwrap_or(f64::NAN);
+            ui.label(format!("t = {:.3} ms ({} steps)", s.time * 1e3, s.step_count));
+            ui.label(format!(
+                "{:.0} frames/s · {:.0} steps/s · {:.2e} nodes/s · max Mach {:.3}",
+                1.0 / time.delta_secs().max(1e-6),
+                smoothed(&crate::plugin::diagnostics::STEPS_PER_SECOND),
+                smoothed(&crate::plugin::diagnostics::NODE_UPDATES_PER_SECOND),
+                smoothed(&crate::plugin::diagnostics::MAX_MACH)
+            ));
             if let Some(v) = slice {
                 ui.label(format!("slice {:?}: {:.3e} … {:.3e} {}", v.field, v.range.0, v.range.1, unit_of(v.field)));
             }
@@ -211,10 +220,10 @@ fn panel_ui(
 
 /// The cover and body Young's moduli (dyn/cm²) of a glottis preset: Titze's cases A–D as the
 /// built-in scenes set them (cover/body 1/10, 2/20, 1/100, 2/200 × 10⁵; the coarse glottis is
-/// case C).
+/// case A).
 pub fn preset_moduli(preset: &str) -> (f64, f64) {
     match preset {
-        "glottis_2d_a" => (1e5, 1e6),
+        "glottis_2d_a" | "glottis_2d_coarse" => (1e5, 1e6),
         "glottis_2d_b" => (2e5, 2e6),
         "glottis_2d_d" => (2e5, 2e7),
         _ => (1e5, 1e7),

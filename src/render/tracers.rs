@@ -21,8 +21,8 @@ pub struct FlowTracers {
 }
 
 impl FlowTracers {
-    /// `count` tracers born along the inlet of `s` (the first inlet face: y_min, else x_min,
-    /// else the whole x_min column).
+    /// `count` tracers spread over the domain of `s`, born again along its inlet (the first inlet
+    /// face: y_min, else x_min).
     pub fn at_inlet(s: &FluidSolver, count: usize) -> Self {
         let g = &s.layout.grid;
         let n = |a: usize| (g.n[a] as f64 - 1.0).max(0.0);
@@ -33,7 +33,11 @@ impl FlowTracers {
         } else {
             (DVec3::new(0.5, 1.0, z.0), DVec3::new(2.5, n(1) - 1.0, z.1))
         };
-        let tracers = Tracers::new(count, seed);
+        let mut tracers = Tracers::new(count, seed);
+        // the first generation spread over the whole domain (those in a body are born again
+        // at the inlet on the first step), so that the air is seen at once
+        let all = Tracers::new(count, (DVec3::new(0.5, 0.5, z.0), DVec3::new(n(0) - 0.5, n(1) - 0.5, z.1)));
+        tracers.positions = all.positions;
         let previous = tracers.positions.clone();
         FlowTracers { tracers, previous, speed_scale: 0.1 }
     }

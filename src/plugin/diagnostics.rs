@@ -1,0 +1,79 @@
+//! Simulation figures in Bevy's diagnostics store (`DiagnosticsStore`, read by any
+//! diagnostics overlay or logger): steps per second of wall time, lattice node updates per
+//! second, particles, the largest Mach number and the air's mass drift, summed or taken over
+//! every fluid and coupled simulation entity.
+
+use super::{CoupledSimulation, FluidSimulation, PhonationSystems, SolidSimulation, StepsThisFrame};
+use bevy::diagnostic::{Diagnostic, DiagnosticPath, Diagnostics, RegisterDiagnostic};
+use bevy::prelude::*;
+
+pub const STEPS_PER_SECOND: DiagnosticPath = DiagnosticPath::const_new("phonation/steps_per_second");
+pub const NODE_UPDATES_PER_SECOND: DiagnosticPath = DiagnosticPath::const_new("phonation/node_updates_per_second");
+pub const PARTICLES: DiagnosticPath = DiagnosticPath::const_new("phonation/particles");
+pub const MAX_MACH: DiagnosticPath = DiagnosticPath::const_new("phonation/max_mach");
+/// (M − M₀)/M₀ of the air since the entity's first frame, the largest in magnitude.
+pub const MASS_DRIFT: DiagnosticPath = DiagnosticPath::const_new("phonation/mass_drift");
+
+/// The air's mass when an entity was first measured.
+#[derive(Component, Debug, Clone, Copy)]
+pub struct InitialMass(pub f64);
+
+pub struct PhonationDiagnosticsPlugin;
+
+impl Plugin for PhonationDiagnosticsPlugin {
+    fn build(&self, app: &mut App) {
+        app.register_diagnostic(Diagnostic::new(STEPS_PER_SECOND).with_suffix(" steps/s"))
+            .register_diagnostic(Diagnostic::new(NODE_UPDATES_PER_SECOND).with_suffix(" nodes/s"))
+            .register_diagnostic(Diagnostic::new(PARTICLES))
+            .register_diagnostic(Diagnostic::new(MAX_MACH))
+            .register_diagnostic(Diagnostic::new(MASS_DRIFT))
+            .add_systems(Update, measure.in_set(PhonationSystems::Diagnostics));
+    }
+}
+
+#[allow(clippy::type_complexity)]
+fn measure(
+    steps: Res<StepsThisFrame>,
+    time: Res<Time<Real>>,
+    fluids: Query<(Entity, &FluidSimulation, Option<&InitialMass>)>,
+    coupled: Query<(Entity, &CoupledSimulation, Option<&InitialMass>)>,
+    solids: Query<&SolidSimulation>,
+    mut diagnostics: Diagnostics,
+    mut commands: Commands,
+) {
+    let dt = time.delta_secs_f64();
+    let mut nodes = 0usize;
+    let mut particles = 0usize;
+    let (mut mach, mut drift) = (0.0f64, 0.0f64);
+    let mut air = |e: Entity, s: &crate::fluid::FluidSolver, initial: Option<&InitialMass>| {
+        nodes += s.layout.grid.interior_len();
+        mach = mach.max(s.max_mach());
+        let m = s.totals().mass;
+        match initial {
+            Some(m0) => {
+                let d = (m - m0.0) / m0.0;
+                if d.abs() > drift.abs() {
+                    drift = d;
+                }
+            }
+            None => {
+                commands.entity(e).insert(InitialMass(m));
+            }
+        }
+    };
+    for (e, sim, m0) in &fluids {
+        air(e, &sim.solver, m0);
+    }
+    for (e, sim, m0) in &coupled {
+        air(e, &sim.solver.fluid, m0);
+        particles += sim.solver.solid.particles.len();
+    }
+    particles += solids.iter().map(|s| s.solver.particles.len()).sum::<usize>();
+    if dt > 0.0 {
+        diagnostics.add_measurement(&STEPS_PER_SECOND, || steps.0 as f64 / dt);
+        diagnostics.add_measurement(&NODE_UPDATES_PER_SECOND, || (steps.0 as f64 * nodes as f64) / dt);
+    }
+    diagnostics.add_measurement(&PARTICLES, || particles as f64);
+    diagnostics.add_measurement(&MAX_MACH, || mach);
+    diagnostics.add_measurement(&MASS_DRIFT, || drift);
+}
