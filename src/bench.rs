@@ -233,7 +233,7 @@ fn coupled_rows(method: &'static str, body: crate::validation::fsi::CylinderBody
 }
 
 /// Parts of the benchmark, for `bench --only`.
-pub const SUITES: [&str; 6] = ["fdlb", "solid", "lattice_gas", "coupled", "two_mass", "glottis"];
+pub const SUITES: [&str; 7] = ["fdlb", "solid", "lattice_gas", "coupled", "two_mass", "glottis", "drawing"];
 
 /// The CPU benchmark (every suite of [`SUITES`], or only `only`). `quick` shrinks grids for a
 /// smoke run.

@@ -22,7 +22,7 @@ pub struct BenchArgs {
     /// Also write the report as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Only one suite: fdlb, solid, lattice_gas, coupled, two_mass or glottis.
+    /// Only one suite: fdlb, solid, lattice_gas, coupled, two_mass, glottis or drawing.
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(phonation::bench::SUITES))]
     pub only: Option<String>,
 }
@@ -160,6 +160,26 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             println!("     stages: {}", st.join(", "));
         }
         report.insert("cpu".into(), serde_json::to_value(&r)?);
+    }
+    if wants("drawing") {
+        // the CPU twins and, with a device, the GPU kernels, measured in this process
+        let ctx = if backend != BenchBackend::Cpu { Some(phonation::gpu::GpuContext::new()?) } else { None };
+        let (n, tracers) = if quick { (48, 20_000) } else { (128, 100_000) };
+        let rows = phonation::gpu::bench::drawing_speed(ctx.as_ref(), n, tracers);
+        println!("drawing kernels (CPU twin serial{}):", ctx.as_ref().map(|c| format!("; GPU {}", c.describe())).unwrap_or_default());
+        println!("{:>26} {:>8} {:>14} {:>14} {:>10} {:>10}", "kernel", "size", "CPU /s", "GPU /s", "GPU/CPU", "triangles");
+        for r in &rows {
+            println!(
+                "{:>26} {:>8} {:>14.3e} {:>14} {:>10} {:>10}",
+                r.kernel,
+                r.size,
+                r.cpu_per_s,
+                r.gpu_per_s.map(|g| format!("{g:.3e}")).unwrap_or("-".into()),
+                r.gpu_per_s.map(|g| format!("{:.1}×", g / r.cpu_per_s)).unwrap_or("-".into()),
+                r.triangles.map(|t| t.to_string()).unwrap_or_default()
+            );
+        }
+        report.insert("drawing".into(), serde_json::to_value(&rows)?);
     }
     if backend != BenchBackend::Cpu {
         let ctx = phonation::gpu::GpuContext::new()?;

@@ -95,3 +95,85 @@ pub fn lattice_speed(ctx: &GpuContext, set: VelocitySetKind, n: [usize; 3], step
     }
     out
 }
+
+/// Speed of the drawing kernels, CPU twin and (when a device is given) GPU kernel measured in
+/// one process: marching cubes on a sphere's signed distance (cells per second) and tracers in a
+/// solid-body rotation (tracer steps per second).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct DrawingSpeed {
+    pub kernel: String,
+    /// Grid nodes per axis (marching cubes) or tracers.
+    pub size: String,
+    /// Cells or tracer steps per second on the CPU (rayon threads: 1, the twins are serial).
+    pub cpu_per_s: f64,
+    pub gpu_per_s: Option<f64>,
+    /// Triangles of the surface (marching cubes).
+    pub triangles: Option<usize>,
+}
+
+/// Measures [`DrawingSpeed`] at `n`³ (marching cubes) and `tracers` tracers on a 256² field.
+pub fn drawing_speed(ctx: Option<&GpuContext>, n: usize, tracers: usize) -> Vec<DrawingSpeed> {
+    use crate::fluid::tracers::{Tracers, VelocityField};
+    use crate::mesh::{ScalarGrid, extract};
+    use glam::DVec3;
+    let mut out = Vec::new();
+    let c = DVec3::splat(0.5 * (n as f64 - 1.0) + 0.13);
+    let grid = ScalarGrid::sample([n; 3], DVec3::ZERO, 1.0, |x| 0.35 * n as f64 - (x - c).length());
+    let cells = grid.cells() as f64;
+    let best = |f: &mut dyn FnMut()| {
+        (0..3)
+            .map(|_| {
+                let t = Instant::now();
+                f();
+                t.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let mut triangles = 0;
+    let cpu = best(&mut || triangles = extract(&grid, 0.0).triangles.len());
+    let gpu = ctx.map(|ctx| {
+        let mc = super::marching_cubes::GpuMarchingCubes::new(ctx);
+        mc.kernel_seconds(ctx, &grid, 0.0, triangles as u32 + 64, 5)
+    });
+    out.push(DrawingSpeed {
+        kernel: "marching cubes (sphere)".into(),
+        size: format!("{n}³"),
+        cpu_per_s: cells / cpu,
+        gpu_per_s: gpu.map(|s| cells / s),
+        triangles: Some(triangles),
+    });
+    let g = crate::fluid::Grid::new(2, [256, 256, 1]);
+    let centre = DVec3::new(127.5, 127.5, 0.0);
+    let field = VelocityField::analytic(g.clone(), |x| DVec3::new(-(x.y - centre.y), x.x - centre.x, 0.0) * 0.001);
+    let seed = (DVec3::new(20.0, 20.0, 0.0), DVec3::new(235.0, 235.0, 0.0));
+    let steps = 20;
+    let mut t = Tracers::new(tracers, seed);
+    let cpu = best(&mut || {
+        for _ in 0..steps {
+            t.advect(&field, 1.0);
+        }
+    });
+    let gpu = ctx.map(|ctx| {
+        let buffers = super::tracers::FieldBuffers::upload(ctx, &field);
+        let mut gt = super::tracers::GpuTracers::new(ctx, &Tracers::new(tracers, seed), &g, buffers.stride);
+        (0..5)
+            .map(|_| {
+                let t0 = Instant::now();
+                let mut enc = ctx.device.create_command_encoder(&Default::default());
+                gt.record(ctx, &mut enc, &buffers.mac, &buffers.kind, 1.0, steps);
+                ctx.queue.submit([enc.finish()]);
+                let _ = ctx.device.poll(wgpu::PollType::wait_indefinitely());
+                t0.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min)
+    });
+    let work = (tracers * steps as usize) as f64;
+    out.push(DrawingSpeed {
+        kernel: "tracers (RK2, 256²)".into(),
+        size: format!("{tracers}"),
+        cpu_per_s: work / cpu,
+        gpu_per_s: gpu.map(|s| work / s),
+        triangles: None,
+    });
+    out
+}

@@ -64,10 +64,8 @@ impl GpuMarchingCubes {
         Self { pipeline, layout, table }
     }
 
-    /// The triangles of {f = iso} of `grid` (inside f > iso), at most `capacity` of them
-    /// written, and how many the kernel counted (more than `capacity` means the buffers were
-    /// too small). Sorted by (cell, rank): the CPU twin's order.
-    pub fn extract(&self, ctx: &GpuContext, grid: &ScalarGrid, iso: f32, capacity: u32) -> (Vec<GpuTriangle>, u32) {
+    /// The kernel's buffers and bind group for `grid`, and its dispatch size.
+    fn prepare(&self, ctx: &GpuContext, grid: &ScalarGrid, iso: f32, capacity: u32) -> Prepared {
         let device = &ctx.device;
         let cells = grid.cells() as u32;
         let groups = cells.div_ceil(WORKGROUP).max(1);
@@ -83,7 +81,7 @@ impl GpuMarchingCubes {
         let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
         };
-        let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let uniform = init("marching_cubes params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
         let field = init("marching_cubes field", bytemuck::cast_slice(&grid.values), wgpu::BufferUsages::STORAGE);
         let counter = init("marching_cubes counter", bytemuck::cast_slice(&[0u32; 4]), rw);
@@ -94,17 +92,45 @@ impl GpuMarchingCubes {
         let entries: Vec<wgpu::BindGroupEntry> =
             buffers.iter().enumerate().map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() }).collect();
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("marching_cubes"), layout: &self.layout, entries: &entries });
-        let mut enc = device.create_command_encoder(&Default::default());
+        Prepared { group, counter, positions, normals, groups: (gx, gy) }
+    }
+
+    fn dispatch(&self, ctx: &GpuContext, p: &Prepared) {
+        ctx.queue.write_buffer(&p.counter, 0, bytemuck::cast_slice(&[0u32; 4]));
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("marching_cubes"), timestamp_writes: None });
             pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &group, &[]);
-            pass.dispatch_workgroups(gx, gy, 1);
+            pass.set_bind_group(0, &p.group, &[]);
+            pass.dispatch_workgroups(p.groups.0, p.groups.1, 1);
         }
         ctx.queue.submit([enc.finish()]);
-        let count = bytemuck::cast_slice::<u8, u32>(&read_buffer(device, &ctx.queue, &counter))[0];
-        let pos_bytes = read_buffer(device, &ctx.queue, &positions);
-        let nor_bytes = read_buffer(device, &ctx.queue, &normals);
+    }
+
+    /// Best-of-`reps` wall time (s) of one extraction on the device (dispatch to completion, no
+    /// readback), for the benchmark.
+    pub fn kernel_seconds(&self, ctx: &GpuContext, grid: &ScalarGrid, iso: f32, capacity: u32, reps: usize) -> f64 {
+        let p = self.prepare(ctx, grid, iso, capacity);
+        let mut best = f64::INFINITY;
+        for _ in 0..reps {
+            let t = std::time::Instant::now();
+            self.dispatch(ctx, &p);
+            let _ = ctx.device.poll(wgpu::PollType::wait_indefinitely());
+            best = best.min(t.elapsed().as_secs_f64());
+        }
+        best
+    }
+
+    /// The triangles of {f = iso} of `grid` (inside f > iso), at most `capacity` of them
+    /// written, and how many the kernel counted (more than `capacity` means the buffers were
+    /// too small). Sorted by (cell, rank): the CPU twin's order.
+    pub fn extract(&self, ctx: &GpuContext, grid: &ScalarGrid, iso: f32, capacity: u32) -> (Vec<GpuTriangle>, u32) {
+        let device = &ctx.device;
+        let p = self.prepare(ctx, grid, iso, capacity);
+        self.dispatch(ctx, &p);
+        let count = bytemuck::cast_slice::<u8, u32>(&read_buffer(device, &ctx.queue, &p.counter))[0];
+        let pos_bytes = read_buffer(device, &ctx.queue, &p.positions);
+        let nor_bytes = read_buffer(device, &ctx.queue, &p.normals);
         let (p, n): (&[[f32; 4]], &[[f32; 4]]) = (bytemuck::cast_slice(&pos_bytes), bytemuck::cast_slice(&nor_bytes));
         let v = |a: [f32; 4]| DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64);
         let mut tris: Vec<GpuTriangle> = (0..count.min(capacity) as usize)
@@ -118,6 +144,15 @@ impl GpuMarchingCubes {
         tris.sort_by_key(|t| (t.cell, t.rank));
         (tris, count)
     }
+}
+
+/// The buffers of one extraction.
+struct Prepared {
+    group: wgpu::BindGroup,
+    counter: wgpu::Buffer,
+    positions: wgpu::Buffer,
+    normals: wgpu::Buffer,
+    groups: (u32, u32),
 }
 
 #[cfg(test)]

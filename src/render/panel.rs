@@ -150,7 +150,7 @@ fn panel_ui(
         Option<&CoupledStatus>,
     )>,
     targets: Query<(), With<PanelTarget>>,
-    time: Res<Time>,
+    time: Res<Time<Real>>,
     store: Option<Res<bevy::diagnostic::DiagnosticsStore>>,
 ) -> Result {
     let ctx = contexts.ctx_mut()?;
