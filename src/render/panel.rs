@@ -134,7 +134,7 @@ pub fn apply_panel(
     }
 }
 
-#[allow(clippy::type_complexity)]
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
 fn panel_ui(
     mut contexts: EguiContexts,
     mut state: ResMut<PanelState>,

@@ -49,6 +49,8 @@ pub fn pixels(s: &Slice, field: Field) -> (Vec<u8>, (f64, f64)) {
         let m = lo.abs().max(hi.abs()).max(1e-300);
         (lo, hi) = (-m, m);
     }
+    // also when every value is the same or there is none (NaN bounds)
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(hi > lo) {
         hi = lo + 1.0;
     }
@@ -77,6 +79,7 @@ impl Plugin for SlicePlugin {
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn update_slices(
     settings: Res<DrawSettings>,
     steps: Res<StepsThisFrame>,

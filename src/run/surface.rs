@@ -43,7 +43,7 @@ mod tests {
         let m = coupled_surface(&c);
         assert_eq!(m.unmatched_edges(), 0, "closed");
         // two folds, each a closed prism: every vertex tagged 0 or 1, both present
-        assert!(m.scalars.iter().any(|s| *s == 0.0) && m.scalars.iter().any(|s| *s == 1.0));
+        assert!(m.scalars.contains(&0.0) && m.scalars.contains(&1.0));
         // the prism's section area ≈ the particles' area (N l₀², cm²) within 5 %
         let p = &c.solid.particles;
         let particles_area = p.len() as f64 * p.spacing * p.spacing;
