@@ -41,16 +41,7 @@ const INTERFERENCE_STREAM: u32 = 0x9e3779b9u;
 const INLET_STREAM: u32 = 0x85ebca6bu;
 const COMPLEMENTARY_STREAM: u32 = 0xc2b2ae35u;
 
-// Wellons' lowbias32 (src/lattice_gas/collision.rs::mix32)
-fn mix32(x0: u32) -> u32 {
-    var x = x0;
-    x ^= x >> 16u;
-    x *= 0x7feb352du;
-    x ^= x >> 15u;
-    x *= 0x846ca68bu;
-    x ^= x >> 16u;
-    return x;
-}
+// mix32: Wellons' lowbias32 (shaders/hash.wgsl, prepended)
 
 // every vertex v of both lanes moved to v ^ (1 << axis)
 fn flip(w: u32, axis: u32) -> u32 {

@@ -2,7 +2,7 @@
 // per tracer: the midpoint rule through the fluid's velocity interpolated multilinearly from the
 // FDLB's macro buffer (mac[k·N + node]: ρ, ux, uy, uz, θ) and node kinds (0 = fluid); a tracer
 // that leaves the interior or comes nearest to a node that is not fluid is born again in the
-// seed box at a point drawn from the lowbias32 hash of (tracer, generation).
+// seed box at a point drawn from the lowbias32 hash (mix32) of (tracer, generation).
 
 struct Params {
     // interior nodes per axis, .w: the dimension (2 or 3)
@@ -65,18 +65,9 @@ fn sample(x: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(u, 1.0);
 }
 
-fn hash(v: u32) -> u32 {
-    var x = v;
-    x ^= x >> 16u;
-    x *= 0x7feb352du;
-    x ^= x >> 15u;
-    x *= 0x846ca68bu;
-    x ^= x >> 16u;
-    return x;
-}
-
+// mix32 (shaders/hash.wgsl) is prepended
 fn unit(tracer: u32, generation: u32, axis: u32) -> f32 {
-    return f32(hash(hash(hash(tracer) ^ generation) ^ axis) >> 8u) / 16777216.0;
+    return f32(mix32(mix32(mix32(tracer) ^ generation) ^ axis) >> 8u) / 16777216.0;
 }
 
 @compute @workgroup_size(64)

@@ -13,6 +13,7 @@
 //! | [`lattice_gas`] | FCHC integer lattice gas (second fluid backend, seed 002): collision classes, interference, bit-parallel propagation, channel and cylinder, coarse-graining, viscosity tables, scenes; GPU twin in [`gpu::lattice_gas`] |
 //! | [`analysis`] | fits, spectra, f0, the glottal-flow (voice) measures, band-limited resampling, synthetic test signals |
 //! | [`two_mass`] | the Ishizaka–Flanagan two-mass model of the folds (the yardstick of the glottis) |
+//! | [`hash`] | the counter-based hash shared by CPU and GPU random streams (lattice gas, tracers) |
 //! | [`error`] | the field-naming input error shared by every layer |
 //! | [`coupling`] | fluid–structure coupling: surfaces, tractions, prescribed motions, the weak coupling (method 1) |
 //! | [`solid`] | MPS orthotropic viscoelastic solid: materials, particles, forces, contact, explicit and implicit steps, the vocal-fold geometry |
@@ -34,6 +35,7 @@ pub mod coupling;
 pub mod error;
 pub mod fluid;
 pub mod gpu;
+pub mod hash;
 pub mod lattice_gas;
 pub mod mesh;
 pub mod output;

@@ -20,6 +20,19 @@ fn headless_default_plugins(p: bevy::app::PluginGroupBuilder) -> bevy::app::Plug
     p
 }
 
+/// Whether a GPU adapter (lavapipe in CI) exists; without one a GPU test is skipped, except in
+/// CI, where it must run.
+fn has_gpu() -> bool {
+    match phonation::gpu::GpuContext::new() {
+        Ok(_) => true,
+        Err(e) if std::env::var("CI").is_ok_and(|v| v == "true") => panic!("CI must run the GPU tests, but {e}"),
+        Err(e) => {
+            eprintln!("SKIPPED: no GPU adapter ({e})");
+            false
+        }
+    }
+}
+
 fn app() -> App {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, PhonationPlugin));
@@ -89,11 +102,7 @@ fn gpu_stepping_in_the_render_world_matches_the_cpu() {
     use bevy::app::PluginsState;
     use bevy::window::{ExitCondition, WindowPlugin};
     use phonation::plugin::{GpuProbes, GpuStepping, PhonationGpuPlugin};
-    if let Err(e) = phonation::gpu::GpuContext::new() {
-        if std::env::var("CI").is_ok_and(|v| v == "true") {
-            panic!("CI must run the GPU tests, but {e}");
-        }
-        eprintln!("SKIPPED: no GPU adapter ({e})");
+    if !has_gpu() {
         return;
     }
     let sc = scene();
@@ -399,11 +408,7 @@ fn the_glottis_renders_headless_with_folds_tracers_and_slice() {
     use phonation::render::view::FrameSimulation;
     use phonation::render::{DrawSettings, PhonationPlugins};
     use std::sync::{Arc, Mutex};
-    if let Err(e) = phonation::gpu::GpuContext::new() {
-        if std::env::var("CI").is_ok_and(|v| v == "true") {
-            panic!("CI must run the GPU tests, but {e}");
-        }
-        eprintln!("SKIPPED: no GPU adapter ({e})");
+    if !has_gpu() {
         return;
     }
     let mut app = App::new();

@@ -14,6 +14,7 @@
 use super::grid::Grid;
 use super::layout::NodeKind;
 use super::solver::FluidSolver;
+use crate::hash::mix32;
 use glam::DVec3;
 
 /// The velocity the tracers see: u per padded node (f32, as the GPU holds it) and whether the
@@ -77,20 +78,9 @@ impl VelocityField {
     }
 }
 
-/// The "lowbias32" integer hash (C. Wellons, 2018): a counter-based random stream shared with
-/// the GPU kernel.
-pub fn hash(mut x: u32) -> u32 {
-    x ^= x >> 16;
-    x = x.wrapping_mul(0x7feb_352d);
-    x ^= x >> 15;
-    x = x.wrapping_mul(0x846c_a68b);
-    x ^= x >> 16;
-    x
-}
-
-/// A number in [0, 1) from (tracer, generation, axis), exact in f32.
+/// A number in [0, 1) from (tracer, generation, axis) by the lowbias32 hash, exact in f32.
 pub fn unit(tracer: u32, generation: u32, axis: u32) -> f64 {
-    (hash(hash(hash(tracer) ^ generation) ^ axis) >> 8) as f64 / (1u32 << 24) as f64
+    (mix32(mix32(mix32(tracer) ^ generation) ^ axis) >> 8) as f64 / (1u32 << 24) as f64
 }
 
 /// Tracers and where they are born.

@@ -130,5 +130,5 @@ pub fn shader() -> String {
         .replace("//@INTERFERE", &interference_blocks("h", "hc", |k| format!("src[{k}u * W + w]")))
         .replace("//@PROPAGATE", &propagate());
     assert!(!wgsl.contains("//@"), "a marker of shaders/lattice_gas.wgsl was left unfilled");
-    wgsl
+    format!("{}{wgsl}", crate::hash::WGSL)
 }

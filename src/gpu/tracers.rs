@@ -9,7 +9,8 @@ use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use wgpu::util::DeviceExt;
 
-const SHADER: &str = include_str!("../../shaders/tracers.wgsl");
+/// shaders/tracers.wgsl with the hash it uses (shaders/hash.wgsl).
+pub const SHADER: &str = concat!(include_str!("../../shaders/hash.wgsl"), include_str!("../../shaders/tracers.wgsl"));
 
 /// The kernel's uniform (`Params` in the shader).
 #[repr(C)]

@@ -72,7 +72,7 @@ mod tests {
             ("shaders/copy.wgsl", include_str!("../../shaders/copy.wgsl").to_string()),
             ("shaders/coupling.wgsl", include_str!("../../shaders/coupling.wgsl").to_string()),
             ("shaders/marching_cubes.wgsl", include_str!("../../shaders/marching_cubes.wgsl").to_string()),
-            ("shaders/tracers.wgsl", include_str!("../../shaders/tracers.wgsl").to_string()),
+            ("shaders/tracers.wgsl (+ hash.wgsl)", crate::gpu::tracers::SHADER.to_string()),
             ("shaders/solid.wgsl", include_str!("../../shaders/solid.wgsl").to_string()),
             ("shaders/solid_contact.wgsl", include_str!("../../shaders/solid_contact.wgsl").to_string()),
             ("lattice_gas (shaders/lattice_gas.wgsl + generated)", crate::gpu::lattice_gas_codegen::shader()),

@@ -119,14 +119,7 @@ impl CollisionTable {
 }
 
 /// 32-bit integer hash (Wellons' "lowbias32"), the building block of the random stream.
-pub const fn mix32(mut x: u32) -> u32 {
-    x ^= x >> 16;
-    x = x.wrapping_mul(0x7feb_352d);
-    x ^= x >> 15;
-    x = x.wrapping_mul(0x846c_a68b);
-    x ^= x >> 16;
-    x
-}
+pub use crate::hash::mix32;
 
 /// Salt of the interference stream (seed ^ salt, step, 24·cell + k).
 pub const INTERFERENCE_STREAM: u32 = 0x9e37_79b9;
