@@ -368,6 +368,12 @@ mod tests {
         let m = extract(&g, 0.0);
         let (area, volume) = (m.area(), m.volume());
         let (a0, v0) = (4.0 * std::f64::consts::PI * r * r, 4.0 / 3.0 * std::f64::consts::PI * r.powi(3));
+        eprintln!(
+            "sphere r = {r} at 64³: {} triangles, area {:+.3} %, volume {:+.3} %",
+            m.triangles.len(),
+            100.0 * (area / a0 - 1.0),
+            100.0 * (volume / v0 - 1.0)
+        );
         assert!((area / a0 - 1.0).abs() < 0.01, "area {area} vs {a0}");
         assert!((volume / v0 - 1.0).abs() < 0.01, "volume {volume} vs {v0}");
         assert_eq!(m.unmatched_edges(), 0, "watertight");

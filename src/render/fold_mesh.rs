@@ -51,13 +51,12 @@ fn update_fold_meshes(
     settings: Res<DrawSettings>,
     steps: Res<StepsThisFrame>,
     mut sims: ParamSet<(Query<(Entity, &CoupledSimulation, Option<&mut FoldMesh>)>, Query<(Entity, &SolidSimulation, Option<&mut FoldMesh>)>)>,
-    mut drawn: Query<(&FoldMeshOf, &mut Visibility)>,
+    mut drawn: Query<&mut Visibility, With<FoldMeshOf>>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: Option<ResMut<Assets<StandardMaterial>>>,
     mut commands: Commands,
 ) {
-    for (of, mut vis) in &mut drawn {
-        let _ = of;
+    for mut vis in &mut drawn {
         *vis = if settings.folds { Visibility::Inherited } else { Visibility::Hidden };
     }
     if !settings.folds {

@@ -20,9 +20,14 @@ fn domain(grid: &crate::fluid::Grid, dx: f64) -> (Vec3, Vec3) {
     (Vec3::ZERO, n * dx as f32)
 }
 
+/// Points the [`FrameSimulation`] cameras at the first simulation's domain when that domain
+/// changes (a new scene) or a camera is added, and leaves them alone otherwise (an app may move
+/// them).
 pub fn frame_simulations(
-    coupled: Query<&CoupledSimulation, Changed<CoupledSimulation>>,
-    fluids: Query<&FluidSimulation, Changed<FluidSimulation>>,
+    coupled: Query<&CoupledSimulation>,
+    fluids: Query<&FluidSimulation>,
+    added: Query<(), Added<FrameSimulation>>,
+    mut framed: Local<Option<(Vec3, Vec3)>>,
     mut cams: Query<(&mut Transform, &mut Projection), With<FrameSimulation>>,
 ) {
     let Some((lo, hi)) = coupled
@@ -33,6 +38,10 @@ pub fn frame_simulations(
     else {
         return;
     };
+    if *framed == Some((lo, hi)) && added.is_empty() {
+        return;
+    }
+    *framed = Some((lo, hi));
     let size = hi - lo;
     let centre = 0.5 * (lo + hi);
     for (mut t, mut p) in &mut cams {
