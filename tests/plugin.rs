@@ -349,7 +349,7 @@ fn the_panel_state_rebuilds_the_simulation_with_its_parameters() {
     use phonation::render::panel::{PanelState, PanelTarget, apply_panel, scene_of};
     use phonation::render::{DrawPlugin, DrawSystems};
     let mut app = app();
-    app.add_plugins(DrawPlugin)
+    app.add_plugins((DrawPlugin, phonation::plugin::PhonationDiagnosticsPlugin))
         .insert_resource(PanelState { preset: "glottis_2d_coarse".into(), ..default() })
         .add_systems(Update, apply_panel.in_set(DrawSystems::Panel));
     let e = app.world_mut().spawn(PanelTarget::default()).id();
@@ -361,12 +361,15 @@ fn the_panel_state_rebuilds_the_simulation_with_its_parameters() {
     let rho_8000 = inlet_rho(&app);
     app.update();
     assert!(app.world().get::<CoupledSimulation>(e).unwrap().solver.step_count > 0, "it steps");
+    assert!(app.world().get::<phonation::plugin::diagnostics::InitialMass>(e).is_some(), "measured");
     // halve the lung pressure through the state
     app.world_mut().resource_mut::<PanelState>().lung_pressure = Some(4000.0);
     app.update();
     let rho_4000 = inlet_rho(&app);
     let direct = scene_of(&PanelState { preset: "glottis_2d_coarse".into(), lung_pressure: Some(4000.0), ..default() }).unwrap().build().unwrap();
     assert_eq!(app.world().get::<CoupledSimulation>(e).unwrap().solver.step_count, 0, "rebuilt");
+    // the old scene's figures go with it (the mass drift restarts from the new air)
+    assert!(app.world().get::<phonation::plugin::diagnostics::InitialMass>(e).is_none());
     match direct.fluid.layout.boundaries.faces[2] {
         phonation::fluid::FaceCondition::PressureInlet { rho, .. } => assert_eq!(rho, rho_4000),
         ref f => panic!("{f:?}"),

@@ -109,7 +109,15 @@ pub fn apply_panel(
             Ok((sc, solver)) => {
                 let glottis = CoupledGlottis::of(&sc, &solver, 0.05);
                 let mut ec = commands.entity(e);
-                ec.remove::<(CoupledStatus, CoupledGlottis, VoiceDiagnostics, super::fold_mesh::FoldMesh, super::tracers::FlowTracers, SliceView)>();
+                ec.remove::<(
+                    CoupledStatus,
+                    CoupledGlottis,
+                    VoiceDiagnostics,
+                    crate::plugin::diagnostics::InitialMass,
+                    super::fold_mesh::FoldMesh,
+                    super::tracers::FlowTracers,
+                    SliceView,
+                )>();
                 ec.insert(CoupledSimulation { solver });
                 if let Some(g) = glottis {
                     ec.insert(g);
