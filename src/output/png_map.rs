@@ -19,19 +19,9 @@ fn ramp(stops: &[[f64; 3]], t: f64) -> [u8; 3] {
 const SEQUENTIAL: [[f64; 3]; 5] = [[0.05, 0.03, 0.25], [0.35, 0.1, 0.5], [0.75, 0.2, 0.4], [0.98, 0.55, 0.15], [0.99, 0.95, 0.4]];
 const DIVERGING: [[f64; 3]; 3] = [[0.15, 0.3, 0.75], [0.97, 0.97, 0.97], [0.75, 0.1, 0.1]];
 
-/// The dark-to-yellow map of magnitudes at `t` ∈ [0, 1] (clamped).
-pub fn sequential(t: f64) -> [u8; 3] {
-    ramp(&SEQUENTIAL, t)
-}
-
-/// The blue–white–red map of signed fields at `t` ∈ [0, 1] (0.5: zero; clamped).
-pub fn diverging(t: f64) -> [u8; 3] {
-    ramp(&DIVERGING, t)
-}
-
-/// Writes `slice` as an RGB PNG, scaled up by an integer factor so that small grids stay
-/// visible. `signed`: symmetric range around zero.
-pub fn write_png(path: &Path, slice: &Slice, signed: bool) -> std::io::Result<(f64, f64)> {
+/// The range of `slice`'s finite values mapped to the ends of the colour scale; `signed`:
+/// symmetric about zero. A slice with one value (or none) gets a unit-wide range.
+pub fn colour_range(slice: &Slice, signed: bool) -> (f64, f64) {
     let vals: Vec<f64> = slice.values.iter().flatten().copied().filter(|v| v.is_finite()).collect();
     let (mut lo, mut hi) = vals.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
     if signed {
@@ -42,6 +32,24 @@ pub fn write_png(path: &Path, slice: &Slice, signed: bool) -> std::io::Result<(f
     if !(hi > lo) {
         hi = lo + 1.0;
     }
+    (lo, hi)
+}
+
+/// The colour of a node's value in `range` (solids and non-finite values grey).
+pub fn colour(v: Option<f64>, (lo, hi): (f64, f64), signed: bool) -> [u8; 3] {
+    match v {
+        Some(v) if v.is_finite() => {
+            let t = (v - lo) / (hi - lo);
+            if signed { ramp(&DIVERGING, t) } else { ramp(&SEQUENTIAL, t) }
+        }
+        _ => [110, 110, 110],
+    }
+}
+
+/// Writes `slice` as an RGB PNG, scaled up by an integer factor so that small grids stay
+/// visible. `signed`: symmetric range around zero.
+pub fn write_png(path: &Path, slice: &Slice, signed: bool) -> std::io::Result<(f64, f64)> {
+    let (lo, hi) = colour_range(slice, signed);
     let scale = (512 / slice.nx.max(slice.ny)).max(1);
     let (w, h) = (slice.nx * scale, slice.ny * scale);
     let mut data = vec![0u8; w * h * 3];
@@ -49,13 +57,7 @@ pub fn write_png(path: &Path, slice: &Slice, signed: bool) -> std::io::Result<(f
         let y = slice.ny - 1 - py / scale;
         for px in 0..w {
             let x = px / scale;
-            let rgb = match slice.values[x + slice.nx * y] {
-                Some(v) => {
-                    let t = (v - lo) / (hi - lo);
-                    if signed { ramp(&DIVERGING, t) } else { ramp(&SEQUENTIAL, t) }
-                }
-                None => [110, 110, 110],
-            };
+            let rgb = colour(slice.values[x + slice.nx * y], (lo, hi), signed);
             data[(py * w + px) * 3..(py * w + px) * 3 + 3].copy_from_slice(&rgb);
         }
     }

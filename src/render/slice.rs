@@ -5,7 +5,7 @@
 
 use super::{DrawSettings, DrawSystems};
 use crate::output::fields::{Slice, slice};
-use crate::output::png_map::{diverging, sequential};
+use crate::output::png_map::{colour, colour_range};
 use crate::plugin::{CoupledSimulation, StepsThisFrame};
 use crate::scene::schema::Field;
 use bevy::asset::RenderAssetUsages;
@@ -41,34 +41,19 @@ pub fn signed(f: Field) -> bool {
     matches!(f, Field::Pressure | Field::Vorticity)
 }
 
-/// RGBA8 pixels of `s` (rows from the top, y up in the world), and the range mapped.
+/// RGBA8 pixels of `s` (rows from the top, y up in the world) in the PNG snapshots' colours, and
+/// the range mapped.
 pub fn pixels(s: &Slice, field: Field) -> (Vec<u8>, (f64, f64)) {
-    let vals: Vec<f64> = s.values.iter().flatten().copied().filter(|v| v.is_finite()).collect();
-    let (mut lo, mut hi) = vals.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
-    if signed(field) {
-        let m = lo.abs().max(hi.abs()).max(1e-300);
-        (lo, hi) = (-m, m);
-    }
-    // also when every value is the same or there is none (NaN bounds)
-    #[allow(clippy::neg_cmp_op_on_partial_ord)]
-    if !(hi > lo) {
-        hi = lo + 1.0;
-    }
+    let range = colour_range(s, signed(field));
     let mut data = Vec::with_capacity(4 * s.nx * s.ny);
     for row in 0..s.ny {
         let y = s.ny - 1 - row;
         for x in 0..s.nx {
-            let rgb = match s.values[x + s.nx * y] {
-                Some(v) if v.is_finite() => {
-                    let t = (v - lo) / (hi - lo);
-                    if signed(field) { diverging(t) } else { sequential(t) }
-                }
-                _ => [110, 110, 110],
-            };
+            let rgb = colour(s.values[x + s.nx * y], range, signed(field));
             data.extend_from_slice(&[rgb[0], rgb[1], rgb[2], 255]);
         }
     }
-    (data, (lo, hi))
+    (data, range)
 }
 
 pub struct SlicePlugin;
