@@ -25,7 +25,8 @@
 //! | [`run`] | running a scene on a backend ([`run::backend`]: picking the GPU, one engine per solver) through one run loop ([`run::driver`]) and writing its outputs: fluid, solid, lattice gas, coupled, two-mass; parameter sweeps (parallel or a Slurm job array) |
 //! | [`output`] | probes CSV, PNG colour maps, VTK, summary JSON, voice outputs (voice.json, plots, WAV) |
 //! | [`validation`] | analytic references and validation cases (Taylor–Green, Sod, …) |
-//! | [`bench`] | memory bandwidth and cells/s measurements |
+//! | [`bench`] | memory bandwidth and cells/s measurements, cost per update against size |
+//! | [`machine`] | the last-level cache, and when a rate is a fraction of the memory bandwidth |
 //! | `plugin` | Bevy plugin that steps simulations (feature `bevy`) |
 //! | `render` | drawing in Bevy (feature `render`, on by default): `render::PhonationPlugins`, the fold mesh, tracers, slices, the egui panel |
 
@@ -37,6 +38,7 @@ pub mod fluid;
 pub mod gpu;
 pub mod hash;
 pub mod lattice_gas;
+pub mod machine;
 pub mod mesh;
 pub mod output;
 #[cfg(feature = "bevy")]

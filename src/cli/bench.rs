@@ -22,21 +22,28 @@ pub struct BenchArgs {
     /// Also write the report as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Only one suite: fdlb, solid, lattice_gas, coupled, two_mass, glottis or drawing.
+    /// Only one suite: fdlb, solid, lattice_gas, coupled, two_mass, glottis, drawing or scaling
+    /// (cost per update against size: only when asked for, it takes minutes).
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(phonation::bench::SUITES))]
     pub only: Option<String>,
+}
+
+/// A bandwidth fraction as a percentage, or "in cache" where the benchmark's data fits in the
+/// last-level cache (no memory-bandwidth figure then).
+fn percent(f: Option<f64>) -> String {
+    f.map_or("in cache".into(), |f| format!("{:.1}%", 100.0 * f))
 }
 
 /// One table row of a solid speed measurement (`extra` appended, e.g. a ratio to the CPU).
 fn solid_row(v: &phonation::solid::bench::SolidSpeed, extra: &str) {
     println!(
-        "{:9} {:>10} {:>10} {:>14.3e} {:>9.0} {:>7.1}% {:>9.1} {:>8.1}{extra}",
+        "{:9} {:>10} {:>10} {:>14.3e} {:>9.0} {:>8} {:>9.1} {:>8.1}{extra}",
         format!("{:?}", v.integrator),
         v.particles,
         v.bonds,
         v.particle_updates_per_s,
         v.bytes_per_update,
-        100.0 * v.bandwidth_fraction,
+        percent(v.bandwidth_fraction),
         v.cg_iterations,
         v.time_step_over_explicit_limit
     );
@@ -50,11 +57,11 @@ fn lattice_gas_header() {
 /// One table row of a lattice-gas speed measurement (`extra` appended, e.g. a ratio to the CPU).
 fn lattice_gas_row(v: &phonation::lattice_gas::bench::LatticeGasSpeed, extra: &str) {
     println!(
-        "{:>16} {:>14.3e} {:>9.0} {:>7.1}% {:>12.0} s{extra}",
+        "{:>16} {:>14.3e} {:>9.0} {:>8} {:>12.0} s{extra}",
         format!("{:?}", v.cells),
         v.site_updates_per_s,
         v.bytes_per_site_update,
-        100.0 * v.bandwidth_fraction,
+        percent(v.bandwidth_fraction),
         v.projected_seed_run_s
     );
     if !v.stage_shares.is_empty() {
@@ -71,18 +78,28 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     let mut cpu_gas: Option<f64> = None;
     if backend != BenchBackend::Gpu {
         let r = phonation::bench::run(quick, only.as_deref());
-        println!("CPU: {} threads, STREAM-like triad bandwidth {:.2} GB/s", r.threads, r.triad_bandwidth_gb_s);
+        let t = &r.triad;
+        println!(
+            "CPU: {} threads, STREAM-like triad bandwidth {:.2} GB/s (best of {}; median {:.2}, worst {:.2}; 3 arrays of {} MiB); last-level cache {} MiB",
+            r.threads,
+            r.triad_bandwidth_gb_s,
+            t.repetitions,
+            t.median / 1e9,
+            t.worst / 1e9,
+            t.array_bytes >> 20,
+            r.last_level_cache_bytes >> 20
+        );
         if !r.lattices.is_empty() {
             println!("{:8} {:>16} {:>16} {:>10} {:>10}", "lattice", "nodes", "updates/s", "B/update", "of b/w");
         }
         for l in &r.lattices {
             println!(
-                "{:8} {:>16} {:>16.3e} {:>10.0} {:>9.1}%",
+                "{:8} {:>16} {:>16.3e} {:>10.0} {:>10}",
                 l.lattice,
                 format!("{:?}", l.nodes),
                 l.node_updates_per_s,
                 l.bytes_per_node_update,
-                100.0 * l.bandwidth_fraction
+                percent(l.bandwidth_fraction)
             );
             let st: Vec<String> = l.stage_fractions.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
             println!("         stages: {}", st.join(", "));
@@ -108,8 +125,14 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             lattice_gas_header();
         }
         for v in &r.lattice_gas {
-            lattice_gas_row(v, "");
-            cpu_gas = Some(v.site_updates_per_s);
+            match cpu_gas {
+                // the reference row: the same step with the collision done site by site
+                Some(fast) => lattice_gas_row(v, &format!("  ({}: the transposed collision's step is {:.2}× faster)", v.backend, fast / v.site_updates_per_s)),
+                None => {
+                    lattice_gas_row(v, "");
+                    cpu_gas = Some(v.site_updates_per_s);
+                }
+            }
         }
         if !r.coupled.is_empty() {
             println!("coupled, clamped elastic cylinder, Schäfer–Turek 2D-1 (Mach 0.1): speed vs error, method 1 (weak) and 2 (momentum-conserving)");
@@ -158,6 +181,25 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             println!("{:>18} {:>8} {:>9} {:>10.3e} {:>10.1} {:>16.2}", g.scene, g.nodes, g.particles, g.dt, g.coupled_steps_per_s, g.wall_per_simulated_ms);
             let st: Vec<String> = g.stage_shares.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
             println!("     stages: {}", st.join(", "));
+        }
+        if !r.scaling.is_empty() {
+            println!(
+                "cost per update against size (CPU, {} threads; flat ns/update = linear cost; data vs the {} MiB last-level cache):",
+                r.threads,
+                r.last_level_cache_bytes >> 20
+            );
+            println!("{:>18} {:>12} {:>8} {:>14} {:>12} {:>10}", "kernel", "size", "steps", "updates/s", "ns/update", "data MiB");
+        }
+        for row in &r.scaling {
+            println!(
+                "{:>18} {:>12} {:>8} {:>14.3e} {:>12.2} {:>10.1}",
+                row.kernel,
+                row.size,
+                row.steps,
+                row.updates_per_s,
+                row.ns_per_update,
+                row.data_bytes as f64 / (1 << 20) as f64
+            );
         }
         report.insert("cpu".into(), serde_json::to_value(&r)?);
     }
@@ -208,12 +250,12 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                         .map(|(_, c)| format!("  {:.2}× the CPU backend", l.node_updates_per_s / c))
                         .unwrap_or_default();
                     println!(
-                        "{:8} {:>16} {:>16.3e} {:>10.0} {:>9.1}%{vs_cpu}",
+                        "{:8} {:>16} {:>16.3e} {:>10.0} {:>10}{vs_cpu}",
                         l.lattice,
                         format!("{:?}", l.nodes),
                         l.node_updates_per_s,
                         l.bytes_per_node_update,
-                        100.0 * l.bandwidth_fraction
+                        percent(l.bandwidth_fraction)
                     );
                     if !l.stage_fractions.is_empty() {
                         let st: Vec<String> = l.stage_fractions.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();

@@ -173,6 +173,12 @@ impl CoupledSolver {
 
     /// One coupled step.
     pub fn step(&mut self) -> Result<(), Instability> {
+        // on one of rayon's workers, so that the stages' parallel loops start inside the pool
+        // (see `SolidSolver::step`)
+        rayon::scope(|_| self.step_in_pool())
+    }
+
+    fn step_in_pool(&mut self) -> Result<(), Instability> {
         for (k, st) in self.stages().iter().enumerate() {
             let t0 = Instant::now();
             let r = self.run_stage(st.kind);

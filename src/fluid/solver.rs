@@ -150,7 +150,13 @@ impl FluidSolver {
 
     /// One full step, calling `after(stage, self)` after every stage (the coupling reads the
     /// advected field of each advection stage, [`Self::stage_arrays`]).
-    pub fn step_observed(&mut self, mut after: impl FnMut(&Stage, &Self)) -> Result<(), Instability> {
+    pub fn step_observed(&mut self, after: impl FnMut(&Stage, &Self) + Send) -> Result<(), Instability> {
+        // on one of rayon's workers, so that the stages' parallel loops start inside the pool
+        // (see `SolidSolver::step`)
+        rayon::scope(|_| self.step_observed_in_pool(after))
+    }
+
+    fn step_observed_in_pool(&mut self, mut after: impl FnMut(&Stage, &Self)) -> Result<(), Instability> {
         for (k, stage) in FDLB_STEP.iter().enumerate() {
             let t0 = Instant::now();
             let r = self.run_stage(stage);

@@ -69,7 +69,7 @@ pub fn lattice_speed(ctx: &GpuContext, set: VelocitySetKind, n: [usize; 3], step
         steps,
         node_updates_per_s: 0.0,
         bytes_per_node_update: bytes,
-        bandwidth_fraction: 0.0,
+        bandwidth_fraction: None,
         skipped: None,
         stage_fractions: Vec::new(),
     };
@@ -88,7 +88,7 @@ pub fn lattice_speed(ctx: &GpuContext, set: VelocitySetKind, n: [usize; 3], step
     gpu.wait();
     let wall = t.elapsed().as_secs_f64();
     out.node_updates_per_s = steps as f64 * cpu.layout.fluid_count as f64 / wall;
-    out.bandwidth_fraction = out.node_updates_per_s * bytes / bandwidth;
+    out.bandwidth_fraction = Some(out.node_updates_per_s * bytes / bandwidth);
     if let Some(st) = gpu.profile_stages(ctx, 3) {
         let all: f64 = st.iter().map(|(_, t)| t).sum();
         out.stage_fractions = st.into_iter().map(|(n, t)| (n.to_string(), t / all.max(1e-30))).collect();

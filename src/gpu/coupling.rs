@@ -5,8 +5,10 @@
 //! (2.127–2.128; CPU twin: the `momentum_exchange` stage of `coupling::conserving`) as two
 //! gathers — per node the weights' sum, per particle its shares — deterministic, no atomics.
 //!
-//! These kernels are checked against their twins (tests/gpu.rs); the coupled step does not run
-//! on the GPU yet (the per-step ghost geometry and the face-flux record are CPU-only).
+//! These kernels are checked against their twins (tests/gpu.rs). The face-flux record of the
+//! fluid step (what each wall node takes out of the air, 2.122–2.123) is a kernel of the GPU
+//! fluid ([`super::GpuFluid::record_face_fluxes`]). The
+//! coupled step does not run on the GPU yet: the per-step ghost geometry is CPU-only.
 
 use super::context::{GpuContext, buffer_layout, compute_pipelines, read_buffer};
 use crate::fluid::{Grid, KernelLevelSet};

@@ -633,7 +633,7 @@ pub fn solid_speed(ctx: &GpuContext, side: usize, integrator: Integrator, steps:
     }
     g.wait();
     let wall = t.elapsed().as_secs_f64();
-    Ok(crate::solid::bench::speed_of(&s, steps, wall, iters, setup, Vec::new(), bandwidth))
+    Ok(crate::solid::bench::speed_of(false, &s, steps, wall, iters, setup, Vec::new(), bandwidth))
 }
 
 #[cfg(test)]

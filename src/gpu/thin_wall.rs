@@ -40,6 +40,40 @@ pub(super) fn entries(layout: &Layout) -> (Vec<ThinTapEntry>, Vec<[u32; 2]>) {
     (taps, ranges)
 }
 
+/// For method 2's record of the walls' face fluxes (`thin_wall_fluxes`): the wall node that takes
+/// each tap's correction — as [`crate::coupling::momentum_exchange::add_face_fluxes`] picks it,
+/// the first wall among (+s, −s, −2s), else +s — with the taps grouped by that node: the tap
+/// indices (into [`entries`]' list) in target order, and per target (node, first, count, 0).
+/// Never empty (a zero target with no taps stands in for none).
+pub(super) fn flux_targets(layout: &Layout) -> (Vec<u32>, Vec<[u32; 4]>) {
+    let g = &layout.grid;
+    let wall = |n: usize| !matches!(layout.kind[n], crate::fluid::layout::NodeKind::Fluid | crate::fluid::layout::NodeKind::Periodic);
+    let mut by_target: Vec<(usize, u32)> = layout
+        .thin_taps
+        .iter()
+        .enumerate()
+        .map(|(k, t)| {
+            let s = t.sign as isize * g.stride[t.axis] as isize;
+            let at = |d: isize| (t.node as isize + d) as usize;
+            let taps = [at(s), at(-s), at(-2 * s)];
+            (taps.iter().copied().find(|&n| wall(n)).unwrap_or(taps[0]), k as u32)
+        })
+        .collect();
+    by_target.sort();
+    let order: Vec<u32> = by_target.iter().map(|&(_, k)| k).collect();
+    let mut targets: Vec<[u32; 4]> = Vec::new();
+    for (i, &(node, _)) in by_target.iter().enumerate() {
+        match targets.last_mut() {
+            Some(t) if t[0] == node as u32 => t[2] += 1,
+            _ => targets.push([node as u32, i as u32, 1, 0]),
+        }
+    }
+    if targets.is_empty() {
+        targets.push([0; 4]);
+    }
+    (if order.is_empty() { vec![0] } else { order }, targets)
+}
+
 #[cfg(test)]
 mod mirror_tests {
     use super::ThinTapEntry;

@@ -89,6 +89,8 @@ mod tests {
                         ("moments_collide", codegen::moments_collide(&eq, split)),
                         ("advect", codegen::advect(&eq, split)),
                         ("thin_wall", codegen::thin_wall(&eq, split)),
+                        ("face_fluxes", codegen::face_fluxes(&eq, split)),
+                        ("thin_wall_fluxes", codegen::thin_wall_fluxes(&eq, split)),
                         ("boundaries", codegen::boundaries(&eq, split)),
                         ("probes", codegen::probes(&eq, split)),
                     ] {
@@ -101,7 +103,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(n, 7 + 2 * 2 * 2 * 5);
+        assert_eq!(n, 7 + 2 * 2 * 2 * 7);
     }
 
     /// A mirror that differs from its shader is caught (the check can fail).

@@ -30,8 +30,9 @@ pub struct LatticeGasSpeed {
     pub steps: u64,
     pub site_updates_per_s: f64,
     pub bytes_per_site_update: f64,
-    /// Of the bandwidth measured in the same process (CPU triad, GPU copy kernel).
-    pub bandwidth_fraction: f64,
+    /// Of the bandwidth measured in the same process (CPU triad, GPU copy kernel); `None` on the
+    /// CPU when the gas fits in the cache ([`crate::machine::fraction_of_bandwidth`]).
+    pub bandwidth_fraction: Option<f64>,
     /// Share of the step time per stage.
     pub stage_shares: Vec<(String, f64)>,
     /// The seed's 512 × 256 × 128-cell, 39,000-step run at this speed (s).
@@ -50,8 +51,11 @@ pub fn benchmark_gas(cells: [usize; 3]) -> LatticeGas {
     g
 }
 
-/// Fills in the derived figures of a measurement.
+/// Fills in the derived figures of a measurement; `cpu`: the bandwidth is the CPU triad, and no
+/// fraction is given when the gas fits in the CPU's cache.
+#[allow(clippy::too_many_arguments)]
 pub fn speed_of(
+    cpu: bool,
     backend: String,
     g: &LatticeGas,
     steps: u64,
@@ -69,7 +73,12 @@ pub fn speed_of(
         steps,
         site_updates_per_s: rate,
         bytes_per_site_update,
-        bandwidth_fraction: rate * bytes_per_site_update / bandwidth,
+        bandwidth_fraction: if cpu {
+            // the state (48 B per cell) and propagation's new copy of it
+            crate::machine::fraction_of_bandwidth(rate * bytes_per_site_update, 96 * g.cells(), bandwidth)
+        } else {
+            Some(rate * bytes_per_site_update / bandwidth)
+        },
         stage_shares,
         projected_seed_run_s: SEED_RUN_SITES * SEED_RUN_STEPS / rate,
     }
@@ -77,15 +86,36 @@ pub fn speed_of(
 
 /// Times `steps` CPU steps (after one warm-up step) of [`benchmark_gas`].
 pub fn cpu_speed(cells: [usize; 3], steps: u64, bandwidth: f64) -> LatticeGasSpeed {
+    timed_steps(cells, steps, bandwidth, false)
+}
+
+/// [`cpu_speed`] with the collision done site by site ([`LatticeGas::collide_site_by_site`],
+/// the plain form the transposed kernel replaced), for the method-vs-method ratio in one run.
+pub fn cpu_speed_site_by_site(cells: [usize; 3], steps: u64, bandwidth: f64) -> LatticeGasSpeed {
+    timed_steps(cells, steps, bandwidth, true)
+}
+
+fn timed_steps(cells: [usize; 3], steps: u64, bandwidth: f64, site_by_site: bool) -> LatticeGasSpeed {
+    use crate::stages::{LATTICE_GAS_STEP, LatticeGasStageKind};
     let table = CollisionTable::shared();
     let mut g = benchmark_gas(cells);
     g.advance(table);
     let mut t = LatticeGasTimings::default();
     let t0 = Instant::now();
     for _ in 0..steps {
-        g.advance_timed(table, &mut t);
+        for (i, st) in LATTICE_GAS_STEP.iter().enumerate() {
+            let s0 = Instant::now();
+            match st.kind {
+                LatticeGasStageKind::Collide if site_by_site => g.collide_site_by_site(table),
+                kind => g.run_stage(kind, table),
+            }
+            t.total[i] += s0.elapsed();
+        }
+        t.steps += 1;
+        g.step = g.step.wrapping_add(1);
     }
     let s = t0.elapsed().as_secs_f64();
     let shares = t.report().into_iter().map(|(n, f)| (n.to_string(), f)).collect();
-    speed_of(format!("CPU, {} threads", rayon::current_num_threads()), &g, steps, s, CPU_BYTES_PER_SITE_UPDATE, bandwidth, shares)
+    let what = if site_by_site { ", site-by-site collision" } else { "" };
+    speed_of(true, format!("CPU, {} threads{what}", rayon::current_num_threads()), &g, steps, s, CPU_BYTES_PER_SITE_UPDATE, bandwidth, shares)
 }

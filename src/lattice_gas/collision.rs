@@ -59,6 +59,10 @@ pub struct CollisionTable {
     /// Class c holds `members[start[c]..start[c + 1]]` (states in increasing order).
     pub start: Vec<u32>,
     pub members: Vec<u32>,
+    /// Per key, the first member and the size of its class (0 for keys no state has): one
+    /// lookup instead of two dependent ones in the CPU's collision (the GPU uses the three
+    /// arrays above).
+    key_range: Vec<[u32; 2]>,
 }
 
 impl CollisionTable {
@@ -85,7 +89,9 @@ impl CollisionTable {
             members[fill[c as usize] as usize] = s as u32;
             fill[c as usize] += 1;
         }
-        Self { key_class, start, members }
+        let key_range =
+            key_class.iter().map(|&c| if c == u32::MAX { [0, 0] } else { [start[c as usize], start[c as usize + 1] - start[c as usize]] }).collect();
+        Self { key_class, start, members, key_range }
     }
 
     /// The shared table of this process.
@@ -110,11 +116,38 @@ impl CollisionTable {
 
     /// The output of a collision of `state` with the random number `r` ("uniform within the
     /// class": member r mod |class|; the modulo bias is below |class| / 2³² < 3e-6).
+    /// [`Self::collide`] of 16 sites at once, in phases (all class keys, then all class
+    /// ranges, then all members) so that the table reads of different sites overlap instead of
+    /// waiting on each other: the same outputs.
     #[inline]
-    pub fn collide(&self, state: u32, r: u32) -> u32 {
+    pub fn collide16(&self, states: &mut [u64], r: impl Fn(usize) -> u32) {
+        let mut ranges = [[0u32; 2]; 16];
+        for (range, s) in ranges.iter_mut().zip(states.iter()) {
+            *range = self.key_range[class_key(*s as u32)];
+        }
+        for (v, (s, [start, size])) in states.iter_mut().zip(ranges).enumerate() {
+            if size != 1 {
+                *s = self.members[(start + r(v) % size) as usize] as u64;
+            }
+        }
+    }
+
+    /// [`Self::collide`] through the class index, as the GPU kernel does (key → class → its
+    /// start and size → member): the plain form, for the reference collision and tests.
+    pub fn collide_by_class(&self, state: u32, r: u32) -> u32 {
         let c = self.class_of(state);
         let size = self.start[c + 1] - self.start[c];
         self.members[(self.start[c] + r % size) as usize]
+    }
+
+    #[inline]
+    pub fn collide(&self, state: u32, r: u32) -> u32 {
+        let [start, size] = self.key_range[class_key(state)];
+        if size == 1 {
+            // the state is its class's only member
+            return state;
+        }
+        self.members[(start + r % size) as usize]
     }
 }
 
@@ -131,7 +164,20 @@ pub const INLET_STREAM: u32 = 0x85eb_ca6b;
 
 /// The random number of a site at a step: a counter-based stream, identical on every backend.
 pub const fn site_random(seed: u32, step: u32, site: u32) -> u32 {
-    mix32(site ^ mix32(step ^ mix32(seed)))
+    keyed_random(stream_key(seed, step), site)
+}
+
+/// The part of [`site_random`] shared by every site of a step (computed once per step on the
+/// CPU: two of the three hashes).
+#[inline]
+pub const fn stream_key(seed: u32, step: u32) -> u32 {
+    mix32(step ^ mix32(seed))
+}
+
+/// [`site_random`] of `site` from its step's [`stream_key`].
+#[inline]
+pub const fn keyed_random(key: u32, site: u32) -> u32 {
+    mix32(site ^ key)
 }
 
 #[cfg(test)]
@@ -163,6 +209,11 @@ mod tests {
             let s = site_random(7, 0, i) & (STATES as u32 - 1);
             let out = t.collide(s, site_random(1, 3, i));
             assert_eq!(moments(out), moments(s));
+            // the CPU's one-lookup form is the GPU's class-index form
+            assert_eq!(out, t.collide_by_class(s, site_random(1, 3, i)));
+            let mut sixteen = [s as u64; 16];
+            t.collide16(&mut sixteen, |v| site_random(1, 3, i) ^ v as u32);
+            assert!(sixteen.iter().enumerate().all(|(v, &o)| o as u32 == t.collide_by_class(s, site_random(1, 3, i) ^ v as u32)));
         }
         // spread uniformly over it: 5000 draws from a class of n give n (1 − e^(−5000/n))
         // distinct outputs on average (2847 for n = 3975)

@@ -99,6 +99,9 @@ pub struct LatticeGas {
     /// `None`: periodic in X too; `Some`: inlet at X = 0, zero-gradient outlet at the last X.
     pub inlet: Option<Inlet>,
     pub step: u32,
+    /// Propagation's destination, kept between steps (its content is no state): a fresh
+    /// zeroed array per step cost a page fault per 4 KiB.
+    pub(super) spare: Vec<Block>,
 }
 
 /// Totals that the dynamics conserves exactly (in periodic boxes without obstacles).
@@ -114,7 +117,17 @@ impl LatticeGas {
     pub fn new(dims: [usize; 3], seed: u32, interference: f64) -> Self {
         assert!(dims[0] > 0 && dims[0] % LANES == 0 && dims[1] > 0 && dims[2] > 0, "lattice gas cells {dims:?}: X must be a positive multiple of {LANES}");
         let cells = dims[0] * dims[1] * dims[2];
-        Self { dims, blocks: vec![[0; Q]; cells / LANES], solid: vec![false; cells], seed, interference, diagonals: Diagonals::default(), inlet: None, step: 0 }
+        Self {
+            dims,
+            blocks: vec![[0; Q]; cells / LANES],
+            solid: vec![false; cells],
+            seed,
+            interference,
+            diagonals: Diagonals::default(),
+            inlet: None,
+            step: 0,
+            spare: Vec::new(),
+        }
     }
 
     pub fn cells(&self) -> usize {

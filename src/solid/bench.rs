@@ -20,7 +20,9 @@ pub struct SolidSpeed {
     pub bonds: usize,
     pub particle_updates_per_s: f64,
     pub bytes_per_update: f64,
-    pub bandwidth_fraction: f64,
+    /// Of the triad bandwidth measured in the same process; `None` when the particles' data
+    /// fits in the cache ([`crate::machine::fraction_of_bandwidth`]).
+    pub bandwidth_fraction: Option<f64>,
     /// Mean CG iterations per implicit step (0 for explicit).
     pub cg_iterations: f64,
     pub time_step_over_explicit_limit: f64,
@@ -42,22 +44,36 @@ pub fn solid_speed(side: usize, integrator: Integrator, steps: u64, bandwidth: f
         iters += s.last.cg.iterations;
     }
     let wall = t.elapsed().as_secs_f64();
-    speed_of(&s, steps, wall, iters, setup, s.stage_shares(), bandwidth)
+    speed_of(true, &s, steps, wall, iters, setup, s.stage_shares(), bandwidth)
 }
 
-/// The figures of `steps` steps that took `wall` seconds (and `iters` CG iterations in all).
-pub fn speed_of(s: &SolidSolver, steps: u64, wall: f64, iters: usize, setup: f64, stage_shares: Vec<(&'static str, f64)>, bandwidth: f64) -> SolidSpeed {
+/// The figures of `steps` steps that took `wall` seconds (and `iters` CG iterations in all);
+/// `cpu`: the bandwidth is the CPU triad, and no fraction is given when the particles fit in the
+/// CPU's cache.
+#[allow(clippy::too_many_arguments)]
+pub fn speed_of(
+    cpu: bool,
+    s: &SolidSolver,
+    steps: u64,
+    wall: f64,
+    iters: usize,
+    setup: f64,
+    stage_shares: Vec<(&'static str, f64)>,
+    bandwidth: f64,
+) -> SolidSpeed {
     let n = s.particles.len();
     let bonds = s.disc.bonds.len();
     let ups = n as f64 * steps as f64 / wall;
     let bytes = 2.0 * 104.0 * bonds as f64 / n as f64 + 700.0;
+    // the bond data and the per-particle state a step reads
+    let footprint = 104 * bonds + 700 * n;
     SolidSpeed {
         integrator: s.options.integrator,
         particles: n,
         bonds,
         particle_updates_per_s: ups,
         bytes_per_update: bytes,
-        bandwidth_fraction: ups * bytes / bandwidth,
+        bandwidth_fraction: if cpu { crate::machine::fraction_of_bandwidth(ups * bytes, footprint, bandwidth) } else { Some(ups * bytes / bandwidth) },
         cg_iterations: iters as f64 / steps as f64,
         time_step_over_explicit_limit: s.dt / s.explicit_limit,
         stage_shares,

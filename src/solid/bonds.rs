@@ -40,6 +40,9 @@ pub struct Bonds {
     pub grad: Vec<DVec3>,
     /// Index of the reverse bond j → i.
     pub reverse: Vec<u32>,
+    /// g_ji, the reverse bond's gradient weight, stored with bond i → j so that the force
+    /// kernel reads it in order instead of through `reverse`.
+    pub grad_reverse: Vec<DVec3>,
 }
 
 impl Bonds {
@@ -128,6 +131,7 @@ pub fn build(p: &Particles, re: f64, periods: Periods, pair_modulus: &[f64], vis
         })
         .collect();
     b.grad = (0..n).flat_map(|i| second_order_weights(&b, i, p.dim)).collect();
+    b.grad_reverse = b.reverse.iter().map(|&r| b.grad[r as usize]).collect();
     b
 }
 

@@ -181,11 +181,14 @@ pub fn bond_forces(
         let mut e = 0.0;
         let r_i = rot[i];
         let w_i = spin.map_or(DVec3::ZERO, |s| s[i]);
+        // Σ_j g_ij: Q_i's part of the gradient-model force is Q_i Σ_j g_ij, one product
+        let mut g_sum = DVec3::ZERO;
         for k in b.of(i) {
             let j = b.neighbour[k] as usize;
             let r0 = b.r0[k];
             // gradient model: −∂/∂x_i of Σ V ψ(F) through F_i (g_ij) and F_j (g_ji)
-            f += stress.q[i] * b.grad[k] - stress.q[j] * b.grad[b.reverse[k] as usize];
+            g_sum += b.grad[k];
+            f -= stress.q[j] * b.grad_reverse[k];
             // pair (Laplacian) model on the rotation-free relative displacement (2.38)
             let (a_i, a_j) = (r_i * r0, rot[j] * r0);
             let (r, u) = match mode {
@@ -218,7 +221,7 @@ pub fn bond_forces(
                 t += 0.5 * c * r.cross(vij);
             }
         }
-        *fo = f;
+        *fo = f + stress.q[i] * g_sum;
         *to = t;
         *en = e;
     });

@@ -99,11 +99,12 @@ fn dot(a: &[DVec3], b: &[DVec3]) -> f64 {
     partial.iter().sum()
 }
 
-/// Solves A x = b (A symmetric positive definite, given as `apply(x, out)`), starting from the
-/// content of `x`; stops at ‖r‖ ≤ `tol` ‖b‖ or after `max_iter` iterations.
+/// Solves A x = b (A symmetric positive definite, given as `apply(x, out)`, preconditioned by
+/// the symmetric positive definite `precondition(r, z)`: z ≈ A⁻¹ r), starting from the content
+/// of `x`; stops at ‖r‖ ≤ `tol` ‖b‖ or after `max_iter` iterations.
 pub fn conjugate_gradient(
     mut apply: impl FnMut(&[DVec3], &mut [DVec3]),
-    pre: &BlockJacobi,
+    precondition: impl Fn(&[DVec3], &mut [DVec3]),
     b: &[DVec3],
     x: &mut [DVec3],
     fixed: &[bool],
@@ -121,7 +122,7 @@ pub fn conjugate_gradient(
         return CgReport { iterations: 0, relative_residual: 0.0, converged: true };
     }
     let mut z = vec![DVec3::ZERO; n];
-    pre.apply(&r, &mut z);
+    precondition(&r, &mut z);
     mask(&mut z, fixed);
     let mut p = z.clone();
     let mut rz = dot(&r, &z);
@@ -136,7 +137,7 @@ pub fn conjugate_gradient(
         let alpha = rz / pap;
         x.par_iter_mut().zip(&p).for_each(|(xi, pi)| *xi += alpha * *pi);
         r.par_iter_mut().zip(&ap).for_each(|(ri, ai)| *ri -= alpha * *ai);
-        pre.apply(&r, &mut z);
+        precondition(&r, &mut z);
         mask(&mut z, fixed);
         let rz_new = dot(&r, &z);
         let beta = rz_new / rz;

@@ -11,11 +11,13 @@
 //! | [`rotation`] | quaternion update, Newton–Raphson rotations, implicit angular velocity | 2.53–2.56, 2.73–2.76 |
 //! | [`contact`] | distinct-element contact between bodies and with walls | 2.22–2.37 |
 //! | [`implicit`] | block-Jacobi preconditioned conjugate gradients | 2.63–2.66 |
+//! | [`coarse`] | the preconditioner's coarse-space correction (aggregates' translations, probed A_c) | 2.63–2.66 |
 //! | [`timestep`] | explicit stability limit | — |
 //! | [`solver`] | explicit and implicit steps driven by the solid stage lists | 2.44–2.66 |
 
 pub mod bench;
 pub mod bonds;
+pub mod coarse;
 pub mod contact;
 pub mod fold;
 pub mod forces;

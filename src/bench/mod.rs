@@ -3,20 +3,39 @@
 //! bytes moved per node update and the fraction of bandwidth achieved; and speed-vs-error tables
 //! (Taylor–Green at three resolutions; the coupled Schäfer–Turek cylinder at three resolutions).
 
+pub mod scaling;
+
 use crate::fluid::{Boundaries, Equilibrium, FluidSolver, GasModel, Grid, Macro, VelocitySet, VelocitySetKind, timestep};
 use crate::validation::taylor_green::{TaylorGreenCase, TaylorGreenResult};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
 
-/// Best-of-`reps` triad a[i] = b[i] + s·c[i] over `n` f64, in bytes/s (3 × 8 bytes per element,
-/// the STREAM convention).
-pub fn triad_bandwidth(n: usize, reps: usize) -> f64 {
+/// The memory bandwidth the triad a[i] = b[i] + s·c[i] reaches (3 × 8 bytes per element, the
+/// STREAM convention), over repetitions: the machines are shared, so the best is the figure the
+/// fractions use and the spread says how much to trust it.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Bandwidth {
+    /// Bytes/s of the fastest, median and slowest repetition.
+    pub best: f64,
+    pub median: f64,
+    pub worst: f64,
+    pub repetitions: usize,
+    /// Bytes of each of the three arrays.
+    pub array_bytes: usize,
+}
+
+/// The triad over `n` f64 per array, `reps` times (the arrays should be well beyond the
+/// last-level cache: [`last_level_cache_bytes`]).
+pub fn triad(n: usize, reps: usize) -> Bandwidth {
     let mut a = vec![0.0f64; n];
     let b: Vec<f64> = (0..n).map(|i| i as f64).collect();
     let c: Vec<f64> = (0..n).map(|i| (n - i) as f64).collect();
-    let mut best = f64::INFINITY;
-    for r in 0..reps {
+    let mut times = Vec::with_capacity(reps);
+    // a first, untimed pass maps a's pages (a freshly allocated zeroed vector is mapped on first
+    // write, which would otherwise count against the first repetition)
+    a.par_chunks_mut(1 << 16).for_each(|a| a.fill(1.0));
+    for r in 0..reps.max(1) {
         let s = 1.0 + r as f64 * 1e-3;
         let t = Instant::now();
         a.par_chunks_mut(1 << 16).zip(b.par_chunks(1 << 16)).zip(c.par_chunks(1 << 16)).for_each(|((a, b), c)| {
@@ -24,11 +43,20 @@ pub fn triad_bandwidth(n: usize, reps: usize) -> f64 {
                 a[i] = b[i] + s * c[i];
             }
         });
-        best = best.min(t.elapsed().as_secs_f64());
+        times.push(t.elapsed().as_secs_f64());
     }
     std::hint::black_box(&a);
-    24.0 * n as f64 / best
+    times.sort_by(f64::total_cmp);
+    let rate = |t: f64| 24.0 * n as f64 / t;
+    Bandwidth { best: rate(times[0]), median: rate(times[times.len() / 2]), worst: rate(times[times.len() - 1]), repetitions: times.len(), array_bytes: 8 * n }
 }
+
+/// Best-of-`reps` triad bandwidth in bytes/s ([`triad`]).
+pub fn triad_bandwidth(n: usize, reps: usize) -> f64 {
+    triad(n, reps).best
+}
+
+pub use crate::machine::{fraction_of_bandwidth, last_level_cache_bytes};
 
 /// Node updates per second of one lattice on one backend.
 #[derive(Clone, Debug, Serialize)]
@@ -38,8 +66,9 @@ pub struct LatticeSpeed {
     pub steps: u64,
     pub node_updates_per_s: f64,
     pub bytes_per_node_update: f64,
-    /// Node updates/s × bytes per update ÷ the bandwidth measured in the same process.
-    pub bandwidth_fraction: f64,
+    /// Node updates/s × bytes per update ÷ the bandwidth measured in the same process; `None`
+    /// when the lattice fits in the cache ([`fraction_of_bandwidth`]).
+    pub bandwidth_fraction: Option<f64>,
     /// Fraction of the step time per stage of the stage list.
     pub stage_fractions: Vec<(String, f64)>,
     /// Why the size could not run on this backend (too large for the device, …).
@@ -68,13 +97,15 @@ pub fn lattice_speed(set: VelocitySetKind, n: [usize; 3], steps: u64, bandwidth:
     let wall = t.elapsed().as_secs_f64();
     let ups = steps as f64 * s.layout.fluid_count as f64 / wall;
     let bytes = s.bytes_per_node_update();
+    // f, f¹, fⁿ⁺¹, h and the macroscopic fields
+    let footprint = s.layout.grid.len() * (4 * s.eq.values_per_node() + crate::fluid::equilibrium::MACRO_FIELDS) * 8;
     LatticeSpeed {
         lattice: format!("{set:?}"),
         nodes: s.layout.grid.n,
         steps,
         node_updates_per_s: ups,
         bytes_per_node_update: bytes,
-        bandwidth_fraction: ups * bytes / bandwidth,
+        bandwidth_fraction: fraction_of_bandwidth(ups * bytes, footprint, bandwidth),
         stage_fractions: s.timings.report().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
         skipped: None,
     }
@@ -84,6 +115,11 @@ pub fn lattice_speed(set: VelocitySetKind, n: [usize; 3], steps: u64, bandwidth:
 pub struct BenchReport {
     pub threads: usize,
     pub triad_bandwidth_gb_s: f64,
+    /// The triad's repetitions (best, median, worst).
+    pub triad: Bandwidth,
+    /// The last-level cache (bytes): benchmarks whose data fits in twice this report no
+    /// bandwidth fraction.
+    pub last_level_cache_bytes: usize,
     pub lattices: Vec<LatticeSpeed>,
     pub speed_vs_error: Vec<TaylorGreenResult>,
     /// MPS solid, explicit and implicit, at 10⁵ (and 10⁶ unless quick) particles.
@@ -97,6 +133,8 @@ pub struct BenchReport {
     pub two_mass: Vec<TwoMassSpeed>,
     /// The coupled 2D glottis (weak, CPU): the coarse and the seed-sized scenes.
     pub glottis: Vec<GlottisSpeed>,
+    /// Cost per update against size ([`scaling`]; only with `--only scaling`: it takes minutes).
+    pub scaling: Vec<scaling::ScalingRow>,
 }
 
 /// Speed of a glottis scene from rest (the first steps: the pressure wave has not yet reached
@@ -233,13 +271,15 @@ fn coupled_rows(method: &'static str, body: crate::validation::fsi::CylinderBody
 }
 
 /// Parts of the benchmark, for `bench --only`.
-pub const SUITES: [&str; 7] = ["fdlb", "solid", "lattice_gas", "coupled", "two_mass", "glottis", "drawing"];
+pub const SUITES: [&str; 8] = ["fdlb", "solid", "lattice_gas", "coupled", "two_mass", "glottis", "drawing", "scaling"];
 
 /// The CPU benchmark (every suite of [`SUITES`], or only `only`). `quick` shrinks grids for a
 /// smoke run.
 pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
     let wants = |suite: &str| only.is_none_or(|o| o == suite);
-    let bw = triad_bandwidth(if quick { 1 << 22 } else { 1 << 25 }, 10);
+    // three arrays of 256 MiB (quick: 64 MiB), far beyond any last-level cache here
+    let triad = triad(if quick { 1 << 23 } else { 1 << 25 }, 10);
+    let bw = triad.best;
     let (n2, n3, st) = if quick { (128, 32, 3) } else { (512, 96, 10) };
     let lattices = if wants("fdlb") {
         vec![lattice_speed(VelocitySetKind::D2q21, [n2, n2, 1], st, bw), lattice_speed(VelocitySetKind::D3q39, [n3, n3, n3], st.min(5), bw)]
@@ -268,8 +308,8 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
         solid.push(solid_speed(side, Integrator::Implicit, if quick { 2 } else { 3 }, bw));
     }
     let lattice_gas = if wants("lattice_gas") {
-        let (cells, steps) = if quick { ([32, 16, 8], 3) } else { ([128, 64, 32], 5) };
-        vec![crate::lattice_gas::bench::cpu_speed(cells, steps, bw)]
+        let (cells, steps) = if quick { ([32, 16, 8], 3) } else { ([256, 128, 64], 4) };
+        vec![crate::lattice_gas::bench::cpu_speed(cells, steps, bw), crate::lattice_gas::bench::cpu_speed_site_by_site(cells, steps, bw)]
     } else {
         Vec::new()
     };
@@ -282,9 +322,13 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
     } else {
         glottis_speed(&["glottis_2d_coarse", "glottis_2d_c"], 300)
     };
+    let scaling = if only == Some("scaling") { scaling::scaling_table(quick) } else { Vec::new() };
     BenchReport {
+        scaling,
         threads: rayon::current_num_threads(),
         triad_bandwidth_gb_s: bw / 1e9,
+        triad,
+        last_level_cache_bytes: last_level_cache_bytes(),
         lattices,
         speed_vs_error,
         solid,
