@@ -242,6 +242,16 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     s
 }
 
+/// The WGSL factor |c_a|/6 of a thin tap (`tp`) for a velocity c, zero unless the tap's axis is
+/// one of c's and its sign is c's there; `None` for the rest velocity (no tap applies).
+fn thin_tap_factor(c: [i32; 3]) -> Option<String> {
+    let terms: Vec<String> = (0..3)
+        .filter(|&a| c[a] != 0)
+        .map(|a| format!("select(0.0, {}, tp.axis == {a}u && tp.sign == {})", f(c[a].unsigned_abs() as f64 / 6.0), c[a].signum()))
+        .collect();
+    (!terms.is_empty()).then(|| terms.join(" + "))
+}
+
 /// The one-sided stencils next to thin walls ([`crate::fluid::thin_wall`]), applied after the
 /// advection: one thread per fluid node that has any, walking its taps (so no two threads write
 /// the same value). Each tap carries the correction weights w − w_full on (0, +s, −s, −2s) and
@@ -275,17 +285,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         let i = if v < q { v } else { v - q };
         let c = eq.set.c[i];
         let (grp, r) = (v / split.per_binding, v % split.per_binding);
-        let terms: Vec<String> = (0..3)
-            .filter(|&a| c[a] != 0)
-            .map(|a| format!("select(0.0, {}, tp.axis == {a}u && tp.sign == {})", f(c[a].unsigned_abs() as f64 / 6.0), c[a].signum()))
-            .collect();
-        if terms.is_empty() {
-            continue;
-        }
+        let Some(m) = thin_tap_factor(c) else { continue };
         let _ = writeln!(
             s,
-            "        {{ let m = {}; if (m != 0.0) {{ let c = i32({r}u * N + tp.node); let corr = tp.w.x * h{grp}[c] + tp.w.y * h{grp}[c + st] + tp.w.z * h{grp}[c - st] + tp.w.w * h{grp}[c - 2 * st]; dst{grp}[c] = dst{grp}[c] - k * m * corr; }} }}",
-            terms.join(" + ")
+            "        {{ let m = {m}; if (m != 0.0) {{ let c = i32({r}u * N + tp.node); let corr = tp.w.x * h{grp}[c] + tp.w.y * h{grp}[c + st] + tp.w.z * h{grp}[c - st] + tp.w.w * h{grp}[c - 2 * st]; dst{grp}[c] = dst{grp}[c] - k * m * corr; }} }}"
         );
     }
     s += "    }\n}\n";
@@ -386,20 +389,13 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         let st = tp.step;
         let c0 = i32(tp.node);
 "#;
-    for (v, c) in eq.set.c.iter().enumerate().take(q) {
+    for (v, &c) in eq.set.c.iter().enumerate().take(q) {
         let (grp, r) = (v / split.per_binding, v % split.per_binding);
-        let terms: Vec<String> = (0..3)
-            .filter(|&a| c[a] != 0)
-            .map(|a| format!("select(0.0, {}, tp.axis == {a}u && tp.sign == {})", f(c[a].unsigned_abs() as f64 / 6.0), c[a].signum()))
-            .collect();
-        if terms.is_empty() {
-            continue;
-        }
+        let Some(m) = thin_tap_factor(c) else { continue };
         let h = |off: &str| format!("h{grp}[{r}u * N + u32(c0{off})]");
         let _ = writeln!(
             s,
-            "        {{ let m = {}; if (m != 0.0) {{ let corr = tp.w.x * {} + tp.w.y * {} + tp.w.z * {} + tp.w.w * {}; acc += (w * m * corr) * vec4<f32>({}.0, {}.0, {}.0, 1.0); }} }}",
-            terms.join(" + "),
+            "        {{ let m = {m}; if (m != 0.0) {{ let corr = tp.w.x * {} + tp.w.y * {} + tp.w.z * {} + tp.w.w * {}; acc += (w * m * corr) * vec4<f32>({}.0, {}.0, {}.0, 1.0); }} }}",
             h(""),
             h(" + st"),
             h(" - st"),

@@ -11,6 +11,7 @@
 //! | [`rotation`] | quaternion update, Newton–Raphson rotations, implicit angular velocity | 2.53–2.56, 2.73–2.76 |
 //! | [`contact`] | distinct-element contact between bodies and with walls | 2.22–2.37 |
 //! | [`implicit`] | block-Jacobi preconditioned conjugate gradients | 2.63–2.66 |
+//! | `linear` | the implicit system's operator A x, matrix-free at a configuration | 2.63–2.66 |
 //! | [`coarse`] | the preconditioner's coarse-space correction (aggregates' translations, probed A_c) | 2.63–2.66 |
 //! | [`timestep`] | explicit stability limit | — |
 //! | [`solver`] | explicit and implicit steps driven by the solid stage lists | 2.44–2.66 |
@@ -23,6 +24,7 @@ pub mod fold;
 pub mod forces;
 pub mod grid;
 pub mod implicit;
+mod linear;
 pub mod material;
 pub mod particles;
 pub mod rotation;

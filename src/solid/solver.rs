@@ -4,9 +4,10 @@
 use super::bonds::{self, Bonds};
 use super::coarse::CoarseSpace;
 use super::contact::{ContactInput, ContactParams, Contacts, Wall};
-use super::forces::{Discretisation, ForceField, Mode, StressField, bond_forces, rotation_chain, rotation_increments, strain_stress};
+use super::forces::{Discretisation, ForceField, Mode, StressField, bond_forces, rotation_chain, strain_stress};
 use super::grid::Periods;
 use super::implicit::{BlockJacobi, CgReport, conjugate_gradient};
+use super::linear::LinearOperator;
 use super::material::{Orthotropic, Voigt6, min_mandel_eigenvalue};
 use super::particles::Particles;
 use super::rotation::{advance_quaternion, solve_all_rotations, solve_angular_velocity};
@@ -394,41 +395,17 @@ impl SolidSolver {
         if self.precond.is_none() {
             self.precond = Some(BlockJacobi::new(&self.disc, &self.particles, dt));
         }
+        if self.coarse.is_none() {
+            self.coarse = Some(self.reference_coarse_space());
+        }
         let p = &self.particles;
-        let disc = &self.disc;
-        let rot = &self.rot;
-        let jinv = &self.jinv;
-        let mut lin_s = StressField::new(n);
-        let mut lin_f = ForceField::new(n);
-        let mut th_x = vec![DVec3::ZERO; n];
-        let mut th_v = vec![DVec3::ZERO; n];
-        // K p + D q with the rotations following the increments (θ(p), ω(q) from (2.74)/(2.73))
-        let mut linear = |x: &[DVec3], v: &[DVec3], s: &mut StressField, f: &mut ForceField| {
-            strain_stress(disc, x, rot, Mode::Linear, s);
-            rotation_increments(disc, x, rot, jinv, &mut th_x);
-            rotation_increments(disc, v, rot, jinv, &mut th_v);
-            bond_forces(disc, x, v, None, rot, s, Mode::Linear, Some((&th_x, &th_v)), f);
-            rotation_chain(disc, rot, jinv, &f.torque, &mut f.force);
-        };
+        let mut op = LinearOperator::new(&self.disc, &self.rot, &self.jinv);
         // B = Δt (f + Δt K v)
         let zero = vec![DVec3::ZERO; n];
-        linear(&p.velocity, &zero, &mut lin_s, &mut lin_f);
-        let rhs: Vec<DVec3> = (0..n).map(|i| if p.fixed[i] { DVec3::ZERO } else { dt * (self.total_force[i] + dt * lin_f.force[i]) }).collect();
+        let kv = op.forces(&p.velocity, &zero);
+        let rhs: Vec<DVec3> = (0..n).map(|i| if p.fixed[i] { DVec3::ZERO } else { dt * (self.total_force[i] + dt * kv[i]) }).collect();
         let mass: Vec<f64> = (0..n).map(|i| p.mass[i] + p.added_mass[i]).collect();
         let fixed = &p.fixed;
-        let mut q = vec![DVec3::ZERO; n];
-        let mut apply = |x: &[DVec3], out: &mut [DVec3], s: &mut StressField, f: &mut ForceField| {
-            q.par_iter_mut().zip(x).for_each(|(qi, xi)| *qi = *xi / dt);
-            linear(x, &q, s, f);
-            out.par_iter_mut().enumerate().for_each(|(i, o)| *o = if fixed[i] { DVec3::ZERO } else { mass[i] * x[i] - dt * dt * f.force[i] });
-        };
-        if self.coarse.is_none() {
-            // A reaches 3 r_e: the slaved rotations (2.74) carry a particle's push one bond beyond
-            // the gradient model's two
-            let reach = 3.0 * disc.bonds.radius * (1.0 + 1e-9);
-            let coarse = CoarseSpace::build(&p.reference, fixed, p.dim, p.spacing, reach, |x, out| apply(x, out, &mut lin_s, &mut lin_f));
-            self.coarse = Some(coarse);
-        }
         let (bj, coarse) = (self.precond.as_ref().unwrap(), self.coarse.as_ref().and_then(|c| c.as_ref()));
         let precondition = |r: &[DVec3], z: &mut [DVec3]| {
             bj.apply(r, z);
@@ -438,7 +415,7 @@ impl SolidSolver {
         };
         let mut dv = vec![DVec3::ZERO; n];
         let report = conjugate_gradient(
-            |x, out| apply(x, out, &mut lin_s, &mut lin_f),
+            |x, out| op.apply(x, out, &mass, fixed, dt),
             precondition,
             &rhs,
             &mut dv,
@@ -449,6 +426,29 @@ impl SolidSolver {
         self.last.cg = report;
         let p = &mut self.particles;
         p.velocity.par_iter_mut().zip(&dv).for_each(|(v, d)| *v += *d);
+    }
+
+    /// The preconditioner's coarse space ([`super::coarse`]), probed on the operator at the
+    /// reference configuration (rotations I), like the block-Jacobi part: it depends on the scene
+    /// only, so a run resumed from a checkpoint builds the same one. `None` for periodic solids
+    /// (the probing assumes no aggregate reaches around a period) and when A_c cannot be
+    /// factorised; block Jacobi alone then.
+    fn reference_coarse_space(&self) -> Option<CoarseSpace> {
+        if self.options.periods.iter().any(Option::is_some) {
+            return None;
+        }
+        let p = &self.particles;
+        let n = p.len();
+        let rot = vec![DMat3::IDENTITY; n];
+        let mut q = vec![glam::DQuat::IDENTITY; n];
+        let mut jinv = vec![DMat3::ZERO; n];
+        solve_all_rotations(&self.disc.bonds, &p.reference, &mut q, &mut jinv, &p.fixed, p.dim, self.options.rotation_tolerance);
+        let mass: Vec<f64> = (0..n).map(|i| p.mass[i] + p.added_mass[i]).collect();
+        let mut op = LinearOperator::new(&self.disc, &rot, &jinv);
+        // A reaches 3 r_e: the slaved rotations (2.74) carry a particle's push one bond beyond
+        // the gradient model's two
+        let reach = 3.0 * self.disc.bonds.radius * (1.0 + 1e-9);
+        CoarseSpace::build(&p.reference, &p.fixed, p.dim, p.spacing, reach, |x, out| op.apply(x, out, &mass, &p.fixed, self.dt))
     }
 
     /// Energies of the current state (runs the force kernels on it).
