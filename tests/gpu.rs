@@ -151,7 +151,7 @@ fn the_walls_face_fluxes_match_their_cpu_twin() {
         let mut shells = vec![0.0; cpu.eq.set.shells.len()];
         cpu.eq.feq_into(&Macro { rho: 1.0, u: [0.0; 3], theta: 0.6 }, &mut shells, &mut reference);
         let mut gpu = GpuFluid::from_solver(&ctx, &cpu).unwrap();
-        gpu.record_face_fluxes(&reference);
+        gpu.record_face_fluxes(&cpu, &reference);
         let (mut worst, mut walls) = (0.0f64, 0);
         for step in 0..30 {
             let want = step_with_exchange(&mut cpu, Some(&reference)).unwrap();

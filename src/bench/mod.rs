@@ -51,11 +51,6 @@ pub fn triad(n: usize, reps: usize) -> Bandwidth {
     Bandwidth { best: rate(times[0]), median: rate(times[times.len() / 2]), worst: rate(times[times.len() - 1]), repetitions: times.len(), array_bytes: 8 * n }
 }
 
-/// Best-of-`reps` triad bandwidth in bytes/s ([`triad`]).
-pub fn triad_bandwidth(n: usize, reps: usize) -> f64 {
-    triad(n, reps).best
-}
-
 pub use crate::machine::{fraction_of_bandwidth, last_level_cache_bytes};
 
 /// Node updates per second of one lattice on one backend.
@@ -87,6 +82,11 @@ pub fn benchmark_solver(set: VelocitySetKind, n: [usize; 3]) -> FluidSolver {
     FluidSolver::new(eq, Grid::new(dim, n), Boundaries::periodic(), &[], params, init)
 }
 
+/// Bytes of a CPU fluid's arrays that a step sweeps: f, f¹, fⁿ⁺¹, h and the macroscopic fields.
+pub fn fluid_footprint(s: &FluidSolver) -> usize {
+    s.layout.grid.len() * (4 * s.eq.values_per_node() + crate::fluid::equilibrium::MACRO_FIELDS) * 8
+}
+
 /// CPU node updates per second of the benchmark problem.
 pub fn lattice_speed(set: VelocitySetKind, n: [usize; 3], steps: u64, bandwidth: f64) -> LatticeSpeed {
     let mut s = benchmark_solver(set, n);
@@ -97,8 +97,7 @@ pub fn lattice_speed(set: VelocitySetKind, n: [usize; 3], steps: u64, bandwidth:
     let wall = t.elapsed().as_secs_f64();
     let ups = steps as f64 * s.layout.fluid_count as f64 / wall;
     let bytes = s.bytes_per_node_update();
-    // f, f¹, fⁿ⁺¹, h and the macroscopic fields
-    let footprint = s.layout.grid.len() * (4 * s.eq.values_per_node() + crate::fluid::equilibrium::MACRO_FIELDS) * 8;
+    let footprint = fluid_footprint(&s);
     LatticeSpeed {
         lattice: format!("{set:?}"),
         nodes: s.layout.grid.n,

@@ -49,7 +49,7 @@ pub fn scaling_table(quick: bool) -> Vec<ScalingRow> {
             let steps = steps_for(nodes, if quick { 2e6 } else { 2e7 });
             let t = Instant::now();
             s.run(steps).expect("stable");
-            let data = s.layout.grid.len() * (4 * s.eq.values_per_node() + crate::fluid::equilibrium::MACRO_FIELDS) * 8;
+            let data = super::fluid_footprint(&s);
             rows.push(row(if set == VelocitySetKind::D2q21 { "D2Q21" } else { "D3Q39" }, nodes, steps, t.elapsed().as_secs_f64(), data));
         }
     }
@@ -63,9 +63,7 @@ pub fn scaling_table(quick: bool) -> Vec<ScalingRow> {
         for _ in 0..steps {
             s.step().expect("the benchmark block stays finite");
         }
-        // the bond data (104 B per bond) and the per-particle state (≈ 700 B)
-        let data = 104 * s.disc.bonds.len() + 700 * n;
-        rows.push(row("solid (explicit)", n, steps, t.elapsed().as_secs_f64(), data));
+        rows.push(row("solid (explicit)", n, steps, t.elapsed().as_secs_f64(), crate::solid::bench::footprint(&s)));
     }
     let gases: &[[usize; 3]] = if quick { &[[16, 8, 8], [32, 16, 8]] } else { &[[32, 16, 16], [64, 32, 32], [128, 64, 32], [256, 128, 64], [256, 256, 128]] };
     let table = CollisionTable::shared();
@@ -78,7 +76,7 @@ pub fn scaling_table(quick: bool) -> Vec<ScalingRow> {
         for _ in 0..steps {
             g.advance(table);
         }
-        rows.push(row("lattice gas", sites, steps, t.elapsed().as_secs_f64(), 96 * g.cells()));
+        rows.push(row("lattice gas", sites, steps, t.elapsed().as_secs_f64(), crate::lattice_gas::bench::footprint(&g)));
     }
     rows
 }

@@ -13,6 +13,8 @@
 //! h and f¹ and writes f¹ (3 NV); stage 2 also reads fⁿ: (13 NV + 10)·4 bytes, neighbours of
 //! the stencil assumed served from cache.
 
+mod face_fluxes;
+
 use super::codegen::{self, FaceCode, GHOST_ISOTHERMAL, Split, WORKGROUP};
 use super::context::{GpuContext, GpuError};
 use crate::fluid::layout::NodeKind;
@@ -126,21 +128,8 @@ pub struct GpuFluid {
     /// Per placement of fⁿ (buffer 0 or 2), per stage, the dispatches with their bind groups.
     groups: [Vec<Vec<(usize, wgpu::BindGroup, u32)>>; 2],
     /// Method 2's record of the walls' face fluxes, when asked for ([`Self::record_face_fluxes`]).
-    face_fluxes: Option<FaceFluxes>,
-    /// The thin taps grouped by the wall node that takes their correction
-    /// ([`super::thin_wall::flux_targets`]), for that record.
-    thin_flux_targets: (Vec<u32>, Vec<[u32; 4]>),
+    face_fluxes: Option<face_fluxes::FaceFluxes>,
     pub step_count: u64,
-}
-
-/// The `face_fluxes` kernel ([`codegen::face_fluxes`]) with its buffers: after each advection
-/// stage it adds what every wall node took out of the air to `wall` (vec4 per padded node).
-struct FaceFluxes {
-    pipeline: wgpu::ComputePipeline,
-    wall: wgpu::Buffer,
-    group: wgpu::BindGroup,
-    /// The thin-wall part (`thin_wall_fluxes`), its bind group and thread count.
-    thin: (wgpu::ComputePipeline, wgpu::BindGroup, u32),
 }
 
 fn storage(device: &wgpu::Device, label: &str, data: &[u8]) -> wgpu::Buffer {
@@ -350,7 +339,6 @@ impl GpuFluid {
             eq: eq.clone(),
             probe: None,
             face_fluxes: None,
-            thin_flux_targets: super::thin_wall::flux_targets(&s.layout),
             nv,
             n_nodes: n,
             stride,
@@ -476,36 +464,6 @@ impl GpuFluid {
             Self::dispatch(pass, &ff.pipeline, &ff.group, self.stride as u32);
             Self::dispatch(pass, &ff.thin.0, &ff.thin.1, ff.thin.2);
         }
-    }
-
-    /// From now on, every advection stage adds to a per-node record what each wall node took out
-    /// of the air through its faces (momentum xyz, mass w; lattice units), counted against the
-    /// populations `reference` of the air at rest (one per velocity, at least q) — method 2's
-    /// exchange ([`crate::coupling::momentum_exchange::step_with_exchange`]) on the GPU, with the
-    /// thin-wall corrections. Read and cleared by [`Self::take_face_fluxes`].
-    pub fn record_face_fluxes(&mut self, reference: &[f64]) {
-        let pipeline = pipeline_of(&self.device, "face_fluxes", &codegen::face_fluxes(&self.eq, self.split), "main");
-        let wall = storage(&self.device, "wall fluxes", bytemuck::cast_slice(&vec![[0f32; 4]; self.stride]));
-        let reference: Vec<f32> = reference.iter().map(|&x| x as f32).collect();
-        let reference = storage(&self.device, "reference populations", bytemuck::cast_slice(&reference));
-        let group = self.bind(&pipeline, &[(0, &self.params_stage[0]), (1, &self.kind), (2, &reference), (3, &wall)], &[(10, &self.h)]);
-        let thin_pipeline = pipeline_of(&self.device, "thin_wall_fluxes", &codegen::thin_wall_fluxes(&self.eq, self.split), "main");
-        let order = storage(&self.device, "thin flux order", bytemuck::cast_slice(&self.thin_flux_targets.0));
-        let targets = storage(&self.device, "thin flux targets", bytemuck::cast_slice(&self.thin_flux_targets.1));
-        let thin_group = self.bind(&thin_pipeline, &[(0, &self.params_stage[0]), (1, &self.thin.0), (2, &order), (3, &targets), (4, &wall)], &[(10, &self.h)]);
-        let thin = (thin_pipeline, thin_group, self.thin_flux_targets.1.len() as u32);
-        self.face_fluxes = Some(FaceFluxes { pipeline, wall, group, thin });
-    }
-
-    /// What each padded node's walls took out of the air since the last call (momentum xyz,
-    /// mass w; lattice units), and the record cleared; empty when the fluxes are not recorded.
-    pub fn take_face_fluxes(&mut self) -> Vec<[f32; 4]> {
-        let Some(ff) = &self.face_fluxes else { return Vec::new() };
-        let raw: Vec<[f32; 4]> = bytemuck::cast_slice(&self.read_buffer(&ff.wall)).to_vec();
-        let mut enc = self.device.create_command_encoder(&Default::default());
-        enc.clear_buffer(&ff.wall, 0, None);
-        self.queue.submit([enc.finish()]);
-        raw[..self.n_nodes].to_vec()
     }
 
     /// Runs one stage on its own (for per-kernel parity tests). After the last stage of a step,

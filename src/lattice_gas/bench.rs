@@ -51,6 +51,11 @@ pub fn benchmark_gas(cells: [usize; 3]) -> LatticeGas {
     g
 }
 
+/// Bytes of the gas a step sweeps: the state (48 B per cell) and propagation's other copy.
+pub fn footprint(g: &LatticeGas) -> usize {
+    96 * g.cells()
+}
+
 /// Fills in the derived figures of a measurement; `cpu`: the bandwidth is the CPU triad, and no
 /// fraction is given when the gas fits in the CPU's cache.
 #[allow(clippy::too_many_arguments)]
@@ -74,8 +79,7 @@ pub fn speed_of(
         site_updates_per_s: rate,
         bytes_per_site_update,
         bandwidth_fraction: if cpu {
-            // the state (48 B per cell) and propagation's new copy of it
-            crate::machine::fraction_of_bandwidth(rate * bytes_per_site_update, 96 * g.cells(), bandwidth)
+            crate::machine::fraction_of_bandwidth(rate * bytes_per_site_update, footprint(g), bandwidth)
         } else {
             Some(rate * bytes_per_site_update / bandwidth)
         },
@@ -96,23 +100,17 @@ pub fn cpu_speed_site_by_site(cells: [usize; 3], steps: u64, bandwidth: f64) -> 
 }
 
 fn timed_steps(cells: [usize; 3], steps: u64, bandwidth: f64, site_by_site: bool) -> LatticeGasSpeed {
-    use crate::stages::{LATTICE_GAS_STEP, LatticeGasStageKind};
+    use crate::stages::LatticeGasStageKind;
     let table = CollisionTable::shared();
     let mut g = benchmark_gas(cells);
     g.advance(table);
     let mut t = LatticeGasTimings::default();
     let t0 = Instant::now();
     for _ in 0..steps {
-        for (i, st) in LATTICE_GAS_STEP.iter().enumerate() {
-            let s0 = Instant::now();
-            match st.kind {
-                LatticeGasStageKind::Collide if site_by_site => g.collide_site_by_site(table),
-                kind => g.run_stage(kind, table),
-            }
-            t.total[i] += s0.elapsed();
-        }
-        t.steps += 1;
-        g.step = g.step.wrapping_add(1);
+        g.advance_timed_by(table, &mut t, |g, kind, table| match kind {
+            LatticeGasStageKind::Collide if site_by_site => g.collide_site_by_site(table),
+            kind => g.run_stage(kind, table),
+        });
     }
     let s = t0.elapsed().as_secs_f64();
     let shares = t.report().into_iter().map(|(n, f)| (n.to_string(), f)).collect();

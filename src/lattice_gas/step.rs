@@ -232,9 +232,20 @@ impl LatticeGas {
 
     /// [`Self::advance`] with each stage's wall time added to `timings`.
     pub fn advance_timed(&mut self, table: &CollisionTable, timings: &mut LatticeGasTimings) {
+        self.advance_timed_by(table, timings, |g, kind, table| g.run_stage(kind, table));
+    }
+
+    /// [`Self::advance_timed`] with each stage run by `run` (the benchmark swaps in the
+    /// site-by-site collision).
+    pub fn advance_timed_by(
+        &mut self,
+        table: &CollisionTable,
+        timings: &mut LatticeGasTimings,
+        mut run: impl FnMut(&mut Self, LatticeGasStageKind, &CollisionTable),
+    ) {
         for (i, s) in LATTICE_GAS_STEP.iter().enumerate() {
             let t0 = Instant::now();
-            self.run_stage(s.kind, table);
+            run(self, s.kind, table);
             timings.total[i] += t0.elapsed();
         }
         timings.steps += 1;

@@ -30,6 +30,11 @@ pub struct SolidSpeed {
     pub setup_s: f64,
 }
 
+/// Bytes of the bond data (104 per bond) and the per-particle state (≈ 700) a step reads.
+pub fn footprint(s: &SolidSolver) -> usize {
+    104 * s.disc.bonds.len() + 700 * s.particles.len()
+}
+
 /// A cube of `side`³ particles of the orthotropic test material, clamped on one face and
 /// released from a small shear (so that CG has work to do).
 pub fn solid_speed(side: usize, integrator: Integrator, steps: u64, bandwidth: f64) -> SolidSpeed {
@@ -65,15 +70,13 @@ pub fn speed_of(
     let bonds = s.disc.bonds.len();
     let ups = n as f64 * steps as f64 / wall;
     let bytes = 2.0 * 104.0 * bonds as f64 / n as f64 + 700.0;
-    // the bond data and the per-particle state a step reads
-    let footprint = 104 * bonds + 700 * n;
     SolidSpeed {
         integrator: s.options.integrator,
         particles: n,
         bonds,
         particle_updates_per_s: ups,
         bytes_per_update: bytes,
-        bandwidth_fraction: if cpu { crate::machine::fraction_of_bandwidth(ups * bytes, footprint, bandwidth) } else { Some(ups * bytes / bandwidth) },
+        bandwidth_fraction: if cpu { crate::machine::fraction_of_bandwidth(ups * bytes, footprint(s), bandwidth) } else { Some(ups * bytes / bandwidth) },
         cg_iterations: iters as f64 / steps as f64,
         time_step_over_explicit_limit: s.dt / s.explicit_limit,
         stage_shares,
