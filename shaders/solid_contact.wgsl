@@ -41,6 +41,12 @@ const NONE: u32 = 0xffffffffu;
 // slot s of particle i at 2 (i·slots + s): (anchor of the lower particle, partner bits), (anchor of the higher particle / wall point, -)
 @group(0) @binding(12) var<storage, read> hist_in: array<vec4<f32>>;
 @group(0) @binding(13) var<storage, read_write> hist_out: array<vec4<f32>>;
+// reference positions X: a particle is at X + u (`pos` holds u, see shaders/solid.wgsl)
+@group(0) @binding(14) var<storage, read> ref_pos: array<vec4<f32>>;
+
+fn position(i: u32) -> vec3<f32> {
+    return ref_pos[i].xyz + pos[i].xyz;
+}
 
 fn idx(gid: vec3<u32>) -> u32 {
     return gid.x + gid.y * 65535u * 64u;
@@ -60,7 +66,7 @@ fn cell_index(c: vec3<i32>) -> u32 {
 fn grid_count(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = idx(gid);
     if i >= C.n { return; }
-    let c = cell_index(cell_coord(pos[i].xyz));
+    let c = cell_index(cell_coord(position(i)));
     cell_of[i] = c;
     atomicAdd(&cell_count[c], 1u);
 }
@@ -131,7 +137,7 @@ fn friction(cs: vec3<f32>, fn_mag: f32) -> vec4<f32> {
 fn contact_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = idx(gid);
     if i >= C.n { return; }
-    let x_i = pos[i].xyz;
+    let x_i = position(i);
     let fixed_i = pinfo[i].w > 0.5;
     var f = vec3<f32>(0.0);
     var t = vec3<f32>(0.0);
@@ -150,9 +156,9 @@ fn contact_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
                         if j == i || body[j] == body[i] { continue; }
                         let lo = min(i, j);
                         let hi = max(i, j);
-                        let x_lo = pos[lo].xyz;
-                        let x_hi = pos[hi].xyz;
-                        let xij = x_hi - x_lo;
+                        let x_lo = position(lo);
+                        let x_hi = position(hi);
+                        let xij = (ref_pos[hi].xyz - ref_pos[lo].xyz) + (pos[hi].xyz - pos[lo].xyz);
                         let d = length(xij);
                         if d >= C.l0 || d == 0.0 { continue; }
                         let nrm = xij / d;

@@ -937,3 +937,152 @@ fn tracers_match_their_cpu_twin() {
     assert!(differ <= 40 && worst < 3e-3, "{differ} generations differ, {worst:e} cells");
     assert_eq!(reseeded as u64, generation.iter().map(|g| *g as u64).sum::<u64>());
 }
+
+/// A flexible flap behind a rigid square (the Wall flap at a third of its size, D = 10 cells,
+/// the flap 1.2 cells thick), released in its first bending mode so that it moves from the first
+/// step: nodes enter and leave the fluid.
+const SMALL_FLAP: &str = r#"
+name = "small_flap"
+units = "cgs"
+[domain]
+lattice = "d2q21"
+size = [4.0, 2.4]
+cells = [80, 48]
+[gas]
+model = "monatomic"
+density = 1.18e-3
+viscosity = 1.82e-4
+sound_speed = 34300.0
+[numerics]
+temperature = 0.6
+mach_scaling = { reference_velocity = 51.3, mach = 0.1 }
+[boundaries]
+x_min = { type = "velocity_inlet", velocity = [51.3, 0.0] }
+x_max = { type = "outlet" }
+y_min = { type = "slip" }
+y_max = { type = "slip" }
+[[obstacles]]
+shape = "box"
+min = [0.75, 0.95]
+max = [1.25, 1.45]
+[initial]
+velocity = [51.3, 0.0]
+[run]
+duration = 0.01
+[solid]
+dimension = 2
+spacing = 0.02
+materials = [{ kind = "isotropic", young = 2.5e6, poisson = 0.35, density = 0.1, viscosity = 0.05 }]
+bodies = [{ min = [1.0, 1.17], max = [2.6, 1.23], first_mode_tip_speed = 40.0 }]
+clamps = [{ min = [0.9, 1.1], max = [1.25, 1.3] }]
+[coupling]
+method = "momentum_conserving"
+kernel_radius = 1.0
+"#;
+
+/// Method 2's coupled step on the GPU (`GpuCoupled`: fluid, face fluxes, momentum exchange and
+/// solid on the device; the level-set geometry built on the CPU each step) against the CPU
+/// solver over 200 steps (5000 solid sub-steps) of a moving flap that uncovers and covers
+/// nodes. The geometry must agree exactly: the same nodes changed side. Bounds: the fluid alone
+/// carries 4e-5 to 6e-5 of f32 round-off after 200 steps and is held to 1e-4
+/// (`whole_steps_match_the_cpu_backend`); the coupling adds no rounding of its own beyond the
+/// exchange's f32 sums (1e-5, `coupling_kernels_match_their_cpu_twins`), so the populations,
+/// the flap's displacement and the force on it are held to 1e-4 of their scale (measured on
+/// lavapipe: 4.2e-5, 1.1e-6, 1.3e-5). The particles' velocities carry the solid's own f32
+/// noise in particle-scale modes, measured here on the same flap without air over the same
+/// sub-steps (1.4e-3); the coupling may not amplify it by more than 3× (measured 1.8e-3). Before
+/// the GPU solid stored displacements instead of absolute positions, these were 2.5e-2 and
+/// 5.8e-2 (f32 strains of |x|/l₀ · 2⁻²⁴ ≈ 8e-6 at 2.6 cm from the origin).
+#[test]
+fn coupled_steps_on_the_gpu_match_the_cpu_over_200_steps() {
+    use glam::DVec3;
+    use phonation::gpu::coupled::GpuCoupled;
+    use phonation::scene::coupled::CoupledScene;
+    let Some(ctx) = context() else { return };
+    let sc = CoupledScene::parse(SMALL_FLAP).unwrap();
+    let steps = 200;
+    // the solid alone, no air: the GPU solid's own f32 velocity noise on this flap
+    let dv_alone = {
+        let mut alone = sc.build().unwrap().solid;
+        let mut gs = GpuSolid::from_solver(&ctx, &mut alone).unwrap();
+        let substeps = steps * sc.build().unwrap().substeps as u64;
+        (0..substeps).try_for_each(|_| alone.step()).unwrap();
+        gs.run(substeps);
+        rel_vec(&gs.download_vectors(SolidArray::Velocity), &alone.particles.velocity)
+    };
+    let mut cpu = sc.build().unwrap();
+    let mut gpu = GpuCoupled::new(ctx, sc.build().unwrap()).unwrap();
+    let x0 = cpu.solid.particles.position.clone();
+    cpu.run(steps).unwrap();
+    gpu.run(steps).unwrap();
+    gpu.download_into();
+    let g = &gpu.cpu;
+    let disp = |p: &[DVec3]| -> Vec<DVec3> { p.iter().zip(&x0).map(|(a, b)| *a - *b).collect() };
+    let (u_c, u_g) = (disp(&cpu.solid.particles.position), disp(&g.solid.particles.position));
+    let du = rel_vec(&u_g, &u_c);
+    let dv = rel_vec(&g.solid.particles.velocity, &cpu.solid.particles.velocity);
+    let df = gpu.fluid.max_relative_difference(&cpu.fluid);
+    let (fc, fg) = (cpu.forces.total[0], g.forces.total[0]);
+    let umax = u_c.iter().map(|u| u.length()).fold(0.0, f64::max);
+    eprintln!(
+        "coupled, {steps} steps: largest displacement {umax:.3e} cm, displacement difference {du:.2e}, velocity {dv:.2e} (the solid alone: {dv_alone:.2e}), populations {df:.2e}; \
+         force on the flap {fc:?} (CPU) vs {fg:?} (GPU); nodes uncovered {} / covered {} (CPU) vs {} / {} (GPU), {} population round trips; shares {:?}",
+        cpu.geometry.uncovered,
+        cpu.geometry.covered,
+        g.geometry.uncovered,
+        g.geometry.covered,
+        gpu.round_trips,
+        gpu.stage_shares()
+    );
+    assert!(cpu.geometry.uncovered > 0 && cpu.geometry.covered > 0, "the flap must uncover and cover nodes");
+    assert_eq!((g.geometry.uncovered, g.geometry.covered), (cpu.geometry.uncovered, cpu.geometry.covered));
+    assert!(gpu.round_trips > 0);
+    assert!(du < 1e-4 && df < 1e-4, "displacement {du:e}, populations {df:e}");
+    assert!(dv_alone < 1e-2 && dv < 3.0 * dv_alone, "velocity {dv:e}, the solid alone {dv_alone:e}");
+    assert!((fg - fc).length() < 1e-4 * fc.length(), "force {fg:?} vs {fc:?}");
+    assert_eq!(gpu.step_count(), steps);
+}
+
+/// `phonation run` of a method-2 coupled scene with `--backend gpu`: the run layer's
+/// `CoupledEngine` steps `GpuCoupled`, writes the same `coupling.csv` rows as the CPU (each body's
+/// force and mean displacement, within the coupled parity bounds above), says which backend ran
+/// it with the stage shares, and `--backend gpu` refuses a method-1 scene naming the field.
+#[test]
+fn a_coupled_scene_runs_on_the_gpu_backend_with_the_cpus_outputs() {
+    use phonation::run::coupled::run_coupled_scene;
+    use phonation::run::{Backend, RunOptions};
+    use phonation::scene::coupled::CoupledScene;
+    let Some(_ctx) = context() else { return };
+    let sc = CoupledScene::parse(&SMALL_FLAP.replace("[coupling]", "[output]\nprobe_every = 10\nsnapshots = 1\n[coupling]\noutput_every = 20")).unwrap();
+    let read = |backend: Backend| {
+        let dir = std::env::temp_dir().join(format!("phonation-gpu-coupled-{backend:?}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let r = run_coupled_scene(&sc, &dir, &RunOptions { steps: Some(100), backend, ..Default::default() }).unwrap();
+        let text = std::fs::read_to_string(dir.join("coupling.csv")).unwrap();
+        let header: Vec<String> = text.lines().next().unwrap().split(',').map(String::from).collect();
+        let rows: Vec<Vec<f64>> = text.lines().skip(1).map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
+        let _ = std::fs::remove_dir_all(&dir);
+        (r, header, rows)
+    };
+    let (rc, header, cpu) = read(Backend::Cpu);
+    let (rg, _, gpu) = read(Backend::Gpu);
+    eprintln!("{} / {}: stage shares {:?}", rc.backend, rg.backend, rg.stage_shares);
+    assert!(rc.backend.starts_with("cpu") && rg.backend.starts_with("gpu"), "{} / {}", rc.backend, rg.backend);
+    assert!(rg.instability.is_none() && rg.steps == 100 && rg.stage_shares.len() == 4);
+    assert_eq!(cpu.len(), gpu.len());
+    let col = |name: &str| header.iter().position(|h| h.starts_with(name)).unwrap_or_else(|| panic!("no column {name} in {header:?}"));
+    let (fx, dy) = (col("force_x_0"), col("mean_dy_0"));
+    let f_scale = cpu.iter().map(|r| r[fx].abs()).fold(0.0, f64::max);
+    let d_scale = cpu.iter().map(|r| r[dy].abs()).fold(0.0, f64::max);
+    for (c, g) in cpu.iter().zip(&gpu) {
+        assert_eq!(c[0], g[0], "the same steps");
+        assert!((c[fx] - g[fx]).abs() <= 1e-4 * f_scale, "force {} vs {}", c[fx], g[fx]);
+        assert!((c[dy] - g[dy]).abs() <= 1e-4 * d_scale, "displacement {} vs {}", c[dy], g[dy]);
+    }
+    assert!(d_scale > 0.0 && f_scale > 0.0);
+    let weak = CoupledScene::parse(&SMALL_FLAP.replace("momentum_conserving", "weak").replace("kernel_radius = 1.0\n", "")).unwrap();
+    let dir = std::env::temp_dir().join(format!("phonation-gpu-coupled-weak-{}", std::process::id()));
+    let e = run_coupled_scene(&weak, &dir, &RunOptions { steps: Some(1), backend: Backend::Gpu, ..Default::default() }).unwrap_err().to_string();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(e.starts_with("coupling.method"), "{e}");
+}

@@ -32,7 +32,7 @@
 
 use super::momentum_exchange::step_with_exchange;
 use super::solver::{CoupledBody, CoupledSolver};
-use crate::fluid::layout::NodeKind;
+use crate::fluid::layout::{Layout, NodeKind};
 use crate::fluid::{KernelLevelSet, Macro, Obstacle, Shape};
 use crate::step::{Instability, Site};
 use glam::{DVec3, DVec4};
@@ -53,6 +53,24 @@ pub struct ConservingOptions {
 impl Default for ConservingOptions {
     fn default() -> Self {
         Self { kernel_radius: 2.0, max_cells_per_step: 1.0, added_mass: true }
+    }
+}
+
+/// Method 2's walls at the particles' current positions, built but not yet installed
+/// ([`CoupledSolver::next_level_set_walls`], [`CoupledSolver::install_level_set_walls`]).
+pub struct LevelSetWalls {
+    /// The fluid's layout with the bodies' level-set walls and the rigid obstacles.
+    pub layout: Layout,
+    sets: Vec<KernelLevelSet>,
+    /// The particles' positions (cells) the walls are built from.
+    points: Vec<DVec3>,
+}
+
+impl LevelSetWalls {
+    /// Whether installing these walls in a fluid of layout `current` makes nodes enter or leave
+    /// the fluid (their populations, and their fluid neighbours', are then read and written).
+    pub fn changes_nodes(&self, current: &Layout) -> bool {
+        self.layout.kind.iter().zip(&current.kind).any(|(a, b)| (*a == NodeKind::Fluid) != (*b == NodeKind::Fluid))
     }
 }
 
@@ -91,6 +109,12 @@ impl Exchange {
     /// step (lattice units; consumed by the momentum_exchange stage).
     pub fn wall(&self) -> &[DVec4] {
         &self.wall
+    }
+
+    /// The populations of the air at rest in the reference state (ρ = 1, θ₀) that the face
+    /// fluxes are counted against (one per stored value of a node).
+    pub fn reference(&self) -> &[f64] {
+        &self.reference
     }
 
     /// The level sets of the current step's walls, one per coupled body (its particles in
@@ -212,7 +236,20 @@ impl CoupledSolver {
 
     /// Method 2's fluid_geometry stage: the level-set walls; covered and uncovered nodes'
     /// momentum booked to the walls.
-    pub(super) fn level_set_geometry(&mut self, o: ConservingOptions) -> Result<(), Instability> {
+    pub(super) fn level_set_geometry(&mut self) -> Result<(), Instability> {
+        let walls = self.next_level_set_walls()?;
+        self.install_level_set_walls(walls);
+        Ok(())
+    }
+
+    /// The first half of method 2's fluid_geometry stage, which leaves the fluid untouched:
+    /// checks how far the particles moved since the walls were last built (at most
+    /// `max_cells_per_step`) and builds the fluid's layout with the bodies' level sets at the
+    /// particles' current positions and velocities. A backend that keeps the populations
+    /// elsewhere (the GPU) brings them into `self.fluid` before the second half
+    /// ([`Self::install_level_set_walls`]) when [`LevelSetWalls::changes_nodes`].
+    pub fn next_level_set_walls(&self) -> Result<LevelSetWalls, Instability> {
+        let super::solver::Method::Conserving(o) = self.method else { panic!("level-set walls are method 2's") };
         let points: Vec<DVec3> = self.solid.particles.position.iter().map(|x| DVec3::from_array(self.to_lattice(*x))).collect();
         let ex = self.exchange.as_ref().expect("method 2 has its exchange state");
         if let Some(old) = &ex.built {
@@ -221,24 +258,25 @@ impl CoupledSolver {
                 return Err(self.moved_too_far(Site::Particle(i), "particle displacement in one step (cells)", d, o.max_cells_per_step));
             }
         }
-        self.rebuild_level_set_walls();
-        self.exchange.as_mut().expect("method 2").built = Some(points);
-        Ok(())
-    }
-
-    /// The fluid's geometry from the bodies' level sets; nodes that change side book their
-    /// momentum to the walls (covered: the air's momentum to the body; uncovered: the body
-    /// pays for the fresh node's).
-    pub(super) fn rebuild_level_set_walls(&mut self) {
         let sets = self.level_sets();
         let mut all = self.obstacles.clone();
         all.extend(sets.iter().cloned().map(|k| Obstacle { shape: Shape::KernelLevelSet(k), velocity: [0.0; 3], temperature: None }));
+        Ok(LevelSetWalls { layout: self.fluid.layout_with(&all), sets, points })
+    }
+
+    /// The second half of method 2's fluid_geometry stage: installs `walls` in the fluid
+    /// (fresh nodes initialised from their fluid neighbours); nodes that change side book their
+    /// momentum to the walls (covered: the air's momentum to the body; uncovered: the body pays
+    /// for the fresh node's).
+    pub fn install_level_set_walls(&mut self, walls: LevelSetWalls) {
+        let LevelSetWalls { layout, sets, points } = walls;
         let was: Vec<bool> = self.fluid.layout.kind.iter().map(|k| *k == NodeKind::Fluid).collect();
-        let ch = self.fluid.set_obstacles(&all);
+        let ch = self.fluid.set_layout(layout);
         let q = self.fluid.eq.q();
         let unit = self.momentum_unit();
         let ex = self.exchange.as_mut().expect("method 2");
         ex.sets = sets;
+        ex.built = Some(points);
         for (node, was) in was.into_iter().enumerate() {
             let is = self.fluid.layout.kind[node] == NodeKind::Fluid;
             if was == is {
@@ -262,6 +300,42 @@ impl CoupledSolver {
         let flux = step_with_exchange(&mut self.fluid, Some(&ex.reference))?;
         ex.wall.iter_mut().zip(flux).for_each(|(w, f)| *w += f);
         Ok(())
+    }
+
+    /// The particles of every coupled body as one level set (the current walls' points and
+    /// velocities, bodies in order; φ = 0) with each point's particle index: the weights of the
+    /// momentum exchange (2.127–2.128) normalised over all bodies at once, as
+    /// [`Self::momentum_exchange`] normalises them — for a backend that runs that stage itself.
+    pub fn exchange_particles(&self) -> (KernelLevelSet, Vec<usize>) {
+        let ex = self.exchange.as_ref().expect("method 2");
+        let p = &self.solid.particles;
+        let mut index = Vec::new();
+        for b in &self.bodies {
+            index.extend((0..p.len()).filter(|&i| p.body[i] == b.surface.body));
+        }
+        let points = ex.sets.iter().flat_map(|s| s.points.iter().copied()).collect();
+        let velocities = ex.sets.iter().flat_map(|s| s.velocities.iter().copied()).collect();
+        (KernelLevelSet::new(points, velocities, self.kernel_radius(), self.r_min(), 0.0), index)
+    }
+
+    /// The momentum (xyz) and mass (w) booked to each padded node by the geometry stage (nodes
+    /// that changed side), taken and cleared: a backend whose fluid step records the face
+    /// fluxes elsewhere adds them to this before its momentum exchange (lattice units).
+    pub fn take_node_change_momentum(&mut self) -> Vec<DVec4> {
+        let ex = self.exchange.as_mut().expect("method 2");
+        let n = ex.wall.len();
+        std::mem::replace(&mut ex.wall, vec![DVec4::ZERO; n])
+    }
+
+    /// The air's force on each particle over the step (physical units, [`Self::dt`]), computed
+    /// by another backend's momentum exchange, becomes the particles' loads (with the scene's
+    /// own) and each body's total.
+    pub fn set_air_forces(&mut self, force: Vec<DVec3>) {
+        let p = &self.solid.particles;
+        assert_eq!(force.len(), p.len(), "one force per particle");
+        self.forces.total = self.bodies.iter().map(|b| (0..p.len()).filter(|&i| p.body[i] == b.surface.body).map(|i| force[i]).sum()).collect();
+        self.forces.force = force;
+        self.apply_forces();
     }
 
     /// Method 2's momentum_exchange stage: each wall node's momentum to the particles near it

@@ -208,7 +208,7 @@ impl CoupledSolver {
     pub fn run_stage(&mut self, kind: CoupledStageKind) -> Result<(), Instability> {
         match (kind, self.method) {
             (CoupledStageKind::FluidGeometry, Method::Weak(o)) => self.polygon_geometry(o),
-            (CoupledStageKind::FluidGeometry, Method::Conserving(o)) => self.level_set_geometry(o),
+            (CoupledStageKind::FluidGeometry, Method::Conserving(_)) => self.level_set_geometry(),
             (CoupledStageKind::Fluid, Method::Weak(_)) => self.fluid.step(),
             (CoupledStageKind::Fluid, Method::Conserving(_)) => self.fluid_step_with_exchange(),
             (CoupledStageKind::SurfaceTraction, Method::Weak(o)) => {

@@ -32,7 +32,20 @@ impl FluidSolver {
     /// Rebuilds the geometry with `obstacles` (the scene's user obstacles and the moving
     /// bodies' walls; face walls are added by the layout) and initialises uncovered nodes.
     pub fn set_obstacles(&mut self, obstacles: &[Obstacle]) -> GeometryChange {
-        let new = Layout::new(self.layout.grid.clone(), self.layout.boundaries.clone(), obstacles);
+        let new = self.layout_with(obstacles);
+        self.set_layout(new)
+    }
+
+    /// The layout of this solver's lattice and faces with `obstacles` (what
+    /// [`Self::set_obstacles`] installs), without installing it.
+    pub fn layout_with(&self, obstacles: &[Obstacle]) -> Layout {
+        Layout::new(self.layout.grid.clone(), self.layout.boundaries.clone(), obstacles)
+    }
+
+    /// Installs `new` (a layout of the same lattice, [`Self::layout_with`]) and initialises
+    /// uncovered nodes from the populations of their fluid neighbours.
+    pub fn set_layout(&mut self, new: Layout) -> GeometryChange {
+        assert_eq!(new.grid.padded, self.layout.grid.padded, "a layout of the same lattice");
         let old = std::mem::replace(&mut self.layout, new);
         let grid = &self.layout.grid;
         let nv = self.pop.nv;

@@ -14,6 +14,9 @@ pub enum GpuError {
     TooLarge { what: &'static str, bytes: u64, limit: u64, unit: &'static str, limit_name: &'static str },
     #[error("the device failed while the state was uploaded: {0}")]
     Failed(String),
+    /// A part of the scene that the GPU backend does not run (the message names the field).
+    #[error("{0}")]
+    Unsupported(String),
 }
 
 /// What went wrong with a device after it was opened — lost (driver reset, removed, destroyed),

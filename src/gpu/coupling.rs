@@ -7,8 +7,8 @@
 //!
 //! These kernels are checked against their twins (tests/gpu.rs). The face-flux record of the
 //! fluid step (what each wall node takes out of the air, 2.122–2.123) is a kernel of the GPU
-//! fluid ([`super::GpuFluid::record_face_fluxes`]). The
-//! coupled step does not run on the GPU yet: the per-step ghost geometry is CPU-only.
+//! fluid ([`super::GpuFluid::record_face_fluxes`]). The coupled step that strings them together
+//! is [`super::coupled::GpuCoupled`].
 
 use super::context::{GpuContext, buffer_layout, compute_pipelines, read_buffer};
 use crate::fluid::{Grid, KernelLevelSet};

@@ -14,12 +14,13 @@
 //! the stencil assumed served from cache.
 
 mod face_fluxes;
+mod geometry;
 
-use super::codegen::{self, FaceCode, GHOST_ISOTHERMAL, Split, WORKGROUP};
+use super::codegen::{self, Split, WORKGROUP};
 use super::context::{GpuContext, GpuError};
+use crate::fluid::FluidSolver;
 use crate::fluid::layout::NodeKind;
 use crate::fluid::storage::RowBlocked;
-use crate::fluid::{FaceCondition, FluidSolver};
 use crate::stages::{FDLB_STEP, RkStage, Stage, StageKind};
 use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
@@ -118,7 +119,10 @@ pub struct GpuFluid {
     faces: (wgpu::Buffer, u32),
     periodic: (wgpu::Buffer, u32),
     params_stage: [wgpu::Buffer; 2],
+    /// The parameters of the ghost, face and periodic fills (with their thread counts).
     params_count: [wgpu::Buffer; 3],
+    /// The parameters every uniform of this lattice starts from.
+    base: Params,
     /// Thin-wall taps, (first tap, count) per node, the node count, and the parameters of the
     /// two Runge–Kutta stages with that count.
     thin: (wgpu::Buffer, wgpu::Buffer, u32, [wgpu::Buffer; 2]),
@@ -220,55 +224,9 @@ impl GpuFluid {
         let f = [storage(&device, "f", fb), storage(&device, "f1", fb), storage(&device, "f2", fb)];
         let h = storage(&device, "h", fb);
         let mac = storage(&device, "mac", bytemuck::cast_slice(&vec![0f32; 5 * stride]));
-        let mut kind_padded: Vec<u32> = s.layout.kind.iter().map(|k| *k as u32).collect();
-        kind_padded.resize(stride, NodeKind::Inactive as u32);
-        let kind = storage(&device, "kind", bytemuck::cast_slice(&kind_padded));
         let status = storage(&device, "status", bytemuck::cast_slice(&[u32::MAX, 0u32]));
-
-        let mut ghost_entries = Vec::new();
-        let mut images: Vec<[u32; 2]> = Vec::new();
-        for gh in &s.layout.ghosts {
-            assert!(gh.image.len() <= 8);
-            ghost_entries.push(Entry {
-                node: gh.node as u32,
-                code: if gh.wall_temperature.is_some() { GHOST_ISOTHERMAL } else { 0 },
-                n_img: gh.image.len() as u32,
-                theta: gh.wall_temperature.unwrap_or(0.0) as f32,
-                ux: gh.wall_velocity[0] as f32,
-                uy: gh.wall_velocity[1] as f32,
-                uz: gh.wall_velocity[2] as f32,
-                ratio: gh.ratio as f32,
-                ..Default::default()
-            });
-            for j in 0..8 {
-                images.push(gh.image.get(j).map(|&(k, w)| [k as u32, (w as f32).to_bits()]).unwrap_or([0, 0]));
-            }
-        }
-        let mut face_entries = Vec::new();
-        for fh in &s.layout.face_halos {
-            let mut e = Entry { node: fh.node as u32, source: fh.source as u32, ..Default::default() };
-            match &s.layout.boundaries.faces[fh.face as usize] {
-                FaceCondition::Outlet => e.code = FaceCode::Outlet as u32,
-                FaceCondition::Slip => e.code = FaceCode::Slip as u32 + fh.face.axis() as u32,
-                FaceCondition::PressureInlet { rho, theta } => {
-                    e.code = FaceCode::PressureInlet as u32;
-                    e.rho = *rho as f32;
-                    e.theta = *theta as f32;
-                }
-                FaceCondition::VelocityInlet { velocity, theta, profile } => {
-                    let k = profile.factor(g, fh.face, g.coords(fh.node));
-                    e.code = FaceCode::VelocityInlet as u32;
-                    e.theta = *theta as f32;
-                    e.ux = (k * velocity[0]) as f32;
-                    e.uy = (k * velocity[1]) as f32;
-                    e.uz = (k * velocity[2]) as f32;
-                }
-                _ => unreachable!("face halo of a periodic or wall face"),
-            }
-            face_entries.push(e);
-        }
-        let periodic: Vec<[u32; 2]> = s.layout.periodic.iter().flat_map(|&(d, src, len)| (0..len).map(move |k| [(d + k) as u32, (src + k) as u32])).collect();
-
+        let t = geometry::Tables::of(s, stride);
+        let kind = storage(&device, "kind", bytemuck::cast_slice(&t.kind));
         let window = s.temperature_window();
         let base = Params {
             n_nodes: stride as u32,
@@ -300,15 +258,9 @@ impl GpuFluid {
             })
         };
         let params_stage = [uniform(Params { stage: 1, ..base }), uniform(Params { stage: 2, ..base })];
-        let counts = [ghost_entries.len(), face_entries.len(), periodic.len()];
-        let params_count = [
-            uniform(Params { count: counts[0] as u32, ..base }),
-            uniform(Params { count: counts[1] as u32, ..base }),
-            uniform(Params { count: counts[2] as u32, ..base }),
-        ];
-
-        let (thin_taps, thin_ranges) = super::thin_wall::entries(&s.layout);
-        let thin_count = thin_ranges.len() as u32;
+        let counts = t.counts();
+        let params_count = counts.map(|c| uniform(Params { count: c, ..base }));
+        let thin_count = t.thin_ranges.len() as u32;
         let params_thin = [uniform(Params { stage: 1, count: thin_count, ..base }), uniform(Params { stage: 2, count: thin_count, ..base })];
 
         let bsrc = codegen::boundaries(eq, split);
@@ -322,19 +274,16 @@ impl GpuFluid {
                 pipeline_of(&device, "thin_wall", &codegen::thin_wall(eq, split), "main"),
             ],
             thin: (
-                storage(&device, "thin taps", bytemuck::cast_slice(&thin_taps)),
-                storage(&device, "thin ranges", bytemuck::cast_slice(&thin_ranges)),
+                storage(&device, "thin taps", bytemuck::cast_slice(&t.thin_taps)),
+                storage(&device, "thin ranges", bytemuck::cast_slice(&t.thin_ranges)),
                 thin_count,
                 params_thin,
             ),
             groups: [Vec::new(), Vec::new()],
-            ghosts: (
-                storage(&device, "ghosts", bytemuck::cast_slice(&ghost_entries)),
-                storage(&device, "images", bytemuck::cast_slice(&images)),
-                counts[0] as u32,
-            ),
-            faces: (storage(&device, "faces", bytemuck::cast_slice(&face_entries)), counts[1] as u32),
-            periodic: (storage(&device, "periodic", bytemuck::cast_slice(&periodic)), counts[2] as u32),
+            ghosts: (storage(&device, "ghosts", bytemuck::cast_slice(&t.ghosts)), storage(&device, "images", bytemuck::cast_slice(&t.images)), counts[0]),
+            faces: (storage(&device, "faces", bytemuck::cast_slice(&t.faces)), counts[1]),
+            periodic: (storage(&device, "periodic", bytemuck::cast_slice(&t.periodic)), counts[2]),
+            base,
             interior: g.interior_len() as u32,
             eq: eq.clone(),
             probe: None,

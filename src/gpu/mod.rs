@@ -5,6 +5,7 @@
 pub mod bench;
 pub mod codegen;
 pub mod context;
+pub mod coupled;
 pub mod coupling;
 pub mod fdlb;
 pub mod lattice_gas;

@@ -8,6 +8,9 @@
 //! with atomics, then a gather of pair and wall contacts with anchors kept in per-particle
 //! slots ([`CONTACT_SLOTS`] per particle, double-buffered).
 //!
+//! Positions are stored as displacements from the reference configuration, so that a bond's
+//! vector r⁰ + (u_j − u_i) keeps f32's precision on the bond's length (shaders/solid.wgsl).
+//!
 //! Bytes per particle: state 5 × 16, rotation and Q 2 × 48, forces/torques 4 × 16, stiffness
 //! 144, per bond 3 × 16 + 12.
 
@@ -107,6 +110,9 @@ pub struct GpuSolid {
     pub last_cg: (usize, f64),
     pub step_count: u64,
     contact: Option<GpuContact>,
+    /// Reference positions X: the `pos` buffer holds the displacement u = x − X
+    /// (shaders/solid.wgsl).
+    reference: Vec<DVec3>,
 }
 
 const G0: [(&str, bool); 21] = [
@@ -269,6 +275,7 @@ impl GpuSolid {
             last_cg: (0, 0.0),
             step_count: 0,
             contact: None,
+            reference: p.reference.clone(),
         };
         if let Some(cp) = &s.options.contact {
             if s.options.walls.len() > 4 {
@@ -333,7 +340,7 @@ impl GpuSolid {
         let empty: Vec<[f32; 4]> = (0..2 * n * CONTACT_SLOTS as usize).map(|_| [0.0, 0.0, 0.0, f32::from_bits(u32::MAX)]).collect();
         let hist = [init("hist a", bytemuck::cast_slice(&empty), st), init("hist b", bytemuck::cast_slice(&empty), st)];
         // (uniform?, read-only?) per binding of shaders/solid_contact.wgsl
-        let kinds: [(bool, bool); 14] = [
+        let kinds: [(bool, bool); 15] = [
             (true, true),
             (false, true),
             (false, true),
@@ -348,8 +355,11 @@ impl GpuSolid {
             (false, false),
             (false, true),
             (false, false),
+            (false, true),
         ];
         let layout = super::context::buffer_layout(device, "contact", &kinds);
+        let reference: Vec<[f32; 4]> = p.reference.iter().map(|x| v4(*x, 0.0)).collect();
+        let reference = init("reference positions", bytemuck::cast_slice(&reference), st);
         let b = &self.buffers;
         let group = |inp: &wgpu::Buffer, out: &wgpu::Buffer| {
             let res = [
@@ -367,6 +377,7 @@ impl GpuSolid {
                 &sorted,
                 inp,
                 out,
+                &reference,
             ];
             let entries: Vec<wgpu::BindGroupEntry> =
                 res.iter().enumerate().map(|(k, buf)| wgpu::BindGroupEntry { binding: k as u32, resource: buf.as_entire_binding() }).collect();
@@ -407,7 +418,7 @@ impl GpuSolid {
     pub fn upload_state(&mut self, s: &SolidSolver) {
         let p = &s.particles;
         let w = |name: &str, data: Vec<[f32; 4]>| self.queue.write_buffer(&self.buffers[name], 0, bytemuck::cast_slice(&data));
-        w("pos", p.position.iter().map(|x| v4(*x, 0.0)).collect());
+        w("pos", p.position.iter().zip(&self.reference).map(|(x, r)| v4(*x - *r, 0.0)).collect());
         w("vel", p.velocity.iter().map(|x| v4(*x, 0.0)).collect());
         w("spin", p.spin.iter().map(|x| v4(*x, 0.0)).collect());
         w("quat", p.rotation.iter().map(|q| [q.x as f32, q.y as f32, q.z as f32, q.w as f32]).collect());
@@ -415,6 +426,14 @@ impl GpuSolid {
         let rot: Vec<[f32; 12]> = s.rotations().iter().map(m3).collect();
         self.queue.write_buffer(&self.buffers["rot"], 0, bytemuck::cast_slice(&rot));
         self.step_count = s.step_count;
+    }
+
+    /// Writes the particles' loads (+ added mass) of a CPU solver: the air's forces of a
+    /// coupled step ([`super::coupled::GpuCoupled`]).
+    pub fn upload_loads(&self, s: &SolidSolver) {
+        let p = &s.particles;
+        let loads: Vec<[f32; 4]> = (0..p.len()).map(|i| v4(p.load[i], p.added_mass[i])).collect();
+        self.queue.write_buffer(&self.buffers["load"], 0, bytemuck::cast_slice(&loads));
     }
 
     fn dispatch(&self, pass: &mut wgpu::ComputePass, entry: &str) {
@@ -581,7 +600,13 @@ impl GpuSolid {
             SolidArray::ContactForce => "extra_force",
             _ => panic!("{which:?} is not a vector array"),
         };
-        self.read_f32(name).chunks(4).take(self.n).map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)).collect()
+        let raw = self.read_f32(name);
+        let v = raw.chunks(4).take(self.n).map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64));
+        match which {
+            // the buffer holds the displacement from the reference position
+            SolidArray::Position => v.zip(&self.reference).map(|(u, x)| *x + u).collect(),
+            _ => v.collect(),
+        }
     }
 
     /// A per-particle matrix array (Q or the rotation matrices) as f64.

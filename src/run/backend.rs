@@ -3,7 +3,9 @@
 //! engine per kind of solver, each a [`Solver`], so that the run loop ([`super::driver`]) treats
 //! them alike; the GPU context is picked here, above the physics core.
 
+use crate::coupling::CoupledSolver;
 use crate::fluid::{FluidSolver, Instability};
+use crate::gpu::coupled::GpuCoupled;
 use crate::gpu::lattice_gas::GpuLatticeGas;
 use crate::gpu::solid::GpuSolid;
 use crate::gpu::{DeviceHealth, GpuContext, GpuError, GpuFluid};
@@ -187,16 +189,7 @@ impl SolidEngine {
             Some(ctx) => {
                 let mut g = GpuSolid::from_solver(&ctx, &mut solver)?;
                 health = Some(uploaded(&ctx)?);
-                g.cg_tolerance = match cg_tolerance {
-                    Some(t) if t < GPU_CG_FLOOR => anyhow::bail!(crate::error::SceneError {
-                        field: "solid.cg_tolerance".into(),
-                        reason: format!(
-                            "{t:e} is below what the GPU's single-precision conjugate gradient reaches ({GPU_CG_FLOOR:e}); use at least that, or --backend cpu"
-                        ),
-                    }),
-                    Some(t) => t,
-                    None => GPU_CG_DEFAULT,
-                };
+                g.cg_tolerance = gpu_cg_tolerance(cg_tolerance)?;
                 Some(g)
             }
             None => None,
@@ -209,6 +202,20 @@ impl SolidEngine {
     pub fn gpu_last_cg(&self) -> Option<(usize, f64)> {
         self.gpu.as_ref().map(|g| g.last_cg)
     }
+}
+
+/// The GPU solid's CG tolerance for the scene's `solid.cg_tolerance` (see [`SolidEngine::new`]).
+fn gpu_cg_tolerance(cg_tolerance: Option<f64>) -> anyhow::Result<f64> {
+    Ok(match cg_tolerance {
+        Some(t) if t < GPU_CG_FLOOR => anyhow::bail!(crate::error::SceneError {
+            field: "solid.cg_tolerance".into(),
+            reason: format!(
+                "{t:e} is below what the GPU's single-precision conjugate gradient reaches ({GPU_CG_FLOOR:e}); use at least that, or --backend cpu"
+            ),
+        }),
+        Some(t) => t,
+        None => GPU_CG_DEFAULT,
+    })
 }
 
 /// The smallest relative residual the GPU's f32 conjugate gradient is asked for: a few hundred
@@ -244,6 +251,86 @@ impl Solver for SolidEngine {
         match self.gpu {
             None => self.solver.stage_shares(),
             Some(_) => Vec::new(),
+        }
+    }
+}
+
+/// The coupled solver on a backend: the CPU reference, or method 2 on the GPU
+/// ([`GpuCoupled`]), whose CPU side [`CoupledEngine::solver`] receives the whole GPU state
+/// after every [`Solver::advance`].
+pub struct CoupledEngine {
+    cpu: Option<CoupledSolver>,
+    gpu: Option<Box<GpuCoupled>>,
+    health: Option<DeviceHealth>,
+    pub name: String,
+}
+
+impl CoupledEngine {
+    /// Picks the backend and uploads `solver` to the GPU when it is chosen (method 2 without
+    /// prescribed motions: `--backend gpu` refuses anything else with the field, `auto` runs it
+    /// on the CPU and says why). `cg_tolerance`: the scene's `solid.cg_tolerance`, as for
+    /// [`SolidEngine::new`].
+    pub fn new(backend: Backend, solver: CoupledSolver, cg_tolerance: Option<f64>) -> anyhow::Result<Self> {
+        let (ctx, name) = pick_gpu(backend)?;
+        let Some(ctx) = ctx else { return Ok(Self { cpu: Some(solver), gpu: None, health: None, name }) };
+        if let Err(why) = GpuCoupled::supports(&solver) {
+            if backend == Backend::Gpu {
+                return Err(why.into());
+            }
+            let name = format!("cpu ({} threads; the GPU backend does not run this scene: {why})", rayon::current_num_threads());
+            return Ok(Self { cpu: Some(solver), gpu: None, health: None, name });
+        }
+        let health = ctx.health.clone();
+        let mut g = GpuCoupled::new(ctx, solver)?;
+        g.solid.cg_tolerance = gpu_cg_tolerance(cg_tolerance)?;
+        if let Some(why) = health.settle() {
+            return Err(GpuError::Failed(why).into());
+        }
+        Ok(Self { cpu: None, gpu: Some(Box::new(g)), health: Some(health), name })
+    }
+
+    /// The coupled solver (on the GPU: its CPU side, holding the state of the last advance).
+    pub fn solver(&self) -> &CoupledSolver {
+        match (&self.cpu, &self.gpu) {
+            (Some(c), _) => c,
+            (None, Some(g)) => &g.cpu,
+            (None, None) => unreachable!("one backend"),
+        }
+    }
+
+    /// Steps on which the GPU brought the populations back because nodes changed side (None on
+    /// the CPU).
+    pub fn gpu_round_trips(&self) -> Option<u64> {
+        self.gpu.as_ref().map(|g| g.round_trips)
+    }
+}
+
+impl Solver for CoupledEngine {
+    fn step(&mut self) -> Result<(), Instability> {
+        self.advance(1)
+    }
+
+    fn step_count(&self) -> u64 {
+        self.solver().step_count
+    }
+
+    fn advance(&mut self, n: u64) -> Result<(), Instability> {
+        let Some(g) = self.gpu.as_mut() else { return self.cpu.as_mut().expect("one backend").run(n) };
+        let r = g.run(n);
+        if let Some(why) = self.health.as_ref().and_then(|h| h.settle()) {
+            let c = &g.cpu;
+            return Err(device_failure(why, c.step_count, c.time, "s", n));
+        }
+        // the state of the step reached, or of the failed one (to be written as the last snapshot)
+        g.download_into();
+        r
+    }
+
+    fn stage_shares(&self) -> Vec<(&'static str, f64)> {
+        match (&self.cpu, &self.gpu) {
+            (Some(c), _) => c.stage_shares(),
+            (_, Some(g)) => g.stage_shares(),
+            _ => Vec::new(),
         }
     }
 }

@@ -222,18 +222,18 @@ fn csv_row(c: &CoupledSolver, probe_d: &[glam::DVec3]) -> String {
 }
 
 /// Runs `sc` for its duration (or `opts.steps`), writing into `dir`, with checkpoints and
-/// resume as `opts.checkpoint` says. The coupled solver runs on the CPU.
+/// resume as `opts.checkpoint` says, on the backend `opts.backend` picks (the GPU runs method 2,
+/// [`crate::gpu::coupled::GpuCoupled`]; `auto` takes it only on a hardware GPU).
 pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> anyhow::Result<CoupledReport> {
     let ck = &opts.checkpoint;
     ck.validate()?;
-    if opts.backend == super::Backend::Gpu {
-        anyhow::bail!("--backend gpu: the coupled solver runs on the CPU only for now");
-    }
     let mut c = sc.build()?;
     let particle_probes = particle_probes(sc, &c);
     let mut probe_samples: Vec<(f64, Vec<f64>)> = Vec::new();
     std::fs::create_dir_all(dir)?;
     let record = ck.restore(&mut c, dir)?.cloned();
+    let mut engine = super::backend::CoupledEngine::new(opts.backend, c, sc.solid.file.solid.cg_tolerance)?;
+    let c = engine.solver();
     let resumed = record.is_some();
     let resumed_from_step = resumed.then_some(c.step_count);
     let total = ck.total(opts.steps, sc.fluid.steps);
@@ -287,7 +287,8 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
         Ok(())
     };
     let progress = opts.show_progress.then_some("coupled steps");
-    let outcome = super::driver::drive_until(&mut c, total, opts.stop_at, &[every, probe_every, snap_every, ck.period()], progress, |c, t| {
+    let outcome = super::driver::drive_until(&mut engine, total, opts.stop_at, &[every, probe_every, snap_every, ck.period()], progress, |e, t| {
+        let c = e.solver();
         if t.hit[0] || t.last {
             let d = probe_displacements(c, &particle_probes);
             writeln!(csv, "{}", csv_row(c, &d))?;
@@ -319,7 +320,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
             if record_g.is_some() {
                 outputs.push("glottal_flow.csv");
             }
-            ck.save(dir, t.step, total, &*c, record, &outputs)?;
+            ck.save(dir, t.step, total, c, record, &outputs)?;
         }
         Ok(())
     })?;
@@ -328,8 +329,9 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
     }
     let wall = outcome.wall_s;
     let instability = outcome.instability;
+    let c = engine.solver();
     if instability.is_some() {
-        snapshot(&c, 999, &mut files)?;
+        snapshot(c, 999, &mut files)?;
     }
     let glottis_report = match &record_g {
         Some(r) => Some(glottal_outputs(sc, dir, r, &mut files)?),
@@ -339,7 +341,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
     let steps_here = c.step_count - resumed_from_step.unwrap_or(0);
     let report = CoupledReport {
         name: fluid_scene.file.name.clone(),
-        backend: format!("cpu ({} threads)", rayon::current_num_threads()),
+        backend: engine.name.clone(),
         method: sc.coupling.method.name().into(),
         nodes: fluid_scene.grid.n,
         particles: p.len(),
@@ -349,7 +351,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
         simulated_s: c.time,
         wall_s: wall,
         coupled_steps_per_s: steps_here as f64 / wall.max(1e-9),
-        stage_shares: c.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect(),
+        stage_shares: crate::step::Solver::stage_shares(&engine).into_iter().map(|(n, s)| (n.to_string(), s)).collect(),
         final_forces: c.forces.total.iter().map(|f| f.to_array()).collect(),
         max_displacement: (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max),
         fluid_mass_drift: (c.fluid.totals().mass - m0) / m0,
@@ -358,7 +360,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
         particle_probes: probe_reports(&particle_probes, &probe_samples),
         glottis: glottis_report,
         instability: instability.map(|e| e.to_string()),
-        state_hash: state_hash(&c),
+        state_hash: state_hash(c),
         resumed_from_step,
         files: files.clone(),
     };

@@ -12,6 +12,8 @@ use crate::gpu::codegen;
 pub(super) struct FaceFluxes {
     pub(super) pipeline: wgpu::ComputePipeline,
     pub(super) wall: wgpu::Buffer,
+    /// The populations of the air at rest the fluxes are counted against.
+    reference: wgpu::Buffer,
     pub(super) group: wgpu::BindGroup,
     /// The thin-wall part (`thin_wall_fluxes`), its bind group and thread count.
     pub(super) thin: (wgpu::ComputePipeline, wgpu::BindGroup, u32),
@@ -31,13 +33,27 @@ impl GpuFluid {
         let reference = storage(&self.device, "reference populations", bytemuck::cast_slice(&reference));
         let group = self.bind(&pipeline, &[(0, &self.params_stage[0]), (1, &self.kind), (2, &reference), (3, &wall)], &[(10, &self.h)]);
         let thin_pipeline = pipeline_of(&self.device, "thin_wall_fluxes", &codegen::thin_wall_fluxes(&self.eq, self.split), "main");
+        let (thin_group, thin_count) = self.thin_flux_group(s, &thin_pipeline, &wall);
+        let thin = (thin_pipeline, thin_group, thin_count);
+        self.face_fluxes = Some(FaceFluxes { pipeline, wall, reference, group, thin });
+    }
+
+    /// The thin-wall flux kernel's bind group for the layout of `s` and its thread count.
+    fn thin_flux_group(&self, s: &FluidSolver, pipeline: &wgpu::ComputePipeline, wall: &wgpu::Buffer) -> (wgpu::BindGroup, u32) {
         let (order, targets) = super::super::thin_wall::flux_targets(&s.layout);
-        let thin_count = targets.len() as u32;
+        let count = targets.len() as u32;
         let order = storage(&self.device, "thin flux order", bytemuck::cast_slice(&order));
         let targets = storage(&self.device, "thin flux targets", bytemuck::cast_slice(&targets));
-        let thin_group = self.bind(&thin_pipeline, &[(0, &self.params_stage[0]), (1, &self.thin.0), (2, &order), (3, &targets), (4, &wall)], &[(10, &self.h)]);
-        let thin = (thin_pipeline, thin_group, thin_count);
-        self.face_fluxes = Some(FaceFluxes { pipeline, wall, group, thin });
+        (self.bind(pipeline, &[(0, &self.params_stage[0]), (1, &self.thin.0), (2, &order), (3, &targets), (4, wall)], &[(10, &self.h)]), count)
+    }
+
+    /// After a geometry change ([`Self::set_geometry`]): the face-flux kernels' bind groups for
+    /// the new tables of `s` (nothing when the fluxes are not recorded).
+    pub(super) fn rebind_face_fluxes(&mut self, s: &FluidSolver) {
+        let Some(ff) = self.face_fluxes.take() else { return };
+        let group = self.bind(&ff.pipeline, &[(0, &self.params_stage[0]), (1, &self.kind), (2, &ff.reference), (3, &ff.wall)], &[(10, &self.h)]);
+        let (thin_group, thin_count) = self.thin_flux_group(s, &ff.thin.0, &ff.wall);
+        self.face_fluxes = Some(FaceFluxes { group, thin: (ff.thin.0, thin_group, thin_count), ..ff });
     }
 
     /// What each padded node's walls took out of the air since the last call (momentum xyz,

@@ -1,0 +1,188 @@
+//! The momentum-conserving coupled step (method 2, seed 000 §2.4.2) with the fluid, the solid
+//! and the momentum exchange on the GPU: the GPU twin of [`CoupledSolver`] stepping
+//! [`COUPLED_CONSERVING_STEP`].
+//!
+//! | stage | where it runs |
+//! |---|---|
+//! | `fluid_geometry` | the particles' positions and velocities come back (16 B each); the level sets' layout (ghost depths, normals, wall velocities, 2.124–2.126, 2.130) is built on the CPU ([`CoupledSolver::next_level_set_walls`]) and its tables uploaded ([`GpuFluid::set_geometry`]); on a step where nodes change side, the populations make a round trip so that covered nodes book their momentum and fresh ones take their neighbours' mean on the CPU ([`Self::round_trips`] counts them) |
+//! | `fluid` | one FDLB step on the GPU with the walls' face fluxes recorded after each advection (2.122–2.123, [`GpuFluid::record_face_fluxes`]) |
+//! | `momentum_exchange` | each wall node's momentum handed to the particles within r_e with normalised kernel weights (2.127–2.128) by the gather kernels of [`CouplingKernels`] (deterministic, no atomics); the forces come back as the particles' loads |
+//! | `solid` | the solid's sub-steps on the GPU ([`GpuSolid`]) with those loads and the air's added mass (2.129) |
+//!
+//! What stays on the CPU is the geometry (a per-step layout build over the lattice, O(N)) and
+//! the exchange's per-node bookkeeping; both are measured as the `fluid_geometry` share of the
+//! step. The exchange's diagnostics that the CPU solver sums over the run (momentum to
+//! non-body walls, mass to the walls, the wall-frame momentum) are not kept on this backend.
+//! Prescribed body motions and method 1 run on the CPU only: [`GpuCoupled::new`] refuses them.
+
+use super::context::{GpuContext, GpuError};
+use super::coupling::CouplingKernels;
+use super::fdlb::GpuFluid;
+use super::solid::{GpuSolid, SolidArray};
+use crate::coupling::{CoupledSolver, Method};
+use crate::stages::{COUPLED_CONSERVING_STEP, CoupledStageKind};
+use crate::step::{Instability, Part, Site};
+use glam::{DVec3, DVec4};
+use std::time::{Duration, Instant};
+
+/// Fluid, solid and method 2's coupling on the GPU.
+pub struct GpuCoupled {
+    /// The CPU side: the scene's solver, which holds the geometry (layout, level sets), the
+    /// exchange's bookkeeping, the scene's loads and the step counter. Its particles are
+    /// brought from the GPU at every step; its fluid populations only on steps where nodes
+    /// change side and by [`Self::download_into`].
+    pub cpu: CoupledSolver,
+    pub fluid: GpuFluid,
+    pub solid: GpuSolid,
+    kernels: CouplingKernels,
+    ctx: GpuContext,
+    /// Wall time per stage of [`COUPLED_CONSERVING_STEP`] (each stage ends with a wait on the
+    /// device, so the times are the stages' own).
+    pub timings: Vec<Duration>,
+    /// Steps on which nodes changed side, so that the populations made a round trip.
+    pub round_trips: u64,
+}
+
+impl GpuCoupled {
+    /// Uploads a method-2 coupled solver (its fluid, its solid with the added mass, the
+    /// face-flux record); refuses what this backend does not run, naming the field.
+    pub fn new(ctx: GpuContext, mut cpu: CoupledSolver) -> Result<Self, GpuError> {
+        Self::supports(&cpu)?;
+        let mut fluid = GpuFluid::from_solver(&ctx, &cpu.fluid)?;
+        fluid.record_face_fluxes(&cpu.fluid, cpu.exchange().expect("method 2").reference());
+        let solid = GpuSolid::from_solver(&ctx, &mut cpu.solid)?;
+        let kernels = CouplingKernels::new(&ctx);
+        let timings = vec![Duration::ZERO; COUPLED_CONSERVING_STEP.len()];
+        Ok(GpuCoupled { cpu, fluid, solid, kernels, ctx, timings, round_trips: 0 })
+    }
+
+    /// Whether this backend runs `cpu`'s scene, or why not (naming the field).
+    pub fn supports(cpu: &CoupledSolver) -> Result<(), GpuError> {
+        if !matches!(cpu.method, Method::Conserving(_)) {
+            return Err(GpuError::Unsupported(
+                "coupling.method: the weak coupling (method 1) runs on the CPU only; use method = \"momentum_conserving\" or --backend cpu".into(),
+            ));
+        }
+        if cpu.bodies.iter().any(|b| b.motion.is_some()) {
+            return Err(GpuError::Unsupported("coupling.bodies: a prescribed motion runs on the CPU only (--backend cpu)".into()));
+        }
+        Ok(())
+    }
+
+    /// Completed coupled steps.
+    pub fn step_count(&self) -> u64 {
+        self.cpu.step_count
+    }
+
+    /// One coupled step, stage by stage.
+    pub fn step(&mut self) -> Result<(), Instability> {
+        for (k, st) in COUPLED_CONSERVING_STEP.iter().enumerate() {
+            let t0 = Instant::now();
+            let r = self.run_stage(st.kind);
+            self.timings[k] += t0.elapsed();
+            r?;
+        }
+        self.cpu.step_count += 1;
+        self.cpu.time += self.cpu.dt();
+        Ok(())
+    }
+
+    /// Runs `n` coupled steps, stopping at the first instability.
+    pub fn run(&mut self, n: u64) -> Result<(), Instability> {
+        (0..n).try_for_each(|_| self.step())
+    }
+
+    /// Each stage's share of the wall time so far.
+    pub fn stage_shares(&self) -> Vec<(&'static str, f64)> {
+        crate::stages::time_shares(COUPLED_CONSERVING_STEP.iter().map(|s| s.name).zip(&self.timings))
+    }
+
+    /// Runs one stage of the step (the step counter advances in [`Self::step`] only).
+    pub fn run_stage(&mut self, kind: CoupledStageKind) -> Result<(), Instability> {
+        match kind {
+            CoupledStageKind::FluidGeometry => self.fluid_geometry(),
+            CoupledStageKind::Fluid => self.fluid_step(),
+            CoupledStageKind::MomentumExchange => {
+                self.momentum_exchange();
+                Ok(())
+            }
+            CoupledStageKind::Solid => self.solid_substeps(),
+            CoupledStageKind::SurfaceTraction => Ok(()),
+        }
+    }
+
+    /// The walls at the particles' current positions (see the module table).
+    fn fluid_geometry(&mut self) -> Result<(), Instability> {
+        let p = &mut self.cpu.solid.particles;
+        p.position = self.solid.download_vectors(SolidArray::Position);
+        p.velocity = self.solid.download_vectors(SolidArray::Velocity);
+        if let Some(i) = self.cpu.solid.non_finite() {
+            let mut e = self.cpu.solid.instability_at(i);
+            (e.step, e.time) = (self.cpu.step_count, self.cpu.time);
+            return Err(e);
+        }
+        let walls = self.cpu.next_level_set_walls()?;
+        if walls.changes_nodes(&self.cpu.fluid.layout) {
+            self.fluid.download_into(&mut self.cpu.fluid);
+            self.cpu.install_level_set_walls(walls);
+            self.fluid.upload_state(&self.cpu.fluid);
+            self.round_trips += 1;
+        } else {
+            self.cpu.install_level_set_walls(walls);
+        }
+        self.fluid.set_geometry(&self.cpu.fluid);
+        Ok(())
+    }
+
+    /// One fluid step with the face fluxes recorded.
+    fn fluid_step(&mut self) -> Result<(), Instability> {
+        self.fluid.run(1);
+        let Some((node, code)) = self.fluid.instability() else { return Ok(()) };
+        let quantity = ["", "density", "velocity", "temperature"][code as usize];
+        Err(Instability {
+            part: Part::Fluid,
+            step: self.cpu.step_count,
+            time: self.cpu.time,
+            time_unit: "s",
+            site: Site::Node(self.cpu.fluid.layout.grid.coords(node)),
+            quantity,
+            value: f64::NAN,
+            reason: format!("{quantity} left its admissible range on the GPU"),
+        })
+    }
+
+    /// Each wall node's momentum (face fluxes + the geometry stage's node changes) to the
+    /// particles near it, as their loads over the step.
+    fn momentum_exchange(&mut self) {
+        let fluxes = self.fluid.take_face_fluxes();
+        let mut wall = self.cpu.take_node_change_momentum();
+        for (w, f) in wall.iter_mut().zip(fluxes) {
+            *w += DVec4::new(f[0] as f64, f[1] as f64, f[2] as f64, f[3] as f64);
+        }
+        let (set, index) = self.cpu.exchange_particles();
+        let factor = self.cpu.momentum_unit() / self.cpu.dt();
+        let shares = self.kernels.momentum_to_particles(&self.ctx, &set, &self.cpu.fluid.layout.grid, &wall, factor);
+        let mut force = vec![DVec3::ZERO; self.cpu.solid.particles.len()];
+        for (i, f) in index.into_iter().zip(shares) {
+            force[i] = f;
+        }
+        self.cpu.set_air_forces(force);
+        self.solid.upload_loads(&self.cpu.solid);
+    }
+
+    /// The solid's sub-steps over the fluid step.
+    fn solid_substeps(&mut self) -> Result<(), Instability> {
+        self.solid.run(self.cpu.substeps as u64);
+        self.solid.wait();
+        Ok(())
+    }
+
+    /// Copies the whole GPU state (populations, particles) into [`Self::cpu`] for outputs.
+    pub fn download_into(&mut self) {
+        self.fluid.download_into(&mut self.cpu.fluid);
+        let (steps, time) = (self.cpu.solid.step_count, self.cpu.solid.time);
+        self.solid.download_into(&mut self.cpu.solid);
+        // the GPU solid counts its sub-steps as the CPU one does
+        debug_assert!(self.cpu.solid.step_count >= steps && self.cpu.solid.time >= time);
+    }
+}

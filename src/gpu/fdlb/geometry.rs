@@ -1,0 +1,133 @@
+//! The fluid's geometry on the GPU: the node kinds and the boundary tables (ghost nodes with
+//! their image stencils, face halos, periodic copies, thin-wall taps) built from a CPU layout —
+//! once at upload, and again at every step of a coupled run whose walls move
+//! ([`GpuFluid::set_geometry`], the `fluid_geometry` stage).
+
+use super::{Entry, GpuFluid, Params, storage};
+use crate::fluid::layout::NodeKind;
+use crate::fluid::{FaceCondition, FluidSolver};
+use crate::gpu::codegen::{FaceCode, GHOST_ISOTHERMAL};
+use crate::gpu::thin_wall::{self, ThinTapEntry};
+use wgpu::util::DeviceExt;
+
+/// The geometry tables of a layout as the boundary kernels read them.
+pub(super) struct Tables {
+    /// Node kinds, padded to the stride with inactive nodes.
+    pub kind: Vec<u32>,
+    pub ghosts: Vec<Entry>,
+    /// Eight (node, weight bits) image taps per ghost.
+    pub images: Vec<[u32; 2]>,
+    pub faces: Vec<Entry>,
+    pub periodic: Vec<[u32; 2]>,
+    pub thin_taps: Vec<ThinTapEntry>,
+    pub thin_ranges: Vec<[u32; 2]>,
+}
+
+impl Tables {
+    /// The tables of solver `s`'s layout for arrays of node stride `stride`.
+    pub fn of(s: &FluidSolver, stride: usize) -> Self {
+        let g = &s.layout.grid;
+        let mut kind: Vec<u32> = s.layout.kind.iter().map(|k| *k as u32).collect();
+        kind.resize(stride, NodeKind::Inactive as u32);
+        let mut ghosts = Vec::new();
+        let mut images: Vec<[u32; 2]> = Vec::new();
+        for gh in &s.layout.ghosts {
+            assert!(gh.image.len() <= 8);
+            ghosts.push(Entry {
+                node: gh.node as u32,
+                code: if gh.wall_temperature.is_some() { GHOST_ISOTHERMAL } else { 0 },
+                n_img: gh.image.len() as u32,
+                theta: gh.wall_temperature.unwrap_or(0.0) as f32,
+                ux: gh.wall_velocity[0] as f32,
+                uy: gh.wall_velocity[1] as f32,
+                uz: gh.wall_velocity[2] as f32,
+                ratio: gh.ratio as f32,
+                ..Default::default()
+            });
+            for j in 0..8 {
+                images.push(gh.image.get(j).map(|&(k, w)| [k as u32, (w as f32).to_bits()]).unwrap_or([0, 0]));
+            }
+        }
+        let mut faces = Vec::new();
+        for fh in &s.layout.face_halos {
+            let mut e = Entry { node: fh.node as u32, source: fh.source as u32, ..Default::default() };
+            match &s.layout.boundaries.faces[fh.face as usize] {
+                FaceCondition::Outlet => e.code = FaceCode::Outlet as u32,
+                FaceCondition::Slip => e.code = FaceCode::Slip as u32 + fh.face.axis() as u32,
+                FaceCondition::PressureInlet { rho, theta } => {
+                    e.code = FaceCode::PressureInlet as u32;
+                    e.rho = *rho as f32;
+                    e.theta = *theta as f32;
+                }
+                FaceCondition::VelocityInlet { velocity, theta, profile } => {
+                    let k = profile.factor(g, fh.face, g.coords(fh.node));
+                    e.code = FaceCode::VelocityInlet as u32;
+                    e.theta = *theta as f32;
+                    e.ux = (k * velocity[0]) as f32;
+                    e.uy = (k * velocity[1]) as f32;
+                    e.uz = (k * velocity[2]) as f32;
+                }
+                _ => unreachable!("face halo of a periodic or wall face"),
+            }
+            faces.push(e);
+        }
+        let periodic = s.layout.periodic.iter().flat_map(|&(d, src, len)| (0..len).map(move |k| [(d + k) as u32, (src + k) as u32])).collect();
+        let (thin_taps, thin_ranges) = thin_wall::entries(&s.layout);
+        Tables { kind, ghosts, images, faces, periodic, thin_taps, thin_ranges }
+    }
+
+    /// Threads of the ghost, face and periodic fills.
+    pub fn counts(&self) -> [u32; 3] {
+        [self.ghosts.len() as u32, self.faces.len() as u32, self.periodic.len() as u32]
+    }
+}
+
+impl GpuFluid {
+    /// Replaces the geometry (node kinds and boundary tables) with that of `s`, a solver of the
+    /// same lattice whose walls moved: method 2's `fluid_geometry` stage on the GPU, the tables
+    /// built on the CPU from the bodies' level sets (the particles' positions come back each
+    /// step; the populations only on steps where nodes change side, [`Self::upload_state`]).
+    /// The kernels' bind groups are rebuilt; the populations are untouched.
+    pub fn set_geometry(&mut self, s: &FluidSolver) {
+        assert_eq!(s.layout.grid.len(), self.n_nodes, "a layout of the same lattice");
+        let t = Tables::of(s, self.stride);
+        let device = &self.device;
+        self.queue.write_buffer(&self.kind, 0, bytemuck::cast_slice(&t.kind));
+        let counts = t.counts();
+        let uniform = |p: Params| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("params"),
+                contents: bytemuck::bytes_of(&p),
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+        };
+        let base = self.base;
+        self.params_count = counts.map(|c| uniform(Params { count: c, ..base }));
+        self.ghosts = (storage(device, "ghosts", bytemuck::cast_slice(&t.ghosts)), storage(device, "images", bytemuck::cast_slice(&t.images)), counts[0]);
+        self.faces = (storage(device, "faces", bytemuck::cast_slice(&t.faces)), counts[1]);
+        self.periodic = (storage(device, "periodic", bytemuck::cast_slice(&t.periodic)), counts[2]);
+        let thin_count = t.thin_ranges.len() as u32;
+        self.thin = (
+            storage(device, "thin taps", bytemuck::cast_slice(&t.thin_taps)),
+            storage(device, "thin ranges", bytemuck::cast_slice(&t.thin_ranges)),
+            thin_count,
+            [uniform(Params { stage: 1, count: thin_count, ..base }), uniform(Params { stage: 2, count: thin_count, ..base })],
+        );
+        self.groups = self.stage_groups();
+        self.rebind_face_fluxes(s);
+    }
+
+    /// Writes the populations of `s` (a solver of the same lattice) as the state fⁿ.
+    pub fn upload_state(&mut self, s: &FluidSolver) {
+        assert_eq!(s.layout.grid.len(), self.n_nodes, "a solver of the same lattice");
+        let mut f = vec![0f32; self.nv * self.stride];
+        let mut vals = vec![0.0; self.nv];
+        for node in 0..self.n_nodes {
+            s.pop.gather(&s.f, node, &mut vals);
+            for (v, x) in vals.iter().enumerate() {
+                f[v * self.stride + node] = *x as f32;
+            }
+        }
+        self.queue.write_buffer(&self.f[self.cur], 0, bytemuck::cast_slice(&f));
+    }
+}
