@@ -319,9 +319,40 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                 }
             }
         }
+        let mut gpu_coupled = Vec::new();
+        if wants("coupled") {
+            // the Wall flap (method 2) at its built-in resolution (D = 20 cells) and at D = 30
+            let flap = phonation::scene::builtin("wall_flap_conserving").expect("built in");
+            let finer = flap.replace("cells = [390, 240]", "cells = [585, 360]").replace("kernel_radius = 1.0 ", "kernel_radius = 1.5 ");
+            println!("GPU coupled step (method 2), the Wall flap, against the CPU in the same process:");
+            for (label, text) in [("wall_flap_conserving, D = 20", flap.to_string()), ("wall_flap_conserving, D = 30", finer)] {
+                let sc = phonation::scene::coupled::CoupledScene::parse(&text)?;
+                let steps = if quick { 5 } else { 50 };
+                match phonation::gpu::bench::coupled_speed(label, || sc.build().expect("a built-in scene builds"), steps) {
+                    Ok(v) => {
+                        let st: Vec<String> = v.gpu_stage_shares.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
+                        println!(
+                            "{:>30} {:>7} nodes {:>6} particles ×{} sub-steps: {:.2} steps/s ({:.2}× the CPU), {:.0} s per simulated s; coupling stages {:.0}% ({}); {} population round trips",
+                            v.scene,
+                            v.nodes,
+                            v.particles,
+                            v.solid_substeps,
+                            v.gpu_steps_per_s,
+                            v.gpu_steps_per_s / v.cpu_steps_per_s,
+                            v.gpu_wall_per_simulated_s,
+                            100.0 * v.gpu_coupling_share,
+                            st.join(", "),
+                            v.round_trips
+                        );
+                        gpu_coupled.push(v);
+                    }
+                    Err(e) => println!("{label} skipped: {e}"),
+                }
+            }
+        }
         report.insert(
             "gpu".into(),
-            serde_json::json!({ "adapter": ctx.describe(), "copy_bandwidth_gb_s": bw / 1e9, "lattices": gpu, "solid": gpu_solid, "lattice_gas": gpu_gas }),
+            serde_json::json!({ "adapter": ctx.describe(), "copy_bandwidth_gb_s": bw / 1e9, "lattices": gpu, "solid": gpu_solid, "lattice_gas": gpu_gas, "coupled": gpu_coupled }),
         );
     }
     if let Some(p) = json {

@@ -159,6 +159,24 @@ impl Shape {
         }
     }
 
+    /// A box (lattice coordinates, min and max corners) outside which this shape contains no
+    /// point and lies at least half a cell ([`super::layout::PINCH`]) from every point, so that
+    /// a node there is classified as if the shape were absent; None where the shape is
+    /// unbounded or not needed (the static shapes; [`super::layout::Layout::rebuilt`] then
+    /// rebuilds the whole lattice).
+    pub fn influence_box(&self) -> Option<([f64; 3], [f64; 3])> {
+        match self {
+            // L = −φ < 0 beyond r_e of every particle; `bin_box` is the particles' box grown by r_e
+            Shape::KernelLevelSet(k) => {
+                let (lo, hi, _) = k.bin_box();
+                Some((lo.map(|x| x - 1.0), hi.map(|x| x + 1.0)))
+            }
+            // a prism along z
+            Shape::Polygon(p) => Some(([p.bounds[0] - 1.0, p.bounds[1] - 1.0, f64::NEG_INFINITY], [p.bounds[2] + 1.0, p.bounds[3] + 1.0, f64::INFINITY])),
+            _ => None,
+        }
+    }
+
     /// Outward unit normal (pointing into the fluid) near `p`, by central differences of the
     /// signed distance (exact for the half-space, cylinder and sphere).
     pub fn normal(&self, p: [f64; 3]) -> [f64; 3] {

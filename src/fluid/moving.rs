@@ -37,9 +37,10 @@ impl FluidSolver {
     }
 
     /// The layout of this solver's lattice and faces with `obstacles` (what
-    /// [`Self::set_obstacles`] installs), without installing it.
+    /// [`Self::set_obstacles`] installs), without installing it: rebuilt from the current one
+    /// near the obstacles that changed ([`Layout::rebuilt`]).
     pub fn layout_with(&self, obstacles: &[Obstacle]) -> Layout {
-        Layout::new(self.layout.grid.clone(), self.layout.boundaries.clone(), obstacles)
+        self.layout.rebuilt(obstacles)
     }
 
     /// Installs `new` (a layout of the same lattice, [`Self::layout_with`]) and initialises

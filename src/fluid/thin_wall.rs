@@ -84,8 +84,8 @@ pub fn advect_thin_taps(taps: &[ThinTap], eq: &Equilibrium, pop: RowBlocked, py:
 /// Every (fluid node, axis, sign) whose upwind stencil reaches across a thin wall, with its
 /// one-sided weights (see the module docs).
 /// `periodic[a]`: axis a is periodic (an image node across the periodic face counts at its
-/// nearest periodic copy).
-pub fn thin_taps(grid: &Grid, kind: &[NodeKind], ghosts: &[Ghost], periodic: &[bool; 3]) -> Vec<ThinTap> {
+/// nearest periodic copy). `only`: the reading nodes to consider (ascending), all when None.
+pub fn thin_taps(grid: &Grid, kind: &[NodeKind], ghosts: &[Ghost], periodic: &[bool; 3], only: Option<&[usize]>) -> Vec<ThinTap> {
     let mut ghost_of = vec![usize::MAX; grid.len()];
     for (k, g) in ghosts.iter().enumerate() {
         ghost_of[g.node] = k;
@@ -111,7 +111,15 @@ pub fn thin_taps(grid: &Grid, kind: &[NodeKind], ghosts: &[Ghost], periodic: &[b
         })
         .collect();
     let mut out = Vec::new();
-    for node in 0..grid.len() {
+    let all: Vec<usize>;
+    let nodes = match only {
+        Some(v) => v,
+        None => {
+            all = (0..grid.len()).collect();
+            &all
+        }
+    };
+    for &node in nodes {
         if kind[node] != NodeKind::Fluid {
             continue;
         }

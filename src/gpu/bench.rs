@@ -177,3 +177,59 @@ pub fn drawing_speed(ctx: Option<&GpuContext>, n: usize, tracers: usize) -> Vec<
     });
     out
 }
+
+/// Method 2's coupled step of one scene on the GPU ([`super::coupled::GpuCoupled`]) and on the
+/// CPU, the same number of steps in one process.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct CoupledGpuSpeed {
+    pub scene: String,
+    pub nodes: usize,
+    pub particles: usize,
+    pub solid_substeps: u32,
+    pub steps: u64,
+    pub gpu_steps_per_s: f64,
+    pub cpu_steps_per_s: f64,
+    /// GPU wall seconds per simulated second.
+    pub gpu_wall_per_simulated_s: f64,
+    pub gpu_stage_shares: Vec<(String, f64)>,
+    /// The coupling's own stages (fluid_geometry + momentum_exchange) as a share of a GPU step
+    /// (the goal: ≤ 25 % at the flap's size on a real GPU).
+    pub gpu_coupling_share: f64,
+    /// GPU steps on which nodes changed side (the populations' round trip).
+    pub round_trips: u64,
+}
+
+/// Times `steps` coupled steps of the solver `build` makes, on the GPU (a device of its own,
+/// after two untimed steps that compile and warm it) and on the CPU.
+pub fn coupled_speed(scene: &str, build: impl Fn() -> crate::coupling::CoupledSolver, steps: u64) -> Result<CoupledGpuSpeed, GpuError> {
+    let mut cpu = build();
+    let (nodes, particles, substeps) = (cpu.fluid.layout.grid.interior_len(), cpu.solid.particles.len(), cpu.substeps);
+    let t = Instant::now();
+    let cpu_ok = cpu.run(steps).is_ok();
+    let cpu_wall = t.elapsed().as_secs_f64();
+    let mut g = super::coupled::GpuCoupled::new(GpuContext::new()?, build())?;
+    let warm = g.run(2).is_ok();
+    g.timings.iter_mut().for_each(|t| *t = std::time::Duration::ZERO);
+    let trips = g.round_trips;
+    let t = Instant::now();
+    let gpu_ok = warm && g.run(steps).is_ok();
+    let gpu_wall = t.elapsed().as_secs_f64();
+    if !(cpu_ok && gpu_ok) {
+        return Err(GpuError::Failed(format!("{scene}: the coupled run went unstable within {steps} steps (cpu ok: {cpu_ok}, gpu ok: {gpu_ok})")));
+    }
+    let shares: Vec<(String, f64)> = g.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
+    let coupling = shares.iter().filter(|(n, _)| n == "fluid_geometry" || n == "momentum_exchange").map(|(_, s)| s).sum();
+    Ok(CoupledGpuSpeed {
+        scene: scene.into(),
+        nodes,
+        particles,
+        solid_substeps: substeps,
+        steps,
+        gpu_steps_per_s: steps as f64 / gpu_wall,
+        cpu_steps_per_s: steps as f64 / cpu_wall,
+        gpu_wall_per_simulated_s: gpu_wall / (steps as f64 * g.cpu.dt()),
+        gpu_stage_shares: shares,
+        gpu_coupling_share: coupling,
+        round_trips: g.round_trips - trips,
+    })
+}
