@@ -654,7 +654,8 @@ fn lattice_gas_gpu_is_bit_identical_to_the_cpu_after_100_steps() {
     }
 }
 
-/// Checkpoint and resume on the GPU (fluid, lattice gas, solid without contact): a run stopped
+/// Checkpoint and resume on the GPU (fluid, lattice gas, solid without contact, a method-2
+/// coupled flap whose walls uncover and cover nodes): a run stopped
 /// after its checkpoint and resumed from it ends where the same GPU run that never stopped ends. The checkpoint holds the GPU state as
 /// the CPU mirror received it (f32 values, exact in f64) and the resume uploads it back
 /// unchanged, so the GPU continues bit for bit: the probes and the state hash are identical
@@ -670,7 +671,8 @@ fn a_gpu_run_resumed_from_its_checkpoint_ends_as_the_whole_run() {
                [lattice_gas.inlet]\nvelocity = 0.2\n[lattice_gas.cylinder]\ncenter = [16.0, 8.0]\nradius = 3.0\n\
                [lattice_gas.output]\ncoarse_block = 4\nevery = 30\nprobe_every = 5\n";
     let plate = phonation::scene::builtin("oscillating_plate").unwrap();
-    for (kind, text, csv) in [("fluid", fluid.as_str(), "probes.csv"), ("lattice_gas", gas, "probe.csv"), ("solid", plate, "solid.csv")] {
+    let flap = SMALL_FLAP.replace("[coupling]", "[output]\nprobe_every = 5\nsnapshots = 0\n[coupling]\noutput_every = 5");
+    for (kind, text, csv) in [("fluid", fluid.as_str(), "probes.csv"), ("lattice_gas", gas, "probe.csv"), ("solid", plate, "solid.csv"), ("coupled", &flap, "coupling.csv")] {
         let run = |dir: &std::path::Path, every: Option<u64>, stop_at: Option<u64>, resume: Option<Checkpoint>| -> String {
             let o = RunOptions {
                 steps: Some(60),
@@ -683,6 +685,7 @@ fn a_gpu_run_resumed_from_its_checkpoint_ends_as_the_whole_run() {
                 Scene::Fluid(sc) => phonation::run::run_scene(&sc, dir, &o).unwrap().state_hash,
                 Scene::LatticeGas(sc) => phonation::run::lattice_gas::run_lattice_gas_scene(&sc, dir, &o).unwrap().state_hash,
                 Scene::Solid(sc) => phonation::run::solid::run_solid_scene(&sc, dir, &o).unwrap().state_hash,
+                Scene::Coupled(sc) => phonation::run::coupled::run_coupled_scene(&sc, dir, &o).unwrap().state_hash,
                 _ => unreachable!(),
             }
         };
