@@ -672,7 +672,9 @@ fn a_gpu_run_resumed_from_its_checkpoint_ends_as_the_whole_run() {
                [lattice_gas.output]\ncoarse_block = 4\nevery = 30\nprobe_every = 5\n";
     let plate = phonation::scene::builtin("oscillating_plate").unwrap();
     let flap = SMALL_FLAP.replace("[coupling]", "[output]\nprobe_every = 5\nsnapshots = 0\n[coupling]\noutput_every = 5");
-    for (kind, text, csv) in [("fluid", fluid.as_str(), "probes.csv"), ("lattice_gas", gas, "probe.csv"), ("solid", plate, "solid.csv"), ("coupled", &flap, "coupling.csv")] {
+    for (kind, text, csv) in
+        [("fluid", fluid.as_str(), "probes.csv"), ("lattice_gas", gas, "probe.csv"), ("solid", plate, "solid.csv"), ("coupled", &flap, "coupling.csv")]
+    {
         let run = |dir: &std::path::Path, every: Option<u64>, stop_at: Option<u64>, resume: Option<Checkpoint>| -> String {
             let o = RunOptions {
                 steps: Some(60),
