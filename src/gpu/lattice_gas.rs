@@ -42,7 +42,8 @@ pub struct GpuLatticeGas {
     groups: [wgpu::BindGroup; 2],
     states: [wgpu::Buffer; 2],
     step_buffer: wgpu::Buffer,
-    pipelines: std::collections::HashMap<&'static str, wgpu::ComputePipeline>,
+    /// One pipeline per [`Kernel`].
+    pipelines: [wgpu::ComputePipeline; 6],
     /// Workgroups along x of every dispatch (as uploaded in the parameters).
     groups_x: u32,
     /// Which state buffer holds the current state.
@@ -55,12 +56,40 @@ fn pack(cell_words: &[u16]) -> Vec<u32> {
     cell_words.chunks(2).map(|p| p[0] as u32 | (p[1] as u32) << 16).collect()
 }
 
-fn entry_of(kind: LatticeGasStageKind) -> &'static str {
-    match kind {
-        LatticeGasStageKind::Collide => "collide",
-        LatticeGasStageKind::Interfere => "interfere",
-        LatticeGasStageKind::Propagate => "propagate",
-        LatticeGasStageKind::Boundaries => "boundaries",
+/// An entry point of the generated lattice-gas shader ([`super::lattice_gas_codegen`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kernel {
+    Collide,
+    Interfere,
+    /// Collide and interfere fused (what a whole step runs).
+    CollideInterfere,
+    Propagate,
+    Boundaries,
+    AdvanceStep,
+}
+
+impl Kernel {
+    const ALL: [Kernel; 6] = [Kernel::Collide, Kernel::Interfere, Kernel::CollideInterfere, Kernel::Propagate, Kernel::Boundaries, Kernel::AdvanceStep];
+
+    fn entry(self) -> &'static str {
+        match self {
+            Kernel::Collide => "collide",
+            Kernel::Interfere => "interfere",
+            Kernel::CollideInterfere => "collide_interfere",
+            Kernel::Propagate => "propagate",
+            Kernel::Boundaries => "boundaries",
+            Kernel::AdvanceStep => "advance_step",
+        }
+    }
+
+    /// The kernel of one stage of [`LATTICE_GAS_STEP`] run on its own.
+    fn of(kind: LatticeGasStageKind) -> Self {
+        match kind {
+            LatticeGasStageKind::Collide => Kernel::Collide,
+            LatticeGasStageKind::Interfere => Kernel::Interfere,
+            LatticeGasStageKind::Propagate => Kernel::Propagate,
+            LatticeGasStageKind::Boundaries => Kernel::Boundaries,
+        }
     }
 }
 
@@ -132,7 +161,8 @@ impl GpuLatticeGas {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipelines = compute_pipelines(&device, &module, &pl, &["collide", "interfere", "collide_interfere", "propagate", "boundaries", "advance_step"]);
+        let mut map = compute_pipelines(&device, &module, &pl, &Kernel::ALL.map(Kernel::entry));
+        let pipelines = Kernel::ALL.map(|k| map.remove(k.entry()).expect("one pipeline per entry point"));
         Ok(Self { device, queue: ctx.queue.clone(), dims: g.dims, words, groups, states, step_buffer, pipelines, groups_x, cur: 0, step: g.step })
     }
 
@@ -143,19 +173,19 @@ impl GpuLatticeGas {
     /// Records a stage with the bind group whose `src` is state buffer `group`.
     fn record_stage_on(&self, pass: &mut wgpu::ComputePass, kind: LatticeGasStageKind, group: usize) {
         let threads = if kind == LatticeGasStageKind::Boundaries { (self.dims[1] * self.dims[2]) as u32 } else { self.words };
-        self.dispatch(pass, entry_of(kind), group, threads);
+        self.dispatch(pass, Kernel::of(kind), group, threads);
     }
 
-    /// Dispatches kernel `entry` over `threads` threads with bind group `group`.
-    fn dispatch(&self, pass: &mut wgpu::ComputePass, entry: &str, group: usize, threads: u32) {
-        pass.set_pipeline(&self.pipelines[entry]);
+    /// Dispatches `kernel` over `threads` threads with bind group `group`.
+    fn dispatch(&self, pass: &mut wgpu::ComputePass, kernel: Kernel, group: usize, threads: u32) {
+        pass.set_pipeline(&self.pipelines[kernel as usize]);
         pass.set_bind_group(0, &self.groups[group], &[]);
         pass.dispatch_workgroups(self.groups_x, threads.div_ceil(WG).div_ceil(self.groups_x).max(1), 1);
     }
 
     /// Advances the GPU's step counter (one thread).
     fn record_advance_step(&self, pass: &mut wgpu::ComputePass) {
-        pass.set_pipeline(&self.pipelines["advance_step"]);
+        pass.set_pipeline(&self.pipelines[Kernel::AdvanceStep as usize]);
         pass.set_bind_group(0, &self.groups[self.cur], &[]);
         pass.dispatch_workgroups(1, 1, 1);
     }
@@ -167,7 +197,7 @@ impl GpuLatticeGas {
         // `dst`, which becomes the current state below
         for s in LATTICE_GAS_STEP {
             match s.kind {
-                LatticeGasStageKind::Collide => self.dispatch(&mut pass, "collide_interfere", self.cur, self.words),
+                LatticeGasStageKind::Collide => self.dispatch(&mut pass, Kernel::CollideInterfere, self.cur, self.words),
                 LatticeGasStageKind::Interfere => {}
                 _ => self.record_stage(&mut pass, s.kind),
             }
@@ -293,5 +323,17 @@ mod mirror_tests {
             "Params",
             mirror!(Params { row_words, ny, nz, words, seed, interference, inlet, groups_x, outlet, diagonals, pad, inlet_thresholds }),
         );
+    }
+
+    /// The kernels by name are exactly the generated shader's entry points.
+    #[test]
+    fn the_kernels_are_the_shaders_entry_points() {
+        let src = crate::gpu::lattice_gas_codegen::shader();
+        let module = crate::gpu::wgsl_check::validate("lattice_gas", &src);
+        let mut entries: Vec<&str> = module.entry_points.iter().map(|e| e.name.as_str()).collect();
+        let mut ours: Vec<&str> = super::Kernel::ALL.iter().map(|k| k.entry()).collect();
+        entries.sort();
+        ours.sort();
+        assert_eq!(entries, ours);
     }
 }
