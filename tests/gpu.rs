@@ -10,6 +10,8 @@ use phonation::gpu::fdlb::compare_nodes;
 use phonation::gpu::{GpuArray, GpuContext, GpuFluid};
 use phonation::stages::FDLB_STEP;
 
+mod common;
+
 fn context() -> Option<GpuContext> {
     match GpuContext::new() {
         Ok(c) => {
@@ -1090,4 +1092,76 @@ fn a_coupled_scene_runs_on_the_gpu_backend_with_the_cpus_outputs() {
     let e = run_coupled_scene(&weak, &dir, &RunOptions { steps: Some(1), backend: Backend::Gpu, ..Default::default() }).unwrap_err().to_string();
     let _ = std::fs::remove_dir_all(&dir);
     assert!(e.starts_with("coupling.method"), "{e}");
+}
+
+/// No setting silently ignored, on the GPU backends: every number and flag of a small scene of
+/// each kind the GPU runs (the fluid channel of tests/good_base.toml, the oscillating plate, a
+/// lattice-gas wake, the method-2 flap), nudged as in tests/scenes.rs
+/// `every_scene_key_changes_the_state_or_is_refused`, is refused (by the reader, the build or
+/// the GPU backend, naming a field) or changes the state the GPU reaches in two steps.
+#[test]
+fn every_scene_key_changes_the_gpu_state_or_is_refused() {
+    use phonation::run::{Backend, CoupledEngine, FluidEngine, LatticeGasEngine, SolidEngine};
+    use phonation::scene::Scene;
+    use phonation::state::state_hash;
+    use phonation::step::Solver;
+    let Some(_ctx) = context() else { return };
+    // the state after two GPU steps, or the refusal
+    fn gpu_hash(s: &Scene) -> Result<String, String> {
+        let e = |e: &dyn std::fmt::Display| e.to_string();
+        Ok(match s {
+            Scene::Fluid(sc) => {
+                let mut g = FluidEngine::new(Backend::Gpu, sc.build_solver()).map_err(|x| e(&x))?;
+                g.advance(2).map_err(|x| e(&x))?;
+                state_hash(&g.solver) + &serde_json::to_string(&sc.summary()).unwrap()
+            }
+            Scene::Solid(sc) => {
+                let mut g = SolidEngine::new(Backend::Gpu, sc.build().map_err(|x| e(&x))?, sc.file.solid.cg_tolerance).map_err(|x| e(&x))?;
+                g.advance(2).map_err(|x| e(&x))?;
+                state_hash(&g.solver)
+            }
+            Scene::LatticeGas(sc) => {
+                let mut g = LatticeGasEngine::new(Backend::Gpu, sc.build()).map_err(|x| e(&x))?;
+                g.advance(2).map_err(|x| e(&x))?;
+                state_hash(&g.gas)
+            }
+            Scene::Coupled(sc) => {
+                let mut g = CoupledEngine::new(Backend::Gpu, sc.build().map_err(|x| e(&x))?, sc.solid.file.solid.cg_tolerance).map_err(|x| e(&x))?;
+                g.advance(2).map_err(|x| e(&x))?;
+                state_hash(g.solver()) + &serde_json::to_string(&sc.fluid.summary()).unwrap()
+            }
+            Scene::TwoMass(_) => unreachable!("no GPU backend"),
+        })
+    }
+    let fluid = std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/good_base.toml")).unwrap();
+    // a radius of 3.5 ℓ: cell centres lie on a 2 ℓ lattice, so a 25 % nudge of 3 ℓ marks the
+    // same cells (the discrete cylinder changes at 2, 2.83, 4 ℓ); from 3.5 it reaches 4
+    let gas = "name = \"small_wake\"\n[lattice_gas]\ncells = [32, 16, 2]\ndensity = 0.2\ninterference = 0.1\nsteps = 60\n\
+               [lattice_gas.inlet]\nvelocity = 0.2\n[lattice_gas.cylinder]\ncenter = [16.0, 8.0]\nradius = 3.5\n";
+    let scenes = [
+        ("good_base", fluid.as_str()),
+        ("oscillating_plate", phonation::scene::builtin("oscillating_plate").unwrap()),
+        ("small_wake", gas),
+        ("small_flap", SMALL_FLAP),
+    ];
+    let (mut checked, mut refused) = (0, 0);
+    let mut ignored = Vec::new();
+    for (name, text) in scenes {
+        let h0 = gpu_hash(&Scene::read(text).unwrap()).unwrap_or_else(|e| panic!("{name}: {e}"));
+        for (key, nudged) in common::nudged_scenes(text) {
+            checked += 1;
+            let Ok(s) = Scene::read(&nudged) else {
+                refused += 1;
+                continue;
+            };
+            match gpu_hash(&s) {
+                Err(_) => refused += 1,
+                Ok(h) if h != h0 => {}
+                Ok(_) => ignored.push(format!("{name}: {key}")),
+            }
+        }
+    }
+    eprintln!("{checked} keys nudged on the GPU, {refused} refused");
+    assert!(checked > 40);
+    assert!(ignored.is_empty(), "keys with no effect on the GPU state after two steps and not refused: {ignored:#?}");
 }

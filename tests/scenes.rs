@@ -5,6 +5,8 @@
 use phonation::run::{Backend, RunOptions, RunStatus, run_scene};
 use phonation::scene;
 
+mod common;
+
 #[test]
 fn bad_scene_files_are_refused_with_the_field_and_the_reason() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/bad_scenes");
@@ -435,17 +437,14 @@ mod fuzz {
 /// No setting silently ignored (CPU backend): every numeric or boolean key of every CPU-sized
 /// built-in scene, nudged (a number by 3 %, an integer by one, a flag flipped), either is
 /// refused with a field or changes the solver's state after two steps (its state hash) — or is
-/// one of the keys that shape the outputs and the run's length only (listed below, with what
-/// they set). Keys the GPU refuses are covered by the GPU tests (`solid.cg_tolerance`, walls).
+/// one of the keys that shape the outputs and the run's length only or whose effect two steps
+/// cannot show (`common::left_out`, with where each is shown). The same walk on the GPU
+/// backends: tests/gpu.rs `every_scene_key_changes_the_gpu_state_or_is_refused`.
 #[test]
 fn every_scene_key_changes_the_state_or_is_refused() {
     use phonation::scene::Scene;
     use phonation::state::{SaveState, state_hash};
     use phonation::step::Solver;
-    use toml::Value;
-    // keys that set outputs or the run's length, not the physics (last path element)
-    const OUTPUT_ONLY: [&str; 12] =
-        ["duration", "steps", "probe_every", "snapshots", "output_every", "every", "coarse_block", "vtk", "window_fraction", "f0_min", "f0_max", "position"];
     fn hash_after_two_steps(s: &Scene) -> Option<String> {
         fn two<S: Solver + SaveState>(mut s: S) -> String {
             s.advance(2).expect("two steps of an accepted scene");
@@ -466,28 +465,6 @@ fn every_scene_key_changes_the_state_or_is_refused() {
             Scene::TwoMass(_) => return None,
         })
     }
-    fn leaves(v: &Value, here: &mut Vec<String>, out: &mut Vec<Vec<String>>) {
-        match v {
-            Value::Table(t) => t.iter().for_each(|(k, x)| {
-                here.push(k.clone());
-                leaves(x, here, out);
-                here.pop();
-            }),
-            Value::Array(a) => a.iter().enumerate().for_each(|(i, x)| {
-                here.push(format!("#{i}"));
-                leaves(x, here, out);
-                here.pop();
-            }),
-            Value::Integer(_) | Value::Float(_) | Value::Boolean(_) => out.push(here.clone()),
-            _ => {}
-        }
-    }
-    fn at<'a>(v: &'a mut Value, path: &[String]) -> &'a mut Value {
-        path.iter().fold(v, |v, k| match k.strip_prefix('#') {
-            Some(i) => &mut v.as_array_mut().unwrap()[i.parse::<usize>().unwrap()],
-            None => v.as_table_mut().unwrap().get_mut(k).unwrap(),
-        })
-    }
     let small = [
         "lid_cavity",
         "two_blocks",
@@ -504,47 +481,14 @@ fn every_scene_key_changes_the_state_or_is_refused() {
     let mut checked = 0;
     for name in small {
         let text = phonation::scene::builtin(name).unwrap();
-        let base: Value = Value::Table(text.parse::<toml::Table>().unwrap());
         let h0 = hash_after_two_steps(&Scene::read(text).unwrap()).unwrap();
-        let mut paths = Vec::new();
-        leaves(&base, &mut Vec::new(), &mut paths);
-        for p in paths {
-            let last = p.iter().rev().find(|k| !k.starts_with('#')).unwrap();
-            // fluid probes and the coupling's particle probes are outputs
-            if OUTPUT_ONLY.contains(&last.as_str()) || p[0] == "probes" || p.len() > 1 && p[0] == "coupling" && p[1] == "probes" {
-                continue;
-            }
-            // Keys whose effect these two steps cannot show, each with where it is shown:
-            // contact parameters act only once bodies touch (no scene here touches in its first
-            // steps; tests/solid.rs `contact` tests measure them); a wall's normal is
-            // normalised (a longer normal is the same wall); in 2D (plane strain) the
-            // out-of-plane shear moduli G_yz, G_zx do not enter (seed §3.4.1, see the glottis
-            // scenes' comments; the 3D solid tests use them).
-            let joined = p.join(".");
-            let plane_strain_shear =
-                base.get("solid").and_then(|s| s.get("dimension")).and_then(Value::as_integer) == Some(2) && last == "shear" && !joined.ends_with("#2");
-            // Selection boxes (clamps, loads) reach beyond the body, where a nudged bound
-            // selects the same particles, and the fold's clamped strip lies deep inside the
-            // fold, beyond what two steps move (tests/solid.rs: clamps and loads tests).
-            let selection = joined.starts_with("solid.clamps.") || joined.starts_with("solid.loads.") && !joined.contains("force") || last == "fixed_depth";
-            if joined.starts_with("solid.contact.") || joined.contains("walls") && joined.contains("normal") || plane_strain_shear || selection {
-                continue;
-            }
-            let mut doc = base.clone();
-            let v = at(&mut doc, &p);
-            *v = match v.clone() {
-                Value::Integer(i) => Value::Integer(i + 1),
-                // 25 %: enough to add a row of particles to a box or a clamp
-                Value::Float(x) => Value::Float(if x == 0.0 { 1e-3 } else { x * 1.25 }),
-                Value::Boolean(b) => Value::Boolean(!b),
-                _ => unreachable!(),
-            };
+        for (key, nudged) in common::nudged_scenes(text) {
             checked += 1;
-            let Ok(s) = Scene::read(&toml::to_string(doc.as_table().unwrap()).unwrap()) else { continue };
+            let Ok(s) = Scene::read(&nudged) else { continue };
             match hash_after_two_steps(&s) {
                 None => {}
                 Some(h) if h != h0 => {}
-                Some(_) => ignored.push(format!("{name}: {}", p.join("."))),
+                Some(_) => ignored.push(format!("{name}: {key}")),
             }
         }
     }
