@@ -379,7 +379,11 @@ fn glottal_outputs(sc: &CoupledScene, dir: &Path, record: &GlottalRecord, files:
         .map(|m| serde_json::json!({ "f0_hz": m.f0_autocorrelation_hz, "peak_flow_cm3_s": m.peak_flow, "open_quotient": m.open_quotient }));
     let extra = serde_json::json!({
         "scene": sc.fluid.file.name,
-        "model": "2D coupled glottis (seed §3.4.1): FDLB air, MPS folds, weak coupling; flows and areas per fold length",
+        "model": if sc.fluid.grid.dim == 3 {
+            "3D coupled glottis (seed §3.4.3): FDLB air, MPS folds; the narrowest section between the folds' level-set walls: real areas and flows"
+        } else {
+            "2D coupled glottis (seed §3.4.1): FDLB air, MPS folds; flows and areas per fold length"
+        },
         "lung_pressure_dyn_cm2": lung,
         "two_mass_yardstick": yardstick,
     });
