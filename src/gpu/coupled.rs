@@ -180,9 +180,6 @@ impl GpuCoupled {
     /// Copies the whole GPU state (populations, particles) into [`Self::cpu`] for outputs.
     pub fn download_into(&mut self) {
         self.fluid.download_into(&mut self.cpu.fluid);
-        let (steps, time) = (self.cpu.solid.step_count, self.cpu.solid.time);
         self.solid.download_into(&mut self.cpu.solid);
-        // the GPU solid counts its sub-steps as the CPU one does
-        debug_assert!(self.cpu.solid.step_count >= steps && self.cpu.solid.time >= time);
     }
 }

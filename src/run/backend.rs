@@ -259,49 +259,57 @@ impl Solver for SolidEngine {
 /// ([`GpuCoupled`]), whose CPU side [`CoupledEngine::solver`] receives the whole GPU state
 /// after every [`Solver::advance`].
 pub struct CoupledEngine {
-    cpu: Option<CoupledSolver>,
-    gpu: Option<Box<GpuCoupled>>,
+    on: CoupledOn,
     health: Option<DeviceHealth>,
     pub name: String,
+}
+
+/// Where the coupled solver runs.
+enum CoupledOn {
+    Cpu(CoupledSolver),
+    Gpu(Box<GpuCoupled>),
 }
 
 impl CoupledEngine {
     /// Picks the backend and uploads `solver` to the GPU when it is chosen (method 2 without
     /// prescribed motions: `--backend gpu` refuses anything else with the field, `auto` runs it
     /// on the CPU and says why). `cg_tolerance`: the scene's `solid.cg_tolerance`, as for
-    /// [`SolidEngine::new`].
+    /// [`SolidEngine::new`] (checked before anything is uploaded).
     pub fn new(backend: Backend, solver: CoupledSolver, cg_tolerance: Option<f64>) -> anyhow::Result<Self> {
         let (ctx, name) = pick_gpu(backend)?;
-        let Some(ctx) = ctx else { return Ok(Self { cpu: Some(solver), gpu: None, health: None, name }) };
+        let Some(ctx) = ctx else { return Ok(Self { on: CoupledOn::Cpu(solver), health: None, name }) };
         if let Err(why) = GpuCoupled::supports(&solver) {
             if backend == Backend::Gpu {
                 return Err(why.into());
             }
             let name = format!("cpu ({} threads; the GPU backend does not run this scene: {why})", rayon::current_num_threads());
-            return Ok(Self { cpu: Some(solver), gpu: None, health: None, name });
+            return Ok(Self { on: CoupledOn::Cpu(solver), health: None, name });
         }
+        let tolerance = gpu_cg_tolerance(cg_tolerance)?;
         let health = ctx.health.clone();
         let mut g = GpuCoupled::new(ctx, solver)?;
-        g.solid.cg_tolerance = gpu_cg_tolerance(cg_tolerance)?;
+        g.solid.cg_tolerance = tolerance;
         if let Some(why) = health.settle() {
             return Err(GpuError::Failed(why).into());
         }
-        Ok(Self { cpu: None, gpu: Some(Box::new(g)), health: Some(health), name })
+        Ok(Self { on: CoupledOn::Gpu(Box::new(g)), health: Some(health), name })
     }
 
     /// The coupled solver (on the GPU: its CPU side, holding the state of the last advance).
     pub fn solver(&self) -> &CoupledSolver {
-        match (&self.cpu, &self.gpu) {
-            (Some(c), _) => c,
-            (None, Some(g)) => &g.cpu,
-            (None, None) => unreachable!("one backend"),
+        match &self.on {
+            CoupledOn::Cpu(c) => c,
+            CoupledOn::Gpu(g) => &g.cpu,
         }
     }
 
     /// Steps on which the GPU brought the populations back because nodes changed side (None on
     /// the CPU).
     pub fn gpu_round_trips(&self) -> Option<u64> {
-        self.gpu.as_ref().map(|g| g.round_trips)
+        match &self.on {
+            CoupledOn::Cpu(_) => None,
+            CoupledOn::Gpu(g) => Some(g.round_trips),
+        }
     }
 }
 
@@ -315,7 +323,10 @@ impl Solver for CoupledEngine {
     }
 
     fn advance(&mut self, n: u64) -> Result<(), Instability> {
-        let Some(g) = self.gpu.as_mut() else { return self.cpu.as_mut().expect("one backend").run(n) };
+        let g = match &mut self.on {
+            CoupledOn::Cpu(c) => return c.run(n),
+            CoupledOn::Gpu(g) => g,
+        };
         let r = g.run(n);
         if let Some(why) = self.health.as_ref().and_then(|h| h.settle()) {
             let c = &g.cpu;
@@ -327,10 +338,9 @@ impl Solver for CoupledEngine {
     }
 
     fn stage_shares(&self) -> Vec<(&'static str, f64)> {
-        match (&self.cpu, &self.gpu) {
-            (Some(c), _) => c.stage_shares(),
-            (_, Some(g)) => g.stage_shares(),
-            _ => Vec::new(),
+        match &self.on {
+            CoupledOn::Cpu(c) => c.stage_shares(),
+            CoupledOn::Gpu(g) => g.stage_shares(),
         }
     }
 }
