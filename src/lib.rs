@@ -2,8 +2,9 @@
 //!
 //! Vocal-fold fluid–structure interaction: a compressible thermal finite-difference lattice
 //! Boltzmann fluid (D2Q21 / D3Q39, seed 000 §2.3), an MPS orthotropic viscoelastic solid
-//! (§2.1–2.2), their coupling (§2.4; the weak method so far), GPU twins of the fluid and solid
-//! kernels, an integer lattice gas (seed 002), the voice measures and a two-mass reference model.
+//! (§2.1–2.2), their two couplings (§2.4: the weak one and the momentum-conserving one), GPU
+//! twins of the fluid, solid and coupling kernels (method 2's coupled step runs on the GPU), an
+//! integer lattice gas (seed 002), the voice measures and a two-mass reference model.
 //! It ships as a headless simulator (`phonation` binary) and a Bevy plugin (feature `bevy`).
 //!
 //! | module | what |
@@ -15,7 +16,7 @@
 //! | [`two_mass`] | the Ishizaka–Flanagan two-mass model of the folds (the yardstick of the glottis) |
 //! | [`hash`] | the counter-based hash shared by CPU and GPU random streams (lattice gas, tracers) |
 //! | [`error`] | the field-naming input error shared by every layer |
-//! | [`coupling`] | fluid–structure coupling: surfaces, tractions, prescribed motions, the weak coupling (method 1) |
+//! | [`coupling`] | fluid–structure coupling: surfaces, tractions, prescribed motions, the weak coupling (method 1), level sets and momentum exchange (method 2), the glottal readouts (2D and 3D) |
 //! | [`solid`] | MPS orthotropic viscoelastic solid: materials, particles, forces, contact, explicit and implicit steps, the vocal-fold geometry |
 //! | [`stages`] | the ordered stage list of one step (CPU, GPU, Bevy, timings) |
 //! | [`state`] | a solver's complete state as bytes (checkpoints) and its determinism hash |
@@ -27,6 +28,7 @@
 //! | [`validation`] | analytic references and validation cases (Taylor–Green, Sod, …) |
 //! | [`bench`] | memory bandwidth and cells/s measurements, cost per update against size |
 //! | [`machine`] | the last-level cache, and when a rate is a fraction of the memory bandwidth |
+//! | [`gpu`] | wgpu compute twins of the core (no Bevy): the generated FDLB kernels, the solid, the lattice gas, method 2's coupling kernels and coupled step ([`gpu::coupled`]), marching cubes, tracers; each kernel checked against its CPU twin (tests/gpu.rs) |
 //! | `plugin` | Bevy plugin that steps simulations (feature `bevy`) |
 //! | `render` | drawing in Bevy (feature `render`, on by default): `render::PhonationPlugins`, the fold mesh, tracers, slices, the egui panel |
 
