@@ -492,6 +492,49 @@ fn the_glottis_renders_headless_with_folds_tracers_and_slice() {
     assert!(fold_share > 0.01 && other < 0.01, "folds {fold_share}, other {other}");
     assert!(tracer_share > 0.0005, "tracers {tracer_share}");
     assert!(all_share > 0.3, "slice {all_share}");
+    // Two frames far apart differ where the folds move: 3000 steps (≈ 1 ms) between two
+    // folds-only frames, in which the lung pressure pushes the folds apart by ≈ 0.012 cm
+    // (`phonation run glottis_2d_coarse --steps 3000`: largest displacement 0.0124 cm), ≈ 2.5
+    // pixels here; the pixels that change lie at the folds' edges (within two pixels of fold
+    // colour in either frame: the edge moved, its antialiasing and shading with it) and nothing
+    // else changes.
+    *app.world_mut().resource_mut::<DrawSettings>() = DrawSettings { folds: true, tracers: false, slice: None, ..default() };
+    let before = capture(&mut app, "render_folds_before.png");
+    let step0 = app.world_mut().query::<&CoupledSimulation>().single(app.world()).unwrap().solver.step_count;
+    app.world_mut().resource_mut::<SimulationControl>().steps_per_frame = 500;
+    for _ in 0..6 {
+        app.update();
+    }
+    app.world_mut().resource_mut::<SimulationControl>().steps_per_frame = 1;
+    let after = capture(&mut app, "render_folds_after.png");
+    let steps = app.world_mut().query::<&CoupledSimulation>().single(app.world()).unwrap().solver.step_count - step0;
+    let px = |img: &[u8], k: usize| (img[4 * k] as i32, img[4 * k + 1] as i32, img[4 * k + 2] as i32);
+    let is_fold = |img: &[u8], k: usize| {
+        let (r, g, b) = px(img, k);
+        fold_colour(r, g, b)
+    };
+    // within two pixels of the folds in either frame (their antialiased, shaded edges)
+    let (wi, hi) = (w as i64, h as i64);
+    let near_folds = |k: usize| {
+        let (x, y) = ((k as i64) % wi, (k as i64) / wi);
+        (-2..=2).any(|dy| {
+            (-2..=2).any(|dx| {
+                let (u, v) = (x + dx, y + dy);
+                u >= 0 && v >= 0 && u < wi && v < hi && (is_fold(&before, (v * wi + u) as usize) || is_fold(&after, (v * wi + u) as usize))
+            })
+        })
+    };
+    let (mut at_folds, mut elsewhere) = (0usize, 0usize);
+    for k in 0..(w * h) as usize {
+        let (a, b) = (px(&before, k), px(&after, k));
+        let changed = is_fold(&before, k) != is_fold(&after, k) || (a.0 - b.0).abs() + (a.1 - b.1).abs() + (a.2 - b.2).abs() > 40;
+        if changed {
+            if near_folds(k) { at_folds += 1 } else { elsewhere += 1 }
+        }
+    }
+    let (moved, still) = (at_folds as f64 / (w * h) as f64, elsewhere as f64 / (w * h) as f64);
+    eprintln!("after {steps} more steps: {moved:.4} of the image changed at the folds' edges, {still:.5} elsewhere");
+    assert!(steps >= 3000 && moved > 1e-3 && still < 1e-4, "changed at the folds {moved}, elsewhere {still}");
 }
 
 /// The diagnostics plugin puts the simulations' figures in Bevy's store: particles and node
