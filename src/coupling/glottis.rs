@@ -104,18 +104,17 @@ impl Glottis {
         }
         // Σ ρu_y Δx / ρ₀ in lattice units → cm²/s per unit length
         let flow = flux * u.velocity * u.dx * self.length;
-        let lateral = |k: [usize; 2], p: &Particles| {
+        let (lower_margin, upper_margin) = self.margins(p);
+        GlottalSample { gap, narrowest_y: y, area: gap.max(0.0) * self.length, flow, lower_margin, upper_margin }
+    }
+
+    /// Lateral (opening) displacement of the lower and upper margins, mean of both folds.
+    fn margins(&self, p: &Particles) -> (f64, f64) {
+        let lateral = |k: [usize; 2]| {
             let d = |i: usize| p.position[i].x - p.reference[i].x;
             0.5 * (d(k[1]) - d(k[0]))
         };
-        GlottalSample {
-            gap,
-            narrowest_y: y,
-            area: gap.max(0.0) * self.length,
-            flow,
-            lower_margin: lateral(self.lower_margin, p),
-            upper_margin: lateral(self.upper_margin, p),
-        }
+        (lateral(self.lower_margin), lateral(self.upper_margin))
     }
 }
 
@@ -125,12 +124,7 @@ impl Glottis {
     /// length applies), the volume flow through it, ∫ ρu_y dA / ρ₀ over the fluid nodes of that
     /// lattice row between the walls (cm³/s), and the smallest lateral gap in it (cm).
     fn sample_3d(&self, c: &CoupledSolver) -> GlottalSample {
-        let p = &c.solid.particles;
-        let lateral = |k: [usize; 2]| {
-            let d = |i: usize| p.position[i].x - p.reference[i].x;
-            0.5 * (d(k[1]) - d(k[0]))
-        };
-        let (lower_margin, upper_margin) = (lateral(self.lower_margin), lateral(self.upper_margin));
+        let (lower_margin, upper_margin) = self.margins(&c.solid.particles);
         let sets = c.drawn_level_sets();
         let u = &c.units;
         let g = &c.fluid.layout.grid;
@@ -187,17 +181,8 @@ pub struct Section3d {
 /// row's area is Σ_z gap·Δz; the section is the row of smallest area. None when no line meets
 /// both folds.
 pub fn section_3d(left: &KernelLevelSet, right: &KernelLevelSet, mid_line: f64, [ny, nz]: [usize; 2]) -> Option<Section3d> {
-    let bbox = |s: &KernelLevelSet| {
-        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-        for p in &s.points {
-            for a in 0..3 {
-                lo[a] = lo[a].min(p[a] - s.re);
-                hi[a] = hi[a].max(p[a] + s.re);
-            }
-        }
-        (lo, hi)
-    };
-    let ((ll, lh), (rl, rh)) = (bbox(left), bbox(right));
+    // each fold's particles' box grown by r_e: beyond it L = −φ < 0
+    let ((ll, lh, _), (rl, rh, _)) = (left.bin_box(), right.bin_box());
     let inside = |s: &KernelLevelSet, x: f64, y: f64, z: f64| s.level([x, y, z]).0 > 0.0;
     // the wall of `s` on the line (y, z), from the mid-line in direction `dir`, within `[lo, hi]` in x
     let wall = |s: &KernelLevelSet, y: f64, z: f64, dir: f64, lo: f64, hi: f64| -> Option<f64> {

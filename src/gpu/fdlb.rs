@@ -212,14 +212,7 @@ impl GpuFluid {
         let n = g.len();
         let stride = n.div_ceil(64) * 64;
         let split = Self::fits(limits, n, nv)?;
-        let mut f0 = vec![0f32; nv * stride];
-        let mut vals = vec![0.0; nv];
-        for node in 0..n {
-            s.pop.gather(&s.f, node, &mut vals);
-            for v in 0..nv {
-                f0[v * stride + node] = vals[v] as f32;
-            }
-        }
+        let f0 = geometry::state_array(s, stride);
         let fb = bytemuck::cast_slice(&f0);
         let f = [storage(&device, "f", fb), storage(&device, "f1", fb), storage(&device, "f2", fb)];
         let h = storage(&device, "h", fb);

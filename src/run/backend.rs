@@ -302,15 +302,6 @@ impl CoupledEngine {
             CoupledOn::Gpu(g) => &g.cpu,
         }
     }
-
-    /// Steps on which the GPU brought the populations back because nodes changed side (None on
-    /// the CPU).
-    pub fn gpu_round_trips(&self) -> Option<u64> {
-        match &self.on {
-            CoupledOn::Cpu(_) => None,
-            CoupledOn::Gpu(g) => Some(g.round_trips),
-        }
-    }
 }
 
 impl Solver for CoupledEngine {

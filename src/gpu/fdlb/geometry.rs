@@ -1,4 +1,4 @@
-//! The fluid's geometry on the GPU: the node kinds and the boundary tables (ghost nodes with
+//! The fluid's geometry and state on the GPU: the node kinds and the boundary tables (ghost nodes with
 //! their image stencils, face halos, periodic copies, thin-wall taps) built from a CPU layout —
 //! once at upload, and again at every step of a coupled run whose walls move
 //! ([`GpuFluid::set_geometry`], the `fluid_geometry` stage).
@@ -120,14 +120,20 @@ impl GpuFluid {
     /// Writes the populations of `s` (a solver of the same lattice) as the state fⁿ.
     pub fn upload_state(&mut self, s: &FluidSolver) {
         assert_eq!(s.layout.grid.len(), self.n_nodes, "a solver of the same lattice");
-        let mut f = vec![0f32; self.nv * self.stride];
-        let mut vals = vec![0.0; self.nv];
-        for node in 0..self.n_nodes {
-            s.pop.gather(&s.f, node, &mut vals);
-            for (v, x) in vals.iter().enumerate() {
-                f[v * self.stride + node] = *x as f32;
-            }
-        }
-        self.queue.write_buffer(&self.f[self.cur], 0, bytemuck::cast_slice(&f));
+        self.queue.write_buffer(&self.f[self.cur], 0, bytemuck::cast_slice(&state_array(s, self.stride)));
     }
+}
+
+/// The populations of `s` as the GPU holds them: f32, value v of a node at `v · stride + node`.
+pub(super) fn state_array(s: &FluidSolver, stride: usize) -> Vec<f32> {
+    let nv = s.eq.values_per_node();
+    let mut f = vec![0f32; nv * stride];
+    let mut vals = vec![0.0; nv];
+    for node in 0..s.layout.grid.len() {
+        s.pop.gather(&s.f, node, &mut vals);
+        for (v, x) in vals.iter().enumerate() {
+            f[v * stride + node] = *x as f32;
+        }
+    }
+    f
 }
