@@ -195,25 +195,41 @@ impl Layout {
         // of two of them is *pinched* (a slit narrower than a cell, e.g. a closing glottis): it
         // leaves the fluid too, with the nearest of the two (d ≥ 0), since a fluid node squeezed
         // between two walls that close on it is compressed without bound.
-        let containing = |p: [f64; 3]| -> Option<(usize, f64)> {
-            let mut inside: Option<(usize, f64)> = None;
+        // Most nodes lie inside one obstacle or none: their side comes from
+        // `Shape::outside_distance` (one evaluation of a level set); the depths, which a level
+        // set finds by Newton steps, only where two obstacles contain the node.
+        let containing = |p: [f64; 3]| -> Option<usize> {
+            let mut inside: Option<usize> = None;
+            let mut several = false;
             let mut near: [Option<(usize, f64)>; 2] = [None, None];
             for (k, o) in obstacles.iter().enumerate() {
-                let d = o.shape.sdf(p);
-                if d < 0.0 {
-                    if inside.is_none_or(|(_, bd)| d > bd) {
-                        inside = Some((k, d));
+                match o.shape.outside_distance(p) {
+                    None => {
+                        several |= inside.is_some();
+                        inside = inside.or(Some(k));
                     }
-                } else if d < PINCH {
-                    if near[0].is_none_or(|(_, nd)| d < nd) {
-                        near[1] = near[0];
-                        near[0] = Some((k, d));
-                    } else if near[1].is_none_or(|(_, nd)| d < nd) {
-                        near[1] = Some((k, d));
+                    Some(d) if d < PINCH => {
+                        if near[0].is_none_or(|(_, nd)| d < nd) {
+                            near[1] = near[0];
+                            near[0] = Some((k, d));
+                        } else if near[1].is_none_or(|(_, nd)| d < nd) {
+                            near[1] = Some((k, d));
+                        }
                     }
+                    Some(_) => {}
                 }
             }
-            inside.or(if near[1].is_some() { near[0] } else { None })
+            if several {
+                let mut deepest: Option<(usize, f64)> = None;
+                for (k, o) in obstacles.iter().enumerate() {
+                    let d = o.shape.sdf(p);
+                    if d < 0.0 && deepest.is_none_or(|(_, bd)| d > bd) {
+                        deepest = Some((k, d));
+                    }
+                }
+                return deepest.map(|(k, _)| k);
+            }
+            inside.or(if near[1].is_some() { near[0].map(|(k, _)| k) } else { None })
         };
 
         // the nodes recomputed: all, or the region's (the others keep their kinds, ghost
@@ -310,8 +326,9 @@ impl Layout {
             match kind[idx] {
                 NodeKind::Ghost => {
                     let p = pos(x);
-                    let (k, d) = containing(p).expect("ghost is inside (or pinched by) a solid");
+                    let k = containing(p).expect("ghost is inside (or pinched by) a solid");
                     let o = &obstacles[k];
+                    let d = o.shape.sdf(p);
                     let nrm = o.shape.normal(p);
                     let wall = [p[0] - d * nrm[0], p[1] - d * nrm[1], p[2] - d * nrm[2]];
                     let d_img = (-d).max(1.0);
