@@ -35,12 +35,17 @@ struct Params {
 @group(0) @binding(5) var<storage, read> queries: array<vec4<f32>>;
 // level_set_at: (L, ∇L) and (wall velocity, Σw) per query
 @group(0) @binding(6) var<storage, read_write> level_out: array<vec4<f32>>;
-// each lattice node's wall momentum (xyz) and mass (w) over the step
-@group(0) @binding(7) var<storage, read> wall: array<vec4<f32>>;
+// each lattice node's wall momentum (xyz) and mass (w) over the step (the GPU fluid's face-flux
+// record, to which add_node_changes adds the geometry stage's node changes)
+@group(0) @binding(7) var<storage, read_write> wall: array<vec4<f32>>;
 // exchange_weights: wall / Σ_j w_j at each node (zero where no particle is within r_e)
 @group(0) @binding(8) var<storage, read_write> scaled: array<vec4<f32>>;
 // exchange_gather: the force on each particle (xyz)
 @group(0) @binding(9) var<storage, read_write> force: array<vec4<f32>>;
+// add_node_changes: the momentum (xyz) and mass (w) booked to a node that changed side, and
+// that node (distinct nodes, so no two threads write one entry)
+@group(0) @binding(10) var<storage, read> change_momentum: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read> change_node: array<u32>;
 
 fn thread_index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * 64u;
@@ -108,6 +113,17 @@ fn node_coords(t: u32) -> vec3<f32> {
     let y = i32((t / px) % py) - i32(P.halo.y);
     let z = i32(t / (px * py)) - i32(P.halo.z);
     return vec3<f32>(f32(x), f32(y), f32(z));
+}
+
+// The geometry stage's node changes (covered nodes hand the air's momentum to the body, fresh
+// ones take it from the body) join the face fluxes before the hand-over (CPU twin: the entries
+// that `CoupledSolver::install_level_set_walls` books to the wall array).
+@compute @workgroup_size(64)
+fn add_node_changes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = thread_index(gid, nwg);
+    if (i >= P.count) { return; }
+    let node = change_node[i];
+    wall[node] = wall[node] + change_momentum[i];
 }
 
 // (2.127–2.128), first half: each wall node's momentum over the kernel weights' sum there, so

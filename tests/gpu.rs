@@ -830,6 +830,33 @@ fn coupling_kernels_match_their_cpu_twins() {
         }
     }
     exchange("random wall momenta", &set, &grid, &wall, factor, &cpu);
+    // The same momenta with a part booked as node changes (every third wall node's in two
+    // halves, one node listed twice) added on the device to a resident buffer that holds the
+    // rest: the same forces, and the buffer comes back cleared for the next step.
+    {
+        use wgpu::util::DeviceExt;
+        let mut resident = wall.clone();
+        let mut changes = Vec::new();
+        for (node, w) in resident.iter_mut().enumerate().filter(|(_, w)| **w != DVec4::ZERO).step_by(3) {
+            changes.push((node, 0.5 * *w));
+            changes.push((node, *w - 0.5 * *w));
+            *w = DVec4::ZERO;
+        }
+        assert!(changes.len() > 20, "{} node changes", changes.len());
+        let w32: Vec<[f32; 4]> = resident.iter().map(|v| v.as_vec4().to_array()).collect();
+        let buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("resident wall"),
+            contents: bytemuck::cast_slice(&w32),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        });
+        let gpu = kernels.hand_over(&ctx, &set, &grid, &buffer, &changes, factor);
+        let scale = cpu.iter().map(|f| f.length()).fold(0.0, f64::max);
+        let d = gpu.iter().zip(&cpu).map(|(g, c)| (*g - *c).length()).fold(0.0, f64::max) / scale;
+        eprintln!("random wall momenta, {} as node changes on the device: force {d:.2e} of the largest", changes.len());
+        assert!(d < 1e-5, "{d:e}");
+        let after: Vec<f32> = bytemuck::cast_slice(&phonation::gpu::context::read_buffer(&ctx.device, &ctx.queue, &buffer)).to_vec();
+        assert!(after.iter().all(|x| *x == 0.0), "the wall buffer is cleared after the hand-over");
+    }
 
     // The built-in scene: a clamped elastic cylinder in the Schäfer–Turek channel, method 2.
     let sc = phonation::scene::coupled::CoupledScene::parse(phonation::scene::builtin("fsi_cylinder_conserving").unwrap()).unwrap();

@@ -85,6 +85,8 @@ pub struct Exchange {
     /// Momentum (x, y, z) and mass (w) taken out of the air per padded node in the current
     /// step (lattice units).
     wall: Vec<DVec4>,
+    /// The nodes the geometry stage booked momentum to in `wall` since the last exchange.
+    changed: Vec<usize>,
     /// The level sets the walls of the current step were built from (the particles do not move
     /// before the exchange hands them the momentum).
     sets: Vec<KernelLevelSet>,
@@ -133,6 +135,7 @@ impl Exchange {
             phi,
             reference,
             wall: vec![DVec4::ZERO; c.fluid.layout.grid.len()],
+            changed: Vec::new(),
             sets: Vec::new(),
             built: None,
             walls: DVec3::ZERO,
@@ -145,6 +148,7 @@ impl Exchange {
     /// Forgets the momentum booked so far (the air inside the bodies at the start).
     pub(super) fn clear(&mut self) {
         self.wall.iter_mut().for_each(|w| *w = DVec4::ZERO);
+        self.changed.clear();
         self.node_changes = DVec3::ZERO;
         self.mass_to_walls = 0.0;
         self.wall_frame = DVec3::ZERO;
@@ -286,6 +290,7 @@ impl CoupledSolver {
             let m: DVec4 = self.fluid.eq.cf[..q].iter().zip(&f[..q]).map(|(c, f)| DVec4::new(c[0], c[1], c[2], 1.0) * *f).sum();
             let m = if was { m } else { -m };
             ex.wall[node] += m;
+            ex.changed.push(node);
             ex.node_changes += m.truncate() * unit;
         }
         self.geometry.uncovered += ch.uncovered;
@@ -318,13 +323,14 @@ impl CoupledSolver {
         (KernelLevelSet::new(points, velocities, self.kernel_radius(), self.r_min(), 0.0), index)
     }
 
-    /// The momentum (xyz) and mass (w) booked to each padded node by the geometry stage (nodes
-    /// that changed side), taken and cleared: a backend whose fluid step records the face
-    /// fluxes elsewhere adds them to this before its momentum exchange (lattice units).
-    pub fn take_node_change_momentum(&mut self) -> Vec<DVec4> {
+    /// The momentum (xyz) and mass (w) booked by the geometry stage to the padded nodes that
+    /// changed side, (node, momentum) for each, taken and cleared: a backend whose fluid step
+    /// records the face fluxes elsewhere adds them to those before its momentum exchange
+    /// (lattice units).
+    pub fn take_node_change_momentum(&mut self) -> Vec<(usize, DVec4)> {
         let ex = self.exchange.as_mut().expect("method 2");
-        let n = ex.wall.len();
-        std::mem::replace(&mut ex.wall, vec![DVec4::ZERO; n])
+        let changed = std::mem::take(&mut ex.changed);
+        changed.into_iter().map(|node| (node, std::mem::take(&mut ex.wall[node]))).filter(|(_, m)| *m != DVec4::ZERO).collect()
     }
 
     /// The air's force on each particle over the step (physical units, [`Self::dt`]), computed
@@ -351,6 +357,7 @@ impl CoupledSolver {
         let mut total = vec![DVec3::ZERO; self.bodies.len()];
         let grid = &self.fluid.layout.grid;
         let ex = self.exchange.as_mut().expect("method 2");
+        ex.changed.clear();
         for node in 0..grid.len() {
             let w4 = std::mem::take(&mut ex.wall[node]);
             if w4 == DVec4::ZERO {

@@ -6,12 +6,12 @@
 //! |---|---|
 //! | `fluid_geometry` | the particles' positions and velocities come back (16 B each); the level sets' layout (ghost depths, normals, wall velocities, 2.124–2.126, 2.130) is built on the CPU ([`CoupledSolver::next_level_set_walls`]) and its tables uploaded ([`GpuFluid::set_geometry`]); on a step where nodes change side, the populations make a round trip so that covered nodes book their momentum and fresh ones take their neighbours' mean on the CPU ([`Self::round_trips`] counts them) |
 //! | `fluid` | one FDLB step on the GPU with the walls' face fluxes recorded after each advection (2.122–2.123, [`GpuFluid::record_face_fluxes`]) |
-//! | `momentum_exchange` | each wall node's momentum handed to the particles within r_e with normalised kernel weights (2.127–2.128) by the gather kernels of [`CouplingKernels`] (deterministic, no atomics); the forces come back as the particles' loads |
+//! | `momentum_exchange` | the geometry stage's node changes (a short list, on steps where nodes change side) added to the face-flux record on the device; each wall node's momentum handed to the particles within r_e with normalised kernel weights (2.127–2.128) by the gather kernels of [`CouplingKernels::hand_over`] (deterministic, no atomics), the record cleared there; only the particles' forces come back, as their loads |
 //! | `solid` | the solid's sub-steps on the GPU ([`GpuSolid`]) with those loads and the air's added mass (2.129) |
 //!
-//! What stays on the CPU is the geometry (a per-step layout build over the lattice, O(N)) and
-//! the exchange's per-node bookkeeping; both are measured as the `fluid_geometry` share of the
-//! step. The exchange's diagnostics that the CPU solver sums over the run (momentum to
+//! What stays on the CPU is the geometry (a per-step layout build over the lattice, O(N)),
+//! measured as the `fluid_geometry` share of the step; the wall momentum per node no longer
+//! crosses the bus. The exchange's diagnostics that the CPU solver sums over the run (momentum to
 //! non-body walls, mass to the walls, the wall-frame momentum) are not kept on this backend.
 //! Prescribed body motions and method 1 run on the CPU only: [`GpuCoupled::new`] refuses them.
 
@@ -22,7 +22,7 @@ use super::solid::{GpuSolid, SolidArray};
 use crate::coupling::{CoupledSolver, Method};
 use crate::stages::{COUPLED_CONSERVING_STEP, CoupledStageKind};
 use crate::step::{Instability, Part, Site};
-use glam::{DVec3, DVec4};
+use glam::DVec3;
 use std::time::{Duration, Instant};
 
 /// Fluid, solid and method 2's coupling on the GPU.
@@ -154,14 +154,11 @@ impl GpuCoupled {
     /// Each wall node's momentum (face fluxes + the geometry stage's node changes) to the
     /// particles near it, as their loads over the step.
     fn momentum_exchange(&mut self) {
-        let fluxes = self.fluid.take_face_fluxes();
-        let mut wall = self.cpu.take_node_change_momentum();
-        for (w, f) in wall.iter_mut().zip(fluxes) {
-            *w += DVec4::new(f[0] as f64, f[1] as f64, f[2] as f64, f[3] as f64);
-        }
+        let changes = self.cpu.take_node_change_momentum();
         let (set, index) = self.cpu.exchange_particles();
         let factor = self.cpu.momentum_unit() / self.cpu.dt();
-        let shares = self.kernels.momentum_to_particles(&self.ctx, &set, &self.cpu.fluid.layout.grid, &wall, factor);
+        let wall = self.fluid.face_flux_buffer().expect("GpuCoupled::new records the face fluxes");
+        let shares = self.kernels.hand_over(&self.ctx, &set, &self.cpu.fluid.layout.grid, wall, &changes, factor);
         let mut force = vec![DVec3::ZERO; self.cpu.solid.particles.len()];
         for (i, f) in index.into_iter().zip(shares) {
             force[i] = f;

@@ -41,27 +41,46 @@ struct Params {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Kernel {
     LevelSetAt,
+    AddNodeChanges,
     ExchangeWeights,
     ExchangeGather,
 }
 
 impl Kernel {
-    const ALL: [Kernel; 3] = [Kernel::LevelSetAt, Kernel::ExchangeWeights, Kernel::ExchangeGather];
+    const ALL: [Kernel; 4] = [Kernel::LevelSetAt, Kernel::AddNodeChanges, Kernel::ExchangeWeights, Kernel::ExchangeGather];
     /// The WGSL entry point.
     fn entry(self) -> &'static str {
         match self {
             Kernel::LevelSetAt => "level_set_at",
+            Kernel::AddNodeChanges => "add_node_changes",
             Kernel::ExchangeWeights => "exchange_weights",
             Kernel::ExchangeGather => "exchange_gather",
         }
     }
 }
 
+/// Number of buffer bindings after the uniform (bindings 1–11 of shaders/coupling.wgsl).
+const BINDINGS: usize = 11;
+/// The binding of the wall momentum per node.
+const WALL: usize = 7;
+
+/// What a binding holds for one call.
+enum Binding<'a> {
+    /// A fresh buffer with these bytes.
+    Data(&'a [u8]),
+    /// A one-element placeholder (the kernels of the call do not touch it).
+    Unused,
+    /// A buffer that lives on the device (the fluid's face-flux record, the scaled array).
+    Resident(&'a wgpu::Buffer),
+}
+
 /// The compiled kernels (one pipeline layout, pipelines indexed by [`Kernel`]); buffers are
-/// made per call.
+/// made per call, except the per-node scaled momentum, kept between calls.
 pub struct CouplingKernels {
-    pipelines: [wgpu::ComputePipeline; 3],
+    pipelines: [wgpu::ComputePipeline; 4],
     layout: wgpu::BindGroupLayout,
+    /// `exchange_weights`' output, one vec4 per node, reused while the lattice fits in it.
+    scaled: std::sync::Mutex<Option<wgpu::Buffer>>,
 }
 
 fn v4(p: [f64; 3]) -> [f32; 4] {
@@ -72,7 +91,7 @@ impl CouplingKernels {
     pub fn new(ctx: &GpuContext) -> Self {
         let device = &ctx.device;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("coupling"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
-        // uniform, then (read-only?) storage bindings 1–9
+        // uniform, then (read-only?) storage bindings 1–11
         let kinds = [
             (true, true),
             (false, true),
@@ -81,16 +100,18 @@ impl CouplingKernels {
             (false, true),
             (false, true),
             (false, false),
+            (false, false),
+            (false, false),
+            (false, false),
             (false, true),
-            (false, false),
-            (false, false),
+            (false, true),
         ];
         let layout = buffer_layout(device, "coupling", &kinds);
         let pl =
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("coupling"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
         let mut map = compute_pipelines(device, &module, &pl, &Kernel::ALL.map(Kernel::entry));
         let pipelines = Kernel::ALL.map(|k| map.remove(k.entry()).expect("one pipeline per entry point"));
-        CouplingKernels { pipelines, layout }
+        CouplingKernels { pipelines, layout, scaled: std::sync::Mutex::new(None) }
     }
 
     fn params(set: &KernelLevelSet) -> Params {
@@ -106,25 +127,43 @@ impl CouplingKernels {
         }
     }
 
-    /// Runs `entries` in order over `count` threads each, with the given buffers (None: a
-    /// one-element placeholder), and reads back the buffers named in `read`.
-    fn run(&self, ctx: &GpuContext, p: Params, data: [Option<&[u8]>; 9], kernels: &[(Kernel, u32)], read: &[usize]) -> Vec<Vec<u8>> {
+    /// Runs `kernels` in order over `count` threads each, with the given bindings, then clears
+    /// the bindings named in `clear` and reads back those named in `read`.
+    fn run(&self, ctx: &GpuContext, p: Params, data: [Binding; BINDINGS], kernels: &[(Kernel, u32)], clear: &[usize], read: &[usize]) -> Vec<Vec<u8>> {
         let device = &ctx.device;
-        let mut buffers = vec![device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("coupling params"),
             contents: bytemuck::bytes_of(&p),
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        })];
-        for d in data {
-            let placeholder = [0u8; 16];
-            buffers.push(device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("coupling"),
-                contents: d.filter(|d| !d.is_empty()).unwrap_or(&placeholder),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-            }));
-        }
+        });
+        let placeholder = [0u8; 16];
+        let made: Vec<Option<wgpu::Buffer>> = data
+            .iter()
+            .map(|d| {
+                let contents = match d {
+                    Binding::Resident(_) => return None,
+                    Binding::Data(d) if !d.is_empty() => *d,
+                    _ => &placeholder,
+                };
+                Some(device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("coupling"),
+                    contents,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                }))
+            })
+            .collect();
+        // binding k (0 the uniform)
+        let buffer = |k: usize| -> &wgpu::Buffer {
+            if k == 0 {
+                return &params;
+            }
+            match &data[k - 1] {
+                Binding::Resident(b) => b,
+                _ => made[k - 1].as_ref().expect("a buffer made for this binding"),
+            }
+        };
         let entries_bg: Vec<wgpu::BindGroupEntry> =
-            buffers.iter().enumerate().map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() }).collect();
+            (0..=BINDINGS).map(|k| wgpu::BindGroupEntry { binding: k as u32, resource: buffer(k).as_entire_binding() }).collect();
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("coupling"), layout: &self.layout, entries: &entries_bg });
         let mut enc = device.create_command_encoder(&Default::default());
         for &(kernel, count) in kernels {
@@ -136,15 +175,18 @@ impl CouplingKernels {
                 contents: bytemuck::bytes_of(&q),
                 usage: wgpu::BufferUsages::COPY_SRC,
             });
-            enc.copy_buffer_to_buffer(&ub, 0, &buffers[0], 0, std::mem::size_of::<Params>() as u64);
+            enc.copy_buffer_to_buffer(&ub, 0, &params, 0, std::mem::size_of::<Params>() as u64);
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(kernel.entry()), timestamp_writes: None });
             pass.set_pipeline(&self.pipelines[kernel as usize]);
             pass.set_bind_group(0, &group, &[]);
             let w = count.div_ceil(64).max(1);
             if w <= 65_535 { pass.dispatch_workgroups(w, 1, 1) } else { pass.dispatch_workgroups(65_535, w.div_ceil(65_535), 1) }
         }
+        for &k in clear {
+            enc.clear_buffer(buffer(k), 0, None);
+        }
         ctx.queue.submit([enc.finish()]);
-        read.iter().map(|&k| read_buffer(device, &ctx.queue, &buffers[k])).collect()
+        read.iter().map(|&k| read_buffer(device, &ctx.queue, buffer(k))).collect()
     }
 
     /// L, ∇L, the wall velocity and Σw at each of `queries` (lattice coordinates): the GPU twin of
@@ -156,17 +198,19 @@ impl CouplingKernels {
         let q: Vec<[f32; 4]> = queries.iter().map(|p| v4(*p)).collect();
         let out = vec![[0f32; 4]; 2 * queries.len()];
         let data = [
-            Some(bytemuck::cast_slice(&pts)),
-            Some(bytemuck::cast_slice(&vel)),
-            Some(bytemuck::cast_slice(start)),
-            Some(bytemuck::cast_slice(order)),
-            Some(bytemuck::cast_slice(&q)),
-            Some(bytemuck::cast_slice(&out)),
-            None,
-            None,
-            None,
+            Binding::Data(bytemuck::cast_slice(&pts)),
+            Binding::Data(bytemuck::cast_slice(&vel)),
+            Binding::Data(bytemuck::cast_slice(start)),
+            Binding::Data(bytemuck::cast_slice(order)),
+            Binding::Data(bytemuck::cast_slice(&q)),
+            Binding::Data(bytemuck::cast_slice(&out)),
+            Binding::Unused,
+            Binding::Unused,
+            Binding::Unused,
+            Binding::Unused,
+            Binding::Unused,
         ];
-        let bytes = self.run(ctx, Self::params(set), data, &[(Kernel::LevelSetAt, queries.len() as u32)], &[6]);
+        let bytes = self.run(ctx, Self::params(set), data, &[(Kernel::LevelSetAt, queries.len() as u32)], &[], &[6]);
         let o: &[[f32; 4]] = bytemuck::cast_slice(&bytes[0]);
         (0..queries.len())
             .map(|k| {
@@ -179,30 +223,75 @@ impl CouplingKernels {
     /// The force on each particle of `set` (its points in lattice coordinates) from the wall
     /// momentum `wall` of every node of `grid` (xyz momentum, w mass, lattice units), times
     /// `factor` (physical momentum per lattice unit over the step): the GPU twin of method 2's
-    /// `momentum_exchange` stage.
+    /// `momentum_exchange` stage, with the wall momentum uploaded ([`Self::hand_over`] takes it
+    /// from a buffer on the device).
     pub fn momentum_to_particles(&self, ctx: &GpuContext, set: &KernelLevelSet, grid: &Grid, wall: &[DVec4], factor: f64) -> Vec<DVec3> {
         assert_eq!(wall.len(), grid.len(), "one wall value per lattice node");
+        let w: Vec<[f32; 4]> = wall.iter().map(|v| [v.x as f32, v.y as f32, v.z as f32, v.w as f32]).collect();
+        let buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("wall momentum"),
+            contents: bytemuck::cast_slice(&w),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        });
+        self.hand_over(ctx, set, grid, &buffer, &[], factor)
+    }
+
+    /// Method 2's momentum_exchange stage with the wall momentum on the device: `wall` holds one
+    /// vec4<f32> per node of `grid` (at least; the GPU fluid's face-flux record,
+    /// [`super::GpuFluid::face_flux_buffer`]); the geometry stage's node changes `changes`
+    /// (node, momentum and mass, lattice units) are added to it, each node's momentum goes to
+    /// the particles of `set` within r_e with normalised kernel weights, and `wall` is cleared for
+    /// the next step. Only the node changes go up and the particles' forces (×`factor`) come back.
+    pub fn hand_over(&self, ctx: &GpuContext, set: &KernelLevelSet, grid: &Grid, wall: &wgpu::Buffer, changes: &[(usize, DVec4)], factor: f64) -> Vec<DVec3> {
+        assert!(wall.size() >= (16 * grid.len()) as u64, "one wall value per lattice node");
         let (start, order) = set.bin_lists();
         let pts: Vec<[f32; 4]> = set.points.iter().map(|p| v4(*p)).collect();
-        let w: Vec<[f32; 4]> = wall.iter().map(|v| [v.x as f32, v.y as f32, v.z as f32, v.w as f32]).collect();
-        let zeros = vec![[0f32; 4]; wall.len()];
         let force = vec![[0f32; 4]; pts.len()];
+        // distinct nodes, so that no two threads of add_node_changes write one entry
+        let mut merged: Vec<(usize, DVec4)> = changes.to_vec();
+        merged.sort_by_key(|c| c.0);
+        merged.dedup_by(|b, a| {
+            let same = a.0 == b.0;
+            if same {
+                a.1 += b.1;
+            }
+            same
+        });
+        let change_momentum: Vec<[f32; 4]> = merged.iter().map(|(_, v)| [v.x as f32, v.y as f32, v.z as f32, v.w as f32]).collect();
+        let change_node: Vec<u32> = merged.iter().map(|(n, _)| u32::try_from(*n).expect("node index fits u32")).collect();
+        let mut guard = self.scaled.lock().expect("the scaled buffer's lock");
+        if guard.as_ref().is_none_or(|b| b.size() < wall.size()) {
+            *guard = Some(ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("scaled wall momentum"),
+                size: wall.size(),
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            }));
+        }
+        let scaled = guard.as_ref().expect("made above");
         let mut p = Self::params(set);
         p.padded = [grid.padded[0] as u32, grid.padded[1] as u32, grid.padded[2] as u32, 0];
         p.halo = [grid.halo[0] as u32, grid.halo[1] as u32, grid.halo[2] as u32, 0];
         p.factor = factor as f32;
         let data = [
-            Some(bytemuck::cast_slice(&pts)),
-            Some(bytemuck::cast_slice(&pts)),
-            Some(bytemuck::cast_slice(start)),
-            Some(bytemuck::cast_slice(order)),
-            Some(bytemuck::cast_slice(&pts)),
-            None,
-            Some(bytemuck::cast_slice(&w)),
-            Some(bytemuck::cast_slice(&zeros)),
-            Some(bytemuck::cast_slice(&force)),
+            Binding::Data(bytemuck::cast_slice(&pts)),
+            Binding::Data(bytemuck::cast_slice(&pts)),
+            Binding::Data(bytemuck::cast_slice(start)),
+            Binding::Data(bytemuck::cast_slice(order)),
+            Binding::Data(bytemuck::cast_slice(&pts)),
+            Binding::Unused,
+            Binding::Resident(wall),
+            Binding::Resident(scaled),
+            Binding::Data(bytemuck::cast_slice(&force)),
+            Binding::Data(bytemuck::cast_slice(&change_momentum)),
+            Binding::Data(bytemuck::cast_slice(&change_node)),
         ];
-        let bytes = self.run(ctx, p, data, &[(Kernel::ExchangeWeights, wall.len() as u32), (Kernel::ExchangeGather, pts.len() as u32)], &[9]);
+        let mut kernels = Vec::new();
+        if !merged.is_empty() {
+            kernels.push((Kernel::AddNodeChanges, merged.len() as u32));
+        }
+        kernels.extend([(Kernel::ExchangeWeights, grid.len() as u32), (Kernel::ExchangeGather, pts.len() as u32)]);
+        let bytes = self.run(ctx, p, data, &kernels, &[WALL], &[9]);
         let f: &[[f32; 4]] = bytemuck::cast_slice(&bytes[0]);
         f.iter().map(|v| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect()
     }

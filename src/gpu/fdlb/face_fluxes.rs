@@ -56,6 +56,14 @@ impl GpuFluid {
         self.face_fluxes = Some(FaceFluxes { group, thin: (ff.thin.0, thin_group, thin_count), ..ff });
     }
 
+    /// The face-flux record on the device (one vec4<f32> per node, momentum xyz and mass w,
+    /// at least the lattice's node count), for kernels that read it there
+    /// ([`crate::gpu::coupling::CouplingKernels::hand_over`], which also clears it); `None`
+    /// when the fluxes are not recorded.
+    pub fn face_flux_buffer(&self) -> Option<&wgpu::Buffer> {
+        self.face_fluxes.as_ref().map(|ff| &ff.wall)
+    }
+
     /// What each padded node's walls took out of the air since the last call (momentum xyz,
     /// mass w; lattice units), and the record cleared; empty when the fluxes are not recorded.
     pub fn take_face_fluxes(&mut self) -> Vec<[f32; 4]> {
