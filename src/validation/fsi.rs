@@ -51,6 +51,10 @@ pub struct ChannelCylinderResult {
     pub simulated_s: f64,
     pub wall_s: f64,
     pub drag_coefficient: f64,
+    /// The rigid obstacle only: C_D from the momentum its wall nodes take out of the air
+    /// through their faces ([`crate::coupling::momentum_exchange`]: the measure method 2 hands
+    /// to its particles), next to `drag_coefficient` from the traction quadrature.
+    pub exchange_drag_coefficient: Option<f64>,
     pub lift_coefficient: f64,
     pub pressure_drop: f64,
     /// C_D, C_L and Δp are means over the last quarter of the run. Relative change of C_D over
@@ -147,15 +151,31 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, bo
         let p = |x: [f64; 3]| f.sample(x).map(|m| units.gauge_pressure_to_physical(m.pressure())).unwrap_or(f64::NAN);
         p(drop_probes[0]) - p(drop_probes[1])
     };
+    let mut exchange_drag = None;
     let (force, stage_shares, substeps, max_displacement, n_particles) = match body {
         CylinderBody::RigidObstacle => {
             let c = lat(centre);
             let obstacle = Obstacle { shape: Shape::Cylinder { center: c, radius: units.length_to_lattice(radius) }, velocity: [0.0; 3], temperature: None };
             let mut f = FluidSolver::new(eq, grid, b, &[obstacle], params, init);
             let drag = |f: &FluidSolver| surface_forces(f, &units, std::slice::from_ref(&surface), &particles, TractionModel::PressureAndShear, 1.0).total[0];
+            // the cylinder's wall nodes: within 3 cells of its surface (the channel walls lie
+            // 15 radii away)
+            let cylinder_walls: Vec<usize> = {
+                let g = &f.layout.grid;
+                let (cc, r) = (DVec3::from_array(c), units.length_to_lattice(radius));
+                (0..g.len()).filter(|&n| (DVec3::from_array(g.coords(n).map(|x| x as f64)) - cc).length() < r + 3.0).collect()
+            };
+            // lattice momentum per step → N per m of span
+            let force_unit = units.density * units.velocity * units.dx * units.dx / (params.dt * units.time());
+            let mut exchanged = DVec3::ZERO;
             for k in 1..=steps {
-                f.step().expect("Schäfer–Turek stays stable");
                 let (averaged, sampled) = (k > average_from, k % sample_every == 0);
+                if averaged {
+                    let wall = crate::coupling::momentum_exchange::step_with_exchange(&mut f, None).expect("Schäfer–Turek stays stable");
+                    exchanged += cylinder_walls.iter().map(|&n| wall[n].truncate()).sum::<DVec3>() * force_unit;
+                } else {
+                    f.step().expect("Schäfer–Turek stays stable");
+                }
                 if averaged || sampled {
                     let fk = drag(&f);
                     if averaged {
@@ -167,6 +187,7 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, bo
                     }
                 }
             }
+            exchange_drag = Some(exchanged.x / (steps - average_from) as f64 * coefficient);
             (mean_force / (steps - average_from) as f64, Vec::new(), 0, 0.0, 0)
         }
         CylinderBody::WeakCoupled(_) | CylinderBody::WeakCoupledRigid => {
@@ -223,6 +244,7 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, bo
         simulated_s: steps as f64 * params.dt * units.time(),
         wall_s: t0.elapsed().as_secs_f64(),
         drag_coefficient: force.x * coefficient,
+        exchange_drag_coefficient: exchange_drag,
         lift_coefficient: force.y * coefficient,
         pressure_drop: mean_drop / (steps - average_from) as f64,
         drag_change_last_fifth: history.get(fifth).copied().map(|d| (last - d) / last).unwrap_or(f64::NAN),
@@ -381,6 +403,31 @@ pub fn oscillating_cylinder(method: Method, cells_per_diameter: usize, mach: f64
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Why method 2's drag stands above method 1's (issue 12): method 2 hands its particles the
+    /// momentum the air loses through the wall faces — the discrete flow's own force — while
+    /// method 1 and the rigid obstacle's figure integrate the traction at the true surface from
+    /// interpolated fields. Measured both ways on the rigid obstacle in the same run, the two
+    /// differ by as much as method 2 differs from the quadrature, and method 2 matches the
+    /// rigid obstacle's exchange drag (Schäfer–Turek 2D-1 at D = 10, Mach 0.1, 2 s, means over
+    /// the last 0.5 s — not yet steady: an acoustic wave still rings through the channel, the
+    /// same in both runs, so the comparison of the two measures stands). Measured: rigid quadrature 5.410, rigid exchange 5.975 (+10.4 %),
+    /// method 2 5.979 (+0.06 % from the rigid exchange). The gap closes with resolution
+    /// (`validate --case fsi_schafer_turek_2d1`).
+    #[test]
+    fn method_2_feels_the_drag_the_rigid_obstacle_gives_by_momentum_exchange() {
+        let rigid = schafer_turek_2d1(10, 0.1, 2.0, CylinderBody::RigidObstacle);
+        let conserving = schafer_turek_2d1(10, 0.1, 2.0, CylinderBody::ConservingCoupled);
+        let exchange = rigid.exchange_drag_coefficient.expect("the rigid obstacle measures both");
+        eprintln!("rigid: quadrature {} exchange {exchange}; method 2 {}", rigid.drag_coefficient, conserving.drag_coefficient);
+        let gap = exchange / rigid.drag_coefficient - 1.0;
+        let method_2 = conserving.drag_coefficient / exchange - 1.0;
+        // the two measures of one flow differ at this resolution …
+        assert!(gap > 0.05, "{rigid:?}");
+        // … and method 2's drag is the exchange one: the level-set walls and the particles
+        // change it by 1 % at most, a tenth of the gap
+        assert!(method_2.abs() < 0.01, "{conserving:?} vs {exchange}");
+    }
 
     /// Galilean check (issue 12): a cylinder towed at U through air at rest feels the drag of
     /// the same cylinder held in air moving at U (Re = 20, D = 10 cells, Mach 0.1, two
