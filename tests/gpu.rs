@@ -1060,14 +1060,19 @@ fn coupled_steps_on_the_gpu_match_the_cpu_over_200_steps() {
     let umax = u_c.iter().map(|u| u.length()).fold(0.0, f64::max);
     eprintln!(
         "coupled, {steps} steps: largest displacement {umax:.3e} cm, displacement difference {du:.2e}, velocity {dv:.2e} (the solid alone: {dv_alone:.2e}), populations {df:.2e}; \
-         force on the flap {fc:?} (CPU) vs {fg:?} (GPU); nodes uncovered {} / covered {} (CPU) vs {} / {} (GPU), {} population round trips; shares {:?}",
+         force on the flap {fc:?} (CPU) vs {fg:?} (GPU); nodes uncovered {} / covered {} (CPU) vs {} / {} (GPU), {} population round trips, {} new boundary tables; shares {:?}",
         cpu.geometry.uncovered,
         cpu.geometry.covered,
         g.geometry.uncovered,
         g.geometry.covered,
         gpu.round_trips,
+        gpu.fluid.geometry_rebinds,
         gpu.stage_shares()
     );
+    // the boundary tables get new buffers only when their sizes change (nodes changing side,
+    // thin-wall taps appearing or going: measured 73 of the 200 steps); on the other steps they
+    // are rewritten in place
+    assert!(gpu.fluid.geometry_rebinds > 0 && gpu.fluid.geometry_rebinds < steps / 2, "{} rebinds", gpu.fluid.geometry_rebinds);
     assert!(cpu.geometry.uncovered > 0 && cpu.geometry.covered > 0, "the flap must uncover and cover nodes");
     assert_eq!((g.geometry.uncovered, g.geometry.covered), (cpu.geometry.uncovered, cpu.geometry.covered));
     assert!(gpu.round_trips > 0);

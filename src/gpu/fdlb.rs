@@ -114,6 +114,11 @@ pub struct GpuFluid {
     h: wgpu::Buffer,
     mac: wgpu::Buffer,
     kind: wgpu::Buffer,
+    /// What `kind` holds, so that a geometry change uploads only the span of nodes it changed.
+    kind_host: Vec<u32>,
+    /// Geometry changes that needed new boundary tables' buffers and bind groups (their sizes
+    /// changed); the others rewrote the tables in place ([`Self::set_geometry`]).
+    pub geometry_rebinds: u64,
     status: wgpu::Buffer,
     ghosts: (wgpu::Buffer, wgpu::Buffer, u32),
     faces: (wgpu::Buffer, u32),
@@ -290,6 +295,8 @@ impl GpuFluid {
             h,
             mac,
             kind,
+            kind_host: t.kind.clone(),
+            geometry_rebinds: 0,
             status,
             params_stage,
             params_count,

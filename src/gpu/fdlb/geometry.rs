@@ -87,13 +87,52 @@ impl GpuFluid {
     /// same lattice whose walls moved: method 2's `fluid_geometry` stage on the GPU, the tables
     /// built on the CPU from the bodies' level sets (the particles' positions come back each
     /// step; the populations only on steps where nodes change side, [`Self::upload_state`]).
-    /// The kernels' bind groups are rebuilt; the populations are untouched.
+    /// Only the span of node kinds that changed goes up (none on most steps); the boundary
+    /// tables (ghost depths and wall velocities change every step) are rewritten in place when
+    /// their sizes are unchanged, else new buffers and bind groups are made
+    /// ([`Self::geometry_rebinds`]). The populations are untouched.
     pub fn set_geometry(&mut self, s: &FluidSolver) {
         assert_eq!(s.layout.grid.len(), self.n_nodes, "a layout of the same lattice");
         let t = Tables::of(s, self.stride);
-        let device = &self.device;
-        self.queue.write_buffer(&self.kind, 0, bytemuck::cast_slice(&t.kind));
+        let changed = t.kind.iter().zip(&self.kind_host).position(|(a, b)| a != b);
+        if let Some(first) = changed {
+            let last = t.kind.iter().zip(&self.kind_host).rposition(|(a, b)| a != b).expect("a first one, so a last one");
+            self.queue.write_buffer(&self.kind, (4 * first) as u64, bytemuck::cast_slice(&t.kind[first..=last]));
+            self.kind_host[first..=last].copy_from_slice(&t.kind[first..=last]);
+        }
         let counts = t.counts();
+        let thin_count = t.thin_ranges.len() as u32;
+        let in_place = counts == [self.ghosts.2, self.faces.1, self.periodic.1]
+            && thin_count == self.thin.2
+            && [
+                (&self.ghosts.0, bytemuck::cast_slice::<_, u8>(&t.ghosts)),
+                (&self.ghosts.1, bytemuck::cast_slice(&t.images)),
+                (&self.faces.0, bytemuck::cast_slice(&t.faces)),
+                (&self.periodic.0, bytemuck::cast_slice(&t.periodic)),
+                (&self.thin.0, bytemuck::cast_slice(&t.thin_taps)),
+                (&self.thin.1, bytemuck::cast_slice(&t.thin_ranges)),
+            ]
+            .iter()
+            .all(|(b, d)| d.is_empty() || d.len() as u64 == b.size());
+        if in_place {
+            for (b, d) in [
+                (&self.ghosts.0, bytemuck::cast_slice::<_, u8>(&t.ghosts)),
+                (&self.ghosts.1, bytemuck::cast_slice(&t.images)),
+                (&self.faces.0, bytemuck::cast_slice(&t.faces)),
+                (&self.periodic.0, bytemuck::cast_slice(&t.periodic)),
+                (&self.thin.0, bytemuck::cast_slice(&t.thin_taps)),
+                (&self.thin.1, bytemuck::cast_slice(&t.thin_ranges)),
+            ] {
+                if !d.is_empty() {
+                    self.queue.write_buffer(b, 0, d);
+                }
+            }
+            // the face-flux record's thin-tap targets follow the thin taps
+            self.rebind_face_fluxes(s);
+            return;
+        }
+        self.geometry_rebinds += 1;
+        let device = &self.device;
         let uniform = |p: Params| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("params"),
@@ -106,7 +145,6 @@ impl GpuFluid {
         self.ghosts = (storage(device, "ghosts", bytemuck::cast_slice(&t.ghosts)), storage(device, "images", bytemuck::cast_slice(&t.images)), counts[0]);
         self.faces = (storage(device, "faces", bytemuck::cast_slice(&t.faces)), counts[1]);
         self.periodic = (storage(device, "periodic", bytemuck::cast_slice(&t.periodic)), counts[2]);
-        let thin_count = t.thin_ranges.len() as u32;
         self.thin = (
             storage(device, "thin taps", bytemuck::cast_slice(&t.thin_taps)),
             storage(device, "thin ranges", bytemuck::cast_slice(&t.thin_ranges)),
