@@ -15,12 +15,13 @@
 
 mod face_fluxes;
 mod geometry;
+mod readback;
+
+pub use readback::{GpuArray, compare_nodes};
 
 use super::codegen::{self, Split, WORKGROUP};
 use super::context::{GpuContext, GpuError};
 use crate::fluid::FluidSolver;
-use crate::fluid::layout::NodeKind;
-use crate::fluid::storage::RowBlocked;
 use crate::stages::{FDLB_STEP, RkStage, Stage, StageKind};
 use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
@@ -73,21 +74,6 @@ const PIPE_GHOST: usize = 2;
 const PIPE_FACE: usize = 3;
 const PIPE_PERIODIC: usize = 4;
 const PIPE_THIN: usize = 5;
-
-/// Which node array to read back.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum GpuArray {
-    /// fⁿ (after a full step) — the state.
-    State,
-    /// f¹, the first Runge–Kutta stage's output.
-    FirstStage,
-    /// fⁿ⁺¹ being built by the second stage (before [`GpuFluid::finish_step`]).
-    SecondStage,
-    /// The advected field h of the last moments pass.
-    Advected,
-    /// Macro fields ρ, u_x, u_y, u_z, θ.
-    Macro,
-}
 
 struct ProbeKernel {
     pipeline: wgpu::ComputePipeline,
@@ -512,78 +498,6 @@ impl GpuFluid {
     pub fn macro_buffers(&self) -> (&wgpu::Buffer, &wgpu::Buffer, u32) {
         (&self.mac, &self.kind, (self.mac.size() / (5 * 4)) as u32)
     }
-
-    pub fn instability(&self) -> Option<(usize, u32)> {
-        let s: Vec<u32> = bytemuck::cast_slice(&self.read_buffer(&self.status)).to_vec();
-        (s[0] != u32::MAX).then(|| (s[0] as usize, s[1]))
-    }
-
-    /// Blocks until the queue is idle.
-    pub fn wait(&self) {
-        let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
-    }
-
-    fn read_buffer(&self, b: &wgpu::Buffer) -> Vec<u8> {
-        super::context::read_buffer(&self.device, &self.queue, b)
-    }
-
-    /// Reads an array back: structure of arrays, value v of node at `v·N + node` with N the
-    /// lattice's padded node count (the GPU stride padding removed).
-    pub fn download(&self, which: GpuArray) -> Vec<f32> {
-        let b = match which {
-            GpuArray::State => &self.f[self.cur],
-            GpuArray::FirstStage => &self.f[1],
-            GpuArray::SecondStage => &self.f[2 - self.cur],
-            GpuArray::Advected => &self.h,
-            GpuArray::Macro => &self.mac,
-        };
-        let raw: Vec<f32> = bytemuck::cast_slice(&self.read_buffer(b)).to_vec();
-        raw.chunks(self.stride).flat_map(|c| c[..self.n_nodes].iter().copied()).collect()
-    }
-
-    /// Copies the GPU state into a CPU solver of the same scene (f64, CPU layout), with the step
-    /// count and time, so that the CPU-side outputs (probes, snapshots) can be written.
-    pub fn download_into(&self, s: &mut FluidSolver) {
-        let gpu = self.download(GpuArray::State);
-        let n = self.n_nodes;
-        let nv = self.nv;
-        let mut vals = vec![0.0; nv];
-        for node in 0..n {
-            for (v, x) in vals.iter_mut().enumerate() {
-                *x = gpu[v * n + node] as f64;
-            }
-            s.pop.scatter(&mut s.f, node, &vals);
-        }
-        s.step_count = self.step_count;
-        s.time = self.step_count as f64 * s.params.dt;
-    }
-
-    /// Largest |GPU − CPU| / scale over the fluid nodes of the state, with scale the largest
-    /// |CPU value| of each population (the populations span several orders of magnitude).
-    pub fn max_relative_difference(&self, cpu: &FluidSolver) -> f64 {
-        compare_nodes(&self.download(GpuArray::State), cpu, &cpu.f, cpu.pop, &[NodeKind::Fluid])
-    }
-}
-
-/// max over value v of (max |gpu − cpu| / max |cpu|) over the nodes whose kind is in `kinds`;
-/// `gpu` as returned by [`GpuFluid::download`], `cpu_arr` an array of `cpu` in `layout`.
-pub fn compare_nodes(gpu: &[f32], cpu: &FluidSolver, cpu_arr: &[f64], layout: RowBlocked, kinds: &[NodeKind]) -> f64 {
-    let n = cpu.layout.grid.len();
-    let nv = layout.nv;
-    let mut vals = vec![0.0; nv];
-    let mut scale = vec![0.0f64; nv];
-    let mut diff = vec![0.0f64; nv];
-    for node in 0..n {
-        if !kinds.contains(&cpu.layout.kind[node]) {
-            continue;
-        }
-        layout.gather(cpu_arr, node, &mut vals);
-        for v in 0..nv {
-            scale[v] = scale[v].max(vals[v].abs());
-            diff[v] = diff[v].max((gpu[v * n + node] as f64 - vals[v]).abs());
-        }
-    }
-    (0..nv).map(|v| diff[v] / scale[v].max(1e-30)).fold(0.0, f64::max)
 }
 
 #[cfg(test)]
