@@ -102,27 +102,19 @@ impl GpuFluid {
         }
         let counts = t.counts();
         let thin_count = t.thin_ranges.len() as u32;
+        let tables: [(&wgpu::Buffer, &[u8]); 6] = [
+            (&self.ghosts.0, bytemuck::cast_slice(&t.ghosts)),
+            (&self.ghosts.1, bytemuck::cast_slice(&t.images)),
+            (&self.faces.0, bytemuck::cast_slice(&t.faces)),
+            (&self.periodic.0, bytemuck::cast_slice(&t.periodic)),
+            (&self.thin.0, bytemuck::cast_slice(&t.thin_taps)),
+            (&self.thin.1, bytemuck::cast_slice(&t.thin_ranges)),
+        ];
         let in_place = counts == [self.ghosts.2, self.faces.1, self.periodic.1]
             && thin_count == self.thin.2
-            && [
-                (&self.ghosts.0, bytemuck::cast_slice::<_, u8>(&t.ghosts)),
-                (&self.ghosts.1, bytemuck::cast_slice(&t.images)),
-                (&self.faces.0, bytemuck::cast_slice(&t.faces)),
-                (&self.periodic.0, bytemuck::cast_slice(&t.periodic)),
-                (&self.thin.0, bytemuck::cast_slice(&t.thin_taps)),
-                (&self.thin.1, bytemuck::cast_slice(&t.thin_ranges)),
-            ]
-            .iter()
-            .all(|(b, d)| d.is_empty() || d.len() as u64 == b.size());
+            && tables.iter().all(|(b, d)| d.is_empty() || d.len() as u64 == b.size());
         if in_place {
-            for (b, d) in [
-                (&self.ghosts.0, bytemuck::cast_slice::<_, u8>(&t.ghosts)),
-                (&self.ghosts.1, bytemuck::cast_slice(&t.images)),
-                (&self.faces.0, bytemuck::cast_slice(&t.faces)),
-                (&self.periodic.0, bytemuck::cast_slice(&t.periodic)),
-                (&self.thin.0, bytemuck::cast_slice(&t.thin_taps)),
-                (&self.thin.1, bytemuck::cast_slice(&t.thin_ranges)),
-            ] {
+            for (b, d) in tables {
                 if !d.is_empty() {
                     self.queue.write_buffer(b, 0, d);
                 }
