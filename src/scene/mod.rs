@@ -4,6 +4,7 @@
 pub mod build;
 pub mod coupled;
 pub mod fold;
+pub mod glottis;
 pub mod kind;
 pub mod lattice_gas;
 pub mod schema;
