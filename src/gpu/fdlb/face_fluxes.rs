@@ -25,7 +25,9 @@ impl GpuFluid {
     /// populations `reference` of the air at rest (one per velocity, at least q) — method 2's
     /// exchange ([`crate::coupling::momentum_exchange::step_with_exchange`]) on the GPU, with the
     /// thin-wall corrections. `s` is the solver this GPU fluid was uploaded from (its thin taps
-    /// give the walls that take their corrections). Read and cleared by [`Self::take_face_fluxes`].
+    /// give the walls that take their corrections). Read and cleared by [`Self::take_face_fluxes`]
+    /// (a copy to the CPU), or on the device by the coupled step's hand-over
+    /// ([`Self::face_flux_buffer`]).
     pub fn record_face_fluxes(&mut self, s: &FluidSolver, reference: &[f64]) {
         let pipeline = pipeline_of(&self.device, "face_fluxes", &codegen::face_fluxes(&self.eq, self.split), "main");
         let wall = storage(&self.device, "wall fluxes", bytemuck::cast_slice(&vec![[0f32; 4]; self.stride]));
