@@ -10,6 +10,7 @@ pub mod grid;
 pub mod kernel_level_set;
 pub mod layout;
 pub mod moving;
+mod rebuild;
 pub mod solver;
 pub mod state;
 pub mod storage;

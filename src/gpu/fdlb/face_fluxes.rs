@@ -51,9 +51,15 @@ impl GpuFluid {
 
     /// After a geometry change ([`Self::set_geometry`]): the face-flux kernels' bind groups for
     /// the new tables of `s` (nothing when the fluxes are not recorded).
-    pub(super) fn rebind_face_fluxes(&mut self, s: &FluidSolver) {
+    /// `whole`: the node-kind or thin-tap buffers were replaced, so the main group is made again
+    /// too; otherwise only the thin-wall part, whose targets follow the layout's thin taps.
+    pub(super) fn rebind_face_fluxes(&mut self, s: &FluidSolver, whole: bool) {
         let Some(ff) = self.face_fluxes.take() else { return };
-        let group = self.bind(&ff.pipeline, &[(0, &self.params_stage[0]), (1, &self.kind), (2, &ff.reference), (3, &ff.wall)], &[(10, &self.h)]);
+        let group = if whole {
+            self.bind(&ff.pipeline, &[(0, &self.params_stage[0]), (1, &self.kind), (2, &ff.reference), (3, &ff.wall)], &[(10, &self.h)])
+        } else {
+            ff.group
+        };
         let (thin_group, thin_count) = self.thin_flux_group(s, &ff.thin.0, &ff.wall);
         self.face_fluxes = Some(FaceFluxes { group, thin: (ff.thin.0, thin_group, thin_count), ..ff });
     }

@@ -119,8 +119,8 @@ impl GpuFluid {
                     self.queue.write_buffer(b, 0, d);
                 }
             }
-            // the face-flux record's thin-tap targets follow the thin taps
-            self.rebind_face_fluxes(s);
+            // the same buffers: only the face-flux record's thin-tap targets follow the new taps
+            self.rebind_face_fluxes(s, false);
             return;
         }
         self.geometry_rebinds += 1;
@@ -144,7 +144,7 @@ impl GpuFluid {
             [uniform(Params { stage: 1, count: thin_count, ..base }), uniform(Params { stage: 2, count: thin_count, ..base })],
         );
         self.groups = self.stage_groups();
-        self.rebind_face_fluxes(s);
+        self.rebind_face_fluxes(s, true);
     }
 
     /// Writes the populations of `s` (a solver of the same lattice) as the state fⁿ.
