@@ -115,6 +115,20 @@ impl Boundaries {
     pub fn face(&self, f: Face) -> &FaceCondition {
         &self.faces[f as usize]
     }
+
+    /// Sets the velocity (lattice units; the peak on the centre line for a parabolic profile) of
+    /// the velocity inlet on `face`, for an inflow that changes in time (a smooth start). The
+    /// next boundary fill uses it; nothing else of the layout depends on it. Refused, naming the
+    /// face, when that face is not a velocity inlet.
+    pub fn set_inlet_velocity(&mut self, face: Face, velocity: [f64; 3]) -> Result<(), String> {
+        match &mut self.faces[face as usize] {
+            FaceCondition::VelocityInlet { velocity: v, .. } => {
+                *v = velocity;
+                Ok(())
+            }
+            other => Err(format!("{}: not a velocity inlet ({other:?})", face.name())),
+        }
+    }
 }
 
 /// Node state arrays of one Runge–Kutta stage: populations f, the advected field
@@ -252,6 +266,19 @@ mod tests {
     use super::*;
     use crate::fluid::{FluidSolver, GasModel, Grid, VelocitySet, VelocitySetKind, timestep};
     use std::f64::consts::PI;
+
+    /// A velocity inlet takes a new velocity (the rest of its condition kept); any other face
+    /// refuses, naming itself.
+    #[test]
+    fn only_a_velocity_inlet_takes_a_new_velocity() {
+        let mut b = Boundaries::periodic();
+        b.faces[0] = FaceCondition::VelocityInlet { velocity: [0.1, 0.0, 0.0], theta: 0.6, profile: InletProfile::Parabolic };
+        b.set_inlet_velocity(Face::XMin, [0.05, 0.01, 0.0]).unwrap();
+        assert_eq!(b.faces[0], FaceCondition::VelocityInlet { velocity: [0.05, 0.01, 0.0], theta: 0.6, profile: InletProfile::Parabolic });
+        let e = b.set_inlet_velocity(Face::XMax, [0.05, 0.0, 0.0]).unwrap_err();
+        assert!(e.starts_with("x_max: not a velocity inlet"), "{e}");
+        assert_eq!(b.faces[1], FaceCondition::Periodic);
+    }
 
     /// A Taylor–Green vortex is mirror-symmetric about the lines where its normal velocity
     /// vanishes; the block between them, with slip faces on those lines, must evolve exactly as

@@ -1,75 +1,17 @@
-//! Coupled-solver validations (issue 12).
-//!
-//! **Schäfer–Turek 2D-1** (Schäfer & Turek 1996, "Benchmark computations of laminar flow
-//! around a cylinder"; ../shared/reference): channel 2.2 × 0.41 m, cylinder D = 0.1 m centred at
-//! (0.2, 0.2), ν = 10⁻³ m²/s, ρ = 1 kg/m³, parabolic inflow with U_max = 0.3 m/s (U_mean = 0.2,
-//! Re = 20). Steady: C_D = 5.5795, C_L = 0.0106, Δp = p(0.15, 0.2) − p(0.25, 0.2) = 0.11752 Pa.
-//! The cylinder is either the fluid's rigid ghost-node obstacle, with the force found by the
-//! same surface quadrature the coupling uses (a cross-check of the fluid and of the
-//! quadrature), or an elastic disc clamped in its inner half and coupled through
-//! [`CoupledSolver`] (the coupled path: surface polygon, moving-wall geometry, tractions).
+//! Coupled-solver validations (issue 12): the towed, oscillating and sheared cylinders;
+//! Schäfer–Turek 2D-1 is in [`super::fsi_schafer_turek`], the momentum cases in
+//! [`super::fsi_momentum`].
 
-use crate::coupling::{BodySurface, ConservingOptions, CoupledBody, CoupledSolver, Method, ReferenceShape, TractionModel, WeakOptions, surface_forces};
-use crate::fluid::{
-    Boundaries, Equilibrium, FaceCondition, FluidSolver, GasModel, Grid, InletProfile, Macro, Obstacle, Shape, VelocitySet, VelocitySetKind, timestep,
-};
+use crate::coupling::{BodySurface, CoupledBody, CoupledSolver, Method, ReferenceShape, WeakOptions};
+use crate::fluid::{Boundaries, Equilibrium, FaceCondition, FluidSolver, GasModel, Grid, Macro, VelocitySet, VelocitySetKind, timestep};
 use crate::solid::particles::sample_ball;
 use crate::solid::{Orthotropic, Particles, SolidOptions, SolidSolver};
 use crate::units::Units;
 use glam::DVec3;
 use std::time::Instant;
 
-/// Schäfer–Turek 2D-1 reference values.
 pub use super::fsi_momentum::{MomentumResult, added_mass_stability, pressure_pulse_momentum, pulse_on_a_free_disc, pulse_on_a_free_disc_by};
-
-pub const ST_2D1_DRAG: f64 = 5.5795;
-pub const ST_2D1_LIFT: f64 = 0.0106;
-pub const ST_2D1_PRESSURE_DROP: f64 = 0.11752;
-
-/// How the cylinder is represented.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum CylinderBody {
-    /// The fluid's fixed ghost-node cylinder (no solid).
-    RigidObstacle,
-    /// An elastic MPS disc, clamped for r < D/4, coupled by method 1.
-    WeakCoupled(TractionModel),
-    /// Every particle of the disc clamped, coupled by method 1: the coupled path (polygon
-    /// walls, per-step geometry, tractions) without any motion.
-    WeakCoupledRigid,
-    /// The elastic disc clamped for r < D/4, coupled by method 2 (level-set walls, momentum
-    /// exchanged link by link); the force is the momentum the particles received per second.
-    ConservingCoupled,
-}
-
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct ChannelCylinderResult {
-    pub body: CylinderBody,
-    pub diameter_cells: f64,
-    pub mach: f64,
-    pub steps: u64,
-    pub simulated_s: f64,
-    pub wall_s: f64,
-    pub drag_coefficient: f64,
-    /// The rigid obstacle only: C_D from the momentum its wall nodes take out of the air
-    /// through their faces ([`crate::coupling::momentum_exchange`]: the measure method 2 hands
-    /// to its particles), next to `drag_coefficient` from the traction quadrature.
-    pub exchange_drag_coefficient: Option<f64>,
-    pub lift_coefficient: f64,
-    pub pressure_drop: f64,
-    /// C_D, C_L and Δp are means over the last quarter of the run. Relative change of C_D over
-    /// the last fifth of the run (a steadiness measure).
-    pub drag_change_last_fifth: f64,
-    /// Particles of the disc (0 for the rigid obstacle) and solid sub-steps per fluid step.
-    pub particles: usize,
-    pub substeps: u32,
-    /// Largest displacement of a particle at the end (m).
-    pub max_displacement: f64,
-    /// Per-stage shares of the coupled step (empty for the rigid obstacle).
-    pub stage_shares: Vec<(String, f64)>,
-    /// C_D at 50 evenly spaced times.
-    pub drag_history: Vec<f64>,
-}
+pub use super::fsi_schafer_turek::{ChannelCylinderResult, ChannelStart, CylinderBody, ST_2D1_DRAG, ST_2D1_LIFT, ST_2D1_PRESSURE_DROP, schafer_turek_2d1};
 
 /// D2Q21, monatomic, θ₀ = 0.6: the air of every case here; returns the equilibrium and the
 /// largest L1 speed (for the time step).
@@ -93,167 +35,6 @@ pub(super) fn disc_body(centre: DVec3, radius: f64, l0: f64, density: f64, clamp
     }
     let surface = BodySurface::build(&particles, 0, &ReferenceShape::Disc { centre, radius }).expect("disc surface");
     (particles, surface)
-}
-
-/// Schäfer–Turek 2D-1 with `cells_per_diameter` (a multiple of 10, so that the channel height
-/// 4.1 D is a whole number of cells), lattice Mach number `mach` at U_max, run for `duration` s.
-pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, duration: f64, body: CylinderBody) -> ChannelCylinderResult {
-    assert!(cells_per_diameter % 10 == 0, "the channel height 4.1 D must be a whole number of cells");
-    let (d_phys, h_phys, l_phys, nu_phys, u_max) = (0.1, 0.41, 2.2, 1.0e-3, 0.3);
-    let u_mean = 2.0 / 3.0 * u_max;
-    let dx = d_phys / cells_per_diameter as f64;
-    let (nx, ny) = ((l_phys / dx).round() as usize, (h_phys / dx).round() as usize);
-    let (eq, l1) = d2q21_air();
-    let theta0 = 0.6;
-    let cs_lat = eq.sound_speed(theta0);
-    let units = Units::new(dx, 1.0, u_max / mach, theta0, eq.gamma());
-    let nu = units.kinematic_viscosity_to_lattice(nu_phys);
-    let params = timestep::choose(nu, theta0, l1, None, timestep::DEFAULT_COURANT_SAFETY).expect("admissible time step");
-    let u_lat = units.velocity_to_lattice(u_max);
-    debug_assert!((u_lat / cs_lat - mach).abs() < 1e-12);
-    let mut b = Boundaries::periodic();
-    b.faces[0] = FaceCondition::VelocityInlet { velocity: [u_lat, 0.0, 0.0], theta: theta0, profile: InletProfile::Parabolic };
-    // Constant pressure at the outlet (the reference pressure; velocity and non-equilibrium part
-    // from the last interior node): a zero-gradient outlet lets the density of a compressible
-    // channel drift upward under a velocity inlet (C_D grew by 4 % over 6 s at D = 10 cells).
-    b.faces[1] = FaceCondition::PressureInlet { rho: 1.0, theta: theta0 };
-    b.faces[2] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
-    b.faces[3] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
-    let grid = Grid::new(2, [nx, ny, 1]);
-    let n_y = ny as f64;
-    let init = move |x: [f64; 3]| {
-        let s = (x[1] + 0.5) / n_y;
-        Macro { rho: 1.0, u: [u_lat * 4.0 * s * (1.0 - s), 0.0, 0.0], theta: theta0 }
-    };
-    let centre = DVec3::new(0.2, 0.2, 0.0);
-    let radius = 0.5 * d_phys;
-    // The disc's particles: spacing half a cell, so that every surface edge is shorter than a
-    // cell. E = 200 Pa keeps the deformation under 10⁻³ D (drag ≈ 0.011 N/m) at a solid step
-    // close to the fluid's; viscosity 0.01 Pa·s damps its ringing.
-    let l0 = dx / 2.0;
-    let material = Orthotropic::isotropic(200.0, 0.3, 1.0, 0.01);
-    let (particles, surface) =
-        disc_body(centre, radius, l0, material.density, |x| body == CylinderBody::WeakCoupledRigid || (x - centre).length() < 0.5 * radius);
-    let lat = |p: DVec3| [units.position_to_lattice(p.x), units.position_to_lattice(p.y), 0.0];
-    let coefficient = 2.0 / (1.0 * u_mean * u_mean * d_phys);
-    let t0 = Instant::now();
-    let steps = (duration / (params.dt * units.time())).ceil() as u64;
-    let mut history = Vec::new();
-    let sample_every = (steps / 50).max(1);
-    // Acoustic waves ring between the inlet and the outlet of the compressible channel: the
-    // figures are averages over the last quarter of the run, sampled every step.
-    let average_from = steps - steps / 4;
-    let mut mean_force = DVec3::ZERO;
-    let mut mean_drop = 0.0;
-    let lat_probe = |p: DVec3| [units.position_to_lattice(p.x), units.position_to_lattice(p.y), 0.0];
-    let drop_probes = [lat_probe(DVec3::new(0.15, 0.2, 0.0)), lat_probe(DVec3::new(0.25, 0.2, 0.0))];
-    let pressure_drop = |f: &FluidSolver| {
-        let p = |x: [f64; 3]| f.sample(x).map(|m| units.gauge_pressure_to_physical(m.pressure())).unwrap_or(f64::NAN);
-        p(drop_probes[0]) - p(drop_probes[1])
-    };
-    let mut exchange_drag = None;
-    let (force, stage_shares, substeps, max_displacement, n_particles) = match body {
-        CylinderBody::RigidObstacle => {
-            let c = lat(centre);
-            let obstacle = Obstacle { shape: Shape::Cylinder { center: c, radius: units.length_to_lattice(radius) }, velocity: [0.0; 3], temperature: None };
-            let mut f = FluidSolver::new(eq, grid, b, &[obstacle], params, init);
-            let drag = |f: &FluidSolver| surface_forces(f, &units, std::slice::from_ref(&surface), &particles, TractionModel::PressureAndShear, 1.0).total[0];
-            // the cylinder's wall nodes: within 3 cells of its surface (the channel walls lie
-            // 15 radii away)
-            let cylinder_walls: Vec<usize> = {
-                let g = &f.layout.grid;
-                let (cc, r) = (DVec3::from_array(c), units.length_to_lattice(radius));
-                (0..g.len()).filter(|&n| (DVec3::from_array(g.coords(n).map(|x| x as f64)) - cc).length() < r + 3.0).collect()
-            };
-            // lattice momentum per step → N per m of span
-            let force_unit = units.density * units.velocity * units.dx * units.dx / (params.dt * units.time());
-            let mut exchanged = DVec3::ZERO;
-            for k in 1..=steps {
-                let (averaged, sampled) = (k > average_from, k % sample_every == 0);
-                if averaged {
-                    let wall = crate::coupling::momentum_exchange::step_with_exchange(&mut f, None).expect("Schäfer–Turek stays stable");
-                    exchanged += cylinder_walls.iter().map(|&n| wall[n].truncate()).sum::<DVec3>() * force_unit;
-                } else {
-                    f.step().expect("Schäfer–Turek stays stable");
-                }
-                if averaged || sampled {
-                    let fk = drag(&f);
-                    if averaged {
-                        mean_force += fk;
-                        mean_drop += pressure_drop(&f);
-                    }
-                    if sampled {
-                        history.push(fk.x * coefficient);
-                    }
-                }
-            }
-            exchange_drag = Some(exchanged.x / (steps - average_from) as f64 * coefficient);
-            (mean_force / (steps - average_from) as f64, Vec::new(), 0, 0.0, 0)
-        }
-        CylinderBody::WeakCoupled(_) | CylinderBody::WeakCoupledRigid => {
-            let traction = if let CylinderBody::WeakCoupled(t) = body { t } else { TractionModel::PressureAndShear };
-            let f = FluidSolver::new(eq, grid, b, &[], params, init);
-            let solid = SolidSolver::new(particles.clone(), vec![material], SolidOptions::default()).expect("valid disc");
-            let bodies = vec![CoupledBody { surface: surface.clone(), motion: None }];
-            let mut c =
-                CoupledSolver::new(f, solid, units, bodies, Vec::new(), Method::Weak(WeakOptions { traction, ..Default::default() })).expect("valid coupling");
-            for k in 1..=steps {
-                c.step().expect("Schäfer–Turek stays stable");
-                if k > average_from {
-                    mean_force += c.forces.total[0];
-                    mean_drop += pressure_drop(&c.fluid);
-                }
-                if k % sample_every == 0 {
-                    history.push(c.forces.total[0].x * coefficient);
-                }
-            }
-            let p = &c.solid.particles;
-            let max_d = (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max);
-            let shares = c.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
-            (mean_force / (steps - average_from) as f64, shares, c.substeps, max_d, p.len())
-        }
-        CylinderBody::ConservingCoupled => {
-            let f = FluidSolver::new(eq, grid, b, &[], params, init);
-            let solid = SolidSolver::new(particles.clone(), vec![material], SolidOptions::default()).expect("valid disc");
-            let bodies = vec![CoupledBody { surface: surface.clone(), motion: None }];
-            let mut c = CoupledSolver::new(f, solid, units, bodies, Vec::new(), Method::Conserving(ConservingOptions::default())).expect("valid coupling");
-            for k in 1..=steps {
-                c.step().expect("Schäfer–Turek stays stable");
-                let force = c.forces.total[0];
-                if k > average_from {
-                    mean_force += force;
-                    mean_drop += pressure_drop(&c.fluid);
-                }
-                if k % sample_every == 0 {
-                    history.push(force.x * coefficient);
-                }
-            }
-            let p = &c.solid.particles;
-            let max_d = (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max);
-            let shares = c.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
-            (mean_force / (steps - average_from) as f64, shares, c.substeps, max_d, p.len())
-        }
-    };
-    let fifth = history.len() * 4 / 5;
-    let last = *history.last().unwrap_or(&f64::NAN);
-    ChannelCylinderResult {
-        body,
-        diameter_cells: cells_per_diameter as f64,
-        mach,
-        steps,
-        simulated_s: steps as f64 * params.dt * units.time(),
-        wall_s: t0.elapsed().as_secs_f64(),
-        drag_coefficient: force.x * coefficient,
-        exchange_drag_coefficient: exchange_drag,
-        lift_coefficient: force.y * coefficient,
-        pressure_drop: mean_drop / (steps - average_from) as f64,
-        drag_change_last_fifth: history.get(fifth).copied().map(|d| (last - d) / last).unwrap_or(f64::NAN),
-        particles: n_particles,
-        substeps,
-        max_displacement,
-        stage_shares,
-        drag_history: history,
-    }
 }
 
 /// Result of the Galilean check: the drag of a cylinder towed through air at rest against the
@@ -403,31 +184,7 @@ pub fn oscillating_cylinder(method: Method, cells_per_diameter: usize, mach: f64
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Why method 2's drag stands above method 1's (issue 12): method 2 hands its particles the
-    /// momentum the air loses through the wall faces — the discrete flow's own force — while
-    /// method 1 and the rigid obstacle's figure integrate the traction at the true surface from
-    /// interpolated fields. Measured both ways on the rigid obstacle in the same run, the two
-    /// differ by as much as method 2 differs from the quadrature, and method 2 matches the
-    /// rigid obstacle's exchange drag (Schäfer–Turek 2D-1 at D = 10, Mach 0.1, 2 s, means over
-    /// the last 0.5 s — not yet steady: an acoustic wave still rings through the channel, the
-    /// same in both runs, so the comparison of the two measures stands). Measured: rigid quadrature 5.410, rigid exchange 5.975 (+10.4 %),
-    /// method 2 5.979 (+0.06 % from the rigid exchange). The gap closes with resolution
-    /// (`validate --case fsi_schafer_turek_2d1`).
-    #[test]
-    fn method_2_feels_the_drag_the_rigid_obstacle_gives_by_momentum_exchange() {
-        let rigid = schafer_turek_2d1(10, 0.1, 2.0, CylinderBody::RigidObstacle);
-        let conserving = schafer_turek_2d1(10, 0.1, 2.0, CylinderBody::ConservingCoupled);
-        let exchange = rigid.exchange_drag_coefficient.expect("the rigid obstacle measures both");
-        eprintln!("rigid: quadrature {} exchange {exchange}; method 2 {}", rigid.drag_coefficient, conserving.drag_coefficient);
-        let gap = exchange / rigid.drag_coefficient - 1.0;
-        let method_2 = conserving.drag_coefficient / exchange - 1.0;
-        // the two measures of one flow differ at this resolution …
-        assert!(gap > 0.05, "{rigid:?}");
-        // … and method 2's drag is the exchange one: the level-set walls and the particles
-        // change it by 1 % at most, a tenth of the gap
-        assert!(method_2.abs() < 0.01, "{conserving:?} vs {exchange}");
-    }
+    use crate::coupling::ConservingOptions;
 
     /// Galilean check (issue 12): a cylinder towed at U through air at rest feels the drag of
     /// the same cylinder held in air moving at U (Re = 20, D = 10 cells, Mach 0.1, two

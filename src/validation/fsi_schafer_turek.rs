@@ -1,0 +1,380 @@
+//! **Schäfer–Turek 2D-1**, the fixed-body check of the coupling (issue 12): Schäfer & Turek 1996, "Benchmark computations of laminar flow
+//! around a cylinder" (../shared/reference): channel 2.2 × 0.41 m, cylinder D = 0.1 m centred at
+//! (0.2, 0.2), ν = 10⁻³ m²/s, ρ = 1 kg/m³, parabolic inflow with U_max = 0.3 m/s (U_mean = 0.2,
+//! Re = 20). Steady: C_D = 5.5795, C_L = 0.0106, Δp = p(0.15, 0.2) − p(0.25, 0.2) = 0.11752 Pa.
+//! The cylinder is either the fluid's rigid ghost-node obstacle, with the force found by the
+//! same surface quadrature the coupling uses (a cross-check of the fluid and of the
+//! quadrature), or an elastic disc clamped in its inner half and coupled through
+//! [`CoupledSolver`] (the coupled path: surface polygon, moving-wall geometry, tractions).
+
+use super::fsi::{d2q21_air, disc_body};
+use crate::coupling::{ConservingOptions, CoupledBody, CoupledSolver, Method, TractionModel, WeakOptions, surface_forces};
+use crate::fluid::{Boundaries, Face, FaceCondition, FluidSolver, Grid, InletProfile, Macro, Obstacle, SelectiveFrequencyDamping, Shape, timestep};
+use crate::solid::{Orthotropic, SolidOptions, SolidSolver};
+use crate::units::Units;
+use glam::DVec3;
+use std::time::Instant;
+
+/// Schäfer–Turek 2D-1 reference values.
+pub const ST_2D1_DRAG: f64 = 5.5795;
+pub const ST_2D1_LIFT: f64 = 0.0106;
+pub const ST_2D1_PRESSURE_DROP: f64 = 0.11752;
+
+/// How the cylinder is represented.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CylinderBody {
+    /// The fluid's fixed ghost-node cylinder (no solid).
+    RigidObstacle,
+    /// An elastic MPS disc, clamped for r < D/4, coupled by method 1.
+    WeakCoupled(TractionModel),
+    /// Every particle of the disc clamped, coupled by method 1: the coupled path (polygon
+    /// walls, per-step geometry, tractions) without any motion.
+    WeakCoupledRigid,
+    /// The elastic disc clamped for r < D/4, coupled by method 2 (level-set walls, momentum
+    /// exchanged link by link); the force is the momentum the particles received per second.
+    ConservingCoupled,
+}
+
+/// How the channel flow starts.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ChannelStart {
+    /// The inflow's Poiseuille profile everywhere at t = 0, the cylinder present at once: the
+    /// flow's sudden blockage sends a pressure wave of order ρ c U through the channel, which
+    /// rings between the velocity inlet and the constant-pressure outlet (a quarter-wave
+    /// resonator, period 4L/c ≈ 2.9 s at Mach 0.1) with almost no loss.
+    Impulsive,
+    /// Air at rest at t = 0 and the inlet's peak velocity raised as U_max sin²(π t / 2T) over
+    /// `seconds` = T (the start of Schäfer–Turek 2D-3). Only a ramp much longer than the
+    /// resonator's period excites the ringing less than the impulsive start: a 3 s ramp (about
+    /// one period at Mach 0.1) drove it resonantly — C_D swung between 4.7 and 6.7 after it
+    /// (D = 10), against ±0.2 after the impulsive start.
+    Ramp { seconds: f64 },
+    /// The impulsive start, with selective frequency damping of the air after every step
+    /// ([`SelectiveFrequencyDamping`]: gain `gain` per second, filter width `filter_width`
+    /// seconds): the ringing dies out and the flow settles on the steady state of the
+    /// undamped equations.
+    Damped { gain: f64, filter_width: f64 },
+}
+
+impl ChannelStart {
+    /// The inlet's share of U_max at time `t` (s).
+    pub fn inflow_factor(self, t: f64) -> f64 {
+        match self {
+            ChannelStart::Impulsive | ChannelStart::Damped { .. } => 1.0,
+            ChannelStart::Ramp { seconds } if t < seconds => (std::f64::consts::FRAC_PI_2 * t / seconds).sin().powi(2),
+            ChannelStart::Ramp { .. } => 1.0,
+        }
+    }
+}
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ChannelCylinderResult {
+    pub body: CylinderBody,
+    pub start: ChannelStart,
+    pub diameter_cells: f64,
+    pub mach: f64,
+    pub steps: u64,
+    pub simulated_s: f64,
+    pub wall_s: f64,
+    pub drag_coefficient: f64,
+    /// The rigid obstacle only: C_D from the momentum its wall nodes take out of the air
+    /// through their faces ([`crate::coupling::momentum_exchange`]: the measure method 2 hands
+    /// to its particles), next to `drag_coefficient` from the traction quadrature.
+    pub exchange_drag_coefficient: Option<f64>,
+    pub lift_coefficient: f64,
+    /// Δp = p(0.15, 0.2) − p(0.25, 0.2) (Pa) with the field sampled at the two wall points
+    /// ([`FluidSolver::sample`]: fluid nodes only).
+    pub pressure_drop: f64,
+    /// Δp with each wall pressure extrapolated from the air along the wall's normal
+    /// (quadratic through the samples 1, 2 and 3 cells out).
+    pub pressure_drop_extrapolated: f64,
+    /// C_D, C_L and Δp are means over the last quarter of the run (the window). These are the
+    /// standard deviations of C_D and of Δp (Pa) over the window, sampled every step: what is
+    /// left of the acoustic ringing, of the flow's slow settling, and of any shedding.
+    pub drag_spread: f64,
+    pub pressure_drop_spread: f64,
+    /// [`ChannelStart::Damped`]: max |f − f̄| / max |f| at the end (zero at a steady state).
+    pub damping_residual: Option<f64>,
+    /// Particles of the disc (0 for the rigid obstacle) and solid sub-steps per fluid step.
+    pub particles: usize,
+    pub substeps: u32,
+    /// Largest displacement of a particle at the end (m).
+    pub max_displacement: f64,
+    /// Per-stage shares of the coupled step (empty for the rigid obstacle).
+    pub stage_shares: Vec<(String, f64)>,
+    /// C_D at 50 evenly spaced times.
+    pub drag_history: Vec<f64>,
+}
+
+/// Schäfer–Turek 2D-1 with `cells_per_diameter` (a multiple of 10, so that the channel height
+/// 4.1 D is a whole number of cells), lattice Mach number `mach` at U_max, started as `start`,
+/// run for `duration` s.
+pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, start: ChannelStart, duration: f64, body: CylinderBody) -> ChannelCylinderResult {
+    assert!(cells_per_diameter % 10 == 0, "the channel height 4.1 D must be a whole number of cells");
+    let (d_phys, h_phys, l_phys, nu_phys, u_max) = (0.1, 0.41, 2.2, 1.0e-3, 0.3);
+    let u_mean = 2.0 / 3.0 * u_max;
+    let dx = d_phys / cells_per_diameter as f64;
+    let (nx, ny) = ((l_phys / dx).round() as usize, (h_phys / dx).round() as usize);
+    let (eq, l1) = d2q21_air();
+    let theta0 = 0.6;
+    let cs_lat = eq.sound_speed(theta0);
+    let units = Units::new(dx, 1.0, u_max / mach, theta0, eq.gamma());
+    let nu = units.kinematic_viscosity_to_lattice(nu_phys);
+    let params = timestep::choose(nu, theta0, l1, None, timestep::DEFAULT_COURANT_SAFETY).expect("admissible time step");
+    let u_lat = units.velocity_to_lattice(u_max);
+    debug_assert!((u_lat / cs_lat - mach).abs() < 1e-12);
+    let mut b = Boundaries::periodic();
+    b.faces[0] = FaceCondition::VelocityInlet { velocity: [u_lat, 0.0, 0.0], theta: theta0, profile: InletProfile::Parabolic };
+    // Constant pressure at the outlet (the reference pressure; velocity and non-equilibrium part
+    // from the last interior node): a zero-gradient outlet lets the density of a compressible
+    // channel drift upward under a velocity inlet (C_D grew by 4 % over 6 s at D = 10 cells).
+    b.faces[1] = FaceCondition::PressureInlet { rho: 1.0, theta: theta0 };
+    b.faces[2] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
+    b.faces[3] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
+    let grid = Grid::new(2, [nx, ny, 1]);
+    let n_y = ny as f64;
+    let u0 = u_lat * start.inflow_factor(0.0);
+    let init = move |x: [f64; 3]| {
+        let s = (x[1] + 0.5) / n_y;
+        Macro { rho: 1.0, u: [u0 * 4.0 * s * (1.0 - s), 0.0, 0.0], theta: theta0 }
+    };
+    b.set_inlet_velocity(Face::XMin, [u0, 0.0, 0.0]).expect("x_min is the velocity inlet");
+    // the inlet velocity before step k (k = 1, 2, …): U_max at the step's start time
+    let step_time = params.dt * units.time();
+    let inflow = move |k: u64| [u_lat * start.inflow_factor((k - 1) as f64 * step_time), 0.0, 0.0];
+    let damping = |f: &FluidSolver| match start {
+        ChannelStart::Damped { gain, filter_width } => {
+            Some(SelectiveFrequencyDamping::new(f, gain * units.time(), filter_width / units.time()).expect("positive damping"))
+        }
+        _ => None,
+    };
+    let residual: Option<f64>;
+    let centre = DVec3::new(0.2, 0.2, 0.0);
+    let radius = 0.5 * d_phys;
+    // The disc's particles: spacing half a cell, so that every surface edge is shorter than a
+    // cell. E = 200 Pa keeps the deformation under 10⁻³ D (drag ≈ 0.011 N/m) at a solid step
+    // close to the fluid's; viscosity 0.01 Pa·s damps its ringing.
+    let l0 = dx / 2.0;
+    let material = Orthotropic::isotropic(200.0, 0.3, 1.0, 0.01);
+    let (particles, surface) =
+        disc_body(centre, radius, l0, material.density, |x| body == CylinderBody::WeakCoupledRigid || (x - centre).length() < 0.5 * radius);
+    let lat = |p: DVec3| [units.position_to_lattice(p.x), units.position_to_lattice(p.y), 0.0];
+    let coefficient = 2.0 / (1.0 * u_mean * u_mean * d_phys);
+    let t0 = Instant::now();
+    let steps = (duration / (params.dt * units.time())).ceil() as u64;
+    let mut history = Vec::new();
+    let sample_every = (steps / 50).max(1);
+    // Acoustic waves ring between the inlet and the outlet of the compressible channel: the
+    // figures are averages over the last quarter of the run, sampled every step.
+    let average_from = steps - steps / 4;
+    let mut mean_force = DVec3::ZERO;
+    let mut mean_drop = 0.0;
+    // Σ C_D² and Σ Δp² over the window, for the spreads
+    let (mut drag_squares, mut drop_squares) = (0.0, 0.0);
+    let lat_probe = |p: DVec3| [units.position_to_lattice(p.x), units.position_to_lattice(p.y), 0.0];
+    let drop_probes = [lat_probe(DVec3::new(0.15, 0.2, 0.0)), lat_probe(DVec3::new(0.25, 0.2, 0.0))];
+    // Δp two ways: the field sampled at the two wall points (fluid nodes only, a linear fit
+    // where the cell around the point is cut by the wall), and the pressure extrapolated to the
+    // wall along its normal from the air, quadratically through 1, 2 and 3 cells out
+    // (p_w = 3p₁ − 3p₂ + p₃, exact for a quadratic profile; the normals are −x and +x).
+    let pressure_drop = |f: &FluidSolver| {
+        let p = |x: [f64; 3]| f.sample(x).map(|m| units.gauge_pressure_to_physical(m.pressure())).unwrap_or(f64::NAN);
+        let extrapolated = |x: [f64; 3], normal: f64| {
+            let out = |k: f64| p([x[0] + normal * k, x[1], x[2]]);
+            3.0 * out(1.0) - 3.0 * out(2.0) + out(3.0)
+        };
+        (p(drop_probes[0]) - p(drop_probes[1]), extrapolated(drop_probes[0], -1.0) - extrapolated(drop_probes[1], 1.0))
+    };
+    let mut mean_extrapolated_drop = 0.0;
+    let mut exchange_drag = None;
+    let (force, stage_shares, substeps, max_displacement, n_particles) = match body {
+        CylinderBody::RigidObstacle => {
+            let c = lat(centre);
+            let obstacle = Obstacle { shape: Shape::Cylinder { center: c, radius: units.length_to_lattice(radius) }, velocity: [0.0; 3], temperature: None };
+            let mut f = FluidSolver::new(eq, grid, b, &[obstacle], params, init);
+            let drag = |f: &FluidSolver| surface_forces(f, &units, std::slice::from_ref(&surface), &particles, TractionModel::PressureAndShear, 1.0).total[0];
+            // the cylinder's wall nodes: within 3 cells of its surface (the channel walls lie
+            // 15 radii away)
+            let cylinder_walls: Vec<usize> = {
+                let g = &f.layout.grid;
+                let (cc, r) = (DVec3::from_array(c), units.length_to_lattice(radius));
+                (0..g.len()).filter(|&n| (DVec3::from_array(g.coords(n).map(|x| x as f64)) - cc).length() < r + 3.0).collect()
+            };
+            // lattice momentum per step → N per m of span
+            let force_unit = units.density * units.velocity * units.dx * units.dx / (params.dt * units.time());
+            let mut exchanged = DVec3::ZERO;
+            let mut sfd = damping(&f);
+            for k in 1..=steps {
+                f.layout.boundaries.set_inlet_velocity(Face::XMin, inflow(k)).expect("x_min is the velocity inlet");
+                let (averaged, sampled) = (k > average_from, k % sample_every == 0);
+                if averaged {
+                    let wall = crate::coupling::momentum_exchange::step_with_exchange(&mut f, None).expect("Schäfer–Turek stays stable");
+                    exchanged += cylinder_walls.iter().map(|&n| wall[n].truncate()).sum::<DVec3>() * force_unit;
+                } else {
+                    f.step().expect("Schäfer–Turek stays stable");
+                }
+                if let Some(d) = sfd.as_mut() {
+                    d.apply(&mut f);
+                }
+                if averaged || sampled {
+                    let fk = drag(&f);
+                    if averaged {
+                        let (dp, dpx) = pressure_drop(&f);
+                        mean_extrapolated_drop += dpx;
+                        mean_force += fk;
+                        mean_drop += dp;
+                        drag_squares += (fk.x * coefficient).powi(2);
+                        drop_squares += dp * dp;
+                    }
+                    if sampled {
+                        history.push(fk.x * coefficient);
+                    }
+                }
+            }
+            exchange_drag = Some(exchanged.x / (steps - average_from) as f64 * coefficient);
+            residual = sfd.map(|d| d.residual(&f));
+            (mean_force / (steps - average_from) as f64, Vec::new(), 0, 0.0, 0)
+        }
+        CylinderBody::WeakCoupled(_) | CylinderBody::WeakCoupledRigid => {
+            let traction = if let CylinderBody::WeakCoupled(t) = body { t } else { TractionModel::PressureAndShear };
+            let f = FluidSolver::new(eq, grid, b, &[], params, init);
+            let solid = SolidSolver::new(particles.clone(), vec![material], SolidOptions::default()).expect("valid disc");
+            let bodies = vec![CoupledBody { surface: surface.clone(), motion: None }];
+            let mut c =
+                CoupledSolver::new(f, solid, units, bodies, Vec::new(), Method::Weak(WeakOptions { traction, ..Default::default() })).expect("valid coupling");
+            let mut sfd = damping(&c.fluid);
+            for k in 1..=steps {
+                c.fluid.layout.boundaries.set_inlet_velocity(Face::XMin, inflow(k)).expect("x_min is the velocity inlet");
+                c.step().expect("Schäfer–Turek stays stable");
+                if let Some(d) = sfd.as_mut() {
+                    d.apply(&mut c.fluid);
+                }
+                if k > average_from {
+                    let (fk, (dp, dpx)) = (c.forces.total[0], pressure_drop(&c.fluid));
+                    mean_extrapolated_drop += dpx;
+                    mean_force += fk;
+                    mean_drop += dp;
+                    drag_squares += (fk.x * coefficient).powi(2);
+                    drop_squares += dp * dp;
+                }
+                if k % sample_every == 0 {
+                    history.push(c.forces.total[0].x * coefficient);
+                }
+            }
+            residual = sfd.map(|d| d.residual(&c.fluid));
+            let p = &c.solid.particles;
+            let max_d = (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max);
+            let shares = c.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
+            (mean_force / (steps - average_from) as f64, shares, c.substeps, max_d, p.len())
+        }
+        CylinderBody::ConservingCoupled => {
+            let f = FluidSolver::new(eq, grid, b, &[], params, init);
+            let solid = SolidSolver::new(particles.clone(), vec![material], SolidOptions::default()).expect("valid disc");
+            let bodies = vec![CoupledBody { surface: surface.clone(), motion: None }];
+            let mut c = CoupledSolver::new(f, solid, units, bodies, Vec::new(), Method::Conserving(ConservingOptions::default())).expect("valid coupling");
+            let mut sfd = damping(&c.fluid);
+            for k in 1..=steps {
+                c.fluid.layout.boundaries.set_inlet_velocity(Face::XMin, inflow(k)).expect("x_min is the velocity inlet");
+                c.step().expect("Schäfer–Turek stays stable");
+                if let Some(d) = sfd.as_mut() {
+                    d.apply(&mut c.fluid);
+                }
+                let force = c.forces.total[0];
+                if k > average_from {
+                    let (dp, dpx) = pressure_drop(&c.fluid);
+                    mean_extrapolated_drop += dpx;
+                    mean_force += force;
+                    mean_drop += dp;
+                    drag_squares += (force.x * coefficient).powi(2);
+                    drop_squares += dp * dp;
+                }
+                if k % sample_every == 0 {
+                    history.push(force.x * coefficient);
+                }
+            }
+            residual = sfd.map(|d| d.residual(&c.fluid));
+            let p = &c.solid.particles;
+            let max_d = (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max);
+            let shares = c.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
+            (mean_force / (steps - average_from) as f64, shares, c.substeps, max_d, p.len())
+        }
+    };
+    let window = (steps - average_from) as f64;
+    let (drag, drop) = (force.x * coefficient, mean_drop / window);
+    let spread = |squares: f64, mean: f64| (squares / window - mean * mean).max(0.0).sqrt();
+    ChannelCylinderResult {
+        body,
+        start,
+        diameter_cells: cells_per_diameter as f64,
+        mach,
+        steps,
+        simulated_s: steps as f64 * params.dt * units.time(),
+        wall_s: t0.elapsed().as_secs_f64(),
+        drag_coefficient: drag,
+        exchange_drag_coefficient: exchange_drag,
+        lift_coefficient: force.y * coefficient,
+        pressure_drop: drop,
+        pressure_drop_extrapolated: mean_extrapolated_drop / window,
+        drag_spread: spread(drag_squares, drag),
+        pressure_drop_spread: spread(drop_squares, drop),
+        damping_residual: residual,
+        particles: n_particles,
+        substeps,
+        max_displacement,
+        stage_shares,
+        drag_history: history,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Why method 2's drag stands above method 1's (issue 12): method 2 hands its particles the
+    /// momentum the air loses through the wall faces — the discrete flow's own force — while
+    /// method 1 and the rigid obstacle's figure integrate the traction at the true surface from
+    /// interpolated fields. Measured both ways on the rigid obstacle in the same run, the two
+    /// differ by as much as method 2 differs from the quadrature, and method 2 matches the
+    /// rigid obstacle's exchange drag (Schäfer–Turek 2D-1 at D = 10, Mach 0.1, 2 s, means over
+    /// the last 0.5 s — not yet steady: an acoustic wave still rings through the channel, the
+    /// same in both runs, so the comparison of the two measures stands). Measured: rigid quadrature 5.410, rigid exchange 5.975 (+10.4 %),
+    /// method 2 5.979 (+0.06 % from the rigid exchange). The gap closes with resolution
+    /// (`validate --case fsi_schafer_turek_2d1`).
+    #[test]
+    fn method_2_feels_the_drag_the_rigid_obstacle_gives_by_momentum_exchange() {
+        let rigid = schafer_turek_2d1(10, 0.1, ChannelStart::Impulsive, 2.0, CylinderBody::RigidObstacle);
+        let conserving = schafer_turek_2d1(10, 0.1, ChannelStart::Impulsive, 2.0, CylinderBody::ConservingCoupled);
+        let exchange = rigid.exchange_drag_coefficient.expect("the rigid obstacle measures both");
+        eprintln!("rigid: quadrature {} exchange {exchange}; method 2 {}", rigid.drag_coefficient, conserving.drag_coefficient);
+        let gap = exchange / rigid.drag_coefficient - 1.0;
+        let method_2 = conserving.drag_coefficient / exchange - 1.0;
+        // the two measures of one flow differ at this resolution …
+        assert!(gap > 0.05, "{rigid:?}");
+        // … and method 2's drag is the exchange one: the level-set walls and the particles
+        // change it by 1 % at most, a tenth of the gap
+        assert!(method_2.abs() < 0.01, "{conserving:?} vs {exchange}");
+    }
+
+    /// The Schäfer–Turek channel rings after its start (a lossless quarter-wave resonator
+    /// between the velocity inlet and the constant-pressure outlet); selective frequency damping
+    /// ([`SelectiveFrequencyDamping`], χ = 1/s, Δ = 1 s: the fastest decay of the fundamental at
+    /// ω₀ ≈ 2.1/s, rate ≈ 1/s) settles it. Rigid obstacle, D = 10, Mach 0.1, 5 s, means over the
+    /// last 1.25 s: the spread of C_D in that window falls tenfold and more, and the damped
+    /// run's C_D is within 2 % of the benchmark (at 3 s it is not yet: +3.7 %, still coming
+    /// down — the damping slows the flow's own slow relaxation by 1 + χΔ = 2). Measured: free
+    /// 5.544 ± 0.285, damped 5.592 ± 0.019 (+0.22 %), residual 3.7·10⁻³.
+    #[test]
+    fn selective_frequency_damping_settles_the_ringing_channel() {
+        let free = schafer_turek_2d1(10, 0.1, ChannelStart::Impulsive, 5.0, CylinderBody::RigidObstacle);
+        let damped = schafer_turek_2d1(10, 0.1, ChannelStart::Damped { gain: 1.0, filter_width: 1.0 }, 5.0, CylinderBody::RigidObstacle);
+        eprintln!(
+            "C_D free {} ± {}, damped {} ± {}; residual {:?}",
+            free.drag_coefficient, free.drag_spread, damped.drag_coefficient, damped.drag_spread, damped.damping_residual
+        );
+        assert!(damped.drag_spread < 0.1 * free.drag_spread, "{} vs {}", damped.drag_spread, free.drag_spread);
+        assert!((damped.drag_coefficient / ST_2D1_DRAG - 1.0).abs() < 0.02, "{damped:?}");
+        assert!(damped.damping_residual.is_some_and(|r| r < 1e-2), "{damped:?}");
+    }
+}
