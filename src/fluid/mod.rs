@@ -10,6 +10,7 @@ pub mod grid;
 pub mod kernel_level_set;
 pub mod layout;
 pub mod moving;
+pub mod observe;
 mod rebuild;
 pub mod solver;
 pub mod state;
