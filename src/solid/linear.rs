@@ -37,10 +37,20 @@ impl<'a> LinearOperator<'a> {
 
     /// K x + D v: the forces of position increments x and velocity increments v.
     pub(super) fn forces(&mut self, x: &[DVec3], v: &[DVec3]) -> &[DVec3] {
+        self.forces_of(x, v, None)
+    }
+
+    /// [`Self::forces`]; `v_over_x = Some(s)` says that v = s·x, so that the rotations following
+    /// v are s times those following x (the map (2.74) is linear in the increments) and are not
+    /// computed a second time.
+    fn forces_of(&mut self, x: &[DVec3], v: &[DVec3], v_over_x: Option<f64>) -> &[DVec3] {
         let (disc, rot, jinv) = (self.disc, self.rot, self.jinv);
         strain_stress(disc, x, rot, Mode::Linear, &mut self.stress);
         rotation_increments(disc, x, rot, jinv, &mut self.th_x);
-        rotation_increments(disc, v, rot, jinv, &mut self.th_v);
+        match v_over_x {
+            Some(s) => self.th_v.par_iter_mut().zip(&self.th_x).for_each(|(tv, tx)| *tv = *tx * s),
+            None => rotation_increments(disc, v, rot, jinv, &mut self.th_v),
+        }
         bond_forces(disc, x, v, None, rot, &self.stress, Mode::Linear, Some((&self.th_x, &self.th_v)), &mut self.force);
         rotation_chain(disc, rot, jinv, &self.force.torque, &mut self.force.force);
         &self.force.force
@@ -50,8 +60,9 @@ impl<'a> LinearOperator<'a> {
     /// (M + M_a) x − Δt² (K x + D x/Δt), zero on clamped particles. `mass` is M + M_a.
     pub(super) fn apply(&mut self, x: &[DVec3], out: &mut [DVec3], mass: &[f64], fixed: &[bool], dt: f64) {
         let mut q = std::mem::take(&mut self.q);
-        q.par_iter_mut().zip(x).for_each(|(qi, xi)| *qi = *xi / dt);
-        let f = self.forces(x, &q);
+        let inv_dt = 1.0 / dt;
+        q.par_iter_mut().zip(x).for_each(|(qi, xi)| *qi = *xi * inv_dt);
+        let f = self.forces_of(x, &q, Some(inv_dt));
         out.par_iter_mut().enumerate().for_each(|(i, o)| *o = if fixed[i] { DVec3::ZERO } else { mass[i] * x[i] - dt * dt * f[i] });
         self.q = q;
     }
