@@ -108,6 +108,30 @@ pub struct ChannelCylinderResult {
     pub drag_history: Vec<f64>,
 }
 
+/// Sums over the averaging window: force (N/m), Δp both ways (Pa), and C_D² and Δp² for the
+/// spreads.
+#[derive(Default)]
+struct Window {
+    force: DVec3,
+    drop: f64,
+    extrapolated_drop: f64,
+    drag_squares: f64,
+    drop_squares: f64,
+    samples: f64,
+}
+
+impl Window {
+    /// Adds one step's force and (sampled, extrapolated) Δp; `coefficient` turns a force into C_D.
+    fn add(&mut self, force: DVec3, (drop, extrapolated): (f64, f64), coefficient: f64) {
+        self.force += force;
+        self.drop += drop;
+        self.extrapolated_drop += extrapolated;
+        self.drag_squares += (force.x * coefficient).powi(2);
+        self.drop_squares += drop * drop;
+        self.samples += 1.0;
+    }
+}
+
 /// Schäfer–Turek 2D-1 with `cells_per_diameter` (a multiple of 10, so that the channel height
 /// 4.1 D is a whole number of cells), lattice Mach number `mach` at U_max, started as `start`,
 /// run for `duration` s.
@@ -169,10 +193,7 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, start: ChannelSta
     // Acoustic waves ring between the inlet and the outlet of the compressible channel: the
     // figures are averages over the last quarter of the run, sampled every step.
     let average_from = steps - steps / 4;
-    let mut mean_force = DVec3::ZERO;
-    let mut mean_drop = 0.0;
-    // Σ C_D² and Σ Δp² over the window, for the spreads
-    let (mut drag_squares, mut drop_squares) = (0.0, 0.0);
+    let mut window = Window::default();
     let lat_probe = |p: DVec3| [units.position_to_lattice(p.x), units.position_to_lattice(p.y), 0.0];
     let drop_probes = [lat_probe(DVec3::new(0.15, 0.2, 0.0)), lat_probe(DVec3::new(0.25, 0.2, 0.0))];
     // Δp two ways: the field sampled at the two wall points (fluid nodes only, a linear fit
@@ -187,9 +208,8 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, start: ChannelSta
         };
         (p(drop_probes[0]) - p(drop_probes[1]), extrapolated(drop_probes[0], -1.0) - extrapolated(drop_probes[1], 1.0))
     };
-    let mut mean_extrapolated_drop = 0.0;
     let mut exchange_drag = None;
-    let (force, stage_shares, substeps, max_displacement, n_particles) = match body {
+    let (stage_shares, substeps, max_displacement, n_particles) = match body {
         CylinderBody::RigidObstacle => {
             let c = lat(centre);
             let obstacle = Obstacle { shape: Shape::Cylinder { center: c, radius: units.length_to_lattice(radius) }, velocity: [0.0; 3], temperature: None };
@@ -221,29 +241,27 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, start: ChannelSta
                 if averaged || sampled {
                     let fk = drag(&f);
                     if averaged {
-                        let (dp, dpx) = pressure_drop(&f);
-                        mean_extrapolated_drop += dpx;
-                        mean_force += fk;
-                        mean_drop += dp;
-                        drag_squares += (fk.x * coefficient).powi(2);
-                        drop_squares += dp * dp;
+                        window.add(fk, pressure_drop(&f), coefficient);
                     }
                     if sampled {
                         history.push(fk.x * coefficient);
                     }
                 }
             }
-            exchange_drag = Some(exchanged.x / (steps - average_from) as f64 * coefficient);
+            exchange_drag = Some(exchanged.x / window.samples * coefficient);
             residual = sfd.map(|d| d.residual(&f));
-            (mean_force / (steps - average_from) as f64, Vec::new(), 0, 0.0, 0)
+            (Vec::new(), 0, 0.0, 0)
         }
-        CylinderBody::WeakCoupled(_) | CylinderBody::WeakCoupledRigid => {
-            let traction = if let CylinderBody::WeakCoupled(t) = body { t } else { TractionModel::PressureAndShear };
+        CylinderBody::WeakCoupled(_) | CylinderBody::WeakCoupledRigid | CylinderBody::ConservingCoupled => {
+            let method = match body {
+                CylinderBody::WeakCoupled(traction) => Method::Weak(WeakOptions { traction, ..Default::default() }),
+                CylinderBody::WeakCoupledRigid => Method::Weak(WeakOptions { traction: TractionModel::PressureAndShear, ..Default::default() }),
+                _ => Method::Conserving(ConservingOptions::default()),
+            };
             let f = FluidSolver::new(eq, grid, b, &[], params, init);
             let solid = SolidSolver::new(particles.clone(), vec![material], SolidOptions::default()).expect("valid disc");
             let bodies = vec![CoupledBody { surface: surface.clone(), motion: None }];
-            let mut c =
-                CoupledSolver::new(f, solid, units, bodies, Vec::new(), Method::Weak(WeakOptions { traction, ..Default::default() })).expect("valid coupling");
+            let mut c = CoupledSolver::new(f, solid, units, bodies, Vec::new(), method).expect("valid coupling");
             let mut sfd = damping(&c.fluid);
             for k in 1..=steps {
                 c.fluid.layout.boundaries.set_inlet_velocity(Face::XMin, inflow(k)).expect("x_min is the velocity inlet");
@@ -251,44 +269,10 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, start: ChannelSta
                 if let Some(d) = sfd.as_mut() {
                     d.apply(&mut c.fluid);
                 }
-                if k > average_from {
-                    let (fk, (dp, dpx)) = (c.forces.total[0], pressure_drop(&c.fluid));
-                    mean_extrapolated_drop += dpx;
-                    mean_force += fk;
-                    mean_drop += dp;
-                    drag_squares += (fk.x * coefficient).powi(2);
-                    drop_squares += dp * dp;
-                }
-                if k % sample_every == 0 {
-                    history.push(c.forces.total[0].x * coefficient);
-                }
-            }
-            residual = sfd.map(|d| d.residual(&c.fluid));
-            let p = &c.solid.particles;
-            let max_d = (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max);
-            let shares = c.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
-            (mean_force / (steps - average_from) as f64, shares, c.substeps, max_d, p.len())
-        }
-        CylinderBody::ConservingCoupled => {
-            let f = FluidSolver::new(eq, grid, b, &[], params, init);
-            let solid = SolidSolver::new(particles.clone(), vec![material], SolidOptions::default()).expect("valid disc");
-            let bodies = vec![CoupledBody { surface: surface.clone(), motion: None }];
-            let mut c = CoupledSolver::new(f, solid, units, bodies, Vec::new(), Method::Conserving(ConservingOptions::default())).expect("valid coupling");
-            let mut sfd = damping(&c.fluid);
-            for k in 1..=steps {
-                c.fluid.layout.boundaries.set_inlet_velocity(Face::XMin, inflow(k)).expect("x_min is the velocity inlet");
-                c.step().expect("Schäfer–Turek stays stable");
-                if let Some(d) = sfd.as_mut() {
-                    d.apply(&mut c.fluid);
-                }
+                // method 1: the traction quadrature; method 2: the momentum the particles received
                 let force = c.forces.total[0];
                 if k > average_from {
-                    let (dp, dpx) = pressure_drop(&c.fluid);
-                    mean_extrapolated_drop += dpx;
-                    mean_force += force;
-                    mean_drop += dp;
-                    drag_squares += (force.x * coefficient).powi(2);
-                    drop_squares += dp * dp;
+                    window.add(force, pressure_drop(&c.fluid), coefficient);
                 }
                 if k % sample_every == 0 {
                     history.push(force.x * coefficient);
@@ -298,12 +282,13 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, start: ChannelSta
             let p = &c.solid.particles;
             let max_d = (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max);
             let shares = c.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
-            (mean_force / (steps - average_from) as f64, shares, c.substeps, max_d, p.len())
+            (shares, c.substeps, max_d, p.len())
         }
     };
-    let window = (steps - average_from) as f64;
-    let (drag, drop) = (force.x * coefficient, mean_drop / window);
-    let spread = |squares: f64, mean: f64| (squares / window - mean * mean).max(0.0).sqrt();
+    let n = window.samples;
+    let force = window.force / n;
+    let (drag, drop) = (force.x * coefficient, window.drop / n);
+    let spread = |squares: f64, mean: f64| (squares / n - mean * mean).max(0.0).sqrt();
     ChannelCylinderResult {
         body,
         start,
@@ -316,9 +301,9 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, start: ChannelSta
         exchange_drag_coefficient: exchange_drag,
         lift_coefficient: force.y * coefficient,
         pressure_drop: drop,
-        pressure_drop_extrapolated: mean_extrapolated_drop / window,
-        drag_spread: spread(drag_squares, drag),
-        pressure_drop_spread: spread(drop_squares, drop),
+        pressure_drop_extrapolated: window.extrapolated_drop / n,
+        drag_spread: spread(window.drag_squares, drag),
+        pressure_drop_spread: spread(window.drop_squares, drop),
         damping_residual: residual,
         particles: n_particles,
         substeps,
