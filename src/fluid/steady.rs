@@ -18,7 +18,9 @@
 //! What it is for: a compressible channel between a velocity inlet and a constant-pressure
 //! outlet is an acoustic resonator with almost no loss, so a steady benchmark (Schäfer–Turek
 //! 2D-1) keeps ringing for tens of seconds after its start; a static glottis' pressure–flow
-//! relation is the same kind of question. Not for flows whose unsteadiness is the answer.
+//! relation is the same kind of question. Not for flows whose unsteadiness is the answer, nor
+//! for geometry that changes: a node that a moving body uncovers would be pulled towards the
+//! filtered copy of what it held while it was solid.
 
 use super::solver::FluidSolver;
 
