@@ -249,8 +249,8 @@ pub fn coupled_speed_vs_error(quick: bool) -> Vec<CoupledSpeed> {
 }
 
 fn coupled_rows(method: &'static str, body: crate::validation::fsi::CylinderBody, sizes: &[usize], duration: f64) -> Vec<CoupledSpeed> {
-    use crate::validation::fsi::{ST_2D1_DRAG, schafer_turek_2d1};
-    let runs: Vec<_> = sizes.iter().map(|&d| (d, schafer_turek_2d1(d, 0.1, crate::validation::fsi::ChannelStart::Impulsive, duration, body))).collect();
+    use crate::validation::fsi::{ChannelStart, ST_2D1_DRAG, schafer_turek_2d1};
+    let runs: Vec<_> = sizes.iter().map(|&d| (d, schafer_turek_2d1(d, 0.1, ChannelStart::Impulsive, duration, body))).collect();
     let finest = runs.last().map(|(_, r)| r.drag_coefficient).unwrap_or(f64::NAN);
     runs.into_iter()
         .map(|(d, r)| CoupledSpeed {

@@ -78,6 +78,16 @@ mod tests {
     use crate::fluid::{Boundaries, Equilibrium, GasModel, Grid, Macro, VelocitySet, VelocitySetKind, timestep};
     use std::f64::consts::PI;
 
+    const THETA0: f64 = 0.6;
+
+    /// D2Q21 monatomic air at θ₀ = 0.6 and its automatic step for ν = 0.02 (lattice units).
+    fn air() -> (Equilibrium, crate::fluid::StepParams) {
+        let vs = VelocitySet::new(VelocitySetKind::D2q21);
+        let l1 = vs.max_l1_speed();
+        let params = timestep::choose(0.02, THETA0, l1, None, timestep::DEFAULT_COURANT_SAFETY).expect("time step");
+        (Equilibrium::new(vs, GasModel::Monatomic), params)
+    }
+
     /// A standing acoustic wave in a periodic box (D2Q21, 32 × 4 cells, amplitude 10⁻³ in ρ)
     /// keeps ringing, damped only by viscosity; with the damping it dies out: what remains of
     /// the wave after 2 000 steps (≈ 14 periods; χ = 4/period, Δ = period/2π) is asserted below
@@ -86,11 +96,8 @@ mod tests {
     /// f + χΔ f̄ exactly, so the mass of the box stays (to round-off).
     #[test]
     fn the_damping_stops_a_standing_wave_and_keeps_the_mean_state() {
-        let vs = VelocitySet::new(VelocitySetKind::D2q21);
-        let l1 = vs.max_l1_speed();
-        let eq = Equilibrium::new(vs, GasModel::Monatomic);
-        let theta0 = 0.6;
-        let params = timestep::choose(0.02, theta0, l1, None, timestep::DEFAULT_COURANT_SAFETY).expect("time step");
+        let (eq, params) = air();
+        let theta0 = THETA0;
         let n = 32;
         let init = |x: [f64; 3]| Macro { rho: 1.0 + 1e-3 * (2.0 * PI * (x[0] + 0.5) / n as f64).cos(), u: [0.0; 3], theta: theta0 };
         let make = || crate::fluid::FluidSolver::new(eq.clone(), Grid::new(2, [n, 4, 1]), Boundaries::periodic(), &[], params, init);
@@ -124,12 +131,12 @@ mod tests {
 
     #[test]
     fn a_gain_or_width_that_is_not_positive_is_refused_by_name() {
-        let vs = VelocitySet::new(VelocitySetKind::D2q21);
-        let l1 = vs.max_l1_speed();
-        let eq = Equilibrium::new(vs, GasModel::Monatomic);
-        let params = timestep::choose(0.02, 0.6, l1, None, timestep::DEFAULT_COURANT_SAFETY).unwrap();
-        let f =
-            crate::fluid::FluidSolver::new(eq, Grid::new(2, [8, 4, 1]), Boundaries::periodic(), &[], params, |_| Macro { rho: 1.0, u: [0.0; 3], theta: 0.6 });
+        let (eq, params) = air();
+        let f = crate::fluid::FluidSolver::new(eq, Grid::new(2, [8, 4, 1]), Boundaries::periodic(), &[], params, |_| Macro {
+            rho: 1.0,
+            u: [0.0; 3],
+            theta: THETA0,
+        });
         assert!(SelectiveFrequencyDamping::new(&f, 0.0, 1.0).unwrap_err().starts_with("gain:"));
         assert!(SelectiveFrequencyDamping::new(&f, 1.0, f64::NAN).unwrap_err().starts_with("filter_width:"));
     }

@@ -251,12 +251,12 @@ pub fn cases() -> Vec<Case> {
             // ring between the inlet and the constant-pressure outlet (a lossless resonator): the
             // air is settled by selective frequency damping (χ = 1/s, Δ = 1 s; it leaves the
             // steady state unchanged), and the spread of C_D over the window is a row of its
-            // own. The weakly compressible
-            // channel's density near the cylinder is ~1.7 % above ρ₀ at Mach 0.1 (O(Ma²)).
-            // The rigid obstacle's drag is measured twice: by the traction quadrature (method 1's
-            // measure) and by the momentum its wall nodes take out of the air (method 2's); method
-            // 2's drag must be the latter (measured: −0.16 % at D = 20, +0.06 % at D = 10, where
-            // the two measures differ by 1.9 % and 10.4 %).
+            // own. The weakly compressible channel's density near the cylinder is ~1.7 % above
+            // ρ₀ at Mach 0.1 (O(Ma²)). The rigid obstacle's drag is measured twice: by the
+            // traction quadrature (method 1's measure) and by the momentum its wall nodes take
+            // out of the air (method 2's); method 2's drag must be the latter (measured, damped:
+            // −0.19 % at D = 20, where the two measures differ by 1.9 %; +0.06 % at D = 10,
+            // undamped, where they differ by 10.4 %).
             let mut out = Vec::new();
             let mut rigid_exchange = f64::NAN;
             for body in
