@@ -12,6 +12,7 @@ pub mod layout;
 pub mod moving;
 pub mod observe;
 mod rebuild;
+mod row_kernels;
 pub mod solver;
 pub mod state;
 pub mod steady;

@@ -15,6 +15,7 @@ use super::equilibrium::{Equilibrium, MACRO_FIELDS, Macro};
 use super::geometry::Obstacle;
 use super::grid::Grid;
 use super::layout::{Layout, NodeKind};
+use super::row_kernels::{CollideConstants, CollideRows, RowScratch, advect_value, collide_value};
 use super::storage::RowBlocked;
 use super::thin_wall::advect_thin_taps;
 use super::timestep::StepParams;
@@ -252,92 +253,6 @@ fn check_state(m: &Macro, window: (f64, f64)) -> Option<(&'static str, f64, Stri
     None
 }
 
-/// Per-row scratch of the kernels: moment sums, macroscopic fields and equilibria along x.
-/// One per rayon task, reused across the rows the task updates.
-struct RowScratch {
-    rho: Vec<f64>,
-    /// Momentum and energy sums of the moments pass.
-    j: [Vec<f64>; 3],
-    en: Vec<f64>,
-    u: [Vec<f64>; 3],
-    theta: Vec<f64>,
-    /// 1/θ and 1 − u²/(2θ).
-    inv_theta: Vec<f64>,
-    base: Vec<f64>,
-    /// Shell weights along x, one row per shell.
-    shell_w: Vec<Vec<f64>>,
-    fe: Vec<f64>,
-    adv: Vec<f64>,
-}
-
-impl RowScratch {
-    fn new(px: usize, shells: usize) -> Self {
-        let z = || vec![0.0; px];
-        RowScratch {
-            rho: z(),
-            j: [z(), z(), z()],
-            en: z(),
-            u: [z(), z(), z()],
-            theta: z(),
-            inv_theta: z(),
-            base: z(),
-            shell_w: (0..shells).map(|_| z()).collect(),
-            fe: z(),
-            adv: z(),
-        }
-    }
-
-    /// Zeroes the moment sums on x ∈ [x0, x1) before a row is accumulated.
-    fn clear_sums(&mut self, x0: usize, x1: usize) {
-        let [j0, j1, j2] = &mut self.j;
-        for a in [&mut self.rho, j0, j1, j2, &mut self.en] {
-            a[x0..x1].iter_mut().for_each(|v| *v = 0.0);
-        }
-    }
-
-    /// Shell weights and the velocity-independent parts of (2.78) on x ∈ [x0, x1).
-    fn prepare_equilibrium(&mut self, eq: &Equilibrium, x0: usize, x1: usize) {
-        let theta = &self.theta[x0..x1];
-        for (s, shell) in eq.set.shells.iter().enumerate() {
-            for (w, t) in self.shell_w[s][x0..x1].iter_mut().zip(theta) {
-                *w = shell.weight(*t);
-            }
-        }
-        let n = x1 - x0;
-        let (u0, u1, u2) = (&self.u[0][x0..x1], &self.u[1][x0..x1], &self.u[2][x0..x1]);
-        let (inv, base) = (&mut self.inv_theta[x0..x1], &mut self.base[x0..x1]);
-        for x in 0..n {
-            let i = 1.0 / theta[x];
-            inv[x] = i;
-            base[x] = 1.0 - 0.5 * (u0[x] * u0[x] + u1[x] * u1[x] + u2[x] * u2[x]) * i;
-        }
-    }
-
-    /// f⁰ of value `v` (f or G) along x ∈ [x0, x1) into `self.fe` (2.78, 2.97).
-    fn equilibrium(&mut self, eq: &Equilibrium, v: usize, x0: usize, x1: usize) {
-        let q = eq.q();
-        let i = if v < q { v } else { v - q };
-        let c = eq.cf[i];
-        let n = x1 - x0;
-        let w = &self.shell_w[eq.set.shell_of[i]][x0..x1];
-        let (u0, u1, u2) = (&self.u[0][x0..x1], &self.u[1][x0..x1], &self.u[2][x0..x1]);
-        let (inv, base, rho, theta) = (&self.inv_theta[x0..x1], &self.base[x0..x1], &self.rho[x0..x1], &self.theta[x0..x1]);
-        let fe = &mut self.fe[x0..x1];
-        let rot = if v >= q { eq.rot_half } else { 0.0 };
-        for x in 0..n {
-            let xi = (c[0] * u0[x] + c[1] * u1[x] + c[2] * u2[x]) * inv[x];
-            let b = base[x];
-            let poly = b + xi * (b + xi * (0.5 + xi * (1.0 / 6.0)));
-            fe[x] = w[x] * rho[x] * poly;
-        }
-        if v >= q {
-            for x in 0..n {
-                fe[x] *= rot * theta[x];
-            }
-        }
-    }
-}
-
 /// The row kernels of the moments and advect–collide stages.
 struct Kernels<'a> {
     eq: &'a Equilibrium,
@@ -392,84 +307,56 @@ impl Kernels<'_> {
                 || RowScratch::new(px, eq.set.shells.len()),
                 |s, (r, ((h_row, mac_row), out_row))| {
                     let (x0, x1) = self.interior(r)?;
-                    let n = x1 - x0;
                     let f_row = &f[r * px * nv..(r + 1) * px * nv];
                     let kind_row = &kind[r * px..(r + 1) * px];
-                    s.clear_sums(x0, x1);
-                    {
-                        let (rho, en) = (&mut s.rho[x0..x1], &mut s.en[x0..x1]);
-                        let [j0, j1, j2] = &mut s.j;
-                        let (j0, j1, j2) = (&mut j0[x0..x1], &mut j1[x0..x1], &mut j2[x0..x1]);
-                        for v in 0..q {
-                            let fv = &f_row[v * px + x0..v * px + x1];
-                            let c = eq.cf[v];
-                            let hc = eq.half_c2[v];
-                            for x in 0..n {
-                                let fx = fv[x];
-                                rho[x] += fx;
-                                j0[x] += c[0] * fx;
-                                j1[x] += c[1] * fx;
-                                j2[x] += c[2] * fx;
-                                en[x] += hc * fx;
-                            }
-                        }
-                        for v in q..nv {
-                            for (e, g) in en.iter_mut().zip(&f_row[v * px + x0..v * px + x1]) {
-                                *e += g;
-                            }
-                        }
-                    }
-                    for x in x0..x1 {
-                        let inv = 1.0 / s.rho[x];
-                        let u = [s.j[0][x] * inv, s.j[1][x] * inv, s.j[2][x] * inv];
-                        s.u[0][x] = u[0];
-                        s.u[1][x] = u[1];
-                        s.u[2][x] = u[2];
-                        s.theta[x] = (s.en[x] * inv - 0.5 * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2])) / edh;
-                    }
-                    for x in x0..x1 {
-                        if kind_row[x] == NodeKind::Fluid {
-                            let m = Macro { rho: s.rho[x], u: [s.u[0][x], s.u[1][x], s.u[2][x]], theta: s.theta[x] };
-                            if let Some((qty, val, why)) = check_state(&m, window) {
-                                return Some((r * px + x, qty, val, why));
+                    s.moment_sums(eq, f_row, px, x0, x1);
+                    s.macroscopic(edh, x0, x1);
+                    if !s.admissible(&kind_row[x0..x1], window, x0, x1) {
+                        for x in x0..x1 {
+                            if kind_row[x] == NodeKind::Fluid {
+                                let m = Macro { rho: s.rho[x], u: [s.u[0][x], s.u[1][x], s.u[2][x]], theta: s.theta[x] };
+                                if let Some((qty, val, why)) = check_state(&m, window) {
+                                    return Some((r * px + x, qty, val, why));
+                                }
                             }
                         }
                     }
                     s.prepare_equilibrium(eq, x0, x1);
+                    if has_force {
+                        for x in x0..x1 {
+                            s.gu[x] = g[0] * s.u[0][x] + g[1] * s.u[1][x] + g[2] * s.u[2][x];
+                        }
+                    }
+                    let consts = CollideConstants { k_f, k_eq, dt, dt_tau };
                     for v in 0..nv {
                         let i = if v < q { v } else { v - q };
-                        s.equilibrium(eq, v, x0, x1);
-                        if has_force {
-                            let ci = eq.cf[i];
-                            let gc = g[0] * ci[0] + g[1] * ci[1] + g[2] * ci[2];
-                            for x in x0..x1 {
-                                let gu = g[0] * s.u[0][x] + g[1] * s.u[1][x] + g[2] * s.u[2][x];
-                                // Force term f⁰ g·(c − u)/θ, kept in `adv` as a source.
-                                s.adv[x] = dt * s.fe[x] * (gc - gu) * s.inv_theta[x];
-                            }
-                        } else {
-                            s.adv[x0..x1].iter_mut().for_each(|a| *a = 0.0);
-                        }
+                        let ci = eq.cf[i];
+                        let gc = g[0] * ci[0] + g[1] * ci[1] + g[2] * ci[2];
                         let range = v * px + x0..v * px + x1;
-                        let (hv, fv, fe, src, fl) = (&mut h_row[range.clone()], &f_row[range.clone()], &s.fe[x0..x1], &s.adv[x0..x1], &kind_row[x0..x1]);
-                        for x in 0..n {
-                            hv[x] = k_f * fv[x] + k_eq * fe[x];
-                        }
-                        let ov = &mut out_row[range.clone()];
-                        match base {
-                            None => {
-                                for x in 0..n {
-                                    let local = fv[x] - dt_tau * (fv[x] - fe[x]) + src[x];
-                                    ov[x] = if fl[x] == NodeKind::Fluid { local } else { ov[x] };
-                                }
-                            }
-                            Some(b) => {
-                                let bv = &b[r * px * nv + v * px + x0..r * px * nv + v * px + x1];
-                                for x in 0..n {
-                                    let local = 0.5 * (bv[x] + fv[x] - dt_tau * (fv[x] - fe[x]) + src[x]);
-                                    ov[x] = if fl[x] == NodeKind::Fluid { local } else { ov[x] };
-                                }
-                            }
+                        let base_row = base.map(|b| &b[r * px * nv + range.start..r * px * nv + range.end]);
+                        let rows = CollideRows {
+                            c: ci,
+                            gc,
+                            wr: &s.wr[eq.set.shell_of[i]][x0..x1],
+                            u: [&s.u[0][x0..x1], &s.u[1][x0..x1], &s.u[2][x0..x1]],
+                            inv_theta: &s.inv_theta[x0..x1],
+                            base: &s.base[x0..x1],
+                            rot_theta: &s.rot_theta[x0..x1],
+                            gu: &s.gu[x0..x1],
+                            f: &f_row[range.clone()],
+                            f_n: base_row.unwrap_or(&[]),
+                            kind: &kind_row[x0..x1],
+                        };
+                        let (hv, ov) = (&mut h_row[range.clone()], &mut out_row[range]);
+                        match (has_force, base.is_some(), v >= q) {
+                            (false, false, false) => collide_value::<false, false, false>(&rows, consts, hv, ov),
+                            (false, false, true) => collide_value::<false, false, true>(&rows, consts, hv, ov),
+                            (false, true, false) => collide_value::<false, true, false>(&rows, consts, hv, ov),
+                            (false, true, true) => collide_value::<false, true, true>(&rows, consts, hv, ov),
+                            (true, false, false) => collide_value::<true, false, false>(&rows, consts, hv, ov),
+                            (true, false, true) => collide_value::<true, false, true>(&rows, consts, hv, ov),
+                            (true, true, false) => collide_value::<true, true, false>(&rows, consts, hv, ov),
+                            (true, true, true) => collide_value::<true, true, true>(&rows, consts, hv, ov),
                         }
                     }
                     let fields = [&s.rho, &s.u[0], &s.u[1], &s.u[2], &s.theta];
@@ -496,33 +383,28 @@ impl Kernels<'_> {
         let px = self.pop.px;
         let kind = &self.layout.kind;
         let k = factor * self.params.dt;
-        out.par_chunks_mut(px * nv).enumerate().with_min_len(rows_per_task(px * nv)).for_each_init(
-            || vec![0.0; px],
-            |adv_row, (r, out_row)| {
-                let Some((x0, x1)) = self.interior(r) else { return };
-                let n = x1 - x0;
-                let fluid = &kind[r * px + x0..r * px + x1];
-                let adv = &mut adv_row[..n];
-                for v in 0..nv {
-                    let i = if v < q { v } else { v - q };
-                    let (centre, taps) = &self.stencil[i];
-                    let base = (r * nv + v) * px;
-                    for (a, hx) in adv.iter_mut().zip(&h[base + x0..base + x1]) {
-                        *a = centre * hx;
-                    }
-                    for &(off, c) in taps {
-                        let start = (base as isize + off) as usize;
-                        for (a, hx) in adv.iter_mut().zip(&h[start + x0..start + x1]) {
-                            *a += c * hx;
-                        }
-                    }
-                    let ov = &mut out_row[v * px + x0..v * px + x1];
-                    for x in 0..n {
-                        ov[x] = if fluid[x] == NodeKind::Fluid { ov[x] - k * adv[x] } else { ov[x] };
-                    }
+        out.par_chunks_mut(px * nv).enumerate().with_min_len(rows_per_task(px * nv)).for_each(|(r, out_row)| {
+            let Some((x0, x1)) = self.interior(r) else { return };
+            let fluid = &kind[r * px + x0..r * px + x1];
+            for v in 0..nv {
+                let i = if v < q { v } else { v - q };
+                let (centre, taps) = &self.stencil[i];
+                let base = (r * nv + v) * px;
+                let hc = &h[base + x0..base + x1];
+                let tap = |t: usize| {
+                    let start = (base as isize + taps[t].0) as usize;
+                    (&h[start + x0..start + x1], taps[t].1)
+                };
+                let ov = &mut out_row[v * px + x0..v * px + x1];
+                match taps.len() {
+                    0 => advect_value::<0>(*centre, hc, [], k, fluid, ov),
+                    3 => advect_value::<3>(*centre, hc, [tap(0), tap(1), tap(2)], k, fluid, ov),
+                    6 => advect_value::<6>(*centre, hc, std::array::from_fn(tap), k, fluid, ov),
+                    9 => advect_value::<9>(*centre, hc, std::array::from_fn(tap), k, fluid, ov),
+                    t => unreachable!("an upwind stencil has 3 taps per axis, not {t}"),
                 }
-            },
-        );
+            }
+        });
         let py = self.layout.grid.padded[1];
         advect_thin_taps(&self.layout.thin_taps, eq, self.pop, py, k, h, out);
     }

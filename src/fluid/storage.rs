@@ -80,7 +80,16 @@ pub fn copy_runs_parallel(layout: RowBlocked, a: &mut [f64], runs: &[(usize, usi
             let (s0, d0) = (bs + v * layout.px, bd + v * layout.px);
             assert!(s0 + n <= len && d0 + n <= len);
             // SAFETY: in bounds (checked above); source and destination ranges do not overlap.
-            unsafe { std::ptr::copy_nonoverlapping(p.0.add(s0), p.0.add(d0), n) };
+            // Short runs (the x halo: a few nodes per row) are copied inline, not by a call.
+            unsafe {
+                if n <= 8 {
+                    for k in 0..n {
+                        *p.0.add(d0 + k) = *p.0.add(s0 + k);
+                    }
+                } else {
+                    std::ptr::copy_nonoverlapping(p.0.add(s0), p.0.add(d0), n)
+                }
+            };
         }
     });
 }

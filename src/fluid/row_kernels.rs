@@ -1,0 +1,245 @@
+//! The innermost loops of the CPU FDLB stages ([`super::solver`]), one row of nodes along x at a
+//! time: the moment sums, the equilibrium (2.78, 2.97) with the BGK collision and body force of
+//! (2.77), and the third-order upwind advection ([`super::upwind`]).
+//!
+//! Each value's work is one pass over the row (equilibrium, h, and the stage output together),
+//! with the moment sums accumulated in registers over blocks of x, so that the row's scratch is
+//! read once per value instead of once per sub-expression. The arithmetic of every value is the
+//! same expression in the same order as the GPU kernels' CPU twin always was (bit for bit: the
+//! golden state hashes of `run::resume_tests` hold).
+
+use super::equilibrium::Equilibrium;
+use super::layout::NodeKind;
+
+/// Nodes per block of the moment sums: 5 accumulators × 8 lanes stay in registers.
+const SUM_BLOCK: usize = 8;
+
+/// Per-row scratch of the kernels: moment sums and macroscopic fields along x.
+/// One per rayon task, reused across the rows the task updates.
+pub(super) struct RowScratch {
+    pub rho: Vec<f64>,
+    /// Momentum sums Σ c f of the moments pass.
+    pub j: [Vec<f64>; 3],
+    /// Energy sum Σ ½c² f (+ Σ G).
+    pub en: Vec<f64>,
+    pub u: [Vec<f64>; 3],
+    /// Reduced temperature θ/c².
+    pub theta: Vec<f64>,
+    /// 1/θ.
+    pub inv_theta: Vec<f64>,
+    /// 1 − u²/(2θ).
+    pub base: Vec<f64>,
+    /// Shell weight × ρ along x, one row per shell.
+    pub wr: Vec<Vec<f64>>,
+    /// ζ/2 · θ: the factor of the rotational-energy populations G (2.97).
+    pub rot_theta: Vec<f64>,
+    /// g·u (body force, c²/Δx per unit mass).
+    pub gu: Vec<f64>,
+}
+
+impl RowScratch {
+    pub fn new(px: usize, shells: usize) -> Self {
+        let z = || vec![0.0; px];
+        RowScratch {
+            rho: z(),
+            j: [z(), z(), z()],
+            en: z(),
+            u: [z(), z(), z()],
+            theta: z(),
+            inv_theta: z(),
+            base: z(),
+            wr: (0..shells).map(|_| z()).collect(),
+            rot_theta: z(),
+            gu: z(),
+        }
+    }
+
+    /// ρ = Σ f, j = Σ c f, E = Σ ½c² f + Σ G on x ∈ [x0, x1) of one row (`f_row`: value v of
+    /// node x at v·px + x). Each node's sums run over the values in order.
+    pub fn moment_sums(&mut self, eq: &Equilibrium, f_row: &[f64], px: usize, x0: usize, x1: usize) {
+        let mut x = x0;
+        while x + SUM_BLOCK <= x1 {
+            self.sum_block::<SUM_BLOCK>(eq, f_row, px, x);
+            x += SUM_BLOCK;
+        }
+        while x < x1 {
+            self.sum_block::<1>(eq, f_row, px, x);
+            x += 1;
+        }
+    }
+
+    #[inline(always)]
+    fn sum_block<const B: usize>(&mut self, eq: &Equilibrium, f_row: &[f64], px: usize, x: usize) {
+        let q = eq.q();
+        let nv = eq.values_per_node();
+        let (mut rho, mut j0, mut j1, mut j2, mut en) = ([0.0; B], [0.0; B], [0.0; B], [0.0; B], [0.0; B]);
+        for v in 0..q {
+            let fv: &[f64; B] = f_row[v * px + x..v * px + x + B].try_into().unwrap();
+            let c = eq.cf[v];
+            let hc = eq.half_c2[v];
+            for k in 0..B {
+                let fx = fv[k];
+                rho[k] += fx;
+                j0[k] += c[0] * fx;
+                j1[k] += c[1] * fx;
+                j2[k] += c[2] * fx;
+                en[k] += hc * fx;
+            }
+        }
+        for v in q..nv {
+            let gv: &[f64; B] = f_row[v * px + x..v * px + x + B].try_into().unwrap();
+            for k in 0..B {
+                en[k] += gv[k];
+            }
+        }
+        self.rho[x..x + B].copy_from_slice(&rho);
+        self.j[0][x..x + B].copy_from_slice(&j0);
+        self.j[1][x..x + B].copy_from_slice(&j1);
+        self.j[2][x..x + B].copy_from_slice(&j2);
+        self.en[x..x + B].copy_from_slice(&en);
+    }
+
+    /// u = j/ρ and θ = (E/ρ − u²/2)/(D/2 + ζ/2) (reduced temperature θ/c²) on x ∈ [x0, x1).
+    pub fn macroscopic(&mut self, energy_dof_half: f64, x0: usize, x1: usize) {
+        let (rho, en) = (&self.rho[x0..x1], &self.en[x0..x1]);
+        let n = rho.len();
+        let (j0, j1, j2) = (&self.j[0][x0..x1], &self.j[1][x0..x1], &self.j[2][x0..x1]);
+        let [u0, u1, u2] = &mut self.u;
+        let (u0, u1, u2, theta) = (&mut u0[x0..x1], &mut u1[x0..x1], &mut u2[x0..x1], &mut self.theta[x0..x1]);
+        let (j0, j1, j2, en) = (&j0[..n], &j1[..n], &j2[..n], &en[..n]);
+        for x in 0..n {
+            let inv = 1.0 / rho[x];
+            let u = [j0[x] * inv, j1[x] * inv, j2[x] * inv];
+            u0[x] = u[0];
+            u1[x] = u[1];
+            u2[x] = u[2];
+            theta[x] = (en[x] * inv - 0.5 * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2])) / energy_dof_half;
+        }
+    }
+
+    /// Whether every fluid node of x ∈ [x0, x1) has a positive finite density, a finite velocity
+    /// and θ inside `window` (branch-free over the row; the caller finds the failing node only
+    /// when this is false).
+    pub fn admissible(&self, kind: &[NodeKind], window: (f64, f64), x0: usize, x1: usize) -> bool {
+        let (rho, theta) = (&self.rho[x0..x1], &self.theta[x0..x1]);
+        let n = rho.len();
+        let (u0, u1, u2, theta, kind) = (&self.u[0][x0..x1], &self.u[1][x0..x1], &self.u[2][x0..x1], &theta[..n], &kind[..n]);
+        let (u0, u1, u2) = (&u0[..n], &u1[..n], &u2[..n]);
+        let mut ok = true;
+        for x in 0..n {
+            let good = (rho[x] > 0.0) & rho[x].is_finite() & u0[x].is_finite() & u1[x].is_finite() & u2[x].is_finite() & (theta[x] > window.0) & (theta[x] < window.1);
+            ok &= good | (kind[x] != NodeKind::Fluid);
+        }
+        ok
+    }
+
+    /// Shell weights × ρ, 1/θ, 1 − u²/(2θ) and ζθ/2 on x ∈ [x0, x1): the velocity-independent
+    /// parts of (2.78) and (2.97).
+    pub fn prepare_equilibrium(&mut self, eq: &Equilibrium, x0: usize, x1: usize) {
+        let theta = &self.theta[x0..x1];
+        let rho = &self.rho[x0..x1];
+        for (s, shell) in eq.set.shells.iter().enumerate() {
+            for ((w, t), r) in self.wr[s][x0..x1].iter_mut().zip(theta).zip(rho) {
+                *w = shell.weight(*t) * r;
+            }
+        }
+        let n = x1 - x0;
+        let (u0, u1, u2) = (&self.u[0][x0..x1], &self.u[1][x0..x1], &self.u[2][x0..x1]);
+        let (inv, base, rot) = (&mut self.inv_theta[x0..x1], &mut self.base[x0..x1], &mut self.rot_theta[x0..x1]);
+        for x in 0..n {
+            let i = 1.0 / theta[x];
+            inv[x] = i;
+            base[x] = 1.0 - 0.5 * (u0[x] * u0[x] + u1[x] * u1[x] + u2[x] * u2[x]) * i;
+            rot[x] = eq.rot_half * theta[x];
+        }
+    }
+}
+
+/// The scalars of a stage's collision: h = k_f f + k_eq f⁰ (k_f = 1 − A/τ, k_eq = A/τ), the time
+/// step Δt and Δt/τ (lattice units).
+#[derive(Clone, Copy)]
+pub(super) struct CollideConstants {
+    pub k_f: f64,
+    pub k_eq: f64,
+    pub dt: f64,
+    pub dt_tau: f64,
+}
+
+/// One value's rows (x ∈ [x0, x1) of one row of nodes) and its velocity.
+pub(super) struct CollideRows<'a> {
+    /// Velocity c_i and g·c_i.
+    pub c: [f64; 3],
+    pub gc: f64,
+    /// The value's shell weight × ρ.
+    pub wr: &'a [f64],
+    pub u: [&'a [f64]; 3],
+    pub inv_theta: &'a [f64],
+    pub base: &'a [f64],
+    pub rot_theta: &'a [f64],
+    pub gu: &'a [f64],
+    /// The stage input, and fⁿ in the second stage (empty in the first).
+    pub f: &'a [f64],
+    pub f_n: &'a [f64],
+    pub kind: &'a [NodeKind],
+}
+
+/// One value along a row: f⁰ = w ρ [1 + ξ + ξ²/2 + ξ³/6 − u²/(2θ)(1 + ξ)] (2.78, written
+/// b + ξ(b + ξ(½ + ξ/6)) with b = 1 − u²/(2θ), ξ = c·u/θ; times ζθ/2 for G, 2.97), the body
+/// force term F = f⁰ g·(c − u)/θ, h = k_f f + k_eq f⁰, and the local part of the RK stage,
+/// `out = f − Δt/τ (f − f⁰) + Δt F` (first stage) or `out = ½ (fⁿ + f − Δt/τ (f − f⁰) + Δt F)`
+/// (second stage), written at fluid nodes only.
+#[inline(always)]
+pub(super) fn collide_value<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool>(
+    r: &CollideRows,
+    k: CollideConstants,
+    h: &mut [f64],
+    out: &mut [f64],
+) {
+    let n = r.f.len();
+    let (wr, u0, u1, u2, inv, base, rot, gu, f, kind) =
+        (&r.wr[..n], &r.u[0][..n], &r.u[1][..n], &r.u[2][..n], &r.inv_theta[..n], &r.base[..n], &r.rot_theta[..n], &r.gu[..n], &r.f[..n], &r.kind[..n]);
+    let f_n = if SECOND { &r.f_n[..n] } else { &r.f_n[..0] };
+    let (h, out) = (&mut h[..n], &mut out[..n]);
+    let c = r.c;
+    for x in 0..n {
+        let xi = (c[0] * u0[x] + c[1] * u1[x] + c[2] * u2[x]) * inv[x];
+        let b = base[x];
+        let poly = b + xi * (b + xi * (0.5 + xi * (1.0 / 6.0)));
+        let mut fe = wr[x] * poly;
+        if ROTATIONAL {
+            fe *= rot[x];
+        }
+        let src = if FORCE { k.dt * fe * (r.gc - gu[x]) * inv[x] } else { 0.0 };
+        let fx = f[x];
+        h[x] = k.k_f * fx + k.k_eq * fe;
+        let local = if SECOND { 0.5 * (f_n[x] + fx - k.dt_tau * (fx - fe) + src) } else { fx - k.dt_tau * (fx - fe) + src };
+        out[x] = select(kind[x] == NodeKind::Fluid, local, out[x]);
+    }
+}
+
+/// `out −= k · (centre h + Σ_t c_t h_t)` at fluid nodes along a row: the upwind derivative of one
+/// value with its `T` taps ([`super::upwind::stencils`]: 3 per axis the velocity moves along),
+/// summed in the stencil's order.
+#[inline(always)]
+pub(super) fn advect_value<const T: usize>(centre: f64, h: &[f64], taps: [(&[f64], f64); T], k: f64, kind: &[NodeKind], out: &mut [f64]) {
+    let n = h.len();
+    let (kind, out) = (&kind[..n], &mut out[..n]);
+    let taps = taps.map(|(t, c)| (&t[..n], c));
+    for x in 0..n {
+        let mut a = centre * h[x];
+        for (t, c) in &taps {
+            a += c * t[x];
+        }
+        let old = out[x];
+        out[x] = select(kind[x] == NodeKind::Fluid, old - k * a, old);
+    }
+}
+
+/// `if take { a } else { b }`, bit for bit, as a mask on the bits: both sides are always
+/// computed, so that LLVM vectorises the loop with plain loads and a blend (with a branch it
+/// turned the loads of the fluid side into masked loads, 1.2× slower here).
+#[inline(always)]
+fn select(take: bool, a: f64, b: f64) -> f64 {
+    let m = (take as u64).wrapping_neg();
+    f64::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
+}
