@@ -103,6 +103,12 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             );
             let st: Vec<String> = l.stage_fractions.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
             println!("         stages: {}", st.join(", "));
+            if l.repetitions > 1 {
+                println!(
+                    "         best of {} blocks of {} steps; median {:.3e}, worst {:.3e}",
+                    l.repetitions, l.steps, l.median_node_updates_per_s, l.worst_node_updates_per_s
+                );
+            }
             cpu_speeds.push((l.lattice.clone(), l.node_updates_per_s));
         }
         if !r.speed_vs_error.is_empty() {

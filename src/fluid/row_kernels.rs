@@ -35,6 +35,8 @@ pub(super) struct RowScratch {
     pub rot_theta: Vec<f64>,
     /// g·u (body force, c²/Δx per unit mass).
     pub gu: Vec<f64>,
+    /// The row's runs of fluid and non-fluid nodes.
+    pub runs: Vec<Run>,
 }
 
 impl RowScratch {
@@ -51,6 +53,7 @@ impl RowScratch {
             wr: (0..shells).map(|_| z()).collect(),
             rot_theta: z(),
             gu: z(),
+            runs: Vec::new(),
         }
     }
 
@@ -127,7 +130,8 @@ impl RowScratch {
         let (u0, u1, u2) = (&u0[..n], &u1[..n], &u2[..n]);
         let mut ok = true;
         for x in 0..n {
-            let good = (rho[x] > 0.0) & rho[x].is_finite() & u0[x].is_finite() & u1[x].is_finite() & u2[x].is_finite() & (theta[x] > window.0) & (theta[x] < window.1);
+            let good =
+                (rho[x] > 0.0) & rho[x].is_finite() & u0[x].is_finite() & u1[x].is_finite() & u2[x].is_finite() & (theta[x] > window.0) & (theta[x] < window.1);
             ok &= good | (kind[x] != NodeKind::Fluid);
         }
         ok
@@ -180,14 +184,35 @@ pub(super) struct CollideRows<'a> {
     /// The stage input, and fⁿ in the second stage (empty in the first).
     pub f: &'a [f64],
     pub f_n: &'a [f64],
-    pub kind: &'a [NodeKind],
+    /// The row's runs of fluid and non-fluid nodes ([`runs`]), relative to x0.
+    pub runs: &'a [Run],
+}
+
+/// A run of nodes along x: (start, end, fluid).
+pub(super) type Run = (usize, usize, bool);
+
+/// The row split into maximal runs of fluid and of non-fluid nodes: (start, end, fluid). The
+/// kernels write the stage output over fluid runs with plain stores (a per-node select became a
+/// masked store, which is slow on the AMD cores here).
+pub(super) fn runs(kind: &[NodeKind]) -> impl Iterator<Item = Run> + '_ {
+    let mut start = 0;
+    std::iter::from_fn(move || {
+        if start >= kind.len() {
+            return None;
+        }
+        let fluid = kind[start] == NodeKind::Fluid;
+        let len = kind[start..].iter().position(|k| (*k == NodeKind::Fluid) != fluid).unwrap_or(kind.len() - start);
+        let run = (start, start + len, fluid);
+        start += len;
+        Some(run)
+    })
 }
 
 /// One value along a row: f⁰ = w ρ [1 + ξ + ξ²/2 + ξ³/6 − u²/(2θ)(1 + ξ)] (2.78, written
 /// b + ξ(b + ξ(½ + ξ/6)) with b = 1 − u²/(2θ), ξ = c·u/θ; times ζθ/2 for G, 2.97), the body
-/// force term F = f⁰ g·(c − u)/θ, h = k_f f + k_eq f⁰, and the local part of the RK stage,
-/// `out = f − Δt/τ (f − f⁰) + Δt F` (first stage) or `out = ½ (fⁿ + f − Δt/τ (f − f⁰) + Δt F)`
-/// (second stage), written at fluid nodes only.
+/// force term F = f⁰ g·(c − u)/θ, h = k_f f + k_eq f⁰ (every node), and the local part of the
+/// RK stage, `out = f − Δt/τ (f − f⁰) + Δt F` (first stage) or
+/// `out = ½ (fⁿ + f − Δt/τ (f − f⁰) + Δt F)` (second stage), written at fluid nodes only.
 #[inline(always)]
 pub(super) fn collide_value<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool>(
     r: &CollideRows,
@@ -195,25 +220,44 @@ pub(super) fn collide_value<const FORCE: bool, const SECOND: bool, const ROTATIO
     h: &mut [f64],
     out: &mut [f64],
 ) {
-    let n = r.f.len();
-    let (wr, u0, u1, u2, inv, base, rot, gu, f, kind) =
-        (&r.wr[..n], &r.u[0][..n], &r.u[1][..n], &r.u[2][..n], &r.inv_theta[..n], &r.base[..n], &r.rot_theta[..n], &r.gu[..n], &r.f[..n], &r.kind[..n]);
-    let f_n = if SECOND { &r.f_n[..n] } else { &r.f_n[..0] };
-    let (h, out) = (&mut h[..n], &mut out[..n]);
+    for &(a, b, fluid) in r.runs {
+        if fluid {
+            collide_run::<FORCE, SECOND, ROTATIONAL, true>(r, k, a, b, h, out);
+        } else {
+            collide_run::<FORCE, SECOND, ROTATIONAL, false>(r, k, a, b, h, out);
+        }
+    }
+}
+
+#[inline(always)]
+fn collide_run<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool, const FLUID: bool>(
+    r: &CollideRows,
+    k: CollideConstants,
+    a: usize,
+    b: usize,
+    h: &mut [f64],
+    out: &mut [f64],
+) {
+    let (wr, u0, u1, u2, inv, base, rot, gu, f) =
+        (&r.wr[a..b], &r.u[0][a..b], &r.u[1][a..b], &r.u[2][a..b], &r.inv_theta[a..b], &r.base[a..b], &r.rot_theta[a..b], &r.gu[a..b], &r.f[a..b]);
+    let n = b - a;
+    let f_n = if SECOND { &r.f_n[a..b] } else { &r.f_n[..0] };
+    let (h, out) = (&mut h[a..b], if FLUID { &mut out[a..b] } else { &mut out[..0] });
     let c = r.c;
     for x in 0..n {
         let xi = (c[0] * u0[x] + c[1] * u1[x] + c[2] * u2[x]) * inv[x];
-        let b = base[x];
-        let poly = b + xi * (b + xi * (0.5 + xi * (1.0 / 6.0)));
+        let bx = base[x];
+        let poly = bx + xi * (bx + xi * (0.5 + xi * (1.0 / 6.0)));
         let mut fe = wr[x] * poly;
         if ROTATIONAL {
             fe *= rot[x];
         }
-        let src = if FORCE { k.dt * fe * (r.gc - gu[x]) * inv[x] } else { 0.0 };
         let fx = f[x];
         h[x] = k.k_f * fx + k.k_eq * fe;
-        let local = if SECOND { 0.5 * (f_n[x] + fx - k.dt_tau * (fx - fe) + src) } else { fx - k.dt_tau * (fx - fe) + src };
-        out[x] = select(kind[x] == NodeKind::Fluid, local, out[x]);
+        if FLUID {
+            let src = if FORCE { k.dt * fe * (r.gc - gu[x]) * inv[x] } else { 0.0 };
+            out[x] = if SECOND { 0.5 * (f_n[x] + fx - k.dt_tau * (fx - fe) + src) } else { fx - k.dt_tau * (fx - fe) + src };
+        }
     }
 }
 
@@ -221,25 +265,34 @@ pub(super) fn collide_value<const FORCE: bool, const SECOND: bool, const ROTATIO
 /// value with its `T` taps ([`super::upwind::stencils`]: 3 per axis the velocity moves along),
 /// summed in the stencil's order.
 #[inline(always)]
-pub(super) fn advect_value<const T: usize>(centre: f64, h: &[f64], taps: [(&[f64], f64); T], k: f64, kind: &[NodeKind], out: &mut [f64]) {
-    let n = h.len();
-    let (kind, out) = (&kind[..n], &mut out[..n]);
-    let taps = taps.map(|(t, c)| (&t[..n], c));
-    for x in 0..n {
-        let mut a = centre * h[x];
-        for (t, c) in &taps {
-            a += c * t[x];
+pub(super) fn advect_value<const T: usize>(centre: f64, h: &[f64], taps: [(&[f64], f64); T], k: f64, runs: &[Run], out: &mut [f64]) {
+    for &(a, b, fluid) in runs {
+        if !fluid {
+            continue;
         }
-        let old = out[x];
-        out[x] = select(kind[x] == NodeKind::Fluid, old - k * a, old);
+        let (h, out) = (&h[a..b], &mut out[a..b]);
+        let taps = taps.map(|(t, c)| (&t[a..b], c));
+        for x in 0..b - a {
+            let mut s = centre * h[x];
+            for (t, c) in &taps {
+                s += c * t[x];
+            }
+            out[x] -= k * s;
+        }
     }
 }
 
-/// `if take { a } else { b }`, bit for bit, as a mask on the bits: both sides are always
-/// computed, so that LLVM vectorises the loop with plain loads and a blend (with a branch it
-/// turned the loads of the fluid side into masked loads, 1.2× slower here).
-#[inline(always)]
-fn select(take: bool, a: f64, b: f64) -> f64 {
-    let m = (take as u64).wrapping_neg();
-    f64::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn runs_cover_the_row_in_alternating_maximal_pieces() {
+        use NodeKind::{Fluid, Ghost as Solid};
+        let kinds = [Fluid, Fluid, Solid, Fluid, Solid, Solid, Solid, Fluid];
+        let r: Vec<Run> = runs(&kinds).collect();
+        assert_eq!(r, vec![(0, 2, true), (2, 3, false), (3, 4, true), (4, 7, false), (7, 8, true)]);
+        assert_eq!(runs(&[Fluid; 5]).collect::<Vec<_>>(), vec![(0, 5, true)]);
+        assert_eq!(runs(&[]).count(), 0);
+    }
 }

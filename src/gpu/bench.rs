@@ -68,6 +68,9 @@ pub fn lattice_speed(ctx: &GpuContext, set: VelocitySetKind, n: [usize; 3], step
         nodes: cpu.layout.grid.n,
         steps,
         node_updates_per_s: 0.0,
+        median_node_updates_per_s: 0.0,
+        worst_node_updates_per_s: 0.0,
+        repetitions: 1,
         bytes_per_node_update: bytes,
         bandwidth_fraction: None,
         skipped: None,
@@ -88,6 +91,7 @@ pub fn lattice_speed(ctx: &GpuContext, set: VelocitySetKind, n: [usize; 3], step
     gpu.wait();
     let wall = t.elapsed().as_secs_f64();
     out.node_updates_per_s = steps as f64 * cpu.layout.fluid_count as f64 / wall;
+    (out.median_node_updates_per_s, out.worst_node_updates_per_s) = (out.node_updates_per_s, out.node_updates_per_s);
     out.bandwidth_fraction = Some(out.node_updates_per_s * bytes / bandwidth);
     if let Some(st) = gpu.profile_stages(ctx, 3) {
         let all: f64 = st.iter().map(|(_, t)| t).sum();
