@@ -23,10 +23,10 @@ impl SaveState for CoupledSolver {
         w.u64s("coupling.geometry_counts", &[g.uncovered as u64, g.covered as u64, g.isolated as u64]);
         w.f64("coupling.geometry_mass_change", g.mass_change);
         let polys = self.built.as_deref().unwrap_or_default();
-        w.u64s("coupling.polygon_sizes", &polys.iter().map(|p| p.vertices.len() as u64).collect::<Vec<_>>());
+        w.u64s("coupling.polygon_sizes", &polys.iter().map(|p| p.vertices().len() as u64).collect::<Vec<_>>());
         for p in polys {
-            w.f64s("coupling.polygon_vertices", p.vertices.as_flattened());
-            w.f64s("coupling.polygon_velocities", p.velocities.as_flattened());
+            w.f64s("coupling.polygon_vertices", p.vertices().as_flattened());
+            w.f64s("coupling.polygon_velocities", p.velocities().as_flattened());
         }
         if let Some(ex) = &self.exchange {
             let pts: Vec<DVec3> = ex.built.clone().unwrap_or_default();

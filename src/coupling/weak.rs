@@ -64,7 +64,7 @@ impl CoupledSolver {
         if let Some(old) = &self.built {
             let mut moved = false;
             for (k, (a, b)) in old.iter().zip(&polys).enumerate() {
-                let d = a.vertices.iter().zip(&b.vertices).map(|(p, q)| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt()).fold(0.0, f64::max);
+                let d = a.vertices().iter().zip(b.vertices()).map(|(p, q)| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt()).fold(0.0, f64::max);
                 if d > o.max_cells_per_step {
                     return Err(self.moved_too_far(
                         Site::Body(self.bodies[k].surface.body),
@@ -74,7 +74,7 @@ impl CoupledSolver {
                     ));
                 }
                 // Wall velocities change even when the vertices do not (a body set moving).
-                moved |= d > 0.0 || a.velocities != b.velocities;
+                moved |= d > 0.0 || a.velocities() != b.velocities();
             }
             if !moved {
                 return Ok(());

@@ -3,6 +3,7 @@
 //! the wall position is known to sub-cell accuracy ([`super::layout`] builds ghost nodes from it).
 
 pub use super::kernel_level_set::KernelLevelSet;
+pub use super::polygon::Polygon;
 
 /// A solid shape. Signed distance `sdf` > 0 in the fluid, < 0 inside the solid.
 #[derive(Clone, Debug, PartialEq)]
@@ -21,114 +22,6 @@ pub enum Shape {
     /// The level set of a body's particles (seed 2.124): the wall of the momentum-conserving
     /// coupling ([`crate::coupling::conserving`]).
     KernelLevelSet(KernelLevelSet),
-}
-
-/// A closed, simple polygon in the x–y plane (lattice units), counter-clockwise, with a wall
-/// velocity (c units) at every vertex, linear along each edge.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Polygon {
-    pub vertices: Vec<[f64; 2]>,
-    pub velocities: Vec<[f64; 3]>,
-    /// Bounding box (min x, min y, max x, max y).
-    pub bounds: [f64; 4],
-}
-
-impl Polygon {
-    /// `vertices` counter-clockwise; one velocity per vertex.
-    pub fn new(vertices: Vec<[f64; 2]>, velocities: Vec<[f64; 3]>) -> Self {
-        assert_eq!(vertices.len(), velocities.len(), "one velocity per vertex");
-        let mut bounds = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
-        for v in &vertices {
-            bounds = [bounds[0].min(v[0]), bounds[1].min(v[1]), bounds[2].max(v[0]), bounds[3].max(v[1])];
-        }
-        Polygon { vertices, velocities, bounds }
-    }
-
-    /// Twice the signed area (positive when counter-clockwise).
-    pub fn signed_area(&self) -> f64 {
-        let n = self.vertices.len();
-        (0..n)
-            .map(|k| {
-                let (a, b) = (self.vertices[k], self.vertices[(k + 1) % n]);
-                a[0] * b[1] - b[0] * a[1]
-            })
-            .sum::<f64>()
-            * 0.5
-    }
-
-    /// Closest point of the boundary to `p`: (edge index, parameter t ∈ [0, 1] along it, squared distance).
-    pub fn closest(&self, p: [f64; 2]) -> (usize, f64, f64) {
-        let n = self.vertices.len();
-        let mut best = (0, 0.0, f64::INFINITY);
-        for k in 0..n {
-            let (a, b) = (self.vertices[k], self.vertices[(k + 1) % n]);
-            let e = [b[0] - a[0], b[1] - a[1]];
-            let l2 = e[0] * e[0] + e[1] * e[1];
-            let t = if l2 > 0.0 { (((p[0] - a[0]) * e[0] + (p[1] - a[1]) * e[1]) / l2).clamp(0.0, 1.0) } else { 0.0 };
-            let d = [a[0] + t * e[0] - p[0], a[1] + t * e[1] - p[1]];
-            let d2 = d[0] * d[0] + d[1] * d[1];
-            if d2 < best.2 {
-                best = (k, t, d2);
-            }
-        }
-        best
-    }
-
-    /// Whether `p` lies inside (crossing number).
-    pub fn contains(&self, p: [f64; 2]) -> bool {
-        if p[0] < self.bounds[0] || p[0] > self.bounds[2] || p[1] < self.bounds[1] || p[1] > self.bounds[3] {
-            return false;
-        }
-        let n = self.vertices.len();
-        let mut inside = false;
-        for k in 0..n {
-            let (a, b) = (self.vertices[k], self.vertices[(k + 1) % n]);
-            if (a[1] > p[1]) != (b[1] > p[1]) {
-                let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
-                if p[0] < x {
-                    inside = !inside;
-                }
-            }
-        }
-        inside
-    }
-
-    /// Wall velocity at the boundary point closest to `p` (linear along the edge).
-    pub fn velocity_at(&self, p: [f64; 2]) -> [f64; 3] {
-        let (k, t, _) = self.closest(p);
-        let (a, b) = (self.velocities[k], self.velocities[(k + 1) % self.vertices.len()]);
-        std::array::from_fn(|i| (1.0 - t) * a[i] + t * b[i])
-    }
-
-    /// Signed distance, positive outside. Outside the bounding box it returns the distance to
-    /// the box, a lower bound of the true distance with the right sign (the layout only uses
-    /// the value inside a solid).
-    fn sdf(&self, p: [f64; 2]) -> f64 {
-        let b = self.bounds;
-        let q = [(b[0] - p[0]).max(p[0] - b[2]).max(0.0), (b[1] - p[1]).max(p[1] - b[3]).max(0.0)];
-        if q[0] > 0.0 || q[1] > 0.0 {
-            return (q[0] * q[0] + q[1] * q[1]).sqrt();
-        }
-        let d = self.closest(p).2.sqrt();
-        if self.contains(p) { -d } else { d }
-    }
-
-    /// Unit normal pointing out of the polygon at the boundary point closest to `p`.
-    fn normal(&self, p: [f64; 2]) -> [f64; 3] {
-        let n = self.vertices.len();
-        let (k, t, d2) = self.closest(p);
-        let (a, b) = (self.vertices[k], self.vertices[(k + 1) % n]);
-        let c = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
-        if d2 > 1e-20 {
-            let s = if self.contains(p) { -1.0 } else { 1.0 };
-            let d = d2.sqrt();
-            return [s * (p[0] - c[0]) / d, s * (p[1] - c[1]) / d, 0.0];
-        }
-        // On the boundary: the edge's outward normal (counter-clockwise: (e_y, −e_x)).
-        let e = [b[0] - a[0], b[1] - a[1]];
-        let l = (e[0] * e[0] + e[1] * e[1]).sqrt().max(1e-300);
-        [e[1] / l, -e[0] / l, 0.0]
-    }
 }
 
 impl Shape {
@@ -161,10 +54,12 @@ impl Shape {
 
     /// `None` where `p` is inside the solid (`sdf(p) < 0`), else `Some(sdf(p))` — bit for bit,
     /// at less cost than [`Self::sdf`] for a kernel level set, whose depth inside takes Newton
-    /// steps ([`KernelLevelSet::outside_distance`]).
+    /// steps ([`KernelLevelSet::outside_distance`]), and for a polygon, whose depth inside is a
+    /// search for the nearest edge ([`Polygon`]).
     pub fn outside_distance(&self, p: [f64; 3]) -> Option<f64> {
         match self {
             Shape::KernelLevelSet(k) => k.outside_distance(p),
+            Shape::Polygon(poly) => poly.outside_distance([p[0], p[1]]),
             _ => Some(self.sdf(p)).filter(|d| !(*d < 0.0)),
         }
     }
@@ -182,7 +77,9 @@ impl Shape {
                 Some((lo.map(|x| x - 1.0), hi.map(|x| x + 1.0)))
             }
             // a prism along z
-            Shape::Polygon(p) => Some(([p.bounds[0] - 1.0, p.bounds[1] - 1.0, f64::NEG_INFINITY], [p.bounds[2] + 1.0, p.bounds[3] + 1.0, f64::INFINITY])),
+            Shape::Polygon(p) => {
+                Some(([p.bounds()[0] - 1.0, p.bounds()[1] - 1.0, f64::NEG_INFINITY], [p.bounds()[2] + 1.0, p.bounds()[3] + 1.0, f64::INFINITY]))
+            }
             _ => None,
         }
     }

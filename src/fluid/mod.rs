@@ -11,6 +11,7 @@ pub mod kernel_level_set;
 pub mod layout;
 pub mod moving;
 pub mod observe;
+mod polygon;
 mod rebuild;
 mod row_kernels;
 pub mod solver;
