@@ -267,7 +267,7 @@ impl EdgeBins {
     fn bin_of(&self, p: [f64; 2]) -> Option<[usize; 2]> {
         let f = |a: usize| (p[a] - self.origin[a]) / self.side;
         let (x, y) = (f(0), f(1));
-        (x >= 0.0 && y >= 0.0 && (x as usize) < self.dims[0] && (y as usize) < self.dims[1]).then(|| [x as usize, y as usize])
+        (x >= 0.0 && y >= 0.0 && (x as usize) < self.dims[0] && (y as usize) < self.dims[1]).then_some([x as usize, y as usize])
     }
 
     /// The edges listed in `p`'s bin (every edge through `p` is among them).
