@@ -4,9 +4,11 @@
 //!
 //! Each value's work is one pass over the row (equilibrium, h, and the stage output together),
 //! with the moment sums accumulated in registers over blocks of x, so that the row's scratch is
-//! read once per value instead of once per sub-expression. The arithmetic of every value is the
-//! same expression in the same order as the GPU kernels' CPU twin always was (bit for bit: the
-//! golden state hashes of `run::resume_tests` hold).
+//! read once per value instead of once per sub-expression. The stage output is written only at
+//! fluid nodes, over the row's runs of fluid nodes ([`runs`]) with plain stores: a per-node
+//! select compiled to masked stores (or masked loads), 1.2–1.4× slower on the AMD cores here.
+//! The arithmetic of every value is the same expression in the same order as the GPU kernels'
+//! CPU twin always was (bit for bit: the golden state hashes of `run::resume_tests` hold).
 
 use super::equilibrium::Equilibrium;
 use super::layout::NodeKind;
