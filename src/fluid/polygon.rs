@@ -229,38 +229,11 @@ impl EdgeBins {
                 [cell(a[0].min(c[0]), 0), cell(a[0].max(c[0]), 0), cell(a[1].min(c[1]), 1), cell(a[1].max(c[1]), 1)]
             })
             .collect();
-        let mut count = vec![0u32; dims[0] * dims[1] + 1];
-        let mut band_count = vec![0u32; dims[1] + 1];
-        for r in &ranges {
-            for j in r[2]..=r[3] {
-                band_count[j + 1] += 1;
-                for i in r[0]..=r[1] {
-                    count[j * dims[0] + i + 1] += 1;
-                }
-            }
-        }
-        let prefix = |c: &mut Vec<u32>| {
-            for i in 1..c.len() {
-                c[i] += c[i - 1];
-            }
-        };
-        prefix(&mut count);
-        prefix(&mut band_count);
-        let (mut fill, mut band_fill) = (count.clone(), band_count.clone());
-        let mut edges = vec![0u32; *count.last().unwrap() as usize];
-        let mut band_edges = vec![0u32; *band_count.last().unwrap() as usize];
-        for (k, r) in ranges.iter().enumerate() {
-            for j in r[2]..=r[3] {
-                band_edges[band_fill[j] as usize] = k as u32;
-                band_fill[j] += 1;
-                for i in r[0]..=r[1] {
-                    let c = j * dims[0] + i;
-                    edges[fill[c] as usize] = k as u32;
-                    fill[c] += 1;
-                }
-            }
-        }
-        EdgeBins { origin, side, dims, start: count, edges, band_start: band_count, band_edges }
+        let in_bins = ranges.iter().enumerate().flat_map(|(k, r)| (r[2]..=r[3]).flat_map(move |j| (r[0]..=r[1]).map(move |i| (j * dims[0] + i, k as u32))));
+        let in_bands = ranges.iter().enumerate().flat_map(|(k, r)| (r[2]..=r[3]).map(move |j| (j, k as u32)));
+        let (start, edges) = by_cell(dims[0] * dims[1], in_bins);
+        let (band_start, band_edges) = by_cell(dims[1], in_bands);
+        EdgeBins { origin, side, dims, start, edges, band_start, band_edges }
     }
 
     /// The bin coordinates of `p`, when it lies in the grid.
@@ -320,6 +293,25 @@ impl EdgeBins {
         }
         Some(best)
     }
+}
+
+/// The items of (cell, item) pairs listed by cell (a counting sort): the start of each cell's
+/// run (length cells + 1) and the items in cell order.
+fn by_cell(cells: usize, pairs: impl Iterator<Item = (usize, u32)> + Clone) -> (Vec<u32>, Vec<u32>) {
+    let mut start = vec![0u32; cells + 1];
+    for (c, _) in pairs.clone() {
+        start[c + 1] += 1;
+    }
+    for c in 1..=cells {
+        start[c] += start[c - 1];
+    }
+    let mut fill = start.clone();
+    let mut items = vec![0u32; start[cells] as usize];
+    for (c, k) in pairs {
+        items[fill[c] as usize] = k;
+        fill[c] += 1;
+    }
+    (start, items)
 }
 
 #[cfg(test)]

@@ -50,6 +50,8 @@ pub struct FluidSolver {
     pub macro_layout: RowBlocked,
     /// Per velocity: centre coefficient and (value offset, coefficient) taps.
     stencil: Vec<(f64, Vec<(isize, f64)>)>,
+    /// The padded rows in the advection's sweep order ([`advect_order`]).
+    advect_order: Vec<u32>,
     window: (f64, f64),
     pub step_count: u64,
     pub time: f64,
@@ -76,6 +78,7 @@ impl FluidSolver {
         let stencil =
             stencils(&eq.set.c).into_iter().map(|s| (s.centre, s.taps.iter().map(|&(d, c)| (pop.neighbour_offset(d, g.padded[1]), c)).collect())).collect();
         let window = eq.set.positivity_window();
+        let advect_order = advect_order(pop.row_len() * 8, g.padded[1], g.padded[2]);
         let mut s = FluidSolver {
             f: vec![0.0; n * nv],
             f1: vec![0.0; n * nv],
@@ -89,6 +92,7 @@ impl FluidSolver {
             params,
             body_force: [0.0; 3],
             stencil,
+            advect_order,
             window,
             step_count: 0,
             time: 0.0,
@@ -181,7 +185,15 @@ impl FluidSolver {
 
     /// Executes one stage of the list.
     pub fn run_stage(&mut self, stage: &Stage) -> Result<(), Instability> {
-        let ctx = Kernels { eq: &self.eq, layout: &self.layout, stencil: &self.stencil, params: self.params, g: self.body_force, pop: self.pop };
+        let ctx = Kernels {
+            eq: &self.eq,
+            layout: &self.layout,
+            stencil: &self.stencil,
+            advect_order: &self.advect_order,
+            params: self.params,
+            g: self.body_force,
+            pop: self.pop,
+        };
         match stage.kind {
             StageKind::MomentsCollide => {
                 let r = match stage.rk {
@@ -236,10 +248,19 @@ fn rows_per_task(values_per_row: usize) -> usize {
     (16_384 / values_per_row.max(1)).max(1)
 }
 
-/// Rows per y-slab of the advection's sweep: the five planes of a slab that the taps read
-/// (z − 2 … z + 2) in about 1 MiB, 4 to `py` rows.
-fn y_slab_rows(row_bytes: usize, py: usize) -> usize {
-    ((1 << 20) / (5 * row_bytes.max(1))).clamp(4, py.max(4))
+/// The padded rows (index y + z·py) in the advection's sweep order: y-slabs of a few rows, every
+/// z of a slab before the next slab, so that the five planes of a slab its taps read
+/// (z − 2 … z + 2) stay in cache — about 1 MiB of them, 4 to `py` rows a slab. The order changes
+/// no result: each row's update reads h and writes only its own row.
+fn advect_order(row_bytes: usize, py: usize, pz: usize) -> Vec<u32> {
+    let slab = ((1 << 20) / (5 * row_bytes.max(1))).clamp(4, py.max(4));
+    let mut order = Vec::with_capacity(py * pz);
+    for y0 in (0..py).step_by(slab) {
+        for z in 0..pz {
+            order.extend((y0..(y0 + slab).min(py)).map(|y| (y + z * py) as u32));
+        }
+    }
+    order
 }
 
 fn check_state(m: &Macro, window: (f64, f64)) -> Option<(&'static str, f64, String)> {
@@ -264,6 +285,7 @@ struct Kernels<'a> {
     eq: &'a Equilibrium,
     layout: &'a Layout,
     stencil: &'a [(f64, Vec<(isize, f64)>)],
+    advect_order: &'a [u32],
     params: StepParams,
     g: [f64; 3],
     pop: RowBlocked,
@@ -391,18 +413,13 @@ impl Kernels<'_> {
         let px = self.pop.px;
         let kind = &self.layout.kind;
         let k = factor * self.params.dt;
-        // Rows in y-slab order (every z of a few y rows, then the next slab): the upwind taps
-        // read h up to two planes away, and a slab's planes stay in cache while it is swept.
-        // The order changes no result: each row's update reads h and writes only its own row.
-        let g = &self.layout.grid;
-        let mut rows: Vec<(usize, &mut [f64])> = out.chunks_mut(px * nv).enumerate().collect();
-        let slab = y_slab_rows(px * nv * 8, g.padded[1]);
-        rows.sort_by_key(|(r, _)| ((r % g.padded[1]) / slab, r / g.padded[1], r % g.padded[1]));
+        // rows in y-slab order ([`advect_order`])
+        let mut slots: Vec<Option<&mut [f64]>> = out.chunks_mut(px * nv).map(Some).collect();
+        let rows: Vec<(usize, &mut [f64])> = self.advect_order.iter().map(|&r| (r as usize, slots[r as usize].take().expect("each row once"))).collect();
         rows.into_par_iter().with_min_len(rows_per_task(px * nv)).for_each_init(Vec::new, |row_runs, (r, out_row)| {
             let Some((x0, x1)) = self.interior(r) else { return };
             row_runs.clear();
             row_runs.extend(runs(&kind[r * px + x0..r * px + x1]));
-            let fluid = &row_runs[..];
             for v in 0..nv {
                 let i = if v < q { v } else { v - q };
                 let (centre, taps) = &self.stencil[i];
@@ -414,10 +431,10 @@ impl Kernels<'_> {
                 };
                 let ov = &mut out_row[v * px + x0..v * px + x1];
                 match taps.len() {
-                    0 => advect_value::<0>(*centre, hc, [], k, fluid, ov),
-                    3 => advect_value::<3>(*centre, hc, [tap(0), tap(1), tap(2)], k, fluid, ov),
-                    6 => advect_value::<6>(*centre, hc, std::array::from_fn(tap), k, fluid, ov),
-                    9 => advect_value::<9>(*centre, hc, std::array::from_fn(tap), k, fluid, ov),
+                    0 => advect_value::<0>(*centre, hc, [], k, row_runs, ov),
+                    3 => advect_value::<3>(*centre, hc, [tap(0), tap(1), tap(2)], k, row_runs, ov),
+                    6 => advect_value::<6>(*centre, hc, std::array::from_fn(tap), k, row_runs, ov),
+                    9 => advect_value::<9>(*centre, hc, std::array::from_fn(tap), k, row_runs, ov),
                     t => unreachable!("an upwind stencil has 3 taps per axis, not {t}"),
                 }
             }
@@ -436,5 +453,25 @@ impl crate::step::Solver for FluidSolver {
     }
     fn stage_shares(&self) -> Vec<(&'static str, f64)> {
         FluidSolver::stage_shares(self)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::advect_order;
+
+    #[test]
+    fn the_advection_sweeps_every_row_once_in_slabs() {
+        for (row_bytes, py, pz) in [(32_000, 102, 102), (1 << 20, 7, 5), (8, 134, 1), (100, 3, 2)] {
+            let order = advect_order(row_bytes, py, pz);
+            let mut seen = vec![false; py * pz];
+            for &r in &order {
+                assert!(!std::mem::replace(&mut seen[r as usize], true), "row {r} twice");
+            }
+            assert!(seen.iter().all(|&s| s), "{py}×{pz}: a row left out");
+        }
+        // 32 000-byte rows: slabs of 6 rows (5 planes × 6 rows × 32 kB ≈ 1 MiB); z runs inside a slab
+        let order = advect_order(32_000, 102, 102);
+        assert_eq!(&order[..7], &[0, 1, 2, 3, 4, 5, 102]);
     }
 }
