@@ -306,7 +306,7 @@ pub fn lattice_gas_speed(ctx: &GpuContext, cells: [usize; 3], steps: u64, bandwi
         }
         None => Vec::new(),
     };
-    Ok(crate::lattice_gas::bench::speed_of(false, ctx.describe(), &g, steps, s, crate::lattice_gas::bench::GPU_BYTES_PER_SITE_UPDATE, bandwidth, shares))
+    Ok(crate::lattice_gas::bench::speed_of(false, ctx.describe(), &g, steps, s, crate::lattice_gas::bench::BYTES_PER_SITE_UPDATE, bandwidth, shares))
 }
 
 #[cfg(test)]

@@ -14,12 +14,12 @@ pub const SEED_RUN_SITES: f64 = 512.0 * 256.0 * 128.0 * 16.0;
 /// Steps of the seed's run.
 pub const SEED_RUN_STEPS: f64 = 39_000.0;
 
-/// Bytes of memory traffic per site update on the CPU, one pass per stage: collision,
-/// interference and propagation each read and write the 24 bits of every site (24 · 2 · 3 / 8 =
-/// 18 B); the boundaries touch only the X ends.
-pub const CPU_BYTES_PER_SITE_UPDATE: f64 = Q as f64 * 2.0 * 3.0 / 8.0;
-/// On the GPU collision and interference are one kernel: two passes (12 B).
-pub const GPU_BYTES_PER_SITE_UPDATE: f64 = Q as f64 * 2.0 * 2.0 / 8.0;
+/// Bytes of memory traffic per site update of a step, on the CPU and the GPU: two passes that
+/// read and write the 24 bits of every site — collision and interference fused, then
+/// propagation (24 · 2 · 2 / 8 = 12 B); the boundaries touch only the X ends.
+pub const BYTES_PER_SITE_UPDATE: f64 = Q as f64 * 2.0 * 2.0 / 8.0;
+/// With every stage a pass of its own (the site-by-site reference): three passes (18 B).
+pub const SEPARATE_STAGES_BYTES_PER_SITE_UPDATE: f64 = Q as f64 * 2.0 * 3.0 / 8.0;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct LatticeGasSpeed {
@@ -94,7 +94,8 @@ pub fn cpu_speed(cells: [usize; 3], steps: u64, bandwidth: f64) -> LatticeGasSpe
 }
 
 /// [`cpu_speed`] with the collision done site by site ([`LatticeGas::collide_site_by_site`],
-/// the plain form the transposed kernel replaced), for the method-vs-method ratio in one run.
+/// the plain form the transposed kernel replaced) and the interference as a pass of its own,
+/// for the method-vs-method ratio in one run.
 pub fn cpu_speed_site_by_site(cells: [usize; 3], steps: u64, bandwidth: f64) -> LatticeGasSpeed {
     timed_steps(cells, steps, bandwidth, true)
 }
@@ -108,12 +109,15 @@ fn timed_steps(cells: [usize; 3], steps: u64, bandwidth: f64, site_by_site: bool
     let t0 = Instant::now();
     for _ in 0..steps {
         g.advance_timed_by(table, &mut t, |g, kind, table| match kind {
+            // the plain form: every stage on its own, the collision site by site
             LatticeGasStageKind::Collide if site_by_site => g.collide_site_by_site(table),
-            kind => g.run_stage(kind, table),
+            kind if site_by_site => g.run_stage(kind, table),
+            kind => g.run_step_stage(kind, table),
         });
     }
     let s = t0.elapsed().as_secs_f64();
     let shares = t.report().into_iter().map(|(n, f)| (n.to_string(), f)).collect();
     let what = if site_by_site { ", site-by-site collision" } else { "" };
-    speed_of(true, format!("CPU, {} threads{what}", rayon::current_num_threads()), &g, steps, s, CPU_BYTES_PER_SITE_UPDATE, bandwidth, shares)
+    let bytes = if site_by_site { SEPARATE_STAGES_BYTES_PER_SITE_UPDATE } else { BYTES_PER_SITE_UPDATE };
+    speed_of(true, format!("CPU, {} threads{what}", rayon::current_num_threads()), &g, steps, s, bytes, bandwidth, shares)
 }

@@ -4,7 +4,7 @@
 //! operation below acts lane by lane, so the same masks serve both (replicated per lane).
 
 use super::lattice::Diagonals;
-use super::velocities::VELOCITIES;
+use super::velocities::{Q, VELOCITIES};
 
 /// Bits of a lane whose vertex has coordinate bit `axis` = 0.
 pub const LOW: [u16; 4] = [0x5555, 0x3333, 0x0F0F, 0x00FF];
@@ -103,13 +103,28 @@ pub const fn complementary_sides(k: usize) -> [(u16, u16, usize, usize); 2] {
     [(vertex_mask(p, false, q, false), vertex_mask(p, true, q, true), p, q), (vertex_mask(p, false, q, true), vertex_mask(p, true, q, false), p, q)]
 }
 
+/// Per velocity k, the exchange of [`interfere_lane`]: (side A, side B, the axes a, b of c_k) —
+/// a table, for loops whose k is not a constant.
+pub const OWN_PLANE_EXCHANGES: [(u16, u16, usize, usize); Q] = own_plane_exchanges();
+
+const fn own_plane_exchanges() -> [(u16, u16, usize, usize); Q] {
+    let mut t = [(0, 0, 0, 0); Q];
+    let mut k = 0;
+    while k < Q {
+        let ((a, _), (b, _)) = axes(k);
+        let (mask_a, mask_b) = interference_sides(k);
+        t[k] = (mask_a, mask_b, a, b);
+        k += 1;
+    }
+    t
+}
+
 /// The interference operation on one lane (16 sites) of velocity k's word: side B is moved onto
 /// side A's positions (flip on both axes); the sparser side gets the AND of each pair, the denser
 /// the OR (equal counts: unchanged). Particle number and momentum are conserved pair by pair.
 #[inline]
 pub fn interfere_lane(w: u16, k: usize) -> u16 {
-    let ((a, _), (b, _)) = axes(k);
-    let (mask_a, mask_b) = interference_sides(k);
+    let (mask_a, mask_b, a, b) = OWN_PLANE_EXCHANGES[k];
     exchange_lane(w, mask_a, mask_b, a, b)
 }
 
@@ -153,21 +168,29 @@ pub fn displacement((mask_a, _, a, b): (u16, u16, usize, usize)) -> [i32; 4] {
 /// of word r is what bit r of word c was. Six rounds of block swaps (H. S. Warren, *Hacker's
 /// Delight*, §7-3): 6 · 32 word pairs instead of 64 · 64 single-bit moves. It turns a block's 24
 /// velocity words into its 64 sites' 24-bit states and back.
+/// Each round a const width, so that its loops unroll and the wide rounds (`J` ≥ 4) run on
+/// vector registers.
 #[inline]
 pub fn transpose64(a: &mut [u64; 64]) {
-    let mut j = 32;
-    let mut m: u64 = 0x0000_0000_FFFF_FFFF;
-    while j != 0 {
-        let mut k = 0;
-        while k < 64 {
-            // swap the high-j columns of row k with the low-j columns of row k + j
-            let t = ((a[k] >> j) ^ a[k + j]) & m;
-            a[k + j] ^= t;
-            a[k] ^= t << j;
-            k = (k + j + 1) & !j;
+    swap_blocks::<32>(a, 0x0000_0000_FFFF_FFFF);
+    swap_blocks::<16>(a, 0x0000_FFFF_0000_FFFF);
+    swap_blocks::<8>(a, 0x00FF_00FF_00FF_00FF);
+    swap_blocks::<4>(a, 0x0F0F_0F0F_0F0F_0F0F);
+    swap_blocks::<2>(a, 0x3333_3333_3333_3333);
+    swap_blocks::<1>(a, 0x5555_5555_5555_5555);
+}
+
+/// One round of [`transpose64`]: rows k and k + J (k in the upper half of every band of 2J
+/// rows) swap blocks — the high J bits of each 2J-bit group of row k with the low J bits of the
+/// group in row k + J (`m` selects the low J bits of every group).
+#[inline(always)]
+fn swap_blocks<const J: usize>(a: &mut [u64; 64], m: u64) {
+    for base in (0..64).step_by(2 * J) {
+        for k in base..base + J {
+            let t = ((a[k] >> J) ^ a[k + J]) & m;
+            a[k + J] ^= t;
+            a[k] ^= t << J;
         }
-        j >>= 1;
-        m ^= m << j;
     }
 }
 

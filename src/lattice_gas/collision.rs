@@ -114,21 +114,48 @@ impl CollisionTable {
         self.key_class[class_key(state)] as usize
     }
 
-    /// The output of a collision of `state` with the random number `r` ("uniform within the
-    /// class": member r mod |class|; the modulo bias is below |class| / 2³² < 3e-6).
-    /// [`Self::collide`] of 16 sites at once, in phases (all class keys, then all class
-    /// ranges, then all members) so that the table reads of different sites overlap instead of
-    /// waiting on each other: the same outputs.
+    /// [`Self::collide`] of the 64 sites of a block (`states[i]`: site `first_site + i`, drawn
+    /// from the stream of `key`), in phases — all class keys, then all member indices, then all
+    /// member reads — so that the 2 × 64 table reads, which miss the caches (the hot part of the
+    /// tables is ~10 MiB), overlap instead of queueing behind the divisions of the member index:
+    /// the same outputs as [`Self::collide`] site by site. The step runs the three phases of
+    /// different blocks interleaved ([`Self::class_keys`], [`Self::member_indices`],
+    /// [`Self::read_members`]), each phase prefetching what the next one reads.
     #[inline]
-    pub fn collide16(&self, states: &mut [u64], r: impl Fn(usize) -> u32) {
-        let mut ranges = [[0u32; 2]; 16];
-        for (range, s) in ranges.iter_mut().zip(states.iter()) {
-            *range = self.key_range[class_key(*s as u32)];
+    pub fn collide64(&self, states: &mut [u64; 64], key: u32, first_site: u32) {
+        let (mut keys, mut index) = ([0u32; 64], [0u32; 64]);
+        self.class_keys(states, &mut keys);
+        self.member_indices(&keys, key, first_site, &mut index);
+        self.read_members(&index, states);
+    }
+
+    /// Phase 1 of [`Self::collide64`]: the class key of every state; prefetches its range.
+    #[inline]
+    pub fn class_keys(&self, states: &[u64; 64], keys: &mut [u32; 64]) {
+        for (k, s) in keys.iter_mut().zip(states) {
+            *k = class_key(*s as u32) as u32;
+            prefetch(&self.key_range[*k as usize]);
         }
-        for (v, (s, [start, size])) in states.iter_mut().zip(ranges).enumerate() {
-            if size != 1 {
-                *s = self.members[(start + r(v) % size) as usize] as u64;
-            }
+    }
+
+    /// Phase 2 of [`Self::collide64`]: the index in `members` of every state's output, member
+    /// r mod |class| of its class; prefetches the member.
+    #[inline]
+    pub fn member_indices(&self, keys: &[u32; 64], key: u32, first_site: u32, index: &mut [u32; 64]) {
+        for (v, (i, k)) in index.iter_mut().zip(keys).enumerate() {
+            let [start, size] = self.key_range[*k as usize];
+            // every state has a class (size ≥ 1); `max` only spares the division a zero check
+            *i = start + remainder(keyed_random(key, first_site.wrapping_add(v as u32)), size.max(1));
+            prefetch(&self.members[*i as usize]);
+        }
+    }
+
+    /// Phase 3 of [`Self::collide64`]: the outputs. A class of one member holds the state
+    /// itself, so every state reads its member (no branch).
+    #[inline]
+    pub fn read_members(&self, index: &[u32; 64], states: &mut [u64; 64]) {
+        for (s, i) in states.iter_mut().zip(index) {
+            *s = self.members[*i as usize] as u64;
         }
     }
 
@@ -140,6 +167,8 @@ impl CollisionTable {
         self.members[(self.start[c] + r % size) as usize]
     }
 
+    /// The output of a collision of `state` with the random number `r` ("uniform within the
+    /// class": member r mod |class|; the modulo bias is below |class| / 2³² < 3e-6).
     #[inline]
     pub fn collide(&self, state: u32, r: u32) -> u32 {
         let [start, size] = self.key_range[class_key(state)];
@@ -149,6 +178,36 @@ impl CollisionTable {
         }
         self.members[(start + r % size) as usize]
     }
+}
+
+/// r mod d (d ≥ 1), exactly, without an integer division (whose latency the collision's member
+/// index waited on): the quotient from one f64 product, r · fl(1/d), is within 1 of ⌊r/d⌋
+/// (relative error ≤ 2⁻⁵² on a quotient < 2³²), and one correction each way makes the remainder
+/// exact. Test: `the_remainder_without_division_is_exact`.
+#[inline(always)]
+pub fn remainder(r: u32, d: u32) -> u32 {
+    let (r, d64) = (r as i64, d as i64);
+    let q = (r as f64 * (1.0 / d as f64)) as i64;
+    let mut x = r - q * d64;
+    if x < 0 {
+        x += d64;
+    }
+    if x >= d64 {
+        x -= d64;
+    }
+    x as u32
+}
+
+/// Asks the cache for the line of `x` without waiting for it (a no-op off x86-64).
+#[inline(always)]
+fn prefetch<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch reads nothing into the program and cannot fault; `x` is a valid reference.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(x as *const T as *const i8)
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
 }
 
 /// 32-bit integer hash (Wellons' "lowbias32"), the building block of the random stream.
@@ -186,6 +245,24 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_remainder_without_division_is_exact() {
+        // every divisor up to 20,000 (classes hold at most 11,740) at the edges of its
+        // multiples, and 10⁷ random pairs of every magnitude
+        for d in 1..20_000u32 {
+            let top = u32::MAX / d * d;
+            for r in [0, 1, d - 1, d, d + 1, 2 * d - 1, top, top - 1, top.wrapping_add(d - 1), u32::MAX, u32::MAX - 1, 1 << 31, (1 << 31) - 1] {
+                assert_eq!(remainder(r, d), r % d, "{r} mod {d}");
+            }
+        }
+        let mut x = 1u32;
+        for i in 0..10_000_000u32 {
+            x = mix32(x ^ i);
+            let d = (mix32(x ^ 0x55) >> (mix32(x ^ 0xaa) % 32)).max(1);
+            assert_eq!(remainder(x, d), x % d, "{x} mod {d}");
+        }
+    }
+
+    #[test]
     fn collision_classes_match_the_reference_counts_and_conserve_exactly() {
         let t = CollisionTable::shared();
         let largest = (0..t.classes()).map(|c| t.class_size(c)).max().unwrap();
@@ -211,9 +288,16 @@ mod tests {
             assert_eq!(moments(out), moments(s));
             // the CPU's one-lookup form is the GPU's class-index form
             assert_eq!(out, t.collide_by_class(s, site_random(1, 3, i)));
-            let mut sixteen = [s as u64; 16];
-            t.collide16(&mut sixteen, |v| site_random(1, 3, i) ^ v as u32);
-            assert!(sixteen.iter().enumerate().all(|(v, &o)| o as u32 == t.collide_by_class(s, site_random(1, 3, i) ^ v as u32)));
+        }
+        // the block form: 64 different states (of every mass) with their own draws
+        let key = stream_key(1, 3);
+        for b in 0..3_000u32 {
+            let states: [u64; 64] = std::array::from_fn(|v| (site_random(9, b, v as u32) & (STATES as u32 - 1)) as u64);
+            let mut out = states;
+            t.collide64(&mut out, key, 64 * b);
+            for v in 0..64 {
+                assert_eq!(out[v] as u32, t.collide_by_class(states[v] as u32, keyed_random(key, 64 * b + v as u32)));
+            }
         }
         // spread uniformly over it: 5000 draws from a class of n give n (1 − e^(−5000/n))
         // distinct outputs on average (2847 for n = 3975)
