@@ -99,16 +99,18 @@ fn propagate() -> String {
         }
     }
     for k in 0..Q {
-        let ((a, _), (b, _)) = axes(k);
         let _ = writeln!(s, "    {{\n        var acc = 0u;");
-        for (mask, off) in propagation_moves(k) {
+        for (mask, off, rotation) in propagation_moves(k) {
             let row = format!("{k}u * W + row_{}_{}", off[1] + 1, off[2] + 1);
             let src = match off[0] {
                 0 => format!("src[{row} + xw]"),
                 -1 => format!("(src[{row} + xw] << 16u) | (src[{row} + xm] >> 16u)"),
                 _ => format!("(src[{row} + xw] >> 16u) | (src[{row} + xp] << 16u)"),
             };
-            let _ = writeln!(s, "        acc |= flip(flip(({src}) & {:#010x}u, {a}u), {b}u);", replicate32(mask));
+            // the quadrant flipped on both axes of c_k: one shift by ±2^a ± 2^b (|·| ≤ 12, the
+            // vertices stay in their 16-bit lane; `bits::quadrant_flip_rotation`)
+            let shift = if rotation < 32 { format!("<< {rotation}u") } else { format!(">> {}u", 64 - rotation) };
+            let _ = writeln!(s, "        acc |= (({src}) & {:#010x}u) {shift};", replicate32(mask));
         }
         let _ = writeln!(s, "        dst[{k}u * W + w] = acc;\n    }}");
     }

@@ -2,7 +2,7 @@
 //! lists them: collision (seed 002 §3.3), interference (§3.4), propagation by bit shifts (§3.3)
 //! and the channel boundaries (§3.5). Blocks are processed in parallel (rayon).
 
-use super::bits::{OWN_PLANE_EXCHANGES, complementary_sides, exchange_lane, flip, propagation_moves, replicate64, transpose64};
+use super::bits::{OWN_PLANE_EXCHANGES, complementary_sides, exchange_lane, propagation_moves, replicate64, transpose64};
 use super::collision::{COMPLEMENTARY_STREAM, CollisionTable, INLET_STREAM, INTERFERENCE_STREAM, keyed_random, site_random, stream_key};
 use super::lattice::{Block, Diagonals, LANES, LatticeGas, probability_threshold};
 use super::velocities::{Q, opposite};
@@ -85,11 +85,7 @@ impl LatticeGas {
     pub fn propagate(&mut self) {
         let [nx, ny, nz] = self.dims;
         let nb = nx / LANES;
-        let moves: [[(u64, [i64; 3]); 4]; Q] = std::array::from_fn(|k| propagation_moves(k).map(|(m, o)| (replicate64(m), o)));
-        let axes: [(usize, usize); Q] = std::array::from_fn(|k| {
-            let ((a, _), (b, _)) = super::bits::axes(k);
-            (a, b)
-        });
+        let moves: [[(u64, [i64; 3], u32); 4]; Q] = std::array::from_fn(|k| propagation_moves(k).map(|(m, o, r)| (replicate64(m), o, r)));
         let old = std::mem::take(&mut self.blocks);
         // every word of every block is written below, so the spare's old content is never read
         let mut new = std::mem::take(&mut self.spare);
@@ -102,9 +98,8 @@ impl LatticeGas {
             let rows: [[usize; 3]; 3] = std::array::from_fn(|dz| std::array::from_fn(|dy| (wrap(z, dz as i64 - 1, nz) * ny + wrap(y, dy as i64 - 1, ny)) * nb));
             let (west, east) = ((xb + nb - 1) % nb, (xb + 1) % nb);
             for k in 0..Q {
-                let (a, b) = axes[k];
                 let mut acc = 0u64;
-                for &(mask, off) in &moves[k] {
+                for &(mask, off, rotation) in &moves[k] {
                     let row = rows[(off[2] + 1) as usize][(off[1] + 1) as usize];
                     let here = old[row + xb][k];
                     let src = match off[0] {
@@ -113,7 +108,8 @@ impl LatticeGas {
                         -1 => (here << 16) | (old[row + west][k] >> 48),
                         _ => (here >> 16) | (old[row + east][k] << 48),
                     };
-                    acc |= flip(flip(src & mask, a), b);
+                    // the quadrant's vertices flipped on both axes of c_k: one rotation
+                    acc |= (src & mask).rotate_left(rotation);
                 }
                 out[k] = acc;
             }
