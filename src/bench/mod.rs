@@ -51,6 +51,48 @@ pub fn triad(n: usize, reps: usize) -> Bandwidth {
     Bandwidth { best: rate(times[0]), median: rate(times[times.len() / 2]), worst: rate(times[times.len() - 1]), repetitions: times.len(), array_bytes: 8 * n }
 }
 
+/// The f64 arithmetic rate of the CPU, all threads, over repetitions (flop/s; an FMA counts 2).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct FlopRate {
+    pub best: f64,
+    pub median: f64,
+    pub repetitions: usize,
+}
+
+/// Independent FMA chains per thread: enough to cover the FMA latency on every FMA port (4
+/// cycles × 2 ports × 4 f64 lanes) so that the loop runs at the port throughput.
+const FMA_CHAINS: usize = 64;
+
+/// The peak f64 rate of the roofline: every rayon thread runs [`FMA_CHAINS`] independent chains
+/// of `a = a · b + c` (vectorised, FMA where the CPU has it — this build's own instruction
+/// set), `reps` times, in registers (no memory traffic).
+pub fn fma_peak(reps: usize) -> FlopRate {
+    const ITERATIONS: usize = 1 << 22;
+    let threads = rayon::current_num_threads();
+    let mut rates: Vec<f64> = (0..reps.max(1))
+        .map(|r| {
+            let t = Instant::now();
+            let sum: f64 = (0..threads)
+                .into_par_iter()
+                .map(|i| {
+                    let mut a = [1.0 + (i + r) as f64 * 1e-9; FMA_CHAINS];
+                    let (b, c) = (std::hint::black_box(0.999_999_9), std::hint::black_box(1e-7));
+                    for _ in 0..ITERATIONS {
+                        for x in a.iter_mut() {
+                            *x = x.mul_add(b, c);
+                        }
+                    }
+                    a.iter().sum::<f64>()
+                })
+                .sum();
+            std::hint::black_box(sum);
+            2.0 * (FMA_CHAINS * ITERATIONS * threads) as f64 / t.elapsed().as_secs_f64()
+        })
+        .collect();
+    rates.sort_by(|a, b| b.total_cmp(a));
+    FlopRate { best: rates[0], median: rates[rates.len() / 2], repetitions: rates.len() }
+}
+
 pub use crate::machine::{fraction_of_bandwidth, last_level_cache_bytes};
 
 /// Node updates per second of one lattice on one backend.
@@ -130,6 +172,8 @@ pub struct BenchReport {
     pub triad_bandwidth_gb_s: f64,
     /// The triad's repetitions (best, median, worst).
     pub triad: Bandwidth,
+    /// The f64 peak of the roofline ([`fma_peak`]).
+    pub fma_peak: FlopRate,
     /// The last-level cache (bytes): benchmarks whose data fits in twice this report no
     /// bandwidth fraction.
     pub last_level_cache_bytes: usize,
@@ -293,6 +337,7 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
     // three arrays of 256 MiB (quick: 64 MiB), far beyond any last-level cache here
     let triad = triad(if quick { 1 << 23 } else { 1 << 25 }, 10);
     let bw = triad.best;
+    let fma = fma_peak(5);
     let (n2, n3, st) = if quick { (128, 32, 3) } else { (512, 96, 10) };
     let lattices = if wants("fdlb") {
         vec![lattice_speed(VelocitySetKind::D2q21, [n2, n2, 1], st, 5, bw), lattice_speed(VelocitySetKind::D3q39, [n3, n3, n3], st.min(5), 5, bw)]
@@ -320,6 +365,9 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
         solid.push(solid_speed(side, Integrator::Explicit, if quick { 3 } else { 5 }, bw));
         solid.push(solid_speed(side, Integrator::Implicit, if quick { 2 } else { 3 }, bw));
     }
+    for v in &mut solid {
+        v.flop_fraction = v.flops_per_update.map(|f| f * v.particle_updates_per_s / fma.best);
+    }
     let lattice_gas = if wants("lattice_gas") {
         let (cells, steps) = if quick { ([32, 16, 8], 3) } else { ([256, 128, 64], 4) };
         vec![crate::lattice_gas::bench::cpu_speed(cells, steps, bw), crate::lattice_gas::bench::cpu_speed_site_by_site(cells, steps, bw)]
@@ -341,6 +389,7 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
         threads: rayon::current_num_threads(),
         triad_bandwidth_gb_s: bw / 1e9,
         triad,
+        fma_peak: fma,
         last_level_cache_bytes: last_level_cache_bytes(),
         lattices,
         speed_vs_error,

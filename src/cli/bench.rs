@@ -37,13 +37,14 @@ fn percent(f: Option<f64>) -> String {
 /// One table row of a solid speed measurement (`extra` appended, e.g. a ratio to the CPU).
 fn solid_row(v: &phonation::solid::bench::SolidSpeed, extra: &str) {
     println!(
-        "{:9} {:>10} {:>10} {:>14.3e} {:>9.0} {:>8} {:>9.1} {:>8.1}{extra}",
+        "{:9} {:>10} {:>10} {:>14.3e} {:>9.0} {:>8} {:>8} {:>9.1} {:>8.1}{extra}",
         format!("{:?}", v.integrator),
         v.particles,
         v.bonds,
         v.particle_updates_per_s,
         v.bytes_per_update,
         percent(v.bandwidth_fraction),
+        v.flop_fraction.map_or("-".into(), |f| format!("{:.1}%", 100.0 * f)),
         v.cg_iterations,
         v.time_step_over_explicit_limit
     );
@@ -89,6 +90,12 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             t.array_bytes >> 20,
             r.last_level_cache_bytes >> 20
         );
+        println!(
+            "CPU: f64 peak {:.1} GFLOP/s (FMA chains in registers, all threads; best of {}, median {:.1})",
+            r.fma_peak.best / 1e9,
+            r.fma_peak.repetitions,
+            r.fma_peak.median / 1e9
+        );
         if !r.lattices.is_empty() {
             println!("{:8} {:>16} {:>16} {:>10} {:>10}", "lattice", "nodes", "updates/s", "B/update", "of b/w");
         }
@@ -120,7 +127,10 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         }
         if !r.solid.is_empty() {
             println!("MPS solid (3D, r_e = 2.1 l0):");
-            println!("{:9} {:>10} {:>10} {:>14} {:>9} {:>8} {:>9} {:>8}", "step", "particles", "bonds", "updates/s", "B/update", "of b/w", "CG it.", "Δt/lim");
+            println!(
+                "{:9} {:>10} {:>10} {:>14} {:>9} {:>8} {:>8} {:>9} {:>8}",
+                "step", "particles", "bonds", "updates/s", "B/update", "of b/w", "of flops", "CG it.", "Δt/lim"
+            );
         }
         for v in &r.solid {
             solid_row(v, "");

@@ -7,11 +7,23 @@
 //! neighbour's state mostly from cache), plus per particle the 6×6 stiffness (288), x, v, ω,
 //! q, f, τ, Q and strain (≈ 400 B).
 
+//! Flops per particle update (explicit), the other roof: [`FLOPS_PER_BOND`] counted in the
+//! source of the two bond loops (the per-particle work — quaternion to matrix, the 6×6
+//! stress, the integration — is left out, so the count is a lower bound).
+
 use super::particles::{Particles, sample_box};
 use super::{Integrator, Orthotropic, SolidOptions, SolidSolver};
 use glam::DVec3;
 use serde::Serialize;
 use std::time::Instant;
+
+/// Flops per bond of an explicit step with viscosity (an FMA counts 2; glam's f64 vectors are
+/// scalar arithmetic), counted in `forces.rs`: `strain_stress` 24 (r = x_j + s − x_i 6, the
+/// outer product r ⊗ g 9 and its sum 9); `bond_forces` 139 (Σ g 3; Q_j g_ji 15 and its
+/// subtraction 3; R_i r⁰ and R_j r⁰ 30; r 6; u = r − ½(a_i + a_j) 9; f += k u 6; the torque
+/// ½k a_i × u 16; the energy ¼k|u|² 8; the viscous part 43: w̄ 6, v_ij = v_j − v_i − w̄ × r 15,
+/// f += c v_ij 6, ½c r × v_ij 16).
+pub const FLOPS_PER_BOND: f64 = 24.0 + 139.0;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct SolidSpeed {
@@ -23,6 +35,12 @@ pub struct SolidSpeed {
     /// Of the triad bandwidth measured in the same process; `None` when the particles' data
     /// fits in the cache ([`crate::machine::fraction_of_bandwidth`]).
     pub bandwidth_fraction: Option<f64>,
+    /// Explicit steps: [`FLOPS_PER_BOND`] × bonds per particle (a lower bound); `None` for the
+    /// implicit step (its CG work depends on the iterations).
+    pub flops_per_update: Option<f64>,
+    /// Of the f64 peak measured in the same process (the bench fills it in:
+    /// `bench::fma_peak`).
+    pub flop_fraction: Option<f64>,
     /// Mean CG iterations per implicit step (0 for explicit).
     pub cg_iterations: f64,
     pub time_step_over_explicit_limit: f64,
@@ -77,6 +95,8 @@ pub fn speed_of(
         particle_updates_per_s: ups,
         bytes_per_update: bytes,
         bandwidth_fraction: if cpu { crate::machine::fraction_of_bandwidth(ups * bytes, footprint(s), bandwidth) } else { Some(ups * bytes / bandwidth) },
+        flops_per_update: (s.options.integrator == Integrator::Explicit).then(|| FLOPS_PER_BOND * bonds as f64 / n as f64),
+        flop_fraction: None,
         cg_iterations: iters as f64 / steps as f64,
         time_step_over_explicit_limit: s.dt / s.explicit_limit,
         stage_shares,
@@ -120,5 +140,20 @@ mod tests {
         let mut s = benchmark_block(4, Integrator::Explicit);
         Solver::advance(&mut s, 200).expect("half the explicit limit is stable");
         assert_eq!(Solver::step_count(&s), 200);
+    }
+
+    #[test]
+    fn the_flop_count_follows_the_bonds_of_an_explicit_step_only() {
+        // a 6³ block: interior particles have 32 bonds, the faces fewer (r_e = 2.1 l₀)
+        for integrator in [Integrator::Explicit, Integrator::Implicit] {
+            let s = benchmark_block(6, integrator);
+            let v = speed_of(true, &s, 1, 1.0, 0, 0.0, Vec::new(), 1e10);
+            let per_particle = s.disc.bonds.len() as f64 / s.particles.len() as f64;
+            assert!(per_particle > 15.0 && per_particle < 33.0, "{per_particle} bonds per particle");
+            match integrator {
+                Integrator::Explicit => assert_eq!(v.flops_per_update, Some(163.0 * s.disc.bonds.len() as f64 / s.particles.len() as f64)),
+                Integrator::Implicit => assert_eq!(v.flops_per_update, None),
+            }
+        }
     }
 }
