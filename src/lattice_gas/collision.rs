@@ -117,8 +117,8 @@ impl CollisionTable {
     /// [`Self::collide`] of the 64 sites of a block (`states[i]`: site `first_site + i`, drawn
     /// from the stream of `key`), in phases — all class keys, then all member indices, then all
     /// member reads — so that the 2 × 64 table reads, which miss the caches (the hot part of the
-    /// tables is ~10 MiB), overlap instead of queueing behind the divisions of the member index:
-    /// the same outputs as [`Self::collide`] site by site. The step runs the three phases of
+    /// tables is ~10 MiB), overlap instead of each waiting on the arithmetic before it: the same
+    /// outputs as [`Self::collide`] site by site. The step runs the three phases of
     /// different blocks interleaved ([`Self::class_keys`], [`Self::member_indices`],
     /// [`Self::read_members`]), each phase prefetching what the next one reads.
     #[inline]
