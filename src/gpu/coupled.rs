@@ -13,7 +13,10 @@
 //! measured as the `fluid_geometry` share of the step; the wall momentum per node no longer
 //! crosses the bus. The exchange's diagnostics that the CPU solver sums over the run (momentum to
 //! non-body walls, mass to the walls, the wall-frame momentum) are not kept on this backend.
-//! Prescribed body motions and method 1 run on the CPU only: [`GpuCoupled::new`] refuses them.
+//! Bodies with a prescribed motion are moved by the CPU after every solid sub-step, as the CPU
+//! solver does, and only their particles' kinematics are written to the device
+//! ([`GpuSolid::upload_kinematics`]). Method 1 runs on the CPU only: [`GpuCoupled::new`]
+//! refuses it.
 
 use super::context::{GpuContext, GpuError};
 use super::coupling::CouplingKernels;
@@ -41,6 +44,8 @@ pub struct GpuCoupled {
     pub timings: Vec<Duration>,
     /// Steps on which nodes changed side, so that the populations made a round trip.
     pub round_trips: u64,
+    /// The particles of the bodies with a prescribed motion (ascending).
+    prescribed: Vec<usize>,
 }
 
 impl GpuCoupled {
@@ -53,7 +58,12 @@ impl GpuCoupled {
         let solid = GpuSolid::from_solver(&ctx, &mut cpu.solid)?;
         let kernels = CouplingKernels::new(&ctx);
         let timings = vec![Duration::ZERO; COUPLED_CONSERVING_STEP.len()];
-        Ok(GpuCoupled { cpu, fluid, solid, kernels, ctx, timings, round_trips: 0 })
+        let prescribed = {
+            let p = &cpu.solid.particles;
+            let moved: Vec<u16> = cpu.bodies.iter().filter(|b| b.motion.is_some()).map(|b| b.surface.body).collect();
+            (0..p.len()).filter(|&i| moved.contains(&p.body[i])).collect()
+        };
+        Ok(GpuCoupled { cpu, fluid, solid, kernels, ctx, timings, round_trips: 0, prescribed })
     }
 
     /// Whether this backend runs `cpu`'s scene, or why not (naming the field).
@@ -62,9 +72,6 @@ impl GpuCoupled {
             return Err(GpuError::Unsupported(
                 "coupling.method: the weak coupling (method 1) runs on the CPU only; use method = \"momentum_conserving\" or --backend cpu".into(),
             ));
-        }
-        if cpu.bodies.iter().any(|b| b.motion.is_some()) {
-            return Err(GpuError::Unsupported("coupling.bodies: a prescribed motion runs on the CPU only (--backend cpu)".into()));
         }
         Ok(())
     }
@@ -167,9 +174,24 @@ impl GpuCoupled {
         self.solid.upload_loads(&self.cpu.solid);
     }
 
-    /// The solid's sub-steps over the fluid step.
+    /// The solid's sub-steps over the fluid step; with prescribed bodies one at a time, each
+    /// followed by their motion at its end (as [`CoupledSolver`] does).
     fn solid_substeps(&mut self) -> Result<(), Instability> {
-        self.solid.run(self.cpu.substeps as u64);
+        if self.prescribed.is_empty() {
+            self.solid.run(self.cpu.substeps as u64);
+        } else {
+            let dts = self.cpu.solid.dt;
+            for k in 0..self.cpu.substeps {
+                self.solid.run(1);
+                let t = self.cpu.time + (k + 1) as f64 * dts;
+                for b in &self.cpu.bodies {
+                    if let Some(m) = &b.motion {
+                        m.apply(&mut self.cpu.solid.particles, b.surface.body, t);
+                    }
+                }
+                self.solid.upload_kinematics(&self.cpu.solid, &self.prescribed);
+            }
+        }
         self.solid.wait();
         Ok(())
     }

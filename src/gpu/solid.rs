@@ -224,6 +224,36 @@ impl GpuSolid {
         self.step_count = s.step_count;
     }
 
+    /// Writes position, velocity, spin and orientation of the particles `indices` (ascending) of
+    /// a CPU solver, one write per run of consecutive indices: the bodies whose motion is
+    /// prescribed ([`super::coupled::GpuCoupled`]), without touching the others.
+    pub fn upload_kinematics(&self, s: &SolidSolver, indices: &[usize]) {
+        let p = &s.particles;
+        let mut k = 0;
+        while k < indices.len() {
+            let first = indices[k];
+            let mut end = k + 1;
+            while end < indices.len() && indices[end] == first + (end - k) {
+                end += 1;
+            }
+            let run = first..first + (end - k);
+            let offset = 16 * first as u64;
+            let w = |buf: Buf, data: Vec<[f32; 4]>| self.queue.write_buffer(&self.buffers[buf], offset, bytemuck::cast_slice(&data));
+            w(Buf::Pos, run.clone().map(|i| v4(p.position[i] - self.reference[i], 0.0)).collect());
+            w(Buf::Vel, run.clone().map(|i| v4(p.velocity[i], 0.0)).collect());
+            w(Buf::Spin, run.clone().map(|i| v4(p.spin[i], 0.0)).collect());
+            w(
+                Buf::Quat,
+                run.map(|i| {
+                    let q = p.rotation[i];
+                    [q.x as f32, q.y as f32, q.z as f32, q.w as f32]
+                })
+                .collect(),
+            );
+            k = end;
+        }
+    }
+
     /// Writes the particles' loads (+ added mass) of a CPU solver: the air's forces of a
     /// coupled step ([`super::coupled::GpuCoupled`]).
     pub fn upload_loads(&self, s: &SolidSolver) {
