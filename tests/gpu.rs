@@ -1277,6 +1277,7 @@ fn every_scene_key_changes_the_gpu_state_or_is_refused() {
         ("oscillating_plate", phonation::scene::builtin("oscillating_plate").unwrap()),
         ("small_wake", gas),
         ("small_flap", SMALL_FLAP),
+        ("towed_disc", TOWED_DISC),
     ];
     let (mut checked, mut refused) = (0, 0);
     let mut ignored = Vec::new();

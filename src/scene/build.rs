@@ -39,6 +39,10 @@ pub struct FluidScene {
     pub real_mach: f64,
     pub mach_scaled: bool,
     pub estimated_bytes: f64,
+    /// Speed of sound of the real gas (`gas.sound_speed`, or air's), scene units.
+    pub real_sound_speed: f64,
+    /// Speed of sound on the lattice, √(γ θ₀) (lattice units).
+    pub lattice_sound_speed: f64,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -398,6 +402,8 @@ impl FluidScene {
             reference_mach,
             real_mach: max_u / c_real,
             mach_scaled,
+            real_sound_speed: c_real,
+            lattice_sound_speed: (gamma * theta0).sqrt(),
             estimated_bytes,
             file,
         })
@@ -420,6 +426,23 @@ impl FluidScene {
         let mut s = FluidSolver::new(eq, self.grid.clone(), self.boundaries.clone(), &self.obstacles, self.params, init);
         s.body_force = self.body_force;
         s
+    }
+
+    /// Counts a speed that another part of the scene sets in the air (a body's prescribed
+    /// motion, `field`) as the fluid's own set speeds are counted: refused above lattice Mach
+    /// 0.5, and in the Mach numbers of the summary (the real gas's; the lattice's without Mach
+    /// scaling). `speed` in scene units.
+    pub fn count_set_speed(&mut self, field: &str, speed: f64) -> Result<(), SceneError> {
+        let lattice_mach = self.units.velocity_to_lattice(speed) / self.lattice_sound_speed;
+        if !(lattice_mach <= 0.5) {
+            let hint = if self.mach_scaled { " (raise numerics.mach_scaling.reference_velocity, or lower this speed)" } else { "" };
+            return err(field, format!("speed {speed:e} is lattice Mach {lattice_mach:.3}, above 0.5{hint}"));
+        }
+        self.real_mach = self.real_mach.max(speed / self.real_sound_speed);
+        if !self.mach_scaled {
+            self.reference_mach = self.reference_mach.max(lattice_mach);
+        }
+        Ok(())
     }
 
     pub fn summary(&self) -> SceneSummary {

@@ -118,7 +118,7 @@ impl CoupledScene {
             run: SolidRun { duration: file.run.duration, output_every: None, snapshots: None },
             probes: Vec::new(),
         };
-        let fluid = FluidScene::new(file)?;
+        let mut fluid = FluidScene::new(file)?;
         let solid = SolidScene::new(solid_file)?;
         let s = &solid.file.solid;
         let dim = fluid.grid.dim;
@@ -260,6 +260,21 @@ impl CoupledScene {
             if !finite {
                 return err(format!("coupling.motions[{k}].motion"), "every value must be finite (and the frequency ≥ 0)");
             }
+            // the body's largest speed (a rotation's at the farthest corner of its box)
+            let speed = match &m.motion {
+                Motion::Translation { velocity } => DVec3::from_array(*velocity).length(),
+                Motion::Rotation { centre, angular_velocity } => {
+                    let (lo, hi) = body_bounds(&s.bodies[m.body], dim, s.spacing);
+                    let c = DVec3::from_array(*centre);
+                    let far = (0..8)
+                        .map(|i| DVec3::new([lo.x, hi.x][i & 1], [lo.y, hi.y][(i >> 1) & 1], [lo.z, hi.z][i >> 2]) - c)
+                        .map(|d| d.length())
+                        .fold(0.0, f64::max);
+                    angular_velocity.abs() * far
+                }
+                Motion::Harmonic { amplitude, frequency } => std::f64::consts::TAU * frequency * DVec3::from_array(*amplitude).length(),
+            };
+            fluid.count_set_speed(&format!("coupling.motions[{k}].motion"), speed)?;
         }
         Ok(CoupledScene { fluid, solid, coupling })
     }
