@@ -391,7 +391,7 @@ mod tests {
         // 288 blocks: two tasks of the pipelined collision, the second shorter
         let table = CollisionTable::shared();
         let mut g = gas_with_obstacles([16, 9, 8], 23, 0.0, 0.3);
-        assert!(g.blocks.len() > COLLISION_CHUNK && g.blocks.len() % COLLISION_CHUNK != 0);
+        assert!(g.blocks.len() > COLLISION_CHUNK && !g.blocks.len().is_multiple_of(COLLISION_CHUNK));
         let mut h = g.clone();
         for _ in 0..4 {
             g.collide(table);

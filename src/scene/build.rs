@@ -434,7 +434,7 @@ impl FluidScene {
     /// scaling). `speed` in scene units.
     pub fn count_set_speed(&mut self, field: &str, speed: f64) -> Result<(), SceneError> {
         let lattice_mach = self.units.velocity_to_lattice(speed) / self.lattice_sound_speed;
-        if !(lattice_mach <= 0.5) {
+        if lattice_mach.is_nan() || lattice_mach > 0.5 {
             let hint = if self.mach_scaled { " (raise numerics.mach_scaling.reference_velocity, or lower this speed)" } else { "" };
             return err(field, format!("speed {speed:e} is lattice Mach {lattice_mach:.3}, above 0.5{hint}"));
         }
