@@ -399,6 +399,11 @@ fn solid(dim: usize, integrator: Integrator) -> SolidSolver {
     s
 }
 
+/// Displacements of positions `p` from `x0`.
+fn displacements(p: &[DVec3], x0: &[DVec3]) -> Vec<DVec3> {
+    p.iter().zip(x0).map(|(a, b)| *a - *b).collect()
+}
+
 fn rel_vec(a: &[DVec3], b: &[DVec3]) -> f64 {
     let scale = b.iter().map(|v| v.length()).fold(0.0, f64::max).max(1e-300);
     a.iter().zip(b).map(|(x, y)| (*x - *y).length()).fold(0.0, f64::max) / scale
@@ -1029,7 +1034,6 @@ kernel_radius = 1.0
 /// 5.8e-2 (f32 strains of |x|/l₀ · 2⁻²⁴ ≈ 8e-6 at 2.6 cm from the origin).
 #[test]
 fn coupled_steps_on_the_gpu_match_the_cpu_over_200_steps() {
-    use glam::DVec3;
     use phonation::gpu::coupled::GpuCoupled;
     use phonation::scene::coupled::CoupledScene;
     let Some(ctx) = context() else { return };
@@ -1051,8 +1055,7 @@ fn coupled_steps_on_the_gpu_match_the_cpu_over_200_steps() {
     gpu.run(steps).unwrap();
     gpu.download_into();
     let g = &gpu.cpu;
-    let disp = |p: &[DVec3]| -> Vec<DVec3> { p.iter().zip(&x0).map(|(a, b)| *a - *b).collect() };
-    let (u_c, u_g) = (disp(&cpu.solid.particles.position), disp(&g.solid.particles.position));
+    let (u_c, u_g) = (displacements(&cpu.solid.particles.position, &x0), displacements(&g.solid.particles.position, &x0));
     let du = rel_vec(&u_g, &u_c);
     let dv = rel_vec(&g.solid.particles.velocity, &cpu.solid.particles.velocity);
     let df = gpu.fluid.max_relative_difference(&cpu.fluid);
@@ -1126,12 +1129,13 @@ motion = { kind = "translation", velocity = [-20.0, 0.0] }
 /// exactly (same nodes uncovered and covered), the disc's particles must be where the motion
 /// puts them (to round-off), and the displacements (the flap's f32 noise), the populations and
 /// the air's force on the disc are held to the coupled flap's bounds (1e-4 of their scale,
-/// `coupled_steps_on_the_gpu_match_the_cpu_over_200_steps`; measured 8.4e-7, 4.2e-5, 3e-5). The CPU reference holds its positions as the GPU does (f32
-/// displacements from the reference configuration, ~1e-10 cm here): method 2's walls are not a
-/// continuous function of the particles' positions — the image-point stencils and thin-wall
-/// taps switch — and the CPU against itself with and without that rounding differs by up to
-/// 5e-2 in the populations over these steps (transients that decay within a few steps), as
-/// did the GPU against the unrounded CPU.
+/// `coupled_steps_on_the_gpu_match_the_cpu_over_200_steps`; measured 8.4e-7, 4.2e-5, 3e-5).
+/// The CPU reference holds its positions as the GPU does (f32 displacements from the reference
+/// configuration, ~1e-10 cm here): method 2's walls are not a continuous function of the
+/// particles' positions — the image-point stencils and thin-wall taps switch — and the CPU
+/// against itself with and without that rounding differs by up to 5e-2 in the populations over
+/// these steps (transients that decay within a few steps), as did the GPU against the unrounded
+/// CPU.
 #[test]
 fn a_towed_body_on_the_gpu_matches_the_cpu() {
     use glam::DVec3;
@@ -1147,7 +1151,7 @@ fn a_towed_body_on_the_gpu_matches_the_cpu() {
     for _ in 0..steps {
         cpu.step().unwrap();
         // the positions as the GPU holds them (f32 displacements from the reference): the
-        // level-set geometry of a moving body is not continuous in them (see below)
+        // level-set geometry of a moving body is not continuous in them (the doc above)
         for (x, r) in cpu.solid.particles.position.iter_mut().zip(&reference) {
             let d = *x - *r;
             *x = *r + DVec3::new(d.x as f32 as f64, d.y as f32 as f64, d.z as f32 as f64);
@@ -1157,10 +1161,7 @@ fn a_towed_body_on_the_gpu_matches_the_cpu() {
     gpu.download_into();
     let g = &gpu.cpu;
     let travelled = (cpu.solid.particles.position[0] - x0[0]).length();
-    let dx = rel_vec(
-        &g.solid.particles.position.iter().zip(&x0).map(|(a, b)| *a - *b).collect::<Vec<_>>(),
-        &cpu.solid.particles.position.iter().zip(&x0).map(|(a, b)| *a - *b).collect::<Vec<_>>(),
-    );
+    let dx = rel_vec(&displacements(&g.solid.particles.position, &x0), &displacements(&cpu.solid.particles.position, &x0));
     // the disc's particles: where the motion puts them, as the CPU rounds them
     let disc = (0..x0.len()).filter(|&i| cpu.solid.particles.body[i] == 0);
     let dx_disc = disc.map(|i| (g.solid.particles.position[i] - cpu.solid.particles.position[i]).length()).fold(0.0, f64::max) / travelled;
