@@ -243,14 +243,19 @@ impl CoupledSolver {
                 (e.step, e.time) = (self.step_count, self.time);
                 return Err(e);
             }
-            let t = self.time + (k + 1) as f64 * dts;
-            for b in &self.bodies {
-                if let Some(m) = &b.motion {
-                    m.apply(&mut self.solid.particles, b.surface.body, t);
-                }
-            }
+            self.apply_motions(self.time + (k + 1) as f64 * dts);
         }
         Ok(())
+    }
+
+    /// Puts every body with a prescribed motion where its motion is at time `t` (s): positions,
+    /// velocities, orientations and spins of its particles.
+    pub fn apply_motions(&mut self, t: f64) {
+        for b in &self.bodies {
+            if let Some(m) = &b.motion {
+                m.apply(&mut self.solid.particles, b.surface.body, t);
+            }
+        }
     }
 
     /// The instability of a wall that moved `value` cells in one step, more than `limit`.

@@ -183,12 +183,7 @@ impl GpuCoupled {
             let dts = self.cpu.solid.dt;
             for k in 0..self.cpu.substeps {
                 self.solid.run(1);
-                let t = self.cpu.time + (k + 1) as f64 * dts;
-                for b in &self.cpu.bodies {
-                    if let Some(m) = &b.motion {
-                        m.apply(&mut self.cpu.solid.particles, b.surface.body, t);
-                    }
-                }
+                self.cpu.apply_motions(self.cpu.time + (k + 1) as f64 * dts);
                 self.solid.upload_kinematics(&self.cpu.solid, &self.prescribed);
             }
         }

@@ -213,12 +213,8 @@ impl GpuSolid {
     /// matrices of a CPU solver.
     pub fn upload_state(&mut self, s: &SolidSolver) {
         let p = &s.particles;
-        let w = |buf: Buf, data: Vec<[f32; 4]>| self.queue.write_buffer(&self.buffers[buf], 0, bytemuck::cast_slice(&data));
-        w(Buf::Pos, p.position.iter().zip(&self.reference).map(|(x, r)| v4(*x - *r, 0.0)).collect());
-        w(Buf::Vel, p.velocity.iter().map(|x| v4(*x, 0.0)).collect());
-        w(Buf::Spin, p.spin.iter().map(|x| v4(*x, 0.0)).collect());
-        w(Buf::Quat, p.rotation.iter().map(|q| [q.x as f32, q.y as f32, q.z as f32, q.w as f32]).collect());
-        w(Buf::Load, (0..p.len()).map(|i| v4(p.load[i], p.added_mass[i])).collect());
+        self.write_kinematics(p, 0..p.len());
+        self.upload_loads(s);
         let rot: Vec<[f32; 12]> = s.rotations().iter().map(m3).collect();
         self.queue.write_buffer(&self.buffers[Buf::Rot], 0, bytemuck::cast_slice(&rot));
         self.step_count = s.step_count;
@@ -228,30 +224,20 @@ impl GpuSolid {
     /// a CPU solver, one write per run of consecutive indices: the bodies whose motion is
     /// prescribed ([`super::coupled::GpuCoupled`]), without touching the others.
     pub fn upload_kinematics(&self, s: &SolidSolver, indices: &[usize]) {
-        let p = &s.particles;
-        let mut k = 0;
-        while k < indices.len() {
-            let first = indices[k];
-            let mut end = k + 1;
-            while end < indices.len() && indices[end] == first + (end - k) {
-                end += 1;
-            }
-            let run = first..first + (end - k);
-            let offset = 16 * first as u64;
-            let w = |buf: Buf, data: Vec<[f32; 4]>| self.queue.write_buffer(&self.buffers[buf], offset, bytemuck::cast_slice(&data));
-            w(Buf::Pos, run.clone().map(|i| v4(p.position[i] - self.reference[i], 0.0)).collect());
-            w(Buf::Vel, run.clone().map(|i| v4(p.velocity[i], 0.0)).collect());
-            w(Buf::Spin, run.clone().map(|i| v4(p.spin[i], 0.0)).collect());
-            w(
-                Buf::Quat,
-                run.map(|i| {
-                    let q = p.rotation[i];
-                    [q.x as f32, q.y as f32, q.z as f32, q.w as f32]
-                })
-                .collect(),
-            );
-            k = end;
+        for run in indices.chunk_by(|a, b| *b == a + 1) {
+            self.write_kinematics(&s.particles, run[0]..run[run.len() - 1] + 1);
         }
+    }
+
+    /// Position (as the displacement from the reference), velocity, spin and orientation of the
+    /// particles `run`, f32, written at their place in the device's arrays.
+    fn write_kinematics(&self, p: &crate::solid::Particles, run: std::ops::Range<usize>) {
+        let offset = 16 * run.start as u64;
+        let w = |buf: Buf, data: Vec<[f32; 4]>| self.queue.write_buffer(&self.buffers[buf], offset, bytemuck::cast_slice(&data));
+        w(Buf::Pos, run.clone().map(|i| v4(p.position[i] - self.reference[i], 0.0)).collect());
+        w(Buf::Vel, run.clone().map(|i| v4(p.velocity[i], 0.0)).collect());
+        w(Buf::Spin, run.clone().map(|i| v4(p.spin[i], 0.0)).collect());
+        w(Buf::Quat, run.map(|i| p.rotation[i]).map(|q| [q.x as f32, q.y as f32, q.z as f32, q.w as f32]).collect());
     }
 
     /// Writes the particles' loads (+ added mass) of a CPU solver: the air's forces of a

@@ -61,6 +61,16 @@ pub struct SceneSummary {
     pub mach_scaled: bool,
 }
 
+/// The FDLB equilibrium is a low-Mach expansion: a speed the scene sets (`field`, scene units)
+/// is refused above lattice Mach 0.5, the bound of `numerics.mach_scaling.mach` (or when NaN).
+fn check_lattice_mach(field: &str, speed: f64, lattice_mach: f64, mach_scaled: bool) -> Result<(), SceneError> {
+    if lattice_mach.is_nan() || lattice_mach > 0.5 {
+        let hint = if mach_scaled { " (raise numerics.mach_scaling.reference_velocity, or lower this speed)" } else { "" };
+        return err(field, format!("speed {speed:e} is lattice Mach {lattice_mach:.3}, above 0.5{hint}"));
+    }
+    Ok(())
+}
+
 /// Parses TOML text (unknown keys and wrong types are errors that name the dotted key).
 pub fn parse(text: &str) -> Result<SceneFile, SceneError> {
     toml::from_str(text)
@@ -315,20 +325,8 @@ impl FluidScene {
         let ini = &file.initial;
         let u0 = vector("initial.velocity", &ini.velocity, dim, true)?;
         note(u0.iter().map(|x| x.abs()).fold(0.0, f64::max), "initial.velocity".into(), &mut max_u);
-        // The FDLB equilibrium is a low-Mach expansion: no speed the scene sets (walls, inlets,
-        // the Bernoulli speed of a pressure inlet, the initial flow) above lattice Mach 0.5,
-        // the bound of `numerics.mach_scaling.mach`.
-        let mach_of = |u: f64| units.velocity_to_lattice(u) / (gamma * theta0).sqrt();
-        if !(mach_of(max_u) <= 0.5) {
-            return err(
-                fastest,
-                format!(
-                    "speed {max_u:e} is lattice Mach {:.3}, above 0.5{}",
-                    mach_of(max_u),
-                    if mach_scaled { " (raise numerics.mach_scaling.reference_velocity, or lower this speed)" } else { "" }
-                ),
-            );
-        }
+        // the fastest of the walls, inlets, a pressure inlet's Bernoulli speed and the initial flow
+        check_lattice_mach(&fastest, max_u, units.velocity_to_lattice(max_u) / (gamma * theta0).sqrt(), mach_scaled)?;
         if !(ini.perturbation.is_finite() && ini.perturbation.abs() <= 0.5) {
             return err("initial.perturbation", format!("must be in [−0.5, 0.5], got {}", ini.perturbation));
         }
@@ -434,10 +432,7 @@ impl FluidScene {
     /// scaling). `speed` in scene units.
     pub fn count_set_speed(&mut self, field: &str, speed: f64) -> Result<(), SceneError> {
         let lattice_mach = self.units.velocity_to_lattice(speed) / self.lattice_sound_speed;
-        if lattice_mach.is_nan() || lattice_mach > 0.5 {
-            let hint = if self.mach_scaled { " (raise numerics.mach_scaling.reference_velocity, or lower this speed)" } else { "" };
-            return err(field, format!("speed {speed:e} is lattice Mach {lattice_mach:.3}, above 0.5{hint}"));
-        }
+        check_lattice_mach(field, speed, lattice_mach, self.mach_scaled)?;
         self.real_mach = self.real_mach.max(speed / self.real_sound_speed);
         if !self.mach_scaled {
             self.reference_mach = self.reference_mach.max(lattice_mach);
