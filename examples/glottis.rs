@@ -1,9 +1,11 @@
 //! The interactive 2D glottis: the vocal folds (case C by default) in the air from the lungs,
-//! with the egui panel (presets A–D, lung pressure, fold moduli, coupling method, pause / step,
-//! what to draw, the glottal flow as it comes).
+//! with the egui panel (presets A–D, the Wall flap, the cylinder wake in air and in the lattice
+//! gas; lung pressure, fold moduli, coupling method, pause / step, what to draw, the glottal
+//! flow and f0 as they come).
 //!
 //!     cargo run --release --example glottis
 //!     cargo run --release --example glottis -- --preset glottis_2d_coarse --steps-per-frame 20
+//!     cargo run --release --example glottis -- --preset lattice_gas_wake
 //!     cargo run --release --example glottis -- --frames 30 --screenshot glottis.png
 //!
 //! The simulation runs on the CPU backend (the window's panel says so); the GPU draws it.

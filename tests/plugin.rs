@@ -392,6 +392,150 @@ fn the_panel_state_rebuilds_the_simulation_with_its_parameters() {
     let sim = &app.world().get::<CoupledSimulation>(e).unwrap().solver;
     assert_eq!((sim.solid.particles.len(), sim.fluid.layout.grid.n), (flap.solid.particles.len(), flap.fluid.layout.grid.n));
     assert!(app.world().get::<PanelTarget>(e).unwrap().error.is_none());
+    // a fluid preset: the coupled simulation and its figures go, the air of the scene comes
+    *app.world_mut().resource_mut::<PanelState>() = PanelState { preset: "cylinder_wake".into(), ..default() };
+    app.update();
+    app.update();
+    let wake = scene::load(scene::builtin("cylinder_wake").unwrap()).unwrap();
+    assert!(app.world().get::<CoupledSimulation>(e).is_none() && app.world().get::<phonation::plugin::CoupledDiagnostics>(e).is_none());
+    let air = app.world().get::<FluidSimulation>(e).expect("the cylinder wake is a fluid simulation");
+    assert_eq!((air.solver.layout.grid.n, air.probes.len()), (wake.build_solver().layout.grid.n, wake.probes.len()));
+    assert!(air.solver.step_count > 0, "it steps");
+    // the folds' parameters do not apply to it: refused, naming the parameter, the air kept
+    app.world_mut().resource_mut::<PanelState>().lung_pressure = Some(4000.0);
+    app.update();
+    let t = app.world().get::<PanelTarget>(e).unwrap();
+    assert!(t.error.as_deref().is_some_and(|m| m.starts_with("lung_pressure: preset cylinder_wake has no folds")), "{:?}", t.error);
+    assert!(app.world().get::<FluidSimulation>(e).is_some());
+    // the lattice gas's wake
+    *app.world_mut().resource_mut::<PanelState>() = PanelState { preset: "lattice_gas_wake".into(), ..default() };
+    app.update();
+    assert!(app.world().get::<FluidSimulation>(e).is_none() && app.world().get::<FluidDiagnostics>(e).is_none());
+    let gas = app.world().get::<phonation::plugin::LatticeGasSimulation>(e).expect("the lattice-gas wake");
+    assert_eq!((gas.gas.dims, gas.coarse_block, gas.probe.is_some()), ([192, 96, 4], 4, true));
+    assert!(app.world().get::<PanelTarget>(e).unwrap().error.is_none());
+}
+
+/// The panel's plots record, frame by frame, the f0 the live voice measures read (two-mass
+/// model), the transverse velocity at a fluid scene's first probe in cm/s and the lattice gas's
+/// probe velocity — each point the value the simulation holds at that frame.
+#[cfg(feature = "render")]
+#[test]
+fn the_panel_plots_record_f0_and_the_probe_velocities() {
+    use phonation::plugin::{LatticeGasSimulation, PhonationSystems, TwoMassSimulation, VoiceDiagnostics};
+    use phonation::render::plots::{F0, PROBE_UY_CM_S, PROBE_UY_LATTICE, PlotHistory, record_plots};
+    use phonation::two_mass::{CM_H2O, TwoMassParams};
+    let with_plots = |steps: u32| {
+        let mut app = app();
+        app.insert_resource(SimulationControl { paused: false, steps_per_frame: steps, single_steps: 0 })
+            .add_systems(Update, record_plots.after(PhonationSystems::Diagnostics));
+        app
+    };
+    // f0 of the two-mass model: one point per frame once the window holds periods
+    let mut app = with_plots(2000);
+    let e = app.world_mut().spawn(TwoMassSimulation::new(TwoMassParams::default(), 8.0 * CM_H2O)).id();
+    let mut with_f0 = 0;
+    for _ in 0..30 {
+        app.update();
+        with_f0 += app.world().get::<VoiceDiagnostics>(e).is_some_and(|v| v.measures.is_some()) as usize;
+    }
+    let v = app.world().get::<VoiceDiagnostics>(e).unwrap().clone();
+    let f0 = app.world().get::<PlotHistory>(e).and_then(|h| h.get(F0)).expect("f0 recorded").clone();
+    println!("f0 series: {} points, last {:?}", f0.points.len(), f0.points.back());
+    assert!(with_f0 >= 10, "{with_f0} frames with an f0");
+    assert_eq!(f0.points.len(), with_f0);
+    assert_eq!(*f0.points.back().unwrap(), [v.time * 1e3, v.measures.unwrap().f0_autocorrelation_hz]);
+    assert!(f0.points.iter().zip(f0.points.iter().skip(1)).all(|(a, b)| b[0] > a[0]), "time increases");
+    // a paused frame adds nothing
+    app.world_mut().resource_mut::<SimulationControl>().paused = true;
+    app.update();
+    assert_eq!(app.world().get::<PlotHistory>(e).unwrap().get(F0).unwrap().points.len(), with_f0);
+
+    // the fluid scene's first probe, u_y in cm/s
+    let sc = scene();
+    let mut app = with_plots(3);
+    let e = app.world_mut().spawn(FluidSimulation::from_scene(&sc)).id();
+    for _ in 0..4 {
+        app.update();
+    }
+    let sim = app.world().get::<FluidSimulation>(e).unwrap();
+    let (u, node) = (sim.units.unwrap(), sim.probes[0].1);
+    let expected = [u.time_to_physical(sim.solver.time) * 1e3, u.velocity_to_physical(sim.solver.macro_at(node).u[1])];
+    let probe = app.world().get::<PlotHistory>(e).unwrap().get(PROBE_UY_CM_S).expect("probe recorded").clone();
+    println!("probe series {:?}", probe.points);
+    assert_eq!((probe.points.len(), *probe.points.back().unwrap()), (4, expected));
+    assert!(expected[1] != 0.0);
+
+    // the lattice gas's probe (ℓ/step)
+    let gas = phonation::scene::lattice_gas::LatticeGasScene::parse(
+        r#"
+name = "plot_gas"
+[lattice_gas]
+cells = [16, 8, 2]
+density = 0.2
+steps = 100
+[lattice_gas.inlet]
+velocity = 0.2
+[lattice_gas.output]
+coarse_block = 2
+every = 100
+probe_every = 5
+probe = [12.0, 8.0]
+"#,
+    )
+    .unwrap();
+    let mut app = with_plots(5);
+    let e = app.world_mut().spawn(LatticeGasSimulation::from_scene(&gas)).id();
+    for _ in 0..3 {
+        app.update();
+    }
+    let sim = app.world().get::<LatticeGasSimulation>(e).unwrap();
+    let direct = phonation::scene::lattice_gas::region_velocity(&sim.gas, [12.0, 8.0], 4.0);
+    let probe = app.world().get::<PlotHistory>(e).unwrap().get(PROBE_UY_LATTICE).expect("probe recorded").clone();
+    println!("lattice-gas probe series {:?}", probe.points);
+    assert_eq!((probe.points.len(), *probe.points.back().unwrap()), (3, [15.0, direct[1]]));
+}
+
+/// The lattice gas's slice: its coarse-grained field averaged over Z in ℓ; the inflow's speed
+/// upstream of the cylinder, no value in the cylinder's blocks, vorticity of opposite signs on
+/// the two sides of the cylinder, and no pressure or temperature plane.
+#[cfg(feature = "render")]
+#[test]
+fn the_lattice_gas_slice_shows_the_inflow_and_the_cylinder() {
+    use phonation::lattice_gas::collision::CollisionTable;
+    use phonation::plugin::LatticeGasSimulation;
+    use phonation::render::slice::gas_plane;
+    use phonation::scene::schema::Field;
+    let sc = phonation::scene::lattice_gas::LatticeGasScene::parse(phonation::scene::builtin("lattice_gas_wake").unwrap()).unwrap();
+    let mut sim = LatticeGasSimulation::from_scene(&sc);
+    let table = CollisionTable::shared();
+    for _ in 0..300 {
+        sim.gas.advance(table);
+    }
+    let speed = gas_plane(&sim, Field::Speed).expect("speed");
+    let (nx, ny) = (speed.slice.nx, speed.slice.ny);
+    assert_eq!((nx, ny, speed.size, speed.unit), (48, 24, (384.0, 192.0), "ℓ/step"));
+    // blocks are 8ℓ; the blocks without fluid lie inside the cylinder (centre (96, 96) ℓ, radius 12 ℓ)
+    let at = |p: &phonation::render::slice::Plane, x: usize, y: usize| p.slice.values[x + nx * y];
+    let upstream: Vec<f64> = (1..6).flat_map(|x| (2..22).map(move |y| (x, y))).filter_map(|(x, y)| at(&speed, x, y)).collect();
+    let mean = upstream.iter().sum::<f64>() / upstream.len() as f64;
+    println!("upstream speed {mean:.4} ℓ/step over {} blocks", upstream.len());
+    // the gas starts at rest (block noise ≈ 0.01 ℓ/step) and the inlet's 0.2 ℓ/step has not
+    // yet set the whole channel moving after 300 steps (one acoustic transit of the 384 ℓ box
+    // takes 543): the inflow is well above the noise and not above the inlet's speed
+    assert!(mean > 0.05 && mean < 0.21, "upstream speed {mean}");
+    let solid: Vec<(usize, usize)> = (0..nx).flat_map(|x| (0..ny).map(move |y| (x, y))).filter(|&(x, y)| at(&speed, x, y).is_none()).collect();
+    println!("blocks without fluid: {solid:?}");
+    assert!(!solid.is_empty() && solid.iter().all(|&(x, y)| (x as f64 * 8.0 + 4.0 - 96.0).hypot(y as f64 * 8.0 + 4.0 - 96.0) < 12.0));
+    let w = gas_plane(&sim, Field::Vorticity).expect("vorticity");
+    let side = |y: std::ops::Range<usize>| {
+        let v: Vec<f64> = (10..16).flat_map(|x| y.clone().map(move |y| (x, y))).filter_map(|(x, y)| at(&w, x, y)).collect();
+        v.iter().sum::<f64>() / v.len() as f64
+    };
+    let (above, below) = (side(13..16), side(8..11));
+    println!("vorticity above {above:.2e}, below {below:.2e} 1/step");
+    assert!(above < 0.0 && below > 0.0, "above {above}, below {below}");
+    assert!(gas_plane(&sim, Field::Pressure).is_none() && gas_plane(&sim, Field::Temperature).is_none());
 }
 
 /// A headless app with the renderer (lavapipe in CI) and no window draws the coarse glottis

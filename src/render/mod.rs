@@ -9,8 +9,8 @@
 //! | [`DrawPlugin`] | [`DrawSettings`] and the drawing's order; [`view::FrameSimulation`] cameras | [`DrawSystems`] |
 //! | [`fold_mesh::FoldMeshPlugin`] | each coupled or solid simulation's bodies as a mesh ([`crate::mesh`]: the level set the air sees, marching cubes), coloured per body | [`DrawSystems::FoldMesh`] |
 //! | [`tracers::TracerPlugin`] | tracers born at the inlet and carried by the air ([`crate::fluid::tracers`], RK2), drawn as streaks coloured by speed | [`DrawSystems::Tracers`] |
-//! | [`slice::SlicePlugin`] | the plane of the 2D lattice as an image of speed, pressure or vorticity, with its range in physical units | [`DrawSystems::Slice`] |
-//! | [`panel::PanelPlugin`] | the egui panel: presets, lung pressure, fold moduli, coupling method, pause / step / steps per frame, what to draw, live glottal flow and diagnostics | [`DrawSystems::Panel`] |
+//! | [`slice::SlicePlugin`] | the plane of the 2D lattice (coupled, fluid) or the lattice gas's coarse-grained field as an image of speed, pressure, vorticity, …, with its range and unit | [`DrawSystems::Slice`] |
+//! | [`panel::PanelPlugin`] | the egui panel: presets of every drawn kind ([`presets`]), lung pressure, fold moduli, coupling method, pause / step / steps per frame, what to draw, diagnostics and live plots ([`plots`]: glottal flow, f0, a probe's velocity) | [`DrawSystems::Panel`] |
 //!
 //! The drawing systems run after the simulation's sets in `Update`; every plugin can be left
 //! out of the group (`PhonationPlugins.build().disable::<TracerPlugin>()`). What is drawn is
@@ -25,6 +25,8 @@ use bevy::prelude::*;
 
 pub mod fold_mesh;
 pub mod panel;
+pub mod plots;
+pub mod presets;
 pub mod slice;
 pub mod tracers;
 pub mod view;

@@ -1,22 +1,26 @@
-//! The egui panel: a preset (glottis cases A–D, the coarse glottis, the Wall flap), the lung
-//! pressure, the folds' cover and body Young's moduli and the coupling method in physical units;
-//! pause / single step / steps per frame; what to draw, with the slice's legend; and live
-//! figures (glottal flow plot, f0, steps/s, particles, momentum).
+//! The egui panel: a preset ([`PRESETS`]: glottis cases A–D, the coarse glottis, the Wall flap,
+//! the FDLB cylinder wake, the lattice gas's cylinder wake), the lung pressure, the folds' cover
+//! and body Young's moduli and the coupling method in physical units; pause / single step /
+//! steps per frame; what to draw, with the slice's legend; and live figures and plots (glottal
+//! flow and f0, a probe's velocity; steps/s, node or site updates/s, particles, Mach, momentum,
+//! the lattice gas's invariants).
 //!
-//! The parameters live in [`PanelState`]; [`apply_panel`] rebuilds the simulation of the
-//! [`PanelTarget`] entity whenever they differ from what it was built with, whether the change
-//! came from the panel's widgets or from the app's own code (tests set the state directly).
+//! The parameters live in [`PanelState`]; [`apply_panel`] (in [`super::presets`]) rebuilds the
+//! simulation of the [`PanelTarget`] entity whenever they differ from what it was built with.
 
-use super::slice::{SliceView, unit_of};
+use super::plots::{F0, PROBE_UY_CM_S, PROBE_UY_LATTICE, PlotHistory, glottal_flow_points, record_plots, show_line};
+pub use super::presets::{PRESETS, apply_panel, build_preset, preset_moduli, scene_of};
+use super::slice::SliceView;
 use super::{DrawSettings, DrawSystems};
-use crate::plugin::{CoupledDiagnostics, CoupledGlottis, CoupledSimulation, CoupledStatus, SimulationControl, VoiceDiagnostics};
-use crate::scene::coupled::CoupledScene;
+use crate::plugin::diagnostics::{MASS_DRIFT, MAX_MACH, NODE_UPDATES_PER_SECOND, STEPS_PER_SECOND};
+use crate::plugin::{
+    CoupledDiagnostics, CoupledGlottis, CoupledSimulation, CoupledStatus, FluidSimulation, FluidStatus, LatticeGasDiagnostics, LatticeGasSimulation,
+    SimulationControl, VoiceDiagnostics,
+};
 use crate::scene::schema::Field;
+use bevy::diagnostic::{DiagnosticPath, DiagnosticsStore};
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPlugin, EguiPrimaryContextPass, egui};
-
-/// The scenes the panel offers.
-pub const PRESETS: [&str; 6] = ["glottis_2d_a", "glottis_2d_b", "glottis_2d_c", "glottis_2d_d", "glottis_2d_coarse", "wall_flap"];
 
 /// The simulation's parameters as the panel shows them (scene units: dyn/cm²).
 #[derive(Resource, Debug, Clone, PartialEq)]
@@ -44,46 +48,11 @@ pub struct PanelTarget {
     pub error: Option<String>,
 }
 
-/// The scene of `state`: the preset with its lung pressure, fold moduli and method replaced.
-pub fn scene_of(state: &PanelState) -> Result<CoupledScene, String> {
-    let text = crate::scene::builtin(&state.preset).ok_or_else(|| format!("preset: no built-in scene {}", state.preset))?;
-    let mut doc: toml::Table = text.parse().map_err(|e| format!("preset {}: {e}", state.preset))?;
-    if let Some(p) = state.lung_pressure {
-        let face = doc
-            .get_mut("boundaries")
-            .and_then(|b| b.get_mut("y_min"))
-            .and_then(|f| f.as_table_mut())
-            .filter(|f| f.get("type").and_then(|t| t.as_str()) == Some("pressure_inlet"));
-        match face {
-            Some(f) => {
-                f.insert("pressure".into(), toml::Value::Float(p));
-            }
-            None => return Err(format!("lung_pressure: preset {} has no pressure inlet at y_min", state.preset)),
-        }
-    }
-    if let Some(m) = &state.method {
-        match doc.get_mut("coupling").and_then(|c| c.as_table_mut()) {
-            Some(c) => {
-                c.insert("method".into(), toml::Value::String(m.clone()));
-            }
-            None => return Err(format!("method: preset {} has no coupling", state.preset)),
-        }
-    }
-    let mut sc = CoupledScene::parse(&toml::to_string(&doc).map_err(|e| e.to_string())?).map_err(|e| e.to_string())?;
-    if let Some((cover, body)) = state.fold_moduli {
-        if !(cover > 0.0 && body > 0.0) {
-            return Err(format!("fold_moduli: ({cover}, {body}) dyn/cm² must be positive"));
-        }
-        sc.set_fold_moduli(cover, body);
-    }
-    Ok(sc)
-}
-
 pub struct PanelPlugin;
 
 impl Plugin for PanelPlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<PanelState>().add_systems(Update, apply_panel.in_set(DrawSystems::Panel));
+        app.init_resource::<PanelState>().add_systems(Update, (apply_panel, record_plots).in_set(DrawSystems::Panel));
         if !app.is_plugin_added::<EguiPlugin>() {
             app.add_plugins(EguiPlugin::default());
         }
@@ -91,54 +60,12 @@ impl Plugin for PanelPlugin {
     }
 }
 
-/// Rebuilds the [`PanelTarget`]'s simulation when [`PanelState`] differs from what it was built
-/// with; the drawings of the old one go with it.
-pub fn apply_panel(
-    state: Res<PanelState>,
-    mut targets: Query<(Entity, &mut PanelTarget)>,
-    drawn: Query<(Entity, &super::fold_mesh::FoldMeshOf)>,
-    slices: Query<(Entity, &super::slice::SliceOf)>,
-    mut commands: Commands,
-) {
-    for (e, mut t) in &mut targets {
-        if t.built.as_ref() == Some(&*state) {
-            continue;
-        }
-        t.built = Some(state.clone());
-        match scene_of(&state).and_then(|sc| sc.build().map(|s| (sc, s)).map_err(|e| e.to_string())) {
-            Ok((sc, solver)) => {
-                let glottis = CoupledGlottis::of(&sc, &solver, 0.05);
-                let mut ec = commands.entity(e);
-                ec.remove::<(
-                    CoupledStatus,
-                    CoupledGlottis,
-                    VoiceDiagnostics,
-                    crate::plugin::diagnostics::InitialMass,
-                    super::fold_mesh::FoldMesh,
-                    super::tracers::FlowTracers,
-                    SliceView,
-                )>();
-                ec.insert(CoupledSimulation { solver });
-                if let Some(g) = glottis {
-                    ec.insert(g);
-                }
-                t.error = None;
-                for (m, of) in &drawn {
-                    if of.0 == e {
-                        commands.entity(m).despawn();
-                    }
-                }
-                for (m, of) in &slices {
-                    if of.0 == e {
-                        commands.entity(m).despawn();
-                    }
-                }
-            }
-            Err(why) => {
-                warn!("phonation: the panel's scene was refused: {why}");
-                t.error = Some(why);
-            }
-        }
+/// The figures every kind of simulation shows: Bevy's smoothed diagnostics.
+struct Smoothed<'a>(Option<&'a DiagnosticsStore>);
+
+impl Smoothed<'_> {
+    fn get(&self, p: &DiagnosticPath) -> f64 {
+        self.0.and_then(|d| d.get(p)).and_then(|d| d.smoothed()).unwrap_or(f64::NAN)
     }
 }
 
@@ -148,22 +75,26 @@ fn panel_ui(
     mut state: ResMut<PanelState>,
     mut control: ResMut<SimulationControl>,
     mut settings: ResMut<DrawSettings>,
-    sims: Query<(
+    coupled: Query<(
         &CoupledSimulation,
         Option<&PanelTarget>,
         Option<&CoupledDiagnostics>,
         Option<&VoiceDiagnostics>,
         Option<&CoupledGlottis>,
-        Option<&SliceView>,
         Option<&CoupledStatus>,
+        Option<&PlotHistory>,
+        Option<&SliceView>,
     )>,
+    fluids: Query<(&FluidSimulation, Option<&PanelTarget>, Option<&FluidStatus>, Option<&PlotHistory>, Option<&SliceView>), Without<CoupledSimulation>>,
+    gases: Query<(&LatticeGasSimulation, Option<&PanelTarget>, Option<&LatticeGasDiagnostics>, Option<&PlotHistory>, Option<&SliceView>)>,
     targets: Query<(), With<PanelTarget>>,
     time: Res<Time<Real>>,
-    store: Option<Res<bevy::diagnostic::DiagnosticsStore>>,
+    store: Option<Res<DiagnosticsStore>>,
 ) -> Result {
     let ctx = contexts.ctx_mut()?;
     let has_target = !targets.is_empty();
-    egui::Window::new("phonation").default_pos([8.0, 8.0]).default_width(300.0).show(ctx, |ui| {
+    let smoothed = Smoothed(store.as_deref());
+    egui::Window::new("phonation").default_pos([8.0, 8.0]).default_width(320.0).show(ctx, |ui| {
         // the scene's parameters only where the panel owns a simulation (a PanelTarget)
         ui.add_enabled_ui(has_target, |ui| scene_controls(ui, &mut state));
         ui.separator();
@@ -177,7 +108,7 @@ fn panel_ui(
         ui.add(egui::Slider::new(&mut control.steps_per_frame, 1..=500).logarithmic(true).text("steps per frame"));
         ui.separator();
         ui.checkbox(&mut settings.folds, "folds (marching cubes)");
-        ui.checkbox(&mut settings.tracers, "tracers");
+        ui.checkbox(&mut settings.tracers, "tracers (FDLB air)");
         let mut field = settings.slice;
         egui::ComboBox::from_label("slice").selected_text(field.map_or("none".to_string(), |f| format!("{f:?}").to_lowercase())).show_ui(ui, |ui| {
             ui.selectable_value(&mut field, None, "none");
@@ -186,28 +117,18 @@ fn panel_ui(
             }
         });
         settings.slice = field;
-        for (sim, target, diag, voice, g, slice, status) in &sims {
+        let rates = format!("{:.0} frames/s · {:.0} steps/s", 1.0 / time.delta_secs().max(1e-6), smoothed.get(&STEPS_PER_SECOND));
+        for (sim, target, diag, voice, g, status, plots, slice) in &coupled {
             ui.separator();
-            if let Some(err) = target.and_then(|t| t.error.as_ref()) {
-                ui.colored_label(egui::Color32::LIGHT_RED, err);
-            }
+            target_error(ui, target);
             if let Some(CoupledStatus::Unstable(why)) = status {
                 ui.colored_label(egui::Color32::LIGHT_RED, format!("stopped: {why}"));
             }
             let s = &sim.solver;
             ui.label(format!("CPU backend · {} nodes · {} particles", s.fluid.layout.grid.interior_len(), s.solid.particles.len()));
-            let smoothed = |p: &bevy::diagnostic::DiagnosticPath| store.as_ref().and_then(|d| d.get(p)).and_then(|d| d.smoothed()).unwrap_or(f64::NAN);
             ui.label(format!("t = {:.3} ms ({} steps)", s.time * 1e3, s.step_count));
-            ui.label(format!(
-                "{:.0} frames/s · {:.0} steps/s · {:.2e} nodes/s · max Mach {:.3}",
-                1.0 / time.delta_secs().max(1e-6),
-                smoothed(&crate::plugin::diagnostics::STEPS_PER_SECOND),
-                smoothed(&crate::plugin::diagnostics::NODE_UPDATES_PER_SECOND),
-                smoothed(&crate::plugin::diagnostics::MAX_MACH)
-            ));
-            if let Some(v) = slice {
-                ui.label(format!("slice {:?}: {:.3e} … {:.3e} {}", v.field, v.range.0, v.range.1, unit_of(v.field)));
-            }
+            ui.label(format!("{rates} · {:.2e} nodes/s · max Mach {:.3}", smoothed.get(&NODE_UPDATES_PER_SECOND), smoothed.get(&MAX_MACH)));
+            slice_legend(ui, slice, settings.slice);
             if let Some(d) = diag {
                 ui.label(format!("air momentum {:.3e} · solid {:.3e}", d.fluid_momentum.length(), d.solid_momentum.length()));
             }
@@ -219,22 +140,62 @@ fn panel_ui(
                 };
             }
             if let Some(g) = g {
-                flow_plot(ui, g.flow.iter().copied().collect());
+                show_line(ui, "glottal_flow", "glottal flow (cm³/s)", "t (ms)", glottal_flow_points(g, s.time, s.dt()));
             }
+            history_plot(ui, plots, F0);
+        }
+        for (sim, target, status, plots, slice) in &fluids {
+            ui.separator();
+            target_error(ui, target);
+            if let Some(FluidStatus::Unstable(why)) = status {
+                ui.colored_label(egui::Color32::LIGHT_RED, format!("stopped: {why}"));
+            }
+            let s = &sim.solver;
+            ui.label(format!("CPU backend · FDLB air · {} nodes", s.layout.grid.interior_len()));
+            let t = sim.units.map_or(f64::NAN, |u| u.time_to_physical(s.time));
+            ui.label(format!("t = {:.3} ms ({} steps)", t * 1e3, s.step_count));
+            ui.label(format!("{rates} · {:.2e} nodes/s · max Mach {:.3}", smoothed.get(&NODE_UPDATES_PER_SECOND), smoothed.get(&MAX_MACH)));
+            ui.label(format!("mass drift {:.2e}", smoothed.get(&MASS_DRIFT)));
+            slice_legend(ui, slice, settings.slice);
+            history_plot(ui, plots, PROBE_UY_CM_S);
+        }
+        for (sim, target, diag, plots, slice) in &gases {
+            ui.separator();
+            target_error(ui, target);
+            let g = &sim.gas;
+            let sites = 16 * g.dims.iter().product::<usize>();
+            ui.label(format!("CPU backend · FCHC lattice gas · {} × {} × {} cells ({sites} sites)", g.dims[0], g.dims[1], g.dims[2]));
+            ui.label(format!("{rates} · {:.2e} site updates/s", smoothed.get(&STEPS_PER_SECOND) * sites as f64));
+            if let Some(d) = diag {
+                ui.label(format!("step {} · {} particles · smallest velocity-family share {:.4}", d.steps, d.invariants.particles, d.smallest_family_share));
+            }
+            slice_legend(ui, slice, settings.slice);
+            history_plot(ui, plots, PROBE_UY_LATTICE);
         }
     });
     Ok(())
 }
 
-/// The cover and body Young's moduli (dyn/cm²) of a glottis preset: Titze's cases A–D as the
-/// built-in scenes set them (cover/body 1/10, 2/20, 1/100, 2/200 × 10⁵; the coarse glottis is
-/// case A).
-pub fn preset_moduli(preset: &str) -> (f64, f64) {
-    match preset {
-        "glottis_2d_a" | "glottis_2d_coarse" => (1e5, 1e6),
-        "glottis_2d_b" => (2e5, 2e6),
-        "glottis_2d_d" => (2e5, 2e7),
-        _ => (1e5, 1e7),
+/// Why the panel's last rebuild was refused, if it was.
+fn target_error(ui: &mut egui::Ui, target: Option<&PanelTarget>) {
+    if let Some(err) = target.and_then(|t| t.error.as_ref()) {
+        ui.colored_label(egui::Color32::LIGHT_RED, err);
+    }
+}
+
+/// The slice's range and unit, or why the field is not drawn.
+fn slice_legend(ui: &mut egui::Ui, slice: Option<&SliceView>, field: Option<Field>) {
+    let Some(field) = field else { return };
+    match slice.filter(|v| v.field == field) {
+        Some(v) => ui.label(format!("slice {:?}: {:.3e} … {:.3e} {}", v.field, v.range.0, v.range.1, v.unit)),
+        None => ui.label(format!("slice {field:?}: not a field of this simulation")),
+    };
+}
+
+/// The recorded series `name`, once it has two points.
+fn history_plot(ui: &mut egui::Ui, plots: Option<&PlotHistory>, name: &str) {
+    if let Some(s) = plots.and_then(|p| p.get(name)).filter(|s| s.points.len() > 1) {
+        show_line(ui, name, name, s.x_label, s.points.iter().copied().collect());
     }
 }
 
@@ -260,6 +221,10 @@ fn scene_controls(ui: &mut egui::Ui, state: &mut PanelState) {
             state.fold_moduli = Some((cover, body));
         }
     }
+    let coupled = crate::scene::builtin(&state.preset).is_some_and(|t| crate::scene::SceneKind::of(t) == crate::scene::SceneKind::Coupled);
+    if !coupled {
+        return;
+    }
     let mut method = state.method.clone().unwrap_or_default();
     ui.horizontal(|ui| {
         ui.label(if state.method.is_none() { "coupling (the preset's)" } else { "coupling" });
@@ -270,31 +235,4 @@ fn scene_controls(ui: &mut egui::Ui, state: &mut PanelState) {
             }
         }
     });
-}
-
-/// The kept glottal flow as a line (cm³/s against sample).
-fn flow_plot(ui: &mut egui::Ui, flow: Vec<f64>) {
-    let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width(), 80.0), egui::Sense::hover());
-    let painter = ui.painter_at(rect);
-    painter.rect_filled(rect, 2.0, egui::Color32::from_gray(24));
-    if flow.len() < 2 {
-        return;
-    }
-    let (lo, hi) = flow.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
-    let span = (hi - lo).max(1e-9);
-    let stride = (flow.len() / rect.width().max(1.0) as usize).max(1);
-    let points: Vec<egui::Pos2> = flow
-        .iter()
-        .enumerate()
-        .step_by(stride)
-        .map(|(i, v)| egui::pos2(rect.left() + rect.width() * i as f32 / (flow.len() - 1) as f32, rect.bottom() - rect.height() * ((v - lo) / span) as f32))
-        .collect();
-    painter.add(egui::Shape::line(points, egui::Stroke::new(1.5, egui::Color32::from_rgb(250, 200, 80))));
-    painter.text(
-        rect.left_top() + egui::vec2(4.0, 2.0),
-        egui::Align2::LEFT_TOP,
-        format!("glottal flow {hi:.0} cm³/s"),
-        egui::FontId::monospace(10.0),
-        egui::Color32::GRAY,
-    );
 }

@@ -1,13 +1,19 @@
 //! The plane of the lattice (z-mid in 3D) as a colour-mapped image behind the folds: speed or
 //! temperature on the dark-to-yellow map, pressure or vorticity on the blue–white–red map
-//! symmetric about zero, solids grey — the maps of the PNG snapshots. Its range in physical
-//! units is kept in [`SliceView`] for the panel's legend.
+//! symmetric about zero, solids grey — the maps of the PNG snapshots. Drawn for coupled and
+//! fluid simulations (scene units) and for the lattice gas (its coarse-grained field averaged
+//! over Z, in ℓ and steps: speed, density, vorticity). Its range and unit are kept in
+//! [`SliceView`] for the panel's legend.
 
 use super::{DrawSettings, DrawSystems};
+use crate::fluid::FluidSolver;
+use crate::lattice_gas::coarse::coarse_grain;
+use crate::output::coarse::{CoarseMap, z_mean_slice};
 use crate::output::fields::{Slice, slice};
 use crate::output::png_map::{colour, colour_range};
-use crate::plugin::{CoupledSimulation, StepsThisFrame};
+use crate::plugin::{CoupledSimulation, FluidSimulation, LatticeGasSimulation, StepsThisFrame};
 use crate::scene::schema::Field;
+use crate::units::Units;
 use bevy::asset::RenderAssetUsages;
 use bevy::prelude::*;
 use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
@@ -17,8 +23,10 @@ use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
 pub struct SliceView {
     pub image: Handle<Image>,
     pub field: Field,
-    /// The values at the two ends of the colour scale (physical units).
+    /// The values at the two ends of the colour scale, in `unit`.
     pub range: (f64, f64),
+    /// The unit of the values (scene units; ℓ and steps for the lattice gas).
+    pub unit: &'static str,
 }
 
 /// The quad entity showing the slice of simulation entity `.0`.
@@ -56,6 +64,37 @@ pub fn pixels(s: &Slice, field: Field) -> (Vec<u8>, (f64, f64)) {
     (data, range)
 }
 
+/// A plane to draw: its values, its size in world units, its depth and its values' unit.
+pub struct Plane {
+    pub slice: Slice,
+    pub size: (f32, f32),
+    pub z: f32,
+    pub unit: &'static str,
+}
+
+/// The z-mid plane of an FDLB lattice (scene units).
+pub fn fluid_plane(s: &FluidSolver, units: &Units, field: Field) -> Plane {
+    let g = &s.layout.grid;
+    let dx = units.dx as f32;
+    let z = if g.dim == 3 { 0.5 * g.n[2] as f32 * dx } else { -dx };
+    Plane { slice: slice(s, units, field), size: (g.n[0] as f32 * dx, g.n[1] as f32 * dx), z, unit: unit_of(field) }
+}
+
+/// The lattice gas's coarse-grained field, averaged over Z, in ℓ (its cells are 2ℓ): speed,
+/// density or vorticity; `None` for the fields a lattice gas does not define here (pressure,
+/// temperature).
+pub fn gas_plane(sim: &LatticeGasSimulation, field: Field) -> Option<Plane> {
+    let (map, unit) = match field {
+        Field::Speed => (CoarseMap::Speed, "ℓ/step"),
+        Field::Density => (CoarseMap::Density, "particles/link"),
+        Field::Vorticity => (CoarseMap::Vorticity, "1/step"),
+        Field::Pressure | Field::Temperature => return None,
+    };
+    let f = coarse_grain(&sim.gas, sim.coarse_block);
+    let d = sim.gas.dims;
+    Some(Plane { slice: z_mean_slice(&f, map), size: (2.0 * d[0] as f32, 2.0 * d[1] as f32), z: -2.0, unit })
+}
+
 pub struct SlicePlugin;
 
 impl Plugin for SlicePlugin {
@@ -64,59 +103,67 @@ impl Plugin for SlicePlugin {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn update_slices(
     settings: Res<DrawSettings>,
     steps: Res<StepsThisFrame>,
-    mut sims: Query<(Entity, &CoupledSimulation, Option<&mut SliceView>)>,
-    mut quads: Query<&mut Visibility, With<SliceOf>>,
+    mut sims: Query<
+        (Entity, Option<&CoupledSimulation>, Option<&FluidSimulation>, Option<&LatticeGasSimulation>, Option<&mut SliceView>),
+        Or<(With<CoupledSimulation>, With<FluidSimulation>, With<LatticeGasSimulation>)>,
+    >,
+    mut quads: Query<(&SliceOf, &mut Visibility)>,
     mut images: ResMut<Assets<Image>>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
     mut commands: Commands,
 ) {
-    for mut v in &mut quads {
-        *v = if settings.slice.is_some() { Visibility::Inherited } else { Visibility::Hidden };
-    }
-    let Some(field) = settings.slice else { return };
-    for (e, sim, view) in &mut sims {
-        let c = &sim.solver;
-        let changed = view.as_ref().is_none_or(|v| v.field != field);
-        if steps.0 == 0 && !changed {
-            continue;
-        }
-        let s = slice(&c.fluid, &c.units, field);
-        let (data, range) = pixels(&s, field);
-        match view {
-            Some(mut v) => {
-                if let Some(mut img) = images.get_mut(&v.image) {
-                    img.data = Some(data);
+    let mut shown = Vec::new();
+    if let Some(field) = settings.slice {
+        for (e, coupled, fluid, gas, view) in &mut sims {
+            let changed = view.as_ref().is_none_or(|v| v.field != field);
+            let plane = match (coupled, fluid, gas) {
+                (Some(c), _, _) => Some(fluid_plane(&c.solver.fluid, &c.solver.units, field)),
+                (None, Some(f), _) => f.units.as_ref().map(|u| fluid_plane(&f.solver, u, field)),
+                (None, None, Some(g)) => gas_plane(g, field),
+                _ => continue,
+            };
+            // a field the simulation does not have: no slice (the panel says why)
+            let Some(plane) = plane else { continue };
+            shown.push(e);
+            if steps.0 == 0 && !changed {
+                continue;
+            }
+            let (data, range) = pixels(&plane.slice, field);
+            match view {
+                Some(mut v) => {
+                    if let Some(mut img) = images.get_mut(&v.image) {
+                        img.data = Some(data);
+                    }
+                    (v.field, v.range, v.unit) = (field, range, plane.unit);
                 }
-                v.field = field;
-                v.range = range;
-            }
-            None => {
-                let image = images.add(Image::new(
-                    Extent3d { width: s.nx as u32, height: s.ny as u32, depth_or_array_layers: 1 },
-                    TextureDimension::D2,
-                    data,
-                    TextureFormat::Rgba8UnormSrgb,
-                    RenderAssetUsages::default(),
-                ));
-                let g = &c.fluid.layout.grid;
-                let dx = c.units.dx as f32;
-                let (w, h) = (g.n[0] as f32 * dx, g.n[1] as f32 * dx);
-                let z = if g.dim == 3 { 0.5 * g.n[2] as f32 * dx } else { -dx };
-                let mat = materials.add(StandardMaterial { base_color_texture: Some(image.clone()), unlit: true, ..default() });
-                commands.spawn((
-                    SliceOf(e),
-                    Mesh3d(meshes.add(Rectangle::new(w, h))),
-                    MeshMaterial3d(mat),
-                    Transform::from_xyz(0.5 * w, 0.5 * h, z),
-                    Visibility::default(),
-                ));
-                commands.entity(e).insert(SliceView { image, field, range });
+                None => {
+                    let image = images.add(Image::new(
+                        Extent3d { width: plane.slice.nx as u32, height: plane.slice.ny as u32, depth_or_array_layers: 1 },
+                        TextureDimension::D2,
+                        data,
+                        TextureFormat::Rgba8UnormSrgb,
+                        RenderAssetUsages::default(),
+                    ));
+                    let (w, h) = plane.size;
+                    let mat = materials.add(StandardMaterial { base_color_texture: Some(image.clone()), unlit: true, ..default() });
+                    commands.spawn((
+                        SliceOf(e),
+                        Mesh3d(meshes.add(Rectangle::new(w, h))),
+                        MeshMaterial3d(mat),
+                        Transform::from_xyz(0.5 * w, 0.5 * h, plane.z),
+                        Visibility::default(),
+                    ));
+                    commands.entity(e).insert(SliceView { image, field, range, unit: plane.unit });
+                }
             }
         }
+    }
+    for (of, mut v) in &mut quads {
+        *v = if shown.contains(&of.0) { Visibility::Inherited } else { Visibility::Hidden };
     }
 }

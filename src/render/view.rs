@@ -1,10 +1,10 @@
 //! The camera and frame capture of an app that shows a simulation: [`FrameSimulation`] points a
-//! camera at the lattice of the first simulation (orthographic, the whole domain in view, the
+//! camera at the lattice of the first simulation (coupled, fluid or lattice gas; orthographic, the whole domain in view, the
 //! 2D plane face-on) whenever a simulation is (re)built; [`CapturePlugin`] renders a number of
 //! frames, saves a screenshot of the primary window and exits (the examples' `--frames N
 //! --screenshot FILE`).
 
-use crate::plugin::{CoupledSimulation, FluidSimulation};
+use crate::plugin::{CoupledSimulation, FluidSimulation, LatticeGasSimulation};
 use bevy::camera::{OrthographicProjection, Projection, ScalingMode};
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, save_to_disk};
@@ -26,6 +26,7 @@ fn domain(grid: &crate::fluid::Grid, dx: f64) -> (Vec3, Vec3) {
 pub fn frame_simulations(
     coupled: Query<&CoupledSimulation>,
     fluids: Query<&FluidSimulation>,
+    gases: Query<&LatticeGasSimulation>,
     added: Query<(), Added<FrameSimulation>>,
     mut framed: Local<Option<(Vec3, Vec3)>>,
     mut cams: Query<(&mut Transform, &mut Projection), With<FrameSimulation>>,
@@ -35,6 +36,8 @@ pub fn frame_simulations(
         .next()
         .map(|c| domain(&c.solver.fluid.layout.grid, c.solver.units.dx))
         .or_else(|| fluids.iter().next().map(|f| domain(&f.solver.layout.grid, f.units.map_or(1.0, |u| u.dx))))
+        // the lattice gas in ℓ (cells are 2ℓ), seen as its Z-averaged plane
+        .or_else(|| gases.iter().next().map(|g| (Vec3::ZERO, Vec3::new(2.0 * g.gas.dims[0] as f32, 2.0 * g.gas.dims[1] as f32, 0.0))))
     else {
         return;
     };

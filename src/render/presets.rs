@@ -1,0 +1,155 @@
+//! The panel's presets: which built-in scenes it offers, the scene of a [`PanelState`] (a
+//! preset with the panel's parameters written into it) and [`apply_panel`], which rebuilds the
+//! [`PanelTarget`] entity's simulation — coupled, fluid or lattice gas, whichever kind the preset
+//! is — whenever the state differs from what it was built with, whether the change came from the
+//! panel's widgets or from the app's own code (tests set the state directly).
+
+use super::panel::{PanelState, PanelTarget};
+use crate::plugin::{CoupledGlottis, CoupledSimulation, FluidSimulation, LatticeGasSimulation};
+use crate::scene::coupled::CoupledScene;
+use crate::scene::{Scene, SceneKind};
+use bevy::ecs::system::EntityCommands;
+use bevy::prelude::*;
+
+/// The scenes the panel offers: the glottis cases, the Wall flap, the FDLB cylinder wake and the
+/// lattice gas's cylinder wake.
+pub const PRESETS: [&str; 8] =
+    ["glottis_2d_a", "glottis_2d_b", "glottis_2d_c", "glottis_2d_d", "glottis_2d_coarse", "wall_flap", "cylinder_wake", "lattice_gas_wake"];
+
+/// The scene of `state`: the preset with its lung pressure, fold moduli and method replaced.
+pub fn scene_of(state: &PanelState) -> Result<CoupledScene, String> {
+    let text = crate::scene::builtin(&state.preset).ok_or_else(|| format!("preset: no built-in scene {}", state.preset))?;
+    let mut doc: toml::Table = text.parse().map_err(|e| format!("preset {}: {e}", state.preset))?;
+    if let Some(p) = state.lung_pressure {
+        let face = doc
+            .get_mut("boundaries")
+            .and_then(|b| b.get_mut("y_min"))
+            .and_then(|f| f.as_table_mut())
+            .filter(|f| f.get("type").and_then(|t| t.as_str()) == Some("pressure_inlet"));
+        match face {
+            Some(f) => {
+                f.insert("pressure".into(), toml::Value::Float(p));
+            }
+            None => return Err(format!("lung_pressure: preset {} has no pressure inlet at y_min", state.preset)),
+        }
+    }
+    if let Some(m) = &state.method {
+        match doc.get_mut("coupling").and_then(|c| c.as_table_mut()) {
+            Some(c) => {
+                c.insert("method".into(), toml::Value::String(m.clone()));
+            }
+            None => return Err(format!("method: preset {} has no coupling", state.preset)),
+        }
+    }
+    let mut sc = CoupledScene::parse(&toml::to_string(&doc).map_err(|e| e.to_string())?).map_err(|e| e.to_string())?;
+    if let Some((cover, body)) = state.fold_moduli {
+        if !(cover > 0.0 && body > 0.0) {
+            return Err(format!("fold_moduli: ({cover}, {body}) dyn/cm² must be positive"));
+        }
+        sc.set_fold_moduli(cover, body);
+    }
+    Ok(sc)
+}
+
+/// What a preset builds.
+pub enum PresetSimulation {
+    /// Air and bodies (the glottis, the flap), with the glottis's readouts when it has folds.
+    Coupled(Box<CoupledSimulation>, Option<CoupledGlottis>),
+    Fluid(Box<FluidSimulation>),
+    LatticeGas(Box<LatticeGasSimulation>),
+}
+
+/// The simulation of `state`, or why it is refused (naming the parameter).
+pub fn build_preset(state: &PanelState) -> Result<PresetSimulation, String> {
+    let text = crate::scene::builtin(&state.preset).ok_or_else(|| format!("preset: no built-in scene {}", state.preset))?;
+    if SceneKind::of(text) == SceneKind::Coupled {
+        let sc = scene_of(state)?;
+        let solver = sc.build().map_err(|e| e.to_string())?;
+        let glottis = CoupledGlottis::of(&sc, &solver, 0.05);
+        return Ok(PresetSimulation::Coupled(Box::new(CoupledSimulation { solver }), glottis));
+    }
+    // the folds' parameters belong to the coupled presets
+    for (set, name) in [(state.lung_pressure.is_some(), "lung_pressure"), (state.fold_moduli.is_some(), "fold_moduli"), (state.method.is_some(), "method")] {
+        if set {
+            return Err(format!("{name}: preset {} has no folds (it is a {:?} scene)", state.preset, SceneKind::of(text)));
+        }
+    }
+    match Scene::read(text).map_err(|e| format!("preset {}: {e}", state.preset))? {
+        Scene::Fluid(sc) => Ok(PresetSimulation::Fluid(Box::new(FluidSimulation::from_scene(&sc)))),
+        Scene::LatticeGas(sc) => Ok(PresetSimulation::LatticeGas(Box::new(LatticeGasSimulation::from_scene(&sc)))),
+        other => Err(format!("preset: {} is a {:?} scene, which the panel does not draw", state.preset, other.kind())),
+    }
+}
+
+/// The cover and body Young's moduli (dyn/cm²) of a glottis preset: Titze's cases A–D as the
+/// built-in scenes set them (cover/body 1/10, 2/20, 1/100, 2/200 × 10⁵; the coarse glottis is
+/// case A).
+pub fn preset_moduli(preset: &str) -> (f64, f64) {
+    match preset {
+        "glottis_2d_a" | "glottis_2d_coarse" => (1e5, 1e6),
+        "glottis_2d_b" => (2e5, 2e6),
+        "glottis_2d_d" => (2e5, 2e7),
+        _ => (1e5, 1e7),
+    }
+}
+
+/// Takes every simulation and every figure and drawing state of one off an entity.
+fn clear_simulation(ec: &mut EntityCommands) {
+    use crate::plugin::*;
+    ec.remove::<(CoupledSimulation, CoupledStatus, CoupledGlottis, CoupledDiagnostics, VoiceDiagnostics, diagnostics::InitialMass)>();
+    ec.remove::<(FluidSimulation, FluidStatus, FluidDiagnostics, LatticeGasSimulation, LatticeGasDiagnostics)>();
+    ec.remove::<(super::fold_mesh::FoldMesh, super::tracers::FlowTracers, super::slice::SliceView, super::plots::PlotHistory)>();
+}
+
+/// Rebuilds the [`PanelTarget`]'s simulation when [`PanelState`] differs from what it was built
+/// with; the drawings of the old one go with it. A refused state keeps the old simulation and
+/// says why in [`PanelTarget::error`].
+pub fn apply_panel(
+    state: Res<PanelState>,
+    mut targets: Query<(Entity, &mut PanelTarget)>,
+    drawn: Query<(Entity, &super::fold_mesh::FoldMeshOf)>,
+    slices: Query<(Entity, &super::slice::SliceOf)>,
+    mut commands: Commands,
+) {
+    for (e, mut t) in &mut targets {
+        if t.built.as_ref() == Some(&*state) {
+            continue;
+        }
+        t.built = Some(state.clone());
+        match build_preset(&state) {
+            Ok(sim) => {
+                let mut ec = commands.entity(e);
+                clear_simulation(&mut ec);
+                match sim {
+                    PresetSimulation::Coupled(c, g) => {
+                        ec.insert(*c);
+                        if let Some(g) = g {
+                            ec.insert(g);
+                        }
+                    }
+                    PresetSimulation::Fluid(f) => {
+                        ec.insert(*f);
+                    }
+                    PresetSimulation::LatticeGas(g) => {
+                        ec.insert(*g);
+                    }
+                }
+                t.error = None;
+                for (m, of) in &drawn {
+                    if of.0 == e {
+                        commands.entity(m).despawn();
+                    }
+                }
+                for (m, of) in &slices {
+                    if of.0 == e {
+                        commands.entity(m).despawn();
+                    }
+                }
+            }
+            Err(why) => {
+                warn!("phonation: the panel's scene was refused: {why}");
+                t.error = Some(why);
+            }
+        }
+    }
+}
