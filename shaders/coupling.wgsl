@@ -46,6 +46,14 @@ struct Params {
 // that node (distinct nodes, so no two threads write one entry)
 @group(0) @binding(10) var<storage, read> change_momentum: array<vec4<f32>>;
 @group(0) @binding(11) var<storage, read> change_node: array<u32>;
+// exchange_weights: per workgroup, the sums over its nodes of the exchange's diagnostics (CPU
+// twin: the run sums of `momentum_exchange`), two vec4 per workgroup: (the momentum of nodes with
+// no particle within r_e — walls that are no coupled body —, the mass all wall nodes took) and
+// (Σ (p − u_w m), the momentum in the wall's frame, 0)
+@group(0) @binding(12) var<storage, read_write> diag_partials: array<vec4<f32>>;
+
+var<workgroup> diag_a: array<vec4<f32>, 64>;
+var<workgroup> diag_b: array<vec4<f32>, 64>;
 
 fn thread_index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * 64u;
@@ -127,18 +135,51 @@ fn add_node_changes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
 }
 
 // (2.127–2.128), first half: each wall node's momentum over the kernel weights' sum there, so
-// that the particles' shares sum to what the node took out of the air.
+// that the particles' shares sum to what the node took out of the air; and the exchange's
+// diagnostics summed per workgroup.
 @compute @workgroup_size(64)
-fn exchange_weights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+fn exchange_weights(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(local_invocation_index) li: u32,
+) {
     let t = thread_index(gid, nwg);
-    if (t >= P.count) { return; }
-    let w4 = wall[t];
-    var out = vec4<f32>(0.0);
-    if (any(w4 != vec4<f32>(0.0))) {
-        let s = kernel_sums(node_coords(t));
-        if (s.w > 0.0) { out = w4 / s.w; }
+    var a = vec4<f32>(0.0);
+    var b = vec4<f32>(0.0);
+    if (t < P.count) {
+        let w4 = wall[t];
+        var out = vec4<f32>(0.0);
+        if (any(w4 != vec4<f32>(0.0))) {
+            let s = kernel_sums(node_coords(t));
+            var uw = vec3<f32>(0.0);
+            if (s.w > 0.0) {
+                out = w4 / s.w;
+                uw = s.wv / s.w;
+            } else {
+                a = vec4<f32>(w4.xyz, 0.0);
+            }
+            a.w = w4.w;
+            b = vec4<f32>(w4.xyz - uw * w4.w, 0.0);
+        }
+        scaled[t] = out;
     }
-    scaled[t] = out;
+    // the workgroup's sums by a fixed tree (deterministic)
+    diag_a[li] = a;
+    diag_b[li] = b;
+    workgroupBarrier();
+    for (var k = 32u; k > 0u; k = k >> 1u) {
+        if (li < k) {
+            diag_a[li] = diag_a[li] + diag_a[li + k];
+            diag_b[li] = diag_b[li] + diag_b[li + k];
+        }
+        workgroupBarrier();
+    }
+    if (li == 0u) {
+        let g = wid.x + wid.y * nwg.x;
+        diag_partials[2u * g] = diag_a[0];
+        diag_partials[2u * g + 1u] = diag_b[0];
+    }
 }
 
 // Second half: each particle gathers w_ij · scaled_j from the lattice nodes within r_e of it.

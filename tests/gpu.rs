@@ -818,6 +818,8 @@ fn coupling_kernels_match_their_cpu_twins() {
     let mut wall = vec![DVec4::ZERO; grid.len()];
     let mut cpu = vec![DVec3::ZERO; pts.len()];
     let factor = 0.37;
+    // the run sums of the exchange (walls without particles, mass, wall frame) and their scale
+    let (mut walls, mut mass, mut frame, mut scale) = (DVec3::ZERO, 0.0, DVec3::ZERO, 0.0);
     for (node, w) in wall.iter_mut().enumerate() {
         let x = grid.coords(node);
         let at = [x[0] as f64, x[1] as f64, 0.0];
@@ -827,13 +829,20 @@ fn coupling_kernels_match_their_cpu_twins() {
             // the CPU twin's rule (coupling::conserving::momentum_exchange), written out
             let ws: Vec<(usize, f64)> = set.weights(at).collect();
             let sum: f64 = ws.iter().map(|(_, x)| x).sum();
+            let uw = DVec3::from_array(set.velocity_at(at));
             if sum > 0.0 {
                 for (j, wj) in ws {
                     cpu[j] += (wj / sum) * w.truncate() * factor;
                 }
+            } else {
+                walls += w.truncate();
             }
+            mass += w.w;
+            frame += w.truncate() - uw * w.w;
+            scale += w.length();
         }
     }
+    assert!(walls != DVec3::ZERO, "some wall nodes must have no particle within r_e");
     exchange("random wall momenta", &set, &grid, &wall, factor, &cpu);
     // The same momenta with a part booked as node changes (every third wall node's in two
     // halves, one node listed twice) added on the device to a resident buffer that holds the
@@ -854,11 +863,21 @@ fn coupling_kernels_match_their_cpu_twins() {
             contents: bytemuck::cast_slice(&w32),
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
         });
-        let gpu = kernels.hand_over(&ctx, &set, &grid, &buffer, &changes, factor);
-        let scale = cpu.iter().map(|f| f.length()).fold(0.0, f64::max);
-        let d = gpu.iter().zip(&cpu).map(|(g, c)| (*g - *c).length()).fold(0.0, f64::max) / scale;
-        eprintln!("random wall momenta, {} as node changes on the device: force {d:.2e} of the largest", changes.len());
+        let (gpu, diag) = kernels.hand_over(&ctx, &set, &grid, &buffer, &changes, factor);
+        let force_scale = cpu.iter().map(|f| f.length()).fold(0.0, f64::max);
+        let d = gpu.iter().zip(&cpu).map(|(g, c)| (*g - *c).length()).fold(0.0, f64::max) / force_scale;
+        // the run sums: f32 sums of ~250 terms of size ≤ 1 against f64, relative to Σ|term|
+        let dd = [(diag.walls - walls).length(), (diag.mass - mass).abs(), (diag.wall_frame - frame).length()].map(|x| x / scale);
+        eprintln!(
+            "random wall momenta, {} as node changes on the device: force {d:.2e} of the largest; run sums walls {:?} vs {walls:?}, mass {} vs {mass}, wall frame {:?} vs {frame:?}: {:?} of Σ|term| = {scale:.1}",
+            changes.len(),
+            diag.walls,
+            diag.mass,
+            diag.wall_frame,
+            dd.map(|x| format!("{x:.2e}"))
+        );
         assert!(d < 1e-5, "{d:e}");
+        assert!(dd.iter().all(|x| *x < 1e-6), "run sums {dd:?}");
         let after: Vec<f32> = bytemuck::cast_slice(&phonation::gpu::context::read_buffer(&ctx.device, &ctx.queue, &buffer)).to_vec();
         assert!(after.iter().all(|x| *x == 0.0), "the wall buffer is cleared after the hand-over");
     }
@@ -1051,7 +1070,21 @@ fn coupled_steps_on_the_gpu_match_the_cpu_over_200_steps() {
     let mut cpu = sc.build().unwrap();
     let mut gpu = GpuCoupled::new(ctx, sc.build().unwrap()).unwrap();
     let x0 = cpu.solid.particles.position.clone();
-    cpu.run(steps).unwrap();
+    // the CPU stage by stage, to measure the scale of the exchange's run sums: Σ over the steps
+    // and the wall nodes of |m| and |p| (the terms, before they cancel; lattice units)
+    let (mut mass_terms, mut momentum_terms) = (0.0, 0.0);
+    for _ in 0..steps {
+        for st in cpu.stages() {
+            if st.kind == phonation::stages::CoupledStageKind::MomentumExchange {
+                let w = cpu.exchange().unwrap().wall();
+                mass_terms += w.iter().map(|v| v.w.abs()).sum::<f64>();
+                momentum_terms += w.iter().map(|v| v.truncate().length()).sum::<f64>();
+            }
+            cpu.run_stage(st.kind).unwrap();
+        }
+        cpu.step_count += 1;
+        cpu.time += cpu.dt();
+    }
     gpu.run(steps).unwrap();
     gpu.download_into();
     let g = &gpu.cpu;
@@ -1083,6 +1116,27 @@ fn coupled_steps_on_the_gpu_match_the_cpu_over_200_steps() {
     assert!(dv_alone < 1e-2 && dv < 3.0 * dv_alone, "velocity {dv:e}, the solid alone {dv_alone:e}");
     assert!((fg - fc).length() < 1e-4 * fc.length(), "force {fg:?} vs {fc:?}");
     assert_eq!(gpu.step_count(), steps);
+    // the exchange's run sums, kept on the GPU path as on the CPU: each against the sum of its
+    // terms' magnitudes, held to the populations' and forces' bound (1e-4 of their scale)
+    let (ec, eg) = (cpu.exchange().unwrap(), g.exchange().unwrap());
+    let p_terms = momentum_terms * cpu.momentum_unit();
+    let d = [
+        (eg.walls - ec.walls).length() / p_terms,
+        (eg.mass_to_walls - ec.mass_to_walls).abs() / mass_terms,
+        (eg.wall_frame - ec.wall_frame).length() / p_terms,
+    ];
+    eprintln!(
+        "run sums: walls {:?} vs {:?}, mass {:e} vs {:e}, wall frame {:?} vs {:?} (GPU vs CPU); terms Σ|p| {p_terms:.3e}, Σ|m| {mass_terms:.3e}: differences {:?}",
+        eg.walls,
+        ec.walls,
+        eg.mass_to_walls,
+        ec.mass_to_walls,
+        eg.wall_frame,
+        ec.wall_frame,
+        d.map(|x| format!("{x:.2e}"))
+    );
+    assert!(ec.walls != DVec3::ZERO && ec.mass_to_walls != 0.0 && ec.wall_frame != DVec3::ZERO, "the run sums must have something to compare");
+    assert!(d.iter().all(|x| *x < 1e-4), "run sums {d:?}");
 }
 
 /// A disc towed through air at rest (a prescribed translation, method 2) past a free elastic
@@ -1222,6 +1276,12 @@ fn a_coupled_scene_runs_on_the_gpu_backend_with_the_cpus_outputs() {
         assert!((c[dy] - g[dy]).abs() <= 1e-4 * d_scale, "displacement {} vs {}", c[dy], g[dy]);
     }
     assert!(d_scale > 0.0 && f_scale > 0.0);
+    // the summary carries the exchange's run sums on both backends (their precision is held to
+    // 1e-4 of their terms by `coupled_steps_on_the_gpu_match_the_cpu_over_200_steps`; over 200
+    // steps the mass differed by 5.5e-4 of its own value)
+    let (ec, eg) = (rc.exchange.as_ref().expect("method 2"), rg.exchange.as_ref().expect("method 2 on the GPU"));
+    eprintln!("exchange over the run: {ec:?} (CPU) vs {eg:?} (GPU)");
+    assert!(ec.mass_to_walls != 0.0 && (eg.mass_to_walls / ec.mass_to_walls - 1.0).abs() < 1e-2, "{} vs {}", eg.mass_to_walls, ec.mass_to_walls);
     let weak = CoupledScene::parse(&SMALL_FLAP.replace("momentum_conserving", "weak").replace("kernel_radius = 1.0\n", "")).unwrap();
     let dir = std::env::temp_dir().join(format!("phonation-gpu-coupled-weak-{}", std::process::id()));
     let e = run_coupled_scene(&weak, &dir, &RunOptions { steps: Some(1), backend: Backend::Gpu, ..Default::default() }).unwrap_err().to_string();

@@ -333,6 +333,17 @@ impl CoupledSolver {
         changed.into_iter().map(|node| (node, std::mem::take(&mut ex.wall[node]))).filter(|(_, m)| *m != DVec4::ZERO).collect()
     }
 
+    /// Adds what another backend's momentum exchange measured over one step to the exchange's
+    /// run sums: the momentum of wall nodes with no particle within r_e, the mass all wall nodes
+    /// took and Σ (p − u_w m) (lattice units in; kept in the units of [`Exchange`]'s fields).
+    pub fn add_exchange_diagnostics(&mut self, walls: DVec3, mass: f64, wall_frame: DVec3) {
+        let to_physical = self.momentum_unit();
+        let ex = self.exchange.as_mut().expect("method 2");
+        ex.walls += walls * to_physical;
+        ex.mass_to_walls += mass;
+        ex.wall_frame += wall_frame * to_physical;
+    }
+
     /// The air's force on each particle over the step (physical units, [`Self::dt`]), computed
     /// by another backend's momentum exchange, becomes the particles' loads (with the scene's
     /// own) and each body's total.

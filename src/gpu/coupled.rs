@@ -6,13 +6,14 @@
 //! |---|---|
 //! | `fluid_geometry` | the particles' positions and velocities come back (16 B each); the level sets' layout (ghost depths, normals, wall velocities, 2.124–2.126, 2.130) is built on the CPU ([`CoupledSolver::next_level_set_walls`]) and its tables uploaded ([`GpuFluid::set_geometry`]); on a step where nodes change side, the populations make a round trip so that covered nodes book their momentum and fresh ones take their neighbours' mean on the CPU ([`Self::round_trips`] counts them) |
 //! | `fluid` | one FDLB step on the GPU with the walls' face fluxes recorded after each advection (2.122–2.123, [`GpuFluid::record_face_fluxes`]) |
-//! | `momentum_exchange` | the geometry stage's node changes (a short list, on steps where nodes change side) added to the face-flux record on the device; each wall node's momentum handed to the particles within r_e with normalised kernel weights (2.127–2.128) by the gather kernels of [`CouplingKernels::hand_over`] (deterministic, no atomics), the record cleared there; only the particles' forces come back, as their loads |
+//! | `momentum_exchange` | the geometry stage's node changes (a short list, on steps where nodes change side) added to the face-flux record on the device; each wall node's momentum handed to the particles within r_e with normalised kernel weights (2.127–2.128) by the gather kernels of [`CouplingKernels::hand_over`] (deterministic, no atomics), the record cleared there; only the particles' forces come back, as their loads, with the exchange's run sums per workgroup |
 //! | `solid` | the solid's sub-steps on the GPU ([`GpuSolid`]) with those loads and the air's added mass (2.129) |
 //!
 //! What stays on the CPU is the geometry (a per-step layout build over the lattice, O(N)),
 //! measured as the `fluid_geometry` share of the step; the wall momentum per node no longer
 //! crosses the bus. The exchange's diagnostics that the CPU solver sums over the run (momentum to
-//! non-body walls, mass to the walls, the wall-frame momentum) are not kept on this backend.
+//! non-body walls, mass to the walls, the wall-frame momentum) are summed per workgroup by the
+//! hand-over's first kernel and over the workgroups on the CPU (32 B per 64 nodes come back).
 //! Bodies with a prescribed motion are moved by the CPU after every solid sub-step, as the CPU
 //! solver does, and only their particles' kinematics are written to the device
 //! ([`GpuSolid::upload_kinematics`]). Method 1 runs on the CPU only: [`GpuCoupled::new`]
@@ -165,7 +166,8 @@ impl GpuCoupled {
         let (set, index) = self.cpu.exchange_particles();
         let factor = self.cpu.momentum_unit() / self.cpu.dt();
         let wall = self.fluid.face_flux_buffer().expect("GpuCoupled::new records the face fluxes");
-        let shares = self.kernels.hand_over(&self.ctx, &set, &self.cpu.fluid.layout.grid, wall, &changes, factor);
+        let (shares, diag) = self.kernels.hand_over(&self.ctx, &set, &self.cpu.fluid.layout.grid, wall, &changes, factor);
+        self.cpu.add_exchange_diagnostics(diag.walls, diag.mass, diag.wall_frame);
         let mut force = vec![DVec3::ZERO; self.cpu.solid.particles.len()];
         for (i, f) in index.into_iter().zip(shares) {
             force[i] = f;

@@ -59,10 +59,30 @@ impl Kernel {
     }
 }
 
-/// Number of buffer bindings after the uniform (bindings 1–11 of shaders/coupling.wgsl).
-const BINDINGS: usize = 11;
+/// Number of buffer bindings after the uniform (bindings 1–12 of shaders/coupling.wgsl).
+const BINDINGS: usize = 12;
 /// The binding of the wall momentum per node.
 const WALL: usize = 7;
+/// The binding of the per-workgroup sums of the exchange's diagnostics.
+const DIAG_PARTIALS: usize = 12;
+
+/// What one hand-over's wall nodes add to the exchange's run sums (lattice units; CPU twin: the
+/// sums of method 2's `momentum_exchange` stage, [`crate::coupling::Exchange`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ExchangeDiagnostics {
+    /// Momentum of the nodes with no particle within r_e (walls that are no coupled body).
+    pub walls: DVec3,
+    /// Mass the wall nodes took out of the air.
+    pub mass: f64,
+    /// Σ (p − u_w m): the momentum the walls took in their own frame.
+    pub wall_frame: DVec3,
+}
+
+/// Workgroups of 64 that [`CouplingKernels::run`] dispatches for `count` threads.
+fn workgroups(count: u32) -> u32 {
+    let w = count.div_ceil(64).max(1);
+    if w <= 65_535 { w } else { 65_535 * w.div_ceil(65_535) }
+}
 
 /// What a binding holds for one call.
 enum Binding<'a> {
@@ -91,7 +111,7 @@ impl CouplingKernels {
     pub fn new(ctx: &GpuContext) -> Self {
         let device = &ctx.device;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("coupling"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
-        // uniform, then (read-only?) storage bindings 1–11
+        // uniform, then (read-only?) storage bindings 1–12
         let kinds = [
             (true, true),
             (false, true),
@@ -105,6 +125,7 @@ impl CouplingKernels {
             (false, false),
             (false, true),
             (false, true),
+            (false, false),
         ];
         let layout = buffer_layout(device, "coupling", &kinds);
         let pl =
@@ -179,8 +200,8 @@ impl CouplingKernels {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(kernel.entry()), timestamp_writes: None });
             pass.set_pipeline(&self.pipelines[kernel as usize]);
             pass.set_bind_group(0, &group, &[]);
-            let w = count.div_ceil(64).max(1);
-            if w <= 65_535 { pass.dispatch_workgroups(w, 1, 1) } else { pass.dispatch_workgroups(65_535, w.div_ceil(65_535), 1) }
+            let w = workgroups(count);
+            if w <= 65_535 { pass.dispatch_workgroups(w, 1, 1) } else { pass.dispatch_workgroups(65_535, w / 65_535, 1) }
         }
         for &k in clear {
             enc.clear_buffer(buffer(k), 0, None);
@@ -204,6 +225,7 @@ impl CouplingKernels {
             Binding::Data(bytemuck::cast_slice(order)),
             Binding::Data(bytemuck::cast_slice(&q)),
             Binding::Data(bytemuck::cast_slice(&out)),
+            Binding::Unused,
             Binding::Unused,
             Binding::Unused,
             Binding::Unused,
@@ -233,7 +255,7 @@ impl CouplingKernels {
             contents: bytemuck::cast_slice(&w),
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         });
-        self.hand_over(ctx, set, grid, &buffer, &[], factor)
+        self.hand_over(ctx, set, grid, &buffer, &[], factor).0
     }
 
     /// Method 2's momentum_exchange stage with the wall momentum on the device: `wall` holds one
@@ -241,11 +263,22 @@ impl CouplingKernels {
     /// [`super::GpuFluid::face_flux_buffer`]); the geometry stage's node changes `changes`
     /// (node, momentum and mass, lattice units) are added to it, each node's momentum goes to
     /// the particles of `set` within r_e with normalised kernel weights, and `wall` is cleared for
-    /// the next step. Only the node changes go up and the particles' forces (×`factor`) come back.
-    pub fn hand_over(&self, ctx: &GpuContext, set: &KernelLevelSet, grid: &Grid, wall: &wgpu::Buffer, changes: &[(usize, DVec4)], factor: f64) -> Vec<DVec3> {
+    /// the next step. Only the node changes go up and the particles' forces (×`factor`) come back,
+    /// with the nodes' contributions to the exchange's run sums (summed per workgroup on the
+    /// device, 32 B per 64 nodes, and over the workgroups here in f64).
+    pub fn hand_over(
+        &self,
+        ctx: &GpuContext,
+        set: &KernelLevelSet,
+        grid: &Grid,
+        wall: &wgpu::Buffer,
+        changes: &[(usize, DVec4)],
+        factor: f64,
+    ) -> (Vec<DVec3>, ExchangeDiagnostics) {
         assert!(wall.size() >= (16 * grid.len()) as u64, "one wall value per lattice node");
         let (start, order) = set.bin_lists();
         let pts: Vec<[f32; 4]> = set.points.iter().map(|p| v4(*p)).collect();
+        let vel: Vec<[f32; 4]> = set.velocities.iter().map(|p| v4(*p)).collect();
         let force = vec![[0f32; 4]; pts.len()];
         // distinct nodes, so that no two threads of add_node_changes write one entry
         let mut merged: Vec<(usize, DVec4)> = changes.to_vec();
@@ -273,9 +306,10 @@ impl CouplingKernels {
         p.padded = [grid.padded[0] as u32, grid.padded[1] as u32, grid.padded[2] as u32, 0];
         p.halo = [grid.halo[0] as u32, grid.halo[1] as u32, grid.halo[2] as u32, 0];
         p.factor = factor as f32;
+        let partials = vec![[0f32; 4]; 2 * workgroups(grid.len() as u32) as usize];
         let data = [
             Binding::Data(bytemuck::cast_slice(&pts)),
-            Binding::Data(bytemuck::cast_slice(&pts)),
+            Binding::Data(bytemuck::cast_slice(&vel)),
             Binding::Data(bytemuck::cast_slice(start)),
             Binding::Data(bytemuck::cast_slice(order)),
             Binding::Data(bytemuck::cast_slice(&pts)),
@@ -285,15 +319,25 @@ impl CouplingKernels {
             Binding::Data(bytemuck::cast_slice(&force)),
             Binding::Data(bytemuck::cast_slice(&change_momentum)),
             Binding::Data(bytemuck::cast_slice(&change_node)),
+            Binding::Data(bytemuck::cast_slice(&partials)),
         ];
         let mut kernels = Vec::new();
         if !merged.is_empty() {
             kernels.push((Kernel::AddNodeChanges, merged.len() as u32));
         }
         kernels.extend([(Kernel::ExchangeWeights, grid.len() as u32), (Kernel::ExchangeGather, pts.len() as u32)]);
-        let bytes = self.run(ctx, p, data, &kernels, &[WALL], &[9]);
+        let bytes = self.run(ctx, p, data, &kernels, &[WALL], &[9, DIAG_PARTIALS]);
         let f: &[[f32; 4]] = bytemuck::cast_slice(&bytes[0]);
-        f.iter().map(|v| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect()
+        let forces = f.iter().map(|v| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect();
+        let d: &[[f32; 4]] = bytemuck::cast_slice(&bytes[1]);
+        let mut diag = ExchangeDiagnostics::default();
+        for pair in d.chunks_exact(2) {
+            let (a, b) = (pair[0].map(f64::from), pair[1].map(f64::from));
+            diag.walls += DVec3::new(a[0], a[1], a[2]);
+            diag.mass += a[3];
+            diag.wall_frame += DVec3::new(b[0], b[1], b[2]);
+        }
+        (forces, diag)
     }
 }
 

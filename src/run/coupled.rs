@@ -40,6 +40,8 @@ pub struct CoupledReport {
     pub fluid_mass_drift: f64,
     pub uncovered: usize,
     pub covered: usize,
+    /// Method 2's momentum exchange summed over the run (on either backend), `None` for method 1.
+    pub exchange: Option<ExchangeReport>,
     /// Each particle probe (`coupling.probes`): its transverse displacement's oscillation over
     /// the second half of the run.
     pub particle_probes: Vec<ParticleProbeReport>,
@@ -52,6 +54,21 @@ pub struct CoupledReport {
     /// The step this run resumed from (a checkpoint), if it did.
     pub resumed_from_step: Option<u64>,
     pub files: Vec<PathBuf>,
+}
+
+/// Method 2's exchange over the run (scene units; per unit depth in 2D): see
+/// [`crate::coupling::Exchange`].
+#[derive(Clone, Debug, Serialize)]
+pub struct ExchangeReport {
+    /// Momentum handed to walls that are no coupled body (rigid obstacles, faces).
+    pub momentum_to_walls: [f64; 3],
+    /// Momentum the bodies received from the nodes they covered, less what the nodes they
+    /// uncovered took.
+    pub node_changes: [f64; 3],
+    /// Mass the walls took out of the air (lattice units; ≈ 0 for closed bodies).
+    pub mass_to_walls: f64,
+    /// Σ (p − u_w m): the momentum the walls took in their own frame (a diagnostic).
+    pub wall_frame_momentum: [f64; 3],
 }
 
 /// The oscillation of a particle probe's y displacement (scene units: frequency in Hz, lengths
@@ -357,6 +374,12 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
         fluid_mass_drift: (c.fluid.totals().mass - m0) / m0,
         uncovered: c.geometry.uncovered,
         covered: c.geometry.covered,
+        exchange: c.exchange().map(|e| ExchangeReport {
+            momentum_to_walls: e.walls.to_array(),
+            node_changes: e.node_changes.to_array(),
+            mass_to_walls: e.mass_to_walls,
+            wall_frame_momentum: e.wall_frame.to_array(),
+        }),
         particle_probes: probe_reports(&particle_probes, &probe_samples),
         glottis: glottis_report,
         instability: instability.map(|e| e.to_string()),
