@@ -385,6 +385,29 @@ fn the_panel_state_rebuilds_the_simulation_with_its_parameters() {
     app.update();
     let t = app.world().get::<PanelTarget>(e).unwrap();
     assert!(t.error.as_deref().is_some_and(|m| m.starts_with("fold_moduli")), "{:?}", t.error);
+    // the resolution: twice the cells over the same domain, the particles' spacing halved
+    // (four times as many particles in 2D, to within the folds' outline), the same lung pressure
+    let coarse = app.world().get::<CoupledSimulation>(e).unwrap().solver.solid.particles.len();
+    *app.world_mut().resource_mut::<PanelState>() = PanelState { preset: "glottis_2d_coarse".into(), resolution: Some(2.0), ..default() };
+    app.update();
+    assert!(app.world().get::<PanelTarget>(e).unwrap().error.is_none());
+    let fine = &app.world().get::<CoupledSimulation>(e).unwrap().solver;
+    let ratio = fine.solid.particles.len() as f64 / coarse as f64;
+    println!(
+        "resolution ×2: {:?} nodes, {} particles ({ratio:.3} × the preset's), Δx {} cm",
+        fine.fluid.layout.grid.n,
+        fine.solid.particles.len(),
+        fine.units.dx
+    );
+    assert_eq!(fine.fluid.layout.grid.n, [124, 128, 1]);
+    assert!((fine.units.dx - 1.5625 / 128.0).abs() < 1e-15, "Δx {}", fine.units.dx);
+    assert!((ratio - 4.0).abs() < 0.2, "particles ×{ratio}");
+    assert_eq!(inlet_rho(&app), rho_8000, "the same lung pressure");
+    // a factor that does not give whole cells, and the lattice gas (lengths in lattice units)
+    for (preset, r) in [("glottis_2d_coarse", 0.75), ("lattice_gas_wake", 2.0)] {
+        let why = phonation::render::panel::build_preset(&PanelState { preset: preset.into(), resolution: Some(r), ..default() }).err().expect("refused");
+        assert!(why.starts_with("resolution: "), "{why}");
+    }
     // a preset
     *app.world_mut().resource_mut::<PanelState>() = PanelState { preset: "wall_flap".into(), ..default() };
     app.update();

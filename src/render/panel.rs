@@ -9,7 +9,7 @@
 //! simulation of the [`PanelTarget`] entity whenever they differ from what it was built with.
 
 use super::plots::{F0, PROBE_UY_CM_S, PROBE_UY_LATTICE, PlotHistory, glottal_flow_points, record_plots, show_line};
-pub use super::presets::{PRESETS, apply_panel, build_preset, preset_moduli, scene_of};
+pub use super::presets::{PRESETS, RESOLUTIONS, apply_panel, build_preset, preset_moduli, scene_of};
 use super::slice::SliceView;
 use super::{DrawSettings, DrawSystems};
 use crate::plugin::diagnostics::{MASS_DRIFT, MAX_MACH, NODE_UPDATES_PER_SECOND, STEPS_PER_SECOND};
@@ -32,11 +32,14 @@ pub struct PanelState {
     pub fold_moduli: Option<(f64, f64)>,
     /// "weak" (method 1) or "conserving" (method 2); `None` keeps the preset's.
     pub method: Option<String>,
+    /// Factor of the preset's lattice cells (the particles' spacing divided by it; one of
+    /// [`super::presets::RESOLUTIONS`] in the panel); `None` keeps the preset's.
+    pub resolution: Option<f64>,
 }
 
 impl Default for PanelState {
     fn default() -> Self {
-        PanelState { preset: "glottis_2d_c".into(), lung_pressure: None, fold_moduli: None, method: None }
+        PanelState { preset: "glottis_2d_c".into(), lung_pressure: None, fold_moduli: None, method: None, resolution: None }
     }
 }
 
@@ -221,8 +224,18 @@ fn scene_controls(ui: &mut egui::Ui, state: &mut PanelState) {
             state.fold_moduli = Some((cover, body));
         }
     }
-    let coupled = crate::scene::builtin(&state.preset).is_some_and(|t| crate::scene::SceneKind::of(t) == crate::scene::SceneKind::Coupled);
-    if !coupled {
+    let kind = crate::scene::builtin(&state.preset).map(crate::scene::SceneKind::of);
+    if kind.is_some_and(|k| k != crate::scene::SceneKind::LatticeGas) {
+        let now = state.resolution.unwrap_or(1.0);
+        egui::ComboBox::from_label("resolution (× the preset's cells)").selected_text(format!("×{now}")).show_ui(ui, |ui| {
+            for r in RESOLUTIONS {
+                if ui.selectable_label(now == r, format!("×{r}")).clicked() {
+                    state.resolution = (r != 1.0).then_some(r);
+                }
+            }
+        });
+    }
+    if kind != Some(crate::scene::SceneKind::Coupled) {
         return;
     }
     let mut method = state.method.clone().unwrap_or_default();
