@@ -704,6 +704,128 @@ fn the_glottis_renders_headless_with_folds_tracers_and_slice() {
     assert!(steps >= 3000 && moved > 1e-3 && still < 1e-4, "changed at the folds {moved}, elsewhere {still}");
 }
 
+/// A GPU-stepped fluid's tracers stay on the device: advected in the render world after the
+/// frame's steps and drawn from the device's buffer by the line material. The tracers move with
+/// the channel's inflow (their mean x grows), stay in the lattice, and show in the rendered
+/// image; with the tracers switched off the image is the background. The PNGs are kept in the
+/// test's target directory.
+#[cfg(feature = "render")]
+#[test]
+fn gpu_tracers_are_advected_and_drawn_on_the_device() {
+    use bevy::app::PluginsState;
+    use bevy::asset::RenderAssetUsages;
+    use bevy::camera::RenderTarget;
+    use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat, TextureUsages};
+    use bevy::render::renderer::{RenderDevice, RenderQueue};
+    use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
+    use bevy::window::{ExitCondition, WindowPlugin};
+    use phonation::plugin::{GpuStepping, PhonationGpuPlugin};
+    use phonation::render::gpu_tracers::GpuTracerHandle;
+    use phonation::render::panel::PanelPlugin;
+    use phonation::render::view::FrameSimulation;
+    use phonation::render::{DrawSettings, PhonationPlugins};
+    use std::sync::{Arc, Mutex};
+    if !has_gpu() {
+        return;
+    }
+    let mut app = App::new();
+    app.add_plugins((
+        headless_default_plugins(
+            DefaultPlugins
+                .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
+                .set(bevy::render::RenderPlugin { synchronous_pipeline_compilation: true, ..default() })
+                .disable::<bevy::log::LogPlugin>(),
+        ),
+        PhonationPlugins.build().disable::<PanelPlugin>(),
+        PhonationGpuPlugin,
+    ));
+    while app.plugins_state() == PluginsState::Adding {
+        bevy::tasks::tick_global_task_pools_on_main_thread();
+    }
+    app.finish();
+    app.cleanup();
+    let (w, h) = (480u32, 240u32);
+    let mut target = Image::new_uninit(
+        Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        TextureDimension::D2,
+        TextureFormat::Rgba8UnormSrgb,
+        RenderAssetUsages::RENDER_WORLD,
+    );
+    target.texture_descriptor.usage |= TextureUsages::RENDER_ATTACHMENT;
+    let handle = app.world_mut().resource_mut::<Assets<Image>>().add(target);
+    let background = Color::srgb(0.08, 0.08, 0.1);
+    app.insert_resource(ClearColor(background));
+    app.insert_resource(SimulationControl { paused: false, steps_per_frame: 8, single_steps: 0 });
+    *app.world_mut().resource_mut::<DrawSettings>() = DrawSettings { folds: false, tracers: true, slice: None, tracer_count: 3000 };
+    app.world_mut().spawn((Camera3d::default(), RenderTarget::from(handle.clone()), FrameSimulation));
+    let sc = scene();
+    let e = app.world_mut().spawn((FluidSimulation::from_scene(&sc), GpuStepping)).id();
+    let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
+    let capture = |app: &mut App, name: &str| -> Vec<u8> {
+        for _ in 0..3 {
+            app.update();
+        }
+        let got: Arc<Mutex<Option<Image>>> = Arc::default();
+        let sink = got.clone();
+        app.world_mut().spawn(Screenshot::image(handle.clone())).observe(move |c: On<ScreenshotCaptured>| {
+            *sink.lock().unwrap() = Some(c.image.clone());
+        });
+        for _ in 0..30 {
+            app.update();
+            if got.lock().unwrap().is_some() {
+                break;
+            }
+        }
+        let img = got.lock().unwrap().take().expect("a screenshot within 30 frames");
+        img.clone().try_into_dynamic().expect("an RGBA image").to_rgb8().save(out.join(name)).unwrap();
+        img.data.expect("pixels")
+    };
+    let tracer_positions = |app: &App| {
+        let t = app.world().get::<GpuTracerHandle>(e).expect("GPU tracers").tracers.clone();
+        let (device, queue) = (app.world().resource::<RenderDevice>().wgpu_device().clone(), app.world().resource::<RenderQueue>().0.clone());
+        let q: &wgpu::Queue = &queue;
+        t.lock().unwrap().download_on(&device, q).0
+    };
+    app.update();
+    app.update();
+    let start = tracer_positions(&app);
+    let drawn = capture(&mut app, "gpu_tracers.png");
+    for _ in 0..20 {
+        app.update();
+    }
+    let later = tracer_positions(&app);
+    let bg = background.to_srgba();
+    let bg = [bg.red, bg.green, bg.blue].map(|c| (c * 255.0).round() as i32);
+    let share = |px: &[u8]| {
+        px.chunks(4).filter(|p| (p[0] as i32 - bg[0]).abs() + (p[1] as i32 - bg[1]).abs() + (p[2] as i32 - bg[2]).abs() > 40).count() as f64 / (w * h) as f64
+    };
+    *app.world_mut().resource_mut::<DrawSettings>() = DrawSettings { folds: false, tracers: false, slice: None, tracer_count: 3000 };
+    let hidden = capture(&mut app, "gpu_tracers_hidden.png");
+    let n = sim_nodes(&app, e);
+    let mean_x = |p: &[glam::DVec3]| p.iter().map(|v| v.x).sum::<f64>() / p.len() as f64;
+    let inside = later.iter().all(|p| p.x >= -0.5 && p.y >= -0.5 && p.x <= n[0] as f64 - 0.5 && p.y <= n[1] as f64 - 0.5);
+    eprintln!(
+        "GPU tracers: {} of them, mean x {:.3} → {:.3} cells over 20 frames of 8 steps; drawn {:.4} of the image, hidden {:.4}; PNGs in {}",
+        later.len(),
+        mean_x(&start),
+        mean_x(&later),
+        share(&drawn),
+        share(&hidden),
+        out.display()
+    );
+    assert_eq!(later.len(), 3000);
+    assert!(inside, "every tracer inside the lattice");
+    assert!(mean_x(&later) > mean_x(&start) + 0.05, "the tracers move with the inflow");
+    assert!(share(&drawn) > 0.03 && share(&hidden) < 1e-4, "drawn {}, hidden {}", share(&drawn), share(&hidden));
+    // the CPU mirror was not stepped, and no CPU tracers were made for it
+    assert_eq!(app.world().get::<FluidSimulation>(e).unwrap().solver.step_count, 0);
+    assert!(app.world().get::<phonation::render::tracers::FlowTracers>(e).is_none());
+}
+
+fn sim_nodes(app: &App, e: Entity) -> [usize; 3] {
+    app.world().get::<FluidSimulation>(e).unwrap().solver.layout.grid.n
+}
+
 /// The diagnostics plugin puts the simulations' figures in Bevy's store: particles and node
 /// updates counted from the entities, the Mach number and mass drift of the air.
 #[test]

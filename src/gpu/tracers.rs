@@ -70,7 +70,11 @@ impl GpuTracers {
     /// `t` on the device, to be advected through a field on `grid` (the fluid's) whose macro
     /// buffer has stride `stride`.
     pub fn new(ctx: &GpuContext, t: &Tracers, grid: &crate::fluid::Grid, stride: u32) -> Self {
-        let device = &ctx.device;
+        Self::on_device(&ctx.device, t, grid, stride)
+    }
+
+    /// [`Self::new`] on any wgpu device (Bevy's render device).
+    pub fn on_device(device: &wgpu::Device, t: &Tracers, grid: &crate::fluid::Grid, stride: u32) -> Self {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("tracers"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
         let layout = buffer_layout(device, "tracers", &[(true, true), (false, true), (false, true), (false, false), (false, false)]);
         let pl =
@@ -111,12 +115,27 @@ impl GpuTracers {
     /// Records `steps` steps of length `dt` (lattice time) through the field in `mac` / `kind`
     /// (the GPU fluid's layout) on `enc`.
     pub fn record(&mut self, ctx: &GpuContext, enc: &mut wgpu::CommandEncoder, mac: &wgpu::Buffer, kind: &wgpu::Buffer, dt: f64, steps: u32) {
+        self.record_on(&ctx.device, &ctx.queue, enc, mac, kind, dt, steps);
+    }
+
+    /// [`Self::record`] on any wgpu device and queue (Bevy's render world).
+    #[allow(clippy::too_many_arguments)]
+    pub fn record_on(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        enc: &mut wgpu::CommandEncoder,
+        mac: &wgpu::Buffer,
+        kind: &wgpu::Buffer,
+        dt: f64,
+        steps: u32,
+    ) {
         self.params.seed_lo[3] = dt as f32;
-        ctx.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.params));
+        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.params));
         let buffers = [&self.uniform, mac, kind, &self.tracers, &self.reseeded];
         let entries: Vec<wgpu::BindGroupEntry> =
             buffers.iter().enumerate().map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() }).collect();
-        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("tracers"), layout: &self.layout, entries: &entries });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("tracers"), layout: &self.layout, entries: &entries });
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("tracers"), timestamp_writes: None });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &group, &[]);
@@ -125,11 +144,21 @@ impl GpuTracers {
         }
     }
 
+    /// Number of tracers.
+    pub fn count(&self) -> u32 {
+        self.count
+    }
+
     /// Positions, generations and the number of tracers born again so far.
     pub fn download(&self, ctx: &GpuContext) -> (Vec<DVec3>, Vec<u32>, u32) {
-        let bytes = read_buffer(&ctx.device, &ctx.queue, &self.tracers);
+        self.download_on(&ctx.device, &ctx.queue)
+    }
+
+    /// [`Self::download`] on any wgpu device and queue.
+    pub fn download_on(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> (Vec<DVec3>, Vec<u32>, u32) {
+        let bytes = read_buffer(device, queue, &self.tracers);
         let t: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
-        let reseeded = bytemuck::cast_slice::<u8, u32>(&read_buffer(&ctx.device, &ctx.queue, &self.reseeded))[0];
+        let reseeded = bytemuck::cast_slice::<u8, u32>(&read_buffer(device, queue, &self.reseeded))[0];
         (t.iter().map(|v| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect(), t.iter().map(|v| v[3].to_bits()).collect(), reseeded)
     }
 }

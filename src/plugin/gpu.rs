@@ -35,6 +35,18 @@ pub struct GpuFluidHandle {
     steps_this_frame: u32,
 }
 
+impl GpuFluidHandle {
+    /// The GPU lattice (the render world records its steps).
+    pub fn fluid(&self) -> &Arc<Mutex<GpuFluid>> {
+        &self.gpu
+    }
+
+    /// Steps the render world records this frame.
+    pub fn steps_this_frame(&self) -> u32 {
+        self.steps_this_frame
+    }
+}
+
 /// Probe values read back from the GPU: the step they belong to and (ρ, u_x, u_y, u_z, θ) per
 /// probe of the scene, in lattice units.
 #[derive(Component, Debug, Default, Clone)]
@@ -109,7 +121,7 @@ fn schedule_gpu_steps(steps: Res<StepsThisFrame>, mut handles: Query<&mut GpuFlu
 }
 
 /// Render world: records this frame's steps and the probe kernel into the frame's encoder.
-fn step_gpu_fluids(mut ctx: RenderContext, handles: Query<&GpuFluidHandle>, buffers: Res<RenderAssets<GpuShaderBuffer>>) {
+pub(crate) fn step_gpu_fluids(mut ctx: RenderContext, handles: Query<&GpuFluidHandle>, buffers: Res<RenderAssets<GpuShaderBuffer>>) {
     for h in &handles {
         let Some(out) = buffers.get(&h.probes) else { continue };
         let mut gpu = h.gpu.lock().expect("GPU lattice lock");

@@ -9,21 +9,23 @@
 //! | [`DrawPlugin`] | [`DrawSettings`] and the drawing's order; [`view::FrameSimulation`] cameras | [`DrawSystems`] |
 //! | [`fold_mesh::FoldMeshPlugin`] | each coupled or solid simulation's bodies as a mesh ([`crate::mesh`]: the level set the air sees, marching cubes), coloured per body | [`DrawSystems::FoldMesh`] |
 //! | [`tracers::TracerPlugin`] | tracers born at the inlet and carried by the air ([`crate::fluid::tracers`], RK2), drawn as streaks coloured by speed | [`DrawSystems::Tracers`] |
+//! | [`gpu_tracers::GpuTracerPlugin`] | the tracers of a GPU-stepped fluid ([`crate::plugin::GpuStepping`] with [`crate::plugin::PhonationGpuPlugin`]) advected in the render world after the frame's steps and drawn from the device's buffer by a line material — no readback | [`DrawSystems::Tracers`] (spawning), the `RenderGraph` schedule (kernel) |
 //! | [`slice::SlicePlugin`] | the plane of the 2D lattice (coupled, fluid) or the lattice gas's coarse-grained field as an image of speed, pressure, vorticity, …, with its range and unit | [`DrawSystems::Slice`] |
 //! | [`panel::PanelPlugin`] | the egui panel: presets of every drawn kind ([`presets`]), lung pressure, fold moduli, coupling method, pause / step / steps per frame, what to draw, diagnostics and live plots ([`plots`]: glottal flow, f0, a probe's velocity) | [`DrawSystems::Panel`] |
 //!
 //! The drawing systems run after the simulation's sets in `Update`; every plugin can be left
 //! out of the group (`PhonationPlugins.build().disable::<TracerPlugin>()`). What is drawn is
-//! chosen by the [`DrawSettings`] resource. The drawing reads the CPU solvers (meshes and images
-//! are uploaded each frame); the GPU kernels of the same steps (marching cubes:
-//! [`crate::gpu::marching_cubes`], tracers: [`crate::gpu::tracers`]) exist and are checked
-//! against these CPU twins, but are not yet wired into the render world.
+//! chosen by the [`DrawSettings`] resource. The drawing of CPU-stepped simulations reads the CPU
+//! solvers (meshes and images are uploaded each frame); a GPU-stepped fluid's tracers stay on the
+//! device ([`gpu_tracers`]). The GPU marching cubes ([`crate::gpu::marching_cubes`]) exists and is
+//! checked against its CPU twin, but is not yet wired into the render world.
 
 use crate::plugin::{PhonationDiagnosticsPlugin, PhonationPlugin, PhonationSystems};
 use bevy::app::PluginGroupBuilder;
 use bevy::prelude::*;
 
 pub mod fold_mesh;
+pub mod gpu_tracers;
 pub mod panel;
 pub mod plots;
 pub mod presets;
@@ -68,6 +70,7 @@ impl PluginGroup for PhonationPlugins {
             .add(DrawPlugin)
             .add(fold_mesh::FoldMeshPlugin)
             .add(tracers::TracerPlugin)
+            .add(gpu_tracers::GpuTracerPlugin)
             .add(slice::SlicePlugin)
             .add(panel::PanelPlugin)
     }

@@ -3,6 +3,7 @@
 //! carried by the frame's simulated time through the velocity of the last step
 //! ([`crate::fluid::tracers`], RK2, sub-stepped so that no tracer moves more than half a cell
 //! per sub-step), drawn as streaks from where they were to where they are, coloured by speed.
+//! A GPU-stepped fluid's tracers are advected and drawn on the GPU ([`super::gpu_tracers`]).
 
 use super::{DrawSettings, DrawSystems};
 use crate::fluid::tracers::{Tracers, VelocityField};
@@ -62,6 +63,10 @@ pub fn tracer_colour(t: f64) -> Color {
     Color::srgb(0.35 + 0.65 * t, 0.75 + 0.2 * t, 1.0 - 0.55 * t)
 }
 
+/// Fluid entities stepped on the CPU (coupled ones are drawn apart, GPU-stepped ones by
+/// [`super::gpu_tracers`]).
+type CpuSteppedFluid = (Without<CoupledSimulation>, Without<crate::plugin::GpuFluidHandle>);
+
 pub struct TracerPlugin;
 
 impl Plugin for TracerPlugin {
@@ -74,7 +79,7 @@ fn advance_tracers(
     settings: Res<DrawSettings>,
     steps: Res<StepsThisFrame>,
     mut coupled: Query<(Entity, &CoupledSimulation, Option<&mut FlowTracers>)>,
-    mut fluids: Query<(Entity, &FluidSimulation, Option<&mut FlowTracers>), Without<CoupledSimulation>>,
+    mut fluids: Query<(Entity, &FluidSimulation, Option<&mut FlowTracers>), CpuSteppedFluid>,
     mut gizmos: Gizmos,
     mut commands: Commands,
 ) {
