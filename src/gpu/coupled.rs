@@ -1,6 +1,8 @@
-//! The momentum-conserving coupled step (method 2, seed 000 §2.4.2) with the fluid, the solid
-//! and the momentum exchange on the GPU: the GPU twin of [`CoupledSolver`] stepping
-//! [`COUPLED_CONSERVING_STEP`].
+//! The coupled step with the fluid and the solid on the GPU: the GPU twin of [`CoupledSolver`]
+//! stepping its coupling's stage list — [`crate::stages::COUPLED_CONSERVING_STEP`] (method 2, seed
+//! 000 §2.4.2) or [`crate::stages::COUPLED_WEAK_STEP`] (method 1, §2.4.1).
+//!
+//! Method 2:
 //!
 //! | stage | where it runs |
 //! |---|---|
@@ -9,27 +11,37 @@
 //! | `momentum_exchange` | the geometry stage's node changes (a short list, on steps where nodes change side) added to the face-flux record on the device; each wall node's momentum handed to the particles within r_e with normalised kernel weights (2.127–2.128) by the gather kernels of [`CouplingKernels::hand_over`] (deterministic, no atomics), the record cleared there; only the particles' forces come back, as their loads, with the exchange's run sums per workgroup |
 //! | `solid` | the solid's sub-steps on the GPU ([`GpuSolid`]) with those loads and the air's added mass (2.129) |
 //!
+//! Method 1:
+//!
+//! | stage | where it runs |
+//! |---|---|
+//! | `fluid_geometry` | the particles come back (with their spins and rotations: the surface points turn with them); the surface polygons' walls are built on the CPU ([`CoupledSolver::run_stage`], `set_obstacles` on the CPU mirror, whose populations are the GPU's of the last traction stage) and their tables uploaded; on a step where nodes change side the CPU's populations (fresh nodes initialised there) go up |
+//! | `fluid` | one FDLB step on the GPU |
+//! | `surface_traction` | the populations come back (the traction samples the fluid at one and two cells along each surface piece's normal, 2.110–2.113, on the CPU) and the surface particles' loads go up |
+//! | `solid` | the solid's explicit sub-steps on the GPU |
+//!
 //! What stays on the CPU is the geometry (a per-step layout build over the lattice, O(N)),
-//! measured as the `fluid_geometry` share of the step; the wall momentum per node no longer
-//! crosses the bus. The exchange's diagnostics that the CPU solver sums over the run (momentum to
-//! non-body walls, mass to the walls, the wall-frame momentum) are summed per workgroup by the
-//! hand-over's first kernel and over the workgroups on the CPU (32 B per 64 nodes come back).
-//! Bodies with a prescribed motion are moved by the CPU after every solid sub-step, as the CPU
-//! solver does, and only their particles' kinematics are written to the device
-//! ([`GpuSolid::upload_kinematics`]). Method 1 runs on the CPU only: [`GpuCoupled::new`]
-//! refuses it.
+//! measured as the `fluid_geometry` share of the step, and for method 1 the traction, which
+//! reads the whole population array each step (a GPU traction kernel would bring back only the
+//! particles' loads). For method 2 the wall momentum per node no longer crosses the bus. The
+//! exchange's diagnostics that the CPU solver sums over the run (momentum to non-body walls,
+//! mass to the walls, the wall-frame momentum) are summed per workgroup by the hand-over's first
+//! kernel and over the workgroups on the CPU (32 B per 64 nodes come back). Bodies with a
+//! prescribed motion are moved by the CPU after every solid sub-step, as the CPU solver does,
+//! and only their particles' kinematics are written to the device
+//! ([`GpuSolid::upload_kinematics`]).
 
 use super::context::{GpuContext, GpuError};
 use super::coupling::CouplingKernels;
 use super::fdlb::GpuFluid;
 use super::solid::{GpuSolid, SolidArray};
 use crate::coupling::{CoupledSolver, Method};
-use crate::stages::{COUPLED_CONSERVING_STEP, CoupledStageKind};
+use crate::stages::CoupledStageKind;
 use crate::step::{Instability, Part, Site};
 use glam::DVec3;
 use std::time::{Duration, Instant};
 
-/// Fluid, solid and method 2's coupling on the GPU.
+/// Fluid and solid of a coupled scene on the GPU (either coupling method).
 pub struct GpuCoupled {
     /// The CPU side: the scene's solver, which holds the geometry (layout, level sets), the
     /// exchange's bookkeeping, the scene's loads and the step counter. Its particles are
@@ -40,25 +52,28 @@ pub struct GpuCoupled {
     pub solid: GpuSolid,
     kernels: CouplingKernels,
     ctx: GpuContext,
-    /// Wall time per stage of [`COUPLED_CONSERVING_STEP`] (each stage ends with a wait on the
+    /// Wall time per stage of the coupling's stage list (each stage ends with a wait on the
     /// device, so the times are the stages' own).
     pub timings: Vec<Duration>,
-    /// Steps on which nodes changed side, so that the populations made a round trip.
+    /// Steps on which nodes changed side, so that the populations made a round trip (method 2)
+    /// or went up from the CPU (method 1).
     pub round_trips: u64,
     /// The particles of the bodies with a prescribed motion (ascending).
     prescribed: Vec<usize>,
 }
 
 impl GpuCoupled {
-    /// Uploads a method-2 coupled solver (its fluid, its solid with the added mass, the
-    /// face-flux record); refuses what this backend does not run, naming the field.
+    /// Uploads a coupled solver (its fluid, its solid — with the added mass for method 2 —, and
+    /// method 2's face-flux record); refuses what this backend does not run, naming the field.
     pub fn new(ctx: GpuContext, mut cpu: CoupledSolver) -> Result<Self, GpuError> {
         Self::supports(&cpu)?;
         let mut fluid = GpuFluid::from_solver(&ctx, &cpu.fluid)?;
-        fluid.record_face_fluxes(&cpu.fluid, cpu.exchange().expect("method 2").reference());
+        if let Some(ex) = cpu.exchange() {
+            fluid.record_face_fluxes(&cpu.fluid, ex.reference());
+        }
         let solid = GpuSolid::from_solver(&ctx, &mut cpu.solid)?;
         let kernels = CouplingKernels::new(&ctx);
-        let timings = vec![Duration::ZERO; COUPLED_CONSERVING_STEP.len()];
+        let timings = vec![Duration::ZERO; cpu.stages().len()];
         let prescribed = {
             let p = &cpu.solid.particles;
             let moved: Vec<u16> = cpu.bodies.iter().filter(|b| b.motion.is_some()).map(|b| b.surface.body).collect();
@@ -67,14 +82,12 @@ impl GpuCoupled {
         Ok(GpuCoupled { cpu, fluid, solid, kernels, ctx, timings, round_trips: 0, prescribed })
     }
 
-    /// Whether this backend runs `cpu`'s scene, or why not (naming the field).
+    /// Whether this backend runs `cpu`'s scene, or why not (naming the field): both coupling
+    /// methods run.
     pub fn supports(cpu: &CoupledSolver) -> Result<(), GpuError> {
-        if !matches!(cpu.method, Method::Conserving(_)) {
-            return Err(GpuError::Unsupported(
-                "coupling.method: the weak coupling (method 1) runs on the CPU only; use method = \"momentum_conserving\" or --backend cpu".into(),
-            ));
+        match cpu.method {
+            Method::Conserving(_) | Method::Weak(_) => Ok(()),
         }
-        Ok(())
     }
 
     /// Completed coupled steps.
@@ -84,7 +97,7 @@ impl GpuCoupled {
 
     /// One coupled step, stage by stage.
     pub fn step(&mut self) -> Result<(), Instability> {
-        for (k, st) in COUPLED_CONSERVING_STEP.iter().enumerate() {
+        for (k, st) in self.cpu.stages().iter().enumerate() {
             let t0 = Instant::now();
             let r = self.run_stage(st.kind);
             self.timings[k] += t0.elapsed();
@@ -102,33 +115,76 @@ impl GpuCoupled {
 
     /// Each stage's share of the wall time so far.
     pub fn stage_shares(&self) -> Vec<(&'static str, f64)> {
-        crate::stages::time_shares(COUPLED_CONSERVING_STEP.iter().map(|s| s.name).zip(&self.timings))
+        crate::stages::time_shares(self.cpu.stages().iter().map(|s| s.name).zip(&self.timings))
     }
 
     /// Runs one stage of the step (the step counter advances in [`Self::step`] only).
     pub fn run_stage(&mut self, kind: CoupledStageKind) -> Result<(), Instability> {
+        let weak = matches!(self.cpu.method, Method::Weak(_));
         match kind {
+            CoupledStageKind::FluidGeometry if weak => self.polygon_geometry(),
             CoupledStageKind::FluidGeometry => self.fluid_geometry(),
             CoupledStageKind::Fluid => self.fluid_step(),
-            CoupledStageKind::MomentumExchange => {
+            CoupledStageKind::MomentumExchange if !weak => {
                 self.momentum_exchange();
                 Ok(())
             }
+            CoupledStageKind::SurfaceTraction if weak => self.surface_traction(),
             CoupledStageKind::Solid => self.solid_substeps(),
-            CoupledStageKind::SurfaceTraction => Ok(()),
+            // a stage of the other method's list
+            CoupledStageKind::MomentumExchange | CoupledStageKind::SurfaceTraction => Ok(()),
         }
     }
 
-    /// The walls at the particles' current positions (see the module table).
-    fn fluid_geometry(&mut self) -> Result<(), Instability> {
-        let p = &mut self.cpu.solid.particles;
-        p.position = self.solid.download_vectors(SolidArray::Position);
-        p.velocity = self.solid.download_vectors(SolidArray::Velocity);
+    /// The particles' positions and velocities from the device (with their spins and rotations
+    /// when `turning`: method 1's surface points sit at offsets that turn with their particle,
+    /// [`crate::coupling::surface`]), checked.
+    fn download_particles(&mut self, turning: bool) -> Result<(), Instability> {
+        if turning {
+            let (steps, time) = (self.cpu.solid.step_count, self.cpu.solid.time);
+            self.solid.download_into(&mut self.cpu.solid);
+            (self.cpu.solid.step_count, self.cpu.solid.time) = (steps, time);
+        } else {
+            let p = &mut self.cpu.solid.particles;
+            p.position = self.solid.download_vectors(SolidArray::Position);
+            p.velocity = self.solid.download_vectors(SolidArray::Velocity);
+        }
         if let Some(i) = self.cpu.solid.non_finite() {
             let mut e = self.cpu.solid.instability_at(i);
             (e.step, e.time) = (self.cpu.step_count, self.cpu.time);
             return Err(e);
         }
+        Ok(())
+    }
+
+    /// Method 1's walls: the surface polygons at the particles' current positions, built by the
+    /// CPU mirror (whose populations are the device's, brought back by the last traction stage);
+    /// the populations go up when nodes changed side (see the module table).
+    fn polygon_geometry(&mut self) -> Result<(), Instability> {
+        self.download_particles(true)?;
+        let g = self.cpu.geometry;
+        self.cpu.run_stage(CoupledStageKind::FluidGeometry)?;
+        let h = self.cpu.geometry;
+        if (h.uncovered, h.covered, h.isolated) != (g.uncovered, g.covered, g.isolated) {
+            self.fluid.upload_state(&self.cpu.fluid);
+            self.round_trips += 1;
+        }
+        self.fluid.set_geometry(&self.cpu.fluid);
+        Ok(())
+    }
+
+    /// Method 1's tractions (2.110–2.113) from the device's populations, as the surface
+    /// particles' loads.
+    fn surface_traction(&mut self) -> Result<(), Instability> {
+        self.fluid.download_into(&mut self.cpu.fluid);
+        self.cpu.run_stage(CoupledStageKind::SurfaceTraction)?;
+        self.solid.upload_loads(&self.cpu.solid);
+        Ok(())
+    }
+
+    /// The walls at the particles' current positions (see the module table).
+    fn fluid_geometry(&mut self) -> Result<(), Instability> {
+        self.download_particles(false)?;
         let walls = self.cpu.next_level_set_walls()?;
         if walls.changes_nodes(&self.cpu.fluid.layout) {
             self.fluid.download_into(&mut self.cpu.fluid);

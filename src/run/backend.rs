@@ -271,8 +271,9 @@ enum CoupledOn {
 }
 
 impl CoupledEngine {
-    /// Picks the backend and uploads `solver` to the GPU when it is chosen (method 2:
-    /// `--backend gpu` refuses method 1 with the field, `auto` runs it on the CPU and says why). `cg_tolerance`: the scene's `solid.cg_tolerance`, as for
+    /// Picks the backend and uploads `solver` to the GPU when it is chosen (both coupling
+    /// methods; a scene the GPU backend does not run is refused by `--backend gpu` naming the
+    /// field, and run on the CPU by `auto`, which says why). `cg_tolerance`: the scene's `solid.cg_tolerance`, as for
     /// [`SolidEngine::new`] (checked before anything is uploaded).
     pub fn new(backend: Backend, solver: CoupledSolver, cg_tolerance: Option<f64>) -> anyhow::Result<Self> {
         let (ctx, name) = pick_gpu(backend)?;
