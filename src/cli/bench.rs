@@ -336,12 +336,23 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             }
         }
         let mut gpu_coupled = Vec::new();
+        let mut coupled_scenes: Vec<(&str, String)> = Vec::new();
         if wants("coupled") {
             // the Wall flap (method 2) at its built-in resolution (D = 20 cells) and at D = 30
             let flap = phonation::scene::builtin("wall_flap_conserving").expect("built in");
             let finer = flap.replace("cells = [390, 240]", "cells = [585, 360]").replace("kernel_radius = 1.0 ", "kernel_radius = 1.5 ");
-            println!("GPU coupled step (method 2), the Wall flap, against the CPU in the same process:");
-            for (label, text) in [("wall_flap_conserving, D = 20", flap.to_string()), ("wall_flap_conserving, D = 30", finer)] {
+            coupled_scenes.extend([("wall_flap_conserving, D = 20", flap.to_string()), ("wall_flap_conserving, D = 30", finer)]);
+        }
+        if wants("glottis") {
+            // the coupled 2D glottis (method 1, as the seed): the coarse scene and the seed's lattice
+            coupled_scenes.push(("glottis_2d_coarse", phonation::scene::builtin("glottis_2d_coarse").expect("built in").to_string()));
+            if !quick {
+                coupled_scenes.push(("glottis_2d_c", phonation::scene::builtin("glottis_2d_c").expect("built in").to_string()));
+            }
+        }
+        if !coupled_scenes.is_empty() {
+            println!("GPU coupled step against the CPU in the same process (the Wall flap: method 2; the glottis: method 1):");
+            for (label, text) in coupled_scenes {
                 let sc = phonation::scene::coupled::CoupledScene::parse(&text)?;
                 let steps = if quick { 5 } else { 50 };
                 match phonation::gpu::bench::coupled_speed(label, || sc.build().expect("a built-in scene builds"), steps) {

@@ -182,8 +182,8 @@ pub fn drawing_speed(ctx: Option<&GpuContext>, n: usize, tracers: usize) -> Vec<
     out
 }
 
-/// Method 2's coupled step of one scene on the GPU ([`super::coupled::GpuCoupled`]) and on the
-/// CPU, the same number of steps in one process.
+/// The coupled step of one scene (either method) on the GPU ([`super::coupled::GpuCoupled`])
+/// and on the CPU, the same number of steps in one process.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct CoupledGpuSpeed {
     pub scene: String,
@@ -196,10 +196,11 @@ pub struct CoupledGpuSpeed {
     /// GPU wall seconds per simulated second.
     pub gpu_wall_per_simulated_s: f64,
     pub gpu_stage_shares: Vec<(String, f64)>,
-    /// The coupling's own stages (fluid_geometry + momentum_exchange) as a share of a GPU step
-    /// (the goal: ≤ 25 % at the flap's size on a real GPU).
+    /// The coupling's own stages (fluid_geometry + momentum_exchange or surface_traction) as a
+    /// share of a GPU step (the goal: ≤ 25 % at the flap's size on a real GPU).
     pub gpu_coupling_share: f64,
-    /// GPU steps on which nodes changed side (the populations' round trip).
+    /// GPU steps on which nodes changed side (the populations' round trip, or their upload for
+    /// method 1).
     pub round_trips: u64,
 }
 
@@ -222,7 +223,7 @@ pub fn coupled_speed(scene: &str, build: impl Fn() -> crate::coupling::CoupledSo
         return Err(GpuError::Failed(format!("{scene}: the coupled run went unstable within {steps} steps (cpu ok: {cpu_ok}, gpu ok: {gpu_ok})")));
     }
     let shares: Vec<(String, f64)> = g.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
-    let coupling = shares.iter().filter(|(n, _)| n == "fluid_geometry" || n == "momentum_exchange").map(|(_, s)| s).sum();
+    let coupling = shares.iter().filter(|(n, _)| matches!(n.as_str(), "fluid_geometry" | "momentum_exchange" | "surface_traction")).map(|(_, s)| s).sum();
     Ok(CoupledGpuSpeed {
         scene: scene.into(),
         nodes,
