@@ -820,6 +820,13 @@ fn gpu_tracers_are_advected_and_drawn_on_the_device() {
     // the CPU mirror was not stepped, and no CPU tracers were made for it
     assert_eq!(app.world().get::<FluidSimulation>(e).unwrap().solver.step_count, 0);
     assert!(app.world().get::<phonation::render::tracers::FlowTracers>(e).is_none());
+    // the lines go with their simulation
+    let lines = |app: &mut App| app.world_mut().query::<&phonation::render::gpu_tracers::GpuTracersOf>().iter(app.world()).count();
+    assert_eq!(lines(&mut app), 1);
+    app.world_mut().despawn(e);
+    app.update();
+    app.update();
+    assert_eq!(lines(&mut app), 0);
 }
 
 fn sim_nodes(app: &App, e: Entity) -> [usize; 3] {

@@ -86,19 +86,25 @@ impl Plugin for GpuTracerPlugin {
 
 /// Puts tracers on the device of every GPU-stepped fluid (born as the CPU tracers are,
 /// [`super::tracers::FlowTracers::at_inlet`]) and spawns the line mesh that draws them; shows or
-/// hides the lines with [`DrawSettings::tracers`].
+/// hides the lines with [`DrawSettings::tracers`], and despawns those whose simulation is gone.
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn spawn_gpu_tracers(
     settings: Res<DrawSettings>,
     sims: Query<(Entity, &FluidSimulation, &GpuFluidHandle), Without<GpuTracerHandle>>,
-    mut lines: Query<&mut Visibility, With<GpuTracersOf>>,
+    owners: Query<(), With<GpuTracerHandle>>,
+    mut lines: Query<(Entity, &GpuTracersOf, &mut Visibility)>,
     device: Option<Res<RenderDevice>>,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<TracerLineMaterial>>,
     mut commands: Commands,
 ) {
-    for mut v in &mut lines {
+    for (line, of, mut v) in &mut lines {
+        // the lines of a simulation that is gone (or lost its tracers) go too
+        if !owners.contains(of.0) {
+            commands.entity(line).despawn();
+            continue;
+        }
         *v = if settings.tracers { Visibility::Inherited } else { Visibility::Hidden };
     }
     let Some(device) = device else { return };
