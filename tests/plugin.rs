@@ -561,26 +561,19 @@ fn the_lattice_gas_slice_shows_the_inflow_and_the_cylinder() {
     assert!(gas_plane(&sim, Field::Pressure).is_none() && gas_plane(&sim, Field::Temperature).is_none());
 }
 
-/// A headless app with the renderer (lavapipe in CI) and no window draws the coarse glottis
-/// into an image: the folds' mesh in the fold colour, the tracers, the slice; the PNGs are kept
-/// in the test's target directory.
+/// A headless app with the renderer (lavapipe in CI), no window, the drawing plugins without the
+/// panel plus `extra`, a camera rendering the first simulation into a `w` × `h` image on a dark
+/// background: the app, the image and the background as sRGB bytes.
 #[cfg(feature = "render")]
-#[test]
-fn the_glottis_renders_headless_with_folds_tracers_and_slice() {
+fn headless_render_app<M>(extra: impl bevy::app::Plugins<M>, w: u32, h: u32) -> (App, Handle<Image>, [i32; 3]) {
     use bevy::app::PluginsState;
     use bevy::asset::RenderAssetUsages;
     use bevy::camera::RenderTarget;
     use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat, TextureUsages};
-    use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
     use bevy::window::{ExitCondition, WindowPlugin};
-    use phonation::plugin::CoupledSimulation;
+    use phonation::render::PhonationPlugins;
     use phonation::render::panel::PanelPlugin;
     use phonation::render::view::FrameSimulation;
-    use phonation::render::{DrawSettings, PhonationPlugins};
-    use std::sync::{Arc, Mutex};
-    if !has_gpu() {
-        return;
-    }
     let mut app = App::new();
     app.add_plugins((
         headless_default_plugins(
@@ -590,13 +583,13 @@ fn the_glottis_renders_headless_with_folds_tracers_and_slice() {
                 .disable::<bevy::log::LogPlugin>(),
         ),
         PhonationPlugins.build().disable::<PanelPlugin>(),
-    ));
+    ))
+    .add_plugins(extra);
     while app.plugins_state() == PluginsState::Adding {
         bevy::tasks::tick_global_task_pools_on_main_thread();
     }
     app.finish();
     app.cleanup();
-    let (w, h) = (480u32, 320u32);
     let mut target = Image::new_uninit(
         Extent3d { width: w, height: h, depth_or_array_layers: 1 },
         TextureDimension::D2,
@@ -608,33 +601,53 @@ fn the_glottis_renders_headless_with_folds_tracers_and_slice() {
     let background = Color::srgb(0.08, 0.08, 0.1);
     app.insert_resource(ClearColor(background));
     app.world_mut().spawn((Camera3d::default(), RenderTarget::from(handle.clone()), FrameSimulation));
+    let bg = background.to_srgba();
+    (app, handle, [bg.red, bg.green, bg.blue].map(|c| (c * 255.0).round() as i32))
+}
+
+/// A frame's pixels (RGBA8, sRGB) of the app's image `target`, after three more frames; also
+/// saved as `name` (PNG) in the test's target directory.
+#[cfg(feature = "render")]
+fn capture(app: &mut App, target: &Handle<Image>, name: &str) -> Vec<u8> {
+    use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
+    use std::sync::{Arc, Mutex};
+    for _ in 0..3 {
+        app.update();
+    }
+    let got: Arc<Mutex<Option<Image>>> = Arc::default();
+    let sink = got.clone();
+    app.world_mut().spawn(Screenshot::image(target.clone())).observe(move |c: On<ScreenshotCaptured>| {
+        *sink.lock().unwrap() = Some(c.image.clone());
+    });
+    for _ in 0..30 {
+        app.update();
+        if got.lock().unwrap().is_some() {
+            break;
+        }
+    }
+    let img = got.lock().unwrap().take().expect("a screenshot within 30 frames");
+    img.clone().try_into_dynamic().expect("an RGBA image").to_rgb8().save(std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(name)).unwrap();
+    img.data.expect("pixels")
+}
+
+/// A headless app with the renderer (lavapipe in CI) and no window draws the coarse glottis
+/// into an image: the folds' mesh in the fold colour, the tracers, the slice; the PNGs are kept
+/// in the test's target directory.
+#[cfg(feature = "render")]
+#[test]
+fn the_glottis_renders_headless_with_folds_tracers_and_slice() {
+    use phonation::plugin::CoupledSimulation;
+    use phonation::render::DrawSettings;
+    if !has_gpu() {
+        return;
+    }
+    let (w, h) = (480u32, 320u32);
+    let (mut app, handle, bg) = headless_render_app((), w, h);
     app.world_mut().spawn((DirectionalLight { illuminance: 8000.0, ..default() }, Transform::from_xyz(0.3, 0.5, 1.0).looking_at(Vec3::ZERO, Vec3::Y)));
     let sc = phonation::scene::coupled::CoupledScene::parse(phonation::scene::builtin("glottis_2d_coarse").unwrap()).unwrap();
     app.world_mut().spawn(CoupledSimulation { solver: sc.build().unwrap() });
     let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
-    // a frame's pixels (RGBA8, sRGB)
-    let capture = |app: &mut App, name: &str| -> Vec<u8> {
-        for _ in 0..3 {
-            app.update();
-        }
-        let got: Arc<Mutex<Option<Image>>> = Arc::default();
-        let sink = got.clone();
-        app.world_mut().spawn(Screenshot::image(handle.clone())).observe(move |c: On<ScreenshotCaptured>| {
-            *sink.lock().unwrap() = Some(c.image.clone());
-        });
-        for _ in 0..30 {
-            app.update();
-            if got.lock().unwrap().is_some() {
-                break;
-            }
-        }
-        let img = got.lock().unwrap().take().expect("a screenshot within 30 frames");
-        let dynamic = img.clone().try_into_dynamic().expect("an RGBA image");
-        dynamic.to_rgb8().save(out.join(name)).unwrap();
-        img.data.expect("pixels")
-    };
-    let bg = background.to_srgba();
-    let bg = [bg.red, bg.green, bg.blue].map(|c| (c * 255.0).round() as i32);
+    let capture = |app: &mut App, name: &str| capture(app, &handle, name);
     let share =
         |px: &[u8], f: &dyn Fn(i32, i32, i32) -> bool| px.chunks(4).filter(|p| f(p[0] as i32, p[1] as i32, p[2] as i32)).count() as f64 / (w * h) as f64;
     let not_background = |r: i32, g: i32, b: i32| (r - bg[0]).abs() + (g - bg[1]).abs() + (b - bg[2]).abs() > 40;
@@ -712,74 +725,21 @@ fn the_glottis_renders_headless_with_folds_tracers_and_slice() {
 #[cfg(feature = "render")]
 #[test]
 fn gpu_tracers_are_advected_and_drawn_on_the_device() {
-    use bevy::app::PluginsState;
-    use bevy::asset::RenderAssetUsages;
-    use bevy::camera::RenderTarget;
-    use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat, TextureUsages};
     use bevy::render::renderer::{RenderDevice, RenderQueue};
-    use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
-    use bevy::window::{ExitCondition, WindowPlugin};
     use phonation::plugin::{GpuStepping, PhonationGpuPlugin};
+    use phonation::render::DrawSettings;
     use phonation::render::gpu_tracers::GpuTracerHandle;
-    use phonation::render::panel::PanelPlugin;
-    use phonation::render::view::FrameSimulation;
-    use phonation::render::{DrawSettings, PhonationPlugins};
-    use std::sync::{Arc, Mutex};
     if !has_gpu() {
         return;
     }
-    let mut app = App::new();
-    app.add_plugins((
-        headless_default_plugins(
-            DefaultPlugins
-                .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
-                .set(bevy::render::RenderPlugin { synchronous_pipeline_compilation: true, ..default() })
-                .disable::<bevy::log::LogPlugin>(),
-        ),
-        PhonationPlugins.build().disable::<PanelPlugin>(),
-        PhonationGpuPlugin,
-    ));
-    while app.plugins_state() == PluginsState::Adding {
-        bevy::tasks::tick_global_task_pools_on_main_thread();
-    }
-    app.finish();
-    app.cleanup();
     let (w, h) = (480u32, 240u32);
-    let mut target = Image::new_uninit(
-        Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-        TextureDimension::D2,
-        TextureFormat::Rgba8UnormSrgb,
-        RenderAssetUsages::RENDER_WORLD,
-    );
-    target.texture_descriptor.usage |= TextureUsages::RENDER_ATTACHMENT;
-    let handle = app.world_mut().resource_mut::<Assets<Image>>().add(target);
-    let background = Color::srgb(0.08, 0.08, 0.1);
-    app.insert_resource(ClearColor(background));
+    let (mut app, handle, bg) = headless_render_app(PhonationGpuPlugin, w, h);
     app.insert_resource(SimulationControl { paused: false, steps_per_frame: 8, single_steps: 0 });
     *app.world_mut().resource_mut::<DrawSettings>() = DrawSettings { folds: false, tracers: true, slice: None, tracer_count: 3000 };
-    app.world_mut().spawn((Camera3d::default(), RenderTarget::from(handle.clone()), FrameSimulation));
     let sc = scene();
     let e = app.world_mut().spawn((FluidSimulation::from_scene(&sc), GpuStepping)).id();
     let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
-    let capture = |app: &mut App, name: &str| -> Vec<u8> {
-        for _ in 0..3 {
-            app.update();
-        }
-        let got: Arc<Mutex<Option<Image>>> = Arc::default();
-        let sink = got.clone();
-        app.world_mut().spawn(Screenshot::image(handle.clone())).observe(move |c: On<ScreenshotCaptured>| {
-            *sink.lock().unwrap() = Some(c.image.clone());
-        });
-        for _ in 0..30 {
-            app.update();
-            if got.lock().unwrap().is_some() {
-                break;
-            }
-        }
-        let img = got.lock().unwrap().take().expect("a screenshot within 30 frames");
-        img.clone().try_into_dynamic().expect("an RGBA image").to_rgb8().save(out.join(name)).unwrap();
-        img.data.expect("pixels")
-    };
+    let capture = |app: &mut App, name: &str| capture(app, &handle, name);
     let tracer_positions = |app: &App| {
         let t = app.world().get::<GpuTracerHandle>(e).expect("GPU tracers").tracers.clone();
         let (device, queue) = (app.world().resource::<RenderDevice>().wgpu_device().clone(), app.world().resource::<RenderQueue>().0.clone());
@@ -794,8 +754,6 @@ fn gpu_tracers_are_advected_and_drawn_on_the_device() {
         app.update();
     }
     let later = tracer_positions(&app);
-    let bg = background.to_srgba();
-    let bg = [bg.red, bg.green, bg.blue].map(|c| (c * 255.0).round() as i32);
     let share = |px: &[u8]| {
         px.chunks(4).filter(|p| (p[0] as i32 - bg[0]).abs() + (p[1] as i32 - bg[1]).abs() + (p[2] as i32 - bg[2]).abs() > 40).count() as f64 / (w * h) as f64
     };
