@@ -778,6 +778,10 @@ fn gpu_tracers_are_advected_and_drawn_on_the_device() {
     // the CPU mirror was not stepped, and no CPU tracers were made for it
     assert_eq!(app.world().get::<FluidSimulation>(e).unwrap().solver.step_count, 0);
     assert!(app.world().get::<phonation::render::tracers::FlowTracers>(e).is_none());
+    // no slice of the CPU mirror, which is not stepped
+    app.world_mut().resource_mut::<DrawSettings>().slice = Some(phonation::scene::schema::Field::Speed);
+    app.update();
+    assert!(app.world().get::<phonation::render::slice::SliceView>(e).is_none(), "a GPU-stepped fluid has no CPU slice");
     // the lines go with their simulation
     let lines = |app: &mut App| app.world_mut().query::<&phonation::render::gpu_tracers::GpuTracersOf>().iter(app.world()).count();
     assert_eq!(lines(&mut app), 1);

@@ -3,7 +3,9 @@
 //! symmetric about zero, solids grey — the maps of the PNG snapshots. Drawn for coupled and
 //! fluid simulations (scene units) and for the lattice gas (its coarse-grained field averaged
 //! over Z, in ℓ and steps: speed, density, vorticity). Its range and unit are kept in
-//! [`SliceView`] for the panel's legend.
+//! [`SliceView`] for the panel's legend. A GPU-stepped fluid ([`crate::plugin::GpuStepping`]) has
+//! no slice: its CPU mirror is not stepped, and a compute pass that writes the image from the
+//! device's fields is not built yet.
 
 use super::{DrawSettings, DrawSystems};
 use crate::fluid::FluidSolver;
@@ -109,7 +111,7 @@ fn update_slices(
     steps: Res<StepsThisFrame>,
     mut sims: Query<
         (Entity, Option<&CoupledSimulation>, Option<&FluidSimulation>, Option<&LatticeGasSimulation>, Option<&mut SliceView>),
-        Or<(With<CoupledSimulation>, With<FluidSimulation>, With<LatticeGasSimulation>)>,
+        (Or<(With<CoupledSimulation>, With<FluidSimulation>, With<LatticeGasSimulation>)>, Without<crate::plugin::GpuFluidHandle>),
     >,
     mut quads: Query<(&SliceOf, &mut Visibility)>,
     mut images: ResMut<Assets<Image>>,
