@@ -409,6 +409,47 @@ fn rel_vec(a: &[DVec3], b: &[DVec3]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (*x - *y).length()).fold(0.0, f64::max) / scale
 }
 
+/// A GPU coupled run (its state brought back by `download_into`) against the CPU run of the same
+/// scene from particle positions `x0`: the displacements' largest difference over the largest
+/// displacement, the populations' (`max_relative_difference`), the air's force on body 0, and
+/// the nodes each side uncovered and covered.
+struct CoupledParity {
+    du: f64,
+    df: f64,
+    fc: DVec3,
+    fg: DVec3,
+    umax: f64,
+    cpu_nodes: (usize, usize),
+    gpu_nodes: (usize, usize),
+}
+
+impl CoupledParity {
+    fn of(cpu: &phonation::coupling::CoupledSolver, gpu: &phonation::gpu::coupled::GpuCoupled, x0: &[DVec3]) -> Self {
+        let g = &gpu.cpu;
+        let (u_c, u_g) = (displacements(&cpu.solid.particles.position, x0), displacements(&g.solid.particles.position, x0));
+        CoupledParity {
+            du: rel_vec(&u_g, &u_c),
+            df: gpu.fluid.max_relative_difference(&cpu.fluid),
+            fc: cpu.forces.total[0],
+            fg: g.forces.total[0],
+            umax: u_c.iter().map(|u| u.length()).fold(0.0, f64::max),
+            cpu_nodes: (cpu.geometry.uncovered, cpu.geometry.covered),
+            gpu_nodes: (g.geometry.uncovered, g.geometry.covered),
+        }
+    }
+
+    /// The same nodes changed side (some did), and displacements, populations and force within
+    /// `bound` of their scale.
+    fn assert_within(&self, bound: f64) {
+        let (c, g) = (self.cpu_nodes, self.gpu_nodes);
+        assert!(c.0 > 0 && c.1 > 0, "the bodies must uncover and cover nodes");
+        assert_eq!(g, c, "nodes uncovered / covered, GPU vs CPU");
+        assert!(self.du < bound, "displacement {:e}", self.du);
+        assert!(self.df < bound, "populations {:e}", self.df);
+        assert!((self.fg - self.fc).length() < bound * self.fc.length(), "force {:?} vs {:?}", self.fg, self.fc);
+    }
+}
+
 fn rel_mat(a: &[DMat3], b: &[DMat3]) -> f64 {
     let norm = |m: &DMat3| m.to_cols_array().iter().map(|x| x.abs()).fold(0.0, f64::max);
     let scale = b.iter().map(norm).fold(0.0, f64::max).max(1e-300);
@@ -1088,19 +1129,18 @@ fn coupled_steps_on_the_gpu_match_the_cpu_over_200_steps() {
     gpu.run(steps).unwrap();
     gpu.download_into();
     let g = &gpu.cpu;
-    let (u_c, u_g) = (displacements(&cpu.solid.particles.position, &x0), displacements(&g.solid.particles.position, &x0));
-    let du = rel_vec(&u_g, &u_c);
+    let p = CoupledParity::of(&cpu, &gpu, &x0);
     let dv = rel_vec(&g.solid.particles.velocity, &cpu.solid.particles.velocity);
-    let df = gpu.fluid.max_relative_difference(&cpu.fluid);
-    let (fc, fg) = (cpu.forces.total[0], g.forces.total[0]);
-    let umax = u_c.iter().map(|u| u.length()).fold(0.0, f64::max);
     eprintln!(
-        "coupled, {steps} steps: largest displacement {umax:.3e} cm, displacement difference {du:.2e}, velocity {dv:.2e} (the solid alone: {dv_alone:.2e}), populations {df:.2e}; \
-         force on the flap {fc:?} (CPU) vs {fg:?} (GPU); nodes uncovered {} / covered {} (CPU) vs {} / {} (GPU), {} population round trips, {} new boundary tables; shares {:?}",
-        cpu.geometry.uncovered,
-        cpu.geometry.covered,
-        g.geometry.uncovered,
-        g.geometry.covered,
+        "coupled, {steps} steps: largest displacement {:.3e} cm, displacement difference {:.2e}, velocity {dv:.2e} (the solid alone: {dv_alone:.2e}), populations {:.2e}; \
+         force on the flap {:?} (CPU) vs {:?} (GPU); nodes uncovered / covered {:?} (CPU) vs {:?} (GPU), {} population round trips, {} new boundary tables; shares {:?}",
+        p.umax,
+        p.du,
+        p.df,
+        p.fc,
+        p.fg,
+        p.cpu_nodes,
+        p.gpu_nodes,
         gpu.round_trips,
         gpu.fluid.geometry_rebinds,
         gpu.stage_shares()
@@ -1109,12 +1149,9 @@ fn coupled_steps_on_the_gpu_match_the_cpu_over_200_steps() {
     // thin-wall taps appearing or going: measured 73 of the 200 steps); on the other steps they
     // are rewritten in place
     assert!(gpu.fluid.geometry_rebinds > 0 && gpu.fluid.geometry_rebinds < steps / 2, "{} rebinds", gpu.fluid.geometry_rebinds);
-    assert!(cpu.geometry.uncovered > 0 && cpu.geometry.covered > 0, "the flap must uncover and cover nodes");
-    assert_eq!((g.geometry.uncovered, g.geometry.covered), (cpu.geometry.uncovered, cpu.geometry.covered));
+    p.assert_within(1e-4);
     assert!(gpu.round_trips > 0);
-    assert!(du < 1e-4 && df < 1e-4, "displacement {du:e}, populations {df:e}");
     assert!(dv_alone < 1e-2 && dv < 3.0 * dv_alone, "velocity {dv:e}, the solid alone {dv_alone:e}");
-    assert!((fg - fc).length() < 1e-4 * fc.length(), "force {fg:?} vs {fc:?}");
     assert_eq!(gpu.step_count(), steps);
     // the exchange's run sums, kept on the GPU path as on the CPU: each against the sum of its
     // terms' magnitudes, held to the populations' and forces' bound (1e-4 of their scale)
@@ -1215,34 +1252,31 @@ fn a_towed_body_on_the_gpu_matches_the_cpu() {
     gpu.download_into();
     let g = &gpu.cpu;
     let travelled = (cpu.solid.particles.position[0] - x0[0]).length();
-    let dx = rel_vec(&displacements(&g.solid.particles.position, &x0), &displacements(&cpu.solid.particles.position, &x0));
     // the disc's particles: where the motion puts them, as the CPU rounds them
     let disc = (0..x0.len()).filter(|&i| cpu.solid.particles.body[i] == 0);
     let dx_disc = disc.map(|i| (g.solid.particles.position[i] - cpu.solid.particles.position[i]).length()).fold(0.0, f64::max) / travelled;
-    let df = gpu.fluid.max_relative_difference(&cpu.fluid);
-    let (fc, fg) = (cpu.forces.total[0], g.forces.total[0]);
+    let p = CoupledParity::of(&cpu, &gpu, &x0);
     eprintln!(
-        "towed disc, {steps} steps: travelled {travelled:.3e} cm ({:.2} cells), displacement difference {dx:.2e} (the disc's {dx_disc:.2e}), populations {df:.2e}, force {fc:?} (CPU) vs {fg:?} (GPU); nodes uncovered {} / covered {} (CPU) vs {} / {} (GPU)",
+        "towed disc, {steps} steps: travelled {travelled:.3e} cm ({:.2} cells), displacement difference {:.2e} (the disc's {dx_disc:.2e}), populations {:.2e}, force {:?} (CPU) vs {:?} (GPU); nodes uncovered / covered {:?} (CPU) vs {:?} (GPU)",
         travelled / 0.05,
-        cpu.geometry.uncovered,
-        cpu.geometry.covered,
-        g.geometry.uncovered,
-        g.geometry.covered
+        p.du,
+        p.df,
+        p.fc,
+        p.fg,
+        p.cpu_nodes,
+        p.gpu_nodes
     );
     assert!(travelled > 0.05, "the disc must cross a cell ({travelled} cm)");
-    assert!(cpu.geometry.uncovered > 0 && cpu.geometry.covered > 0, "the disc must uncover and cover nodes");
-    assert_eq!((g.geometry.uncovered, g.geometry.covered), (cpu.geometry.uncovered, cpu.geometry.covered));
     assert!(dx_disc < 1e-9, "the disc's particles {dx_disc:e}");
-    assert!(dx < 1e-4, "displacement {dx:e}");
-    assert!(df < 1e-4, "populations {df:e}");
-    assert!((fg - fc).length() < 1e-4 * fc.length(), "force {fg:?} vs {fc:?}");
+    p.assert_within(1e-4);
     assert_eq!(gpu.step_count(), steps);
 }
 
 /// `phonation run` of a method-2 coupled scene with `--backend gpu`: the run layer's
 /// `CoupledEngine` steps `GpuCoupled`, writes the same `coupling.csv` rows as the CPU (each body's
 /// force and mean displacement, within the coupled parity bounds above), says which backend ran
-/// it with the stage shares, and `--backend gpu` refuses a method-1 scene naming the field.
+/// it with the stage shares and carries the exchange's run sums; a method-1 scene runs on the GPU
+/// backend too.
 #[test]
 fn a_coupled_scene_runs_on_the_gpu_backend_with_the_cpus_outputs() {
     use phonation::run::coupled::run_coupled_scene;
@@ -1314,26 +1348,21 @@ fn weak_coupled_steps_on_the_gpu_match_the_cpu() {
     cpu.run(steps).unwrap();
     gpu.run(steps).unwrap();
     gpu.download_into();
-    let g = &gpu.cpu;
-    let (u_c, u_g) = (displacements(&cpu.solid.particles.position, &x0), displacements(&g.solid.particles.position, &x0));
-    let du = rel_vec(&u_g, &u_c);
-    let df = gpu.fluid.max_relative_difference(&cpu.fluid);
-    let (fc, fg) = (cpu.forces.total[0], g.forces.total[0]);
-    let umax = u_c.iter().map(|u| u.length()).fold(0.0, f64::max);
+    let p = CoupledParity::of(&cpu, &gpu, &x0);
     eprintln!(
-        "method 1, {steps} steps: largest displacement {umax:.3e} cm, displacement difference {du:.2e}, populations {df:.2e}; force on the flap {fc:?} (CPU) vs {fg:?} (GPU); \
-         nodes uncovered {} / covered {} (CPU) vs {} / {} (GPU), {} uploads of the populations; shares {:?}",
-        cpu.geometry.uncovered,
-        cpu.geometry.covered,
-        g.geometry.uncovered,
-        g.geometry.covered,
+        "method 1, {steps} steps: largest displacement {:.3e} cm, displacement difference {:.2e}, populations {:.2e}; force on the flap {:?} (CPU) vs {:?} (GPU); \
+         nodes uncovered / covered {:?} (CPU) vs {:?} (GPU), {} uploads of the populations; shares {:?}",
+        p.umax,
+        p.du,
+        p.df,
+        p.fc,
+        p.fg,
+        p.cpu_nodes,
+        p.gpu_nodes,
         gpu.round_trips,
         gpu.stage_shares()
     );
-    assert!(cpu.geometry.uncovered > 0 && cpu.geometry.covered > 0, "the flap must uncover and cover nodes");
-    assert_eq!((g.geometry.uncovered, g.geometry.covered), (cpu.geometry.uncovered, cpu.geometry.covered));
-    assert!(du < 1e-4 && df < 1e-4, "displacement {du:e}, populations {df:e}");
-    assert!((fg - fc).length() < 1e-4 * fc.length(), "force {fg:?} vs {fc:?}");
+    p.assert_within(1e-4);
     assert_eq!(gpu.step_count(), steps);
 }
 

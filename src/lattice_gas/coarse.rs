@@ -28,7 +28,12 @@ impl CoarseField {
 
     /// The mean of a velocity component over the blocks of an X–Y position, over Z.
     pub fn z_mean(&self, x: usize, y: usize, axis: usize) -> Option<f64> {
-        let vals: Vec<f64> = (0..self.dims[2]).filter_map(|z| self.velocity[self.index(x, y, z)].map(|v| v[axis])).collect();
+        self.z_mean_by(x, y, |i| self.velocity[i].map(|v| v[axis]))
+    }
+
+    /// The mean over Z of `value(block index)` at an X–Y position, over the blocks that have one.
+    pub fn z_mean_by(&self, x: usize, y: usize, value: impl Fn(usize) -> Option<f64>) -> Option<f64> {
+        let vals: Vec<f64> = (0..self.dims[2]).filter_map(|z| value(self.index(x, y, z))).collect();
         (!vals.is_empty()).then(|| vals.iter().sum::<f64>() / vals.len() as f64)
     }
 }

@@ -60,14 +60,10 @@ pub enum CoarseMap {
 /// The blocks' Z-mean of `what`, X fastest, rows from Y = 0 (blocks without fluid: `None`).
 pub fn z_mean_slice(f: &CoarseField, what: CoarseMap) -> Slice {
     let (nx, ny) = (f.dims[0], f.dims[1]);
-    let density = |x: usize, y: usize| {
-        let vals: Vec<f64> = (0..f.dims[2]).filter_map(|z| f.density[f.index(x, y, z)]).collect();
-        (!vals.is_empty()).then(|| vals.iter().sum::<f64>() / vals.len() as f64)
-    };
     let pitch = 2.0 * f.block as f64;
     let value = |x: usize, y: usize| match what {
         CoarseMap::Velocity(a) => f.z_mean(x, y, a),
-        CoarseMap::Density => density(x, y),
+        CoarseMap::Density => f.z_mean_by(x, y, |i| f.density[i]),
         CoarseMap::Speed => match (f.z_mean(x, y, 0), f.z_mean(x, y, 1)) {
             (Some(u), Some(v)) => Some((u * u + v * v).sqrt()),
             _ => None,

@@ -122,7 +122,11 @@ fn update_slices(
     let mut shown = Vec::new();
     if let Some(field) = settings.slice {
         for (e, coupled, fluid, gas, view) in &mut sims {
-            let changed = view.as_ref().is_none_or(|v| v.field != field);
+            // the image of this field is drawn and nothing moved: nothing to compute
+            if steps.0 == 0 && view.as_ref().is_some_and(|v| v.field == field) {
+                shown.push(e);
+                continue;
+            }
             let plane = match (coupled, fluid, gas) {
                 (Some(c), _, _) => Some(fluid_plane(&c.solver.fluid, &c.solver.units, field)),
                 (None, Some(f), _) => f.units.as_ref().map(|u| fluid_plane(&f.solver, u, field)),
@@ -132,9 +136,6 @@ fn update_slices(
             // a field the simulation does not have: no slice (the panel says why)
             let Some(plane) = plane else { continue };
             shown.push(e);
-            if steps.0 == 0 && !changed {
-                continue;
-            }
             let (data, range) = pixels(&plane.slice, field);
             match view {
                 Some(mut v) => {
