@@ -45,6 +45,60 @@ pub struct FaceHalo {
     pub source: usize,
 }
 
+/// `len` consecutive periodic halo nodes from padded index `dst`, the images of the interior
+/// nodes from `src`, all read by the same advection stencils.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PeriodicRun {
+    pub dst: usize,
+    pub src: usize,
+    pub len: usize,
+    pub reach: HaloReach,
+}
+
+/// Which advection stencils read a halo node. The third-order upwind difference of a fluid node
+/// ([`super::upwind`]) reads, along each axis a separately, the nodes at +s, −s and −2s for the
+/// velocities of sign s = sign c_a (the one-sided stencils of [`super::thin_wall`] read a subset
+/// of these), so a halo node outside the interior along two or more axes is read by no stencil,
+/// and one outside along one axis only by the velocities whose component along it reaches it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HaloReach {
+    /// Outside the interior along more than one axis (an edge or a corner of the halo).
+    Unread,
+    /// Outside along `axis` only: `depth` −1, −2 below the interior (coordinate −1, −2) or +1,
+    /// +2 above it (coordinate n, n + 1).
+    Axis { axis: usize, depth: i8 },
+}
+
+impl HaloReach {
+    /// The reach of the halo node at interior coordinates `x` (outside the interior).
+    pub fn of(grid: &Grid, x: [i64; 3]) -> Self {
+        let mut outside = (0..3).filter(|&a| x[a] < 0 || x[a] >= grid.n[a] as i64);
+        match (outside.next(), outside.next()) {
+            (Some(a), None) => {
+                let n = grid.n[a] as i64;
+                let depth = if x[a] < 0 { x[a] } else { x[a] - n + 1 };
+                HaloReach::Axis { axis: a, depth: depth as i8 }
+            }
+            _ => HaloReach::Unread,
+        }
+    }
+
+    /// Whether the advection stencil of velocity `c` reads the node: at depth ±1 every velocity
+    /// with c_a ≠ 0 (its −s or +s tap), at −2 those with c_a > 0 and at +2 those with c_a < 0
+    /// (the −2s tap).
+    pub fn read_by(&self, c: [i32; 3]) -> bool {
+        match *self {
+            HaloReach::Unread => false,
+            HaloReach::Axis { axis, depth } => match depth {
+                -1 | 1 => c[axis] != 0,
+                -2 => c[axis] > 0,
+                2 => c[axis] < 0,
+                d => unreachable!("the halo is {HALO} nodes deep, not {d}"),
+            },
+        }
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct Layout {
     pub grid: Grid,
@@ -54,8 +108,8 @@ pub struct Layout {
     pub kind: Vec<NodeKind>,
     pub ghosts: Vec<Ghost>,
     pub face_halos: Vec<FaceHalo>,
-    /// Periodic copies as runs (destination, source, length) of consecutive nodes along x.
-    pub periodic: Vec<(usize, usize, usize)>,
+    /// Periodic copies as runs of consecutive nodes along x that the same stencils read.
+    pub periodic: Vec<PeriodicRun>,
     pub fluid_count: usize,
     /// One-sided advection stencils of the fluid nodes next to walls thinner than the upwind
     /// stencil ([`super::thin_wall`]); empty for geometries without such walls.
@@ -67,6 +121,12 @@ pub struct Layout {
 pub const PINCH: f64 = 0.5;
 
 impl Layout {
+    /// Whether some node is fluid in one of this layout and `other` (of the same lattice) and
+    /// not in the other.
+    pub fn changes_fluid_nodes(&self, other: &Layout) -> bool {
+        self.kind.iter().zip(&other.kind).any(|(a, b)| (*a == NodeKind::Fluid) != (*b == NodeKind::Fluid))
+    }
+
     pub fn new(grid: Grid, boundaries: Boundaries, user_obstacles: &[Obstacle]) -> Self {
         Self::build(grid, boundaries, user_obstacles, None)
     }
@@ -287,24 +347,26 @@ impl Layout {
             ghosts.sort_by_key(|g| g.node);
             face_halos.extend(p.face_halos.iter().filter(|h| outside(h.node)).cloned());
             face_halos.sort_by_key(|h| h.node);
-            periodic.extend(p.periodic.iter().flat_map(|&(d, s, len)| (0..len).map(move |k| (d + k, s + k))).filter(|&(d, _)| outside(d)));
+            periodic.extend(p.periodic.iter().flat_map(|r| (0..r.len).map(move |k| (r.dst + k, r.src + k))).filter(|&(d, _)| outside(d)));
             periodic.sort_unstable();
         }
         debug_assert!(HALO >= 2);
-        // Merge consecutive pairs along a row into runs.
+        // Merge consecutive pairs along a row that the same stencils read into runs.
         let px = grid.padded[0];
-        let mut runs: Vec<(usize, usize, usize)> = Vec::new();
+        let mut runs: Vec<PeriodicRun> = Vec::new();
         for (d, s) in periodic {
+            let reach = HaloReach::of(&grid, grid.coords(d));
             if let Some(last) = runs.last_mut()
-                && d == last.0 + last.2
-                && s == last.1 + last.2
-                && d / px == last.0 / px
-                && s / px == last.1 / px
+                && d == last.dst + last.len
+                && s == last.src + last.len
+                && d / px == last.dst / px
+                && s / px == last.src / px
+                && reach == last.reach
             {
-                last.2 += 1;
+                last.len += 1;
                 continue;
             }
-            runs.push((d, s, 1));
+            runs.push(PeriodicRun { dst: d, src: s, len: 1, reach });
         }
         let periodic = runs;
         let fluid_count = kind.iter().filter(|k| **k == NodeKind::Fluid).count();

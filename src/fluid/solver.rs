@@ -119,6 +119,20 @@ impl FluidSolver {
         self.h.copy_from_slice(&self.f);
     }
 
+    /// Sets every value of f, f¹, fⁿ⁺¹, h and the macroscopic fields at the periodic halo nodes
+    /// to NaN: a stage that reads one of them before the boundary fill has written it spreads
+    /// the NaN.
+    #[cfg(test)]
+    pub(crate) fn poison_periodic_halos(&mut self) {
+        let nan = vec![f64::NAN; self.pop.nv];
+        for node in (0..self.layout.grid.len()).filter(|&n| self.layout.kind[n] == NodeKind::Periodic) {
+            for a in [&mut self.f, &mut self.f1, &mut self.f2, &mut self.h] {
+                self.pop.scatter(a, node, &nan);
+            }
+            self.macro_layout.scatter(&mut self.mac, node, &[f64::NAN; MACRO_FIELDS]);
+        }
+    }
+
     /// Populations of one node of fⁿ.
     pub fn node_populations(&self, node: usize) -> Vec<f64> {
         let mut out = vec![0.0; self.pop.nv];

@@ -4,6 +4,8 @@
 //! Inner loops run along x over contiguous memory (vectorisable), and a row is one contiguous
 //! chunk, so rows are updated in parallel without sharing.
 
+use super::layout::PeriodicRun;
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RowBlocked {
     /// Padded row length p_x.
@@ -61,10 +63,11 @@ impl RowBlocked {
     }
 }
 
-/// Copies runs (destination, source, length) of nodes in parallel. The destinations of the runs
-/// must be disjoint from each other and from every source (true of periodic halo copies, whose
+/// Copies, for every periodic run, the values `values(run)` (indices below `layout.nv`) of its
+/// source nodes onto its destination nodes, runs in parallel. The destinations of the runs must
+/// be disjoint from each other and from every source (true of periodic halo copies, whose
 /// sources are interior nodes and whose destinations are halo nodes).
-pub fn copy_runs_parallel(layout: RowBlocked, a: &mut [f64], runs: &[(usize, usize, usize)]) {
+pub fn copy_runs_parallel<'v>(layout: RowBlocked, a: &mut [f64], runs: &[PeriodicRun], values: impl Fn(&PeriodicRun) -> &'v [usize] + Sync) {
     use rayon::prelude::*;
     struct Ptr(*mut f64);
     // SAFETY: every task writes only its own run's destination values and reads only sources,
@@ -73,10 +76,12 @@ pub fn copy_runs_parallel(layout: RowBlocked, a: &mut [f64], runs: &[(usize, usi
     unsafe impl Send for Ptr {}
     let len = a.len();
     let p = Ptr(a.as_mut_ptr());
-    runs.par_iter().with_min_len(64).for_each(|&(dst, src, n)| {
+    runs.par_iter().with_min_len(64).for_each(|run| {
         let p = &p;
-        let (bs, bd) = (layout.index(src, 0), layout.index(dst, 0));
-        for v in 0..layout.nv {
+        let n = run.len;
+        let (bs, bd) = (layout.index(run.src, 0), layout.index(run.dst, 0));
+        for &v in values(run) {
+            assert!(v < layout.nv);
             let (s0, d0) = (bs + v * layout.px, bd + v * layout.px);
             assert!(s0 + n <= len && d0 + n <= len);
             // SAFETY: in bounds (checked above); source and destination ranges do not overlap.

@@ -71,7 +71,7 @@ impl Tables {
             }
             faces.push(e);
         }
-        let periodic = s.layout.periodic.iter().flat_map(|&(d, src, len)| (0..len).map(move |k| [(d + k) as u32, (src + k) as u32])).collect();
+        let periodic = s.layout.periodic.iter().flat_map(|r| (0..r.len).map(move |k| [(r.dst + k) as u32, (r.src + k) as u32])).collect();
         let (thin_taps, thin_ranges) = thin_wall::entries(&s.layout);
         Tables { kind, ghosts, images, faces, periodic, thin_taps, thin_ranges }
     }
