@@ -1364,6 +1364,37 @@ fn weak_coupled_steps_on_the_gpu_match_the_cpu() {
     );
     p.assert_within(1e-4);
     assert_eq!(gpu.step_count(), steps);
+    // the traction brought back the nodes it samples, not the lattice
+    let per_step = gpu.traction_nodes as f64 / steps as f64;
+    eprintln!("traction: {per_step:.0} of {} nodes brought back per step", gpu.fluid.n_nodes);
+    assert!(per_step > 0.0 && per_step < 0.25 * gpu.fluid.n_nodes as f64, "{per_step}");
+}
+
+/// The `gather` kernel brings back the populations of the listed nodes exactly as the whole
+/// download does, and touches no other node of the CPU solver.
+#[test]
+fn gathered_populations_are_the_downloaded_ones() {
+    let Some(ctx) = context() else { return };
+    for dim3 in [false, true] {
+        let cpu = scene(dim3, GasModel::Diatomic);
+        let mut gpu = GpuFluid::from_solver(&ctx, &cpu).unwrap();
+        gpu.run(3);
+        let mut whole = scene(dim3, GasModel::Diatomic);
+        gpu.download_into(&mut whole);
+        let n = cpu.layout.grid.len();
+        // every 7th node downwards, then a run that lists some of them again, and the last node
+        let nodes: Vec<usize> = (0..n).step_by(7).rev().chain(40..90).chain([n - 1]).collect();
+        let mut some = scene(dim3, GasModel::Diatomic);
+        let before = some.f.clone();
+        gpu.download_nodes_into(&nodes, &mut some);
+        // twice, so that the second call reuses the kernel's buffers
+        gpu.download_nodes_into(&nodes[..10], &mut some);
+        for node in 0..n {
+            let expected = if nodes.contains(&node) { whole.node_populations(node) } else { (0..cpu.pop.nv).map(|v| before[cpu.pop.index(node, v)]).collect() };
+            assert_eq!(some.node_populations(node), expected, "{} node {node}", if dim3 { "3D" } else { "2D" });
+        }
+        assert_eq!((some.step_count, some.time), (whole.step_count, whole.time));
+    }
 }
 
 /// No setting silently ignored, on the GPU backends: every number and flag of a small scene of

@@ -70,7 +70,7 @@ impl LevelSetWalls {
     /// Whether installing these walls in a fluid of layout `current` makes nodes enter or leave
     /// the fluid (their populations, and their fluid neighbours', are then read and written).
     pub fn changes_nodes(&self, current: &Layout) -> bool {
-        self.layout.kind.iter().zip(&current.kind).any(|(a, b)| (*a == NodeKind::Fluid) != (*b == NodeKind::Fluid))
+        self.layout.changes_fluid_nodes(current)
     }
 }
 

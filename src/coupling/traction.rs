@@ -70,73 +70,122 @@ pub fn surface_forces<'a>(
     piece_length: f64,
 ) -> SurfaceForces {
     let mut out = SurfaceForces { force: vec![DVec3::ZERO; p.len()], ..Default::default() };
-    let to_lattice = |x: DVec3| DVec3::new(units.position_to_lattice(x.x), units.position_to_lattice(x.y), 0.0);
     let p0 = units.theta0;
     let dim = fluid.layout.grid.dim as f64;
     let (tau, a) = (fluid.params.tau, fluid.params.a);
     // Lattice force per unit depth → physical: pressure unit × Δx.
     let force_unit = units.pressure_unit() * units.dx;
     for s in surfaces {
-        let x: Vec<DVec3> = s.points(p).into_iter().map(to_lattice).collect();
+        let x = lattice_points(s, p, units);
         let v: Vec<DVec3> = s.velocities(p).into_iter().map(|v| v / units.velocity).collect();
-        let n = x.len();
         let mut total = DVec3::ZERO;
-        for k in 0..n {
-            let (ka, kb) = (k, (k + 1) % n);
-            let e = x[kb] - x[ka];
-            let len = e.length();
-            if len <= 0.0 {
+        for piece in edge_pieces(&x, piece_length) {
+            let Piece { ka, kb, t, centre: c, normal, area, edge: e, length: len } = piece;
+            out.pieces += 1;
+            let vw = v[ka].lerp(v[kb], t);
+            let sample = |d: f64| fluid.sample((c + d * normal).to_array());
+            let (Some(m1), Some(m2)) = (sample(SAMPLE_DISTANCES[0]), sample(SAMPLE_DISTANCES[1])) else {
+                out.pieces_without_fluid += 1;
                 continue;
-            }
-            let normal = DVec3::new(e.y, -e.x, 0.0) / len;
-            let pieces = (len / piece_length).ceil().max(1.0) as usize;
-            let area = len / pieces as f64;
-            for j in 0..pieces {
-                out.pieces += 1;
-                let t = (j as f64 + 0.5) / pieces as f64;
-                let c = x[ka] + t * e;
-                let vw = v[ka].lerp(v[kb], t);
-                let sample = |d: f64| fluid.sample((c + d * normal).to_array());
-                let (Some(m1), Some(m2)) = (sample(1.0), sample(2.0)) else {
-                    out.pieces_without_fluid += 1;
-                    continue;
-                };
-                let pw = 2.0 * m1.pressure() - m2.pressure() - p0;
-                let (u1, u2) = (DVec3::from_array(m1.u), DVec3::from_array(m2.u));
-                let traction = match model {
-                    TractionModel::SeedPressure => {
-                        let vn = (u1 - vw).dot(normal);
-                        -(pw + 0.5 * m1.rho * vn * vn) * normal
-                    }
-                    TractionModel::PressureAndShear => {
-                        // ∇u at the wall: along the surface, the wall's own derivative ∂v_w/∂s;
-                        // along the normal, the sampled ∂u/∂n for the tangential part and, for
-                        // the normal part, continuity at the wall (∂u_n/∂n = −∂v_w/∂s·T): the
-                        // one-sided estimate of ∂u_n/∂n is noise where the flow decelerates
-                        // within a cell or two (a stagnation point).
-                        let sampled = (4.0 * (u1 - vw) - (u2 - vw)) * 0.5;
-                        let dvds = (v[kb] - v[ka]) / len;
-                        let tangent = e / len;
-                        let dudn = sampled - sampled.dot(normal) * normal - dvds.dot(tangent) * normal;
-                        let g = DMat3::from_cols(dudn * normal.x + dvds * tangent.x, dudn * normal.y + dvds * tangent.y, DVec3::ZERO);
-                        let div = g.x_axis.x + g.y_axis.y;
-                        let rho_w = 2.0 * m1.rho - m2.rho;
-                        let theta_w = 2.0 * m1.theta - m2.theta;
-                        let mu = rho_w * theta_w * (tau - a);
-                        // σ' = μ (∇u + ∇uᵀ − (2/D) ∇·u I): the BGK gas has no bulk viscosity.
-                        let viscous = mu * ((g + g.transpose()) * normal - (2.0 / dim) * div * normal);
-                        -pw * normal + viscous
-                    }
-                };
-                let f = area * traction * force_unit;
-                total += f;
-                out.force[s.particles[ka]] += (1.0 - t) * f;
-                out.force[s.particles[kb]] += t * f;
-            }
+            };
+            let pw = 2.0 * m1.pressure() - m2.pressure() - p0;
+            let (u1, u2) = (DVec3::from_array(m1.u), DVec3::from_array(m2.u));
+            let traction = match model {
+                TractionModel::SeedPressure => {
+                    let vn = (u1 - vw).dot(normal);
+                    -(pw + 0.5 * m1.rho * vn * vn) * normal
+                }
+                TractionModel::PressureAndShear => {
+                    // ∇u at the wall: along the surface, the wall's own derivative ∂v_w/∂s;
+                    // along the normal, the sampled ∂u/∂n for the tangential part and, for
+                    // the normal part, continuity at the wall (∂u_n/∂n = −∂v_w/∂s·T): the
+                    // one-sided estimate of ∂u_n/∂n is noise where the flow decelerates
+                    // within a cell or two (a stagnation point).
+                    let sampled = (4.0 * (u1 - vw) - (u2 - vw)) * 0.5;
+                    let dvds = (v[kb] - v[ka]) / len;
+                    let tangent = e / len;
+                    let dudn = sampled - sampled.dot(normal) * normal - dvds.dot(tangent) * normal;
+                    let g = DMat3::from_cols(dudn * normal.x + dvds * tangent.x, dudn * normal.y + dvds * tangent.y, DVec3::ZERO);
+                    let div = g.x_axis.x + g.y_axis.y;
+                    let rho_w = 2.0 * m1.rho - m2.rho;
+                    let theta_w = 2.0 * m1.theta - m2.theta;
+                    let mu = rho_w * theta_w * (tau - a);
+                    // σ' = μ (∇u + ∇uᵀ − (2/D) ∇·u I): the BGK gas has no bulk viscosity.
+                    let viscous = mu * ((g + g.transpose()) * normal - (2.0 / dim) * div * normal);
+                    -pw * normal + viscous
+                }
+            };
+            let f = area * traction * force_unit;
+            total += f;
+            out.force[s.particles[ka]] += (1.0 - t) * f;
+            out.force[s.particles[kb]] += t * f;
         }
         out.total.push(total);
     }
     out
+}
+
+/// The surface points of `s` in lattice coordinates.
+fn lattice_points(s: &BodySurface, p: &Particles, units: &Units) -> Vec<DVec3> {
+    s.points(p).into_iter().map(|x| DVec3::new(units.position_to_lattice(x.x), units.position_to_lattice(x.y), 0.0)).collect()
+}
+
+/// Where along a piece's outward normal the air is sampled (lattice cells from the wall).
+const SAMPLE_DISTANCES: [f64; 2] = [1.0, 2.0];
+
+/// A piece of a surface edge (lattice units): the edge runs from surface point `ka` to `kb`
+/// (`edge` = x_kb − x_ka, of `length`), the piece's centre sits at `t` along it.
+struct Piece {
+    ka: usize,
+    kb: usize,
+    t: f64,
+    centre: DVec3,
+    normal: DVec3,
+    /// The piece's length (its area per unit depth).
+    area: f64,
+    edge: DVec3,
+    length: f64,
+}
+
+/// The pieces of the closed polygon `x` (lattice coordinates, counter-clockwise): each edge
+/// cut into equal pieces no longer than `piece_length`; edges of zero length have none.
+fn edge_pieces(x: &[DVec3], piece_length: f64) -> impl Iterator<Item = Piece> + '_ {
+    let n = x.len();
+    (0..n).flat_map(move |ka| {
+        let kb = (ka + 1) % n;
+        let edge = x[kb] - x[ka];
+        let length = edge.length();
+        let pieces = if length > 0.0 { (length / piece_length).ceil().max(1.0) as usize } else { 0 };
+        let normal = if length > 0.0 { DVec3::new(edge.y, -edge.x, 0.0) / length } else { DVec3::ZERO };
+        (0..pieces).map(move |j| {
+            let t = (j as f64 + 0.5) / pieces as f64;
+            Piece { ka, kb, t, centre: x[ka] + t * edge, normal, area: length / pieces as f64, edge, length }
+        })
+    })
+}
+
+/// The fluid nodes whose populations [`surface_forces`] reads with the same arguments: the
+/// interpolation stencils of its samples along every piece's normal (ascending, each once).
+/// A backend that holds the populations elsewhere (the GPU) brings back only these.
+pub fn sampled_nodes<'a>(
+    fluid: &FluidSolver,
+    units: &Units,
+    surfaces: impl IntoIterator<Item = &'a BodySurface>,
+    p: &Particles,
+    piece_length: f64,
+) -> Vec<usize> {
+    let mut nodes = Vec::new();
+    for s in surfaces {
+        for piece in edge_pieces(&lattice_points(s, p, units), piece_length) {
+            for d in SAMPLE_DISTANCES {
+                let stencil = fluid.sample_stencil((piece.centre + d * piece.normal).to_array());
+                nodes.extend(stencil.into_iter().flatten().map(|(node, _)| node));
+            }
+        }
+    }
+    nodes.sort_unstable();
+    nodes.dedup();
+    nodes
 }
 
 #[cfg(test)]
@@ -204,6 +253,32 @@ mod tests {
         assert!((torque - expected).abs() < 0.03 * expected.abs(), "torque {torque:.4e} vs Stokes {expected:.4e}");
         // No net force from a symmetric vortex.
         assert!(f.total[0].length() < 0.02 * expected.abs() / r, "{:?}", f.total[0]);
+    }
+
+    /// [`sampled_nodes`] lists every node the traction reads: with every other node's
+    /// populations set to NaN, both models give the same forces bit for bit (a node missing from
+    /// the list would turn them NaN).
+    #[test]
+    fn the_traction_reads_only_the_sampled_nodes() {
+        let (mut fluid, units, surface, p) = hydrostatic(1e-3);
+        let nodes = sampled_nodes(&fluid, &units, std::slice::from_ref(&surface), &p, 1.0);
+        let full: Vec<SurfaceForces> = [TractionModel::PressureAndShear, TractionModel::SeedPressure]
+            .map(|m| surface_forces(&fluid, &units, std::slice::from_ref(&surface), &p, m, 1.0))
+            .into();
+        let nan = vec![f64::NAN; fluid.pop.nv];
+        let n = fluid.layout.grid.len();
+        for node in (0..n).filter(|k| nodes.binary_search(k).is_err()) {
+            fluid.set_node_populations(node, &nan);
+        }
+        eprintln!("the traction reads {} of {n} nodes ({} pieces)", nodes.len(), full[0].pieces);
+        assert!(!nodes.is_empty() && nodes.len() < n / 4, "{} nodes", nodes.len());
+        for (m, f) in [TractionModel::PressureAndShear, TractionModel::SeedPressure].into_iter().zip(&full) {
+            let g = surface_forces(&fluid, &units, std::slice::from_ref(&surface), &p, m, 1.0);
+            assert_eq!((g.pieces, g.pieces_without_fluid), (f.pieces, f.pieces_without_fluid));
+            let bits = |v: &[DVec3]| v.iter().flat_map(|x| x.to_array().map(f64::to_bits)).collect::<Vec<_>>();
+            assert_eq!(bits(&g.force), bits(&f.force), "{m:?}");
+            assert_eq!(bits(&g.total), bits(&f.total), "{m:?}");
+        }
     }
 
     #[test]

@@ -20,7 +20,8 @@
 //! map through [`Units::position_to_lattice`] (the same origin).
 
 use super::solver::CoupledSolver;
-use super::traction::{TractionModel, surface_forces};
+use super::traction::{TractionModel, sampled_nodes, surface_forces};
+use crate::fluid::layout::Layout;
 use crate::fluid::{Obstacle, Polygon, Shape};
 use crate::step::{Instability, Site};
 
@@ -37,6 +38,20 @@ pub struct WeakOptions {
 impl Default for WeakOptions {
     fn default() -> Self {
         Self { traction: TractionModel::default(), piece_length: 1.0, max_cells_per_step: 1.0 }
+    }
+}
+
+/// Method 1's walls at the particles' positions ([`CoupledSolver::next_polygon_walls`]).
+pub struct PolygonWalls {
+    polygons: Vec<Polygon>,
+    layout: Layout,
+}
+
+impl PolygonWalls {
+    /// Whether installing these walls in a fluid of layout `current` makes nodes enter or leave
+    /// the fluid (their populations, and their fluid neighbours', are then read and written).
+    pub fn changes_nodes(&self, current: &Layout) -> bool {
+        self.layout.changes_fluid_nodes(current)
     }
 }
 
@@ -60,6 +75,17 @@ impl CoupledSolver {
 
     /// Method 1's fluid_geometry stage: the surface polygons become the fluid's moving walls.
     pub(super) fn polygon_geometry(&mut self, o: WeakOptions) -> Result<(), Instability> {
+        if let Some(walls) = self.next_polygon_walls(o)? {
+            self.install_polygon_walls(walls);
+        }
+        Ok(())
+    }
+
+    /// The walls of the surface polygons at the particles' current positions, with the layout
+    /// they give the fluid, without installing them; `None` when no polygon moved (nor changed
+    /// its wall velocities) since the walls were last built. Refuses a surface that moved more
+    /// than `o.max_cells_per_step` cells.
+    pub fn next_polygon_walls(&self, o: WeakOptions) -> Result<Option<PolygonWalls>, Instability> {
         let polys = self.polygons();
         if let Some(old) = &self.built {
             let mut moved = false;
@@ -77,18 +103,31 @@ impl CoupledSolver {
                 moved |= d > 0.0 || a.velocities() != b.velocities();
             }
             if !moved {
-                return Ok(());
+                return Ok(None);
             }
         }
         let mut all = self.obstacles.clone();
         all.extend(polys.iter().cloned().map(|p| Obstacle { shape: Shape::Polygon(p), velocity: [0.0; 3], temperature: None }));
-        let ch = self.fluid.set_obstacles(&all);
+        let layout = self.fluid.layout_with(&all);
+        Ok(Some(PolygonWalls { polygons: polys, layout }))
+    }
+
+    /// Installs walls from [`Self::next_polygon_walls`]: nodes the bodies uncovered take their
+    /// fluid neighbours' populations, covered ones leave with their mass (counted in
+    /// [`Self::geometry`]).
+    pub fn install_polygon_walls(&mut self, walls: PolygonWalls) {
+        let ch = self.fluid.set_layout(walls.layout);
         self.geometry.uncovered += ch.uncovered;
         self.geometry.covered += ch.covered;
         self.geometry.isolated += ch.isolated;
         self.geometry.mass_change += ch.mass_change;
-        self.built = Some(polys);
-        Ok(())
+        self.built = Some(walls.polygons);
+    }
+
+    /// The fluid nodes whose populations the surface_traction stage reads
+    /// ([`super::traction::sampled_nodes`]), for a backend that brings back only those.
+    pub fn traction_nodes(&self, o: WeakOptions) -> Vec<usize> {
+        sampled_nodes(&self.fluid, &self.units, self.bodies.iter().map(|b| &b.surface), &self.solid.particles, o.piece_length)
     }
 
     /// Method 1's surface_traction stage: the air's tractions on the surface pieces, spread to

@@ -100,7 +100,7 @@ impl FluidSolver {
     /// linear fields, as the multilinear case is); `None` when that block has too few fluid
     /// nodes for a fit.
     pub fn sample(&self, p: [f64; 3]) -> Option<Macro> {
-        let stencil = linear_stencil(&self.layout, p)?;
+        let stencil = self.sample_stencil(p)?;
         let mut m = Macro::default();
         for (node, w) in stencil {
             let mk = self.macro_at(node);
@@ -111,6 +111,14 @@ impl FluidSolver {
             }
         }
         Some(m)
+    }
+}
+
+impl FluidSolver {
+    /// The fluid nodes [`Self::sample`] reads at `p`, with their weights (`None` where it finds
+    /// too few).
+    pub fn sample_stencil(&self, p: [f64; 3]) -> Option<Vec<(usize, f64)>> {
+        linear_stencil(&self.layout, p)
     }
 }
 

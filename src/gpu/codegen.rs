@@ -586,4 +586,27 @@ struct ProbeParams { step: u32, count: u32, n_nodes: u32, _pad: u32 };
     s
 }
 
+/// The `gather` kernel: the populations of a list of nodes, node after node (`out[k · nv + v]`
+/// = value v of `nodes[k]`), so that a CPU stage reading a few nodes (method 1's traction)
+/// brings back only those ([`super::fdlb::GpuFluid::download_nodes_into`]).
+pub fn gather_populations(eq: &Equilibrium, split: Split) -> String {
+    let nv = eq.values_per_node();
+    let mut s = format!("const WG: u32 = {WORKGROUP}u;\n");
+    s += r#"
+struct GatherParams { count: u32, n_nodes: u32, _p0: u32, _p1: u32 };
+@group(0) @binding(0) var<uniform> GP: GatherParams;
+@group(0) @binding(1) var<storage, read> nodes: array<u32>;
+@group(0) @binding(2) var<storage, read_write> out: array<f32>;
+"#;
+    s += &split.declare("src", "read", 10);
+    s += "@compute @workgroup_size(WG)\nfn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {\n";
+    s += "    let k = gid.x + gid.y * nwg.x * WG;\n    if (k >= GP.count) { return; }\n    let node = nodes[k];\n    let N = GP.n_nodes;\n";
+    let _ = writeln!(s, "    let b = k * {nv}u;");
+    for v in 0..nv {
+        let _ = writeln!(s, "    out[b + {v}u] = {};", split.at("src", v, "node"));
+    }
+    s += "}\n";
+    s
+}
+
 // Every generated module is validated by naga in `gpu::wgsl_check`.

@@ -15,15 +15,15 @@
 //!
 //! | stage | where it runs |
 //! |---|---|
-//! | `fluid_geometry` | the particles come back (with their spins and rotations: the surface points turn with them); the surface polygons' walls are built on the CPU ([`CoupledSolver::run_stage`], `set_obstacles` on the CPU mirror, whose populations are the GPU's of the last traction stage) and their tables uploaded; on a step where nodes change side the CPU's populations (fresh nodes initialised there) go up |
+//! | `fluid_geometry` | the particles come back (with their spins and rotations: the surface points turn with them); the surface polygons' walls are built on the CPU ([`CoupledSolver::next_polygon_walls`]) and their tables uploaded; on a step where nodes change side the populations make a round trip so that fresh nodes take their neighbours' mean on the CPU ([`CoupledSolver::install_polygon_walls`]) |
 //! | `fluid` | one FDLB step on the GPU |
-//! | `surface_traction` | the populations come back (the traction samples the fluid at one and two cells along each surface piece's normal, 2.110–2.113, on the CPU) and the surface particles' loads go up |
+//! | `surface_traction` | the populations of the nodes the traction samples come back ([`CoupledSolver::traction_nodes`], packed by the `gather` kernel, [`GpuFluid::download_nodes_into`]); the traction samples the air at one and two cells along each surface piece's normal (2.110–2.113) on the CPU, and the surface particles' loads go up |
 //! | `solid` | the solid's explicit sub-steps on the GPU |
 //!
 //! What stays on the CPU is the geometry (a per-step layout build over the lattice, O(N)),
-//! measured as the `fluid_geometry` share of the step, and for method 1 the traction, which
-//! reads the whole population array each step (a GPU traction kernel would bring back only the
-//! particles' loads). For method 2 the wall momentum per node no longer crosses the bus. The
+//! measured as the `fluid_geometry` share of the step, and for method 1 the traction's
+//! arithmetic, on the populations of the few nodes it samples ([`Self::traction_nodes`] counts
+//! them; a traction kernel on the device would bring back only the particles' loads). For method 2 the wall momentum per node no longer crosses the bus. The
 //! exchange's diagnostics that the CPU solver sums over the run (momentum to non-body walls,
 //! mass to the walls, the wall-frame momentum) are summed per workgroup by the hand-over's first
 //! kernel and over the workgroups on the CPU (32 B per 64 nodes come back). Bodies with a
@@ -35,7 +35,7 @@ use super::context::{GpuContext, GpuError};
 use super::coupling::CouplingKernels;
 use super::fdlb::GpuFluid;
 use super::solid::{GpuSolid, SolidArray};
-use crate::coupling::{CoupledSolver, Method};
+use crate::coupling::{CoupledSolver, Method, WeakOptions};
 use crate::stages::CoupledStageKind;
 use crate::step::{Instability, Part, Site};
 use glam::DVec3;
@@ -45,8 +45,8 @@ use std::time::{Duration, Instant};
 pub struct GpuCoupled {
     /// The CPU side: the scene's solver, which holds the geometry (layout, level sets), the
     /// exchange's bookkeeping, the scene's loads and the step counter. Its particles are
-    /// brought from the GPU at every step; its fluid populations only on steps where nodes
-    /// change side and by [`Self::download_into`].
+    /// brought from the GPU at every step; its fluid populations on steps where nodes change
+    /// side, by [`Self::download_into`], and (method 1) at the nodes the traction samples.
     pub cpu: CoupledSolver,
     pub fluid: GpuFluid,
     pub solid: GpuSolid,
@@ -60,6 +60,9 @@ pub struct GpuCoupled {
     pub round_trips: u64,
     /// The particles of the bodies with a prescribed motion (ascending).
     prescribed: Vec<usize>,
+    /// Nodes whose populations method 1's traction stages brought back, summed over the steps
+    /// (of [`GpuFluid::n_nodes`] each step that a whole download would bring).
+    pub traction_nodes: u64,
 }
 
 impl GpuCoupled {
@@ -79,7 +82,7 @@ impl GpuCoupled {
             let moved: Vec<u16> = cpu.bodies.iter().filter(|b| b.motion.is_some()).map(|b| b.surface.body).collect();
             (0..p.len()).filter(|&i| moved.contains(&p.body[i])).collect()
         };
-        Ok(GpuCoupled { cpu, fluid, solid, kernels, ctx, timings, round_trips: 0, prescribed })
+        Ok(GpuCoupled { cpu, fluid, solid, kernels, ctx, timings, round_trips: 0, prescribed, traction_nodes: 0 })
     }
 
     /// Whether this backend runs `cpu`'s scene, or why not (naming the field): both coupling
@@ -120,19 +123,22 @@ impl GpuCoupled {
 
     /// Runs one stage of the step (the step counter advances in [`Self::step`] only).
     pub fn run_stage(&mut self, kind: CoupledStageKind) -> Result<(), Instability> {
-        let weak = matches!(self.cpu.method, Method::Weak(_));
-        match kind {
-            CoupledStageKind::FluidGeometry if weak => self.polygon_geometry(),
-            CoupledStageKind::FluidGeometry => self.fluid_geometry(),
-            CoupledStageKind::Fluid => self.fluid_step(),
-            CoupledStageKind::MomentumExchange if !weak => {
+        let weak = match self.cpu.method {
+            Method::Weak(o) => Some(o),
+            Method::Conserving(_) => None,
+        };
+        match (kind, weak) {
+            (CoupledStageKind::FluidGeometry, Some(o)) => self.polygon_geometry(o),
+            (CoupledStageKind::FluidGeometry, None) => self.fluid_geometry(),
+            (CoupledStageKind::Fluid, _) => self.fluid_step(),
+            (CoupledStageKind::MomentumExchange, None) => {
                 self.momentum_exchange();
                 Ok(())
             }
-            CoupledStageKind::SurfaceTraction if weak => self.surface_traction(),
-            CoupledStageKind::Solid => self.solid_substeps(),
+            (CoupledStageKind::SurfaceTraction, Some(o)) => self.surface_traction(o),
+            (CoupledStageKind::Solid, _) => self.solid_substeps(),
             // a stage of the other method's list
-            CoupledStageKind::MomentumExchange | CoupledStageKind::SurfaceTraction => Ok(()),
+            (CoupledStageKind::MomentumExchange, Some(_)) | (CoupledStageKind::SurfaceTraction, None) => Ok(()),
         }
     }
 
@@ -160,23 +166,27 @@ impl GpuCoupled {
     /// Method 1's walls: the surface polygons at the particles' current positions, built by the
     /// CPU mirror (whose populations are the device's, brought back by the last traction stage);
     /// the populations go up when nodes changed side (see the module table).
-    fn polygon_geometry(&mut self) -> Result<(), Instability> {
+    fn polygon_geometry(&mut self, o: WeakOptions) -> Result<(), Instability> {
         self.download_particles(true)?;
-        let g = self.cpu.geometry;
-        self.cpu.run_stage(CoupledStageKind::FluidGeometry)?;
-        let h = self.cpu.geometry;
-        if (h.uncovered, h.covered, h.isolated) != (g.uncovered, g.covered, g.isolated) {
+        let Some(walls) = self.cpu.next_polygon_walls(o)? else { return Ok(()) };
+        if walls.changes_nodes(&self.cpu.fluid.layout) {
+            self.fluid.download_into(&mut self.cpu.fluid);
+            self.cpu.install_polygon_walls(walls);
             self.fluid.upload_state(&self.cpu.fluid);
             self.round_trips += 1;
+        } else {
+            self.cpu.install_polygon_walls(walls);
         }
         self.fluid.set_geometry(&self.cpu.fluid);
         Ok(())
     }
 
-    /// Method 1's tractions (2.110–2.113) from the device's populations, as the surface
-    /// particles' loads.
-    fn surface_traction(&mut self) -> Result<(), Instability> {
-        self.fluid.download_into(&mut self.cpu.fluid);
+    /// Method 1's tractions (2.110–2.113) from the device's populations at the nodes the
+    /// traction samples, as the surface particles' loads.
+    fn surface_traction(&mut self, o: WeakOptions) -> Result<(), Instability> {
+        let nodes = self.cpu.traction_nodes(o);
+        self.fluid.download_nodes_into(&nodes, &mut self.cpu.fluid);
+        self.traction_nodes += nodes.len() as u64;
         self.cpu.run_stage(CoupledStageKind::SurfaceTraction)?;
         self.solid.upload_loads(&self.cpu.solid);
         Ok(())

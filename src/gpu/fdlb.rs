@@ -14,6 +14,7 @@
 //! the stencil assumed served from cache.
 
 mod face_fluxes;
+mod gather;
 mod geometry;
 mod readback;
 
@@ -86,6 +87,8 @@ pub struct GpuFluid {
     device: wgpu::Device,
     eq: crate::fluid::Equilibrium,
     probe: Option<ProbeKernel>,
+    /// The `gather` kernel of [`Self::download_nodes_into`], built at its first use.
+    gather: Option<gather::GatherKernel>,
     queue: wgpu::Queue,
     pub nv: usize,
     /// Padded node count of the lattice.
@@ -271,6 +274,7 @@ impl GpuFluid {
             interior: g.interior_len() as u32,
             eq: eq.clone(),
             probe: None,
+            gather: None,
             face_fluxes: None,
             nv,
             n_nodes: n,

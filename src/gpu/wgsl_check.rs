@@ -93,6 +93,7 @@ mod tests {
                         ("thin_wall_fluxes", codegen::thin_wall_fluxes(&eq, split)),
                         ("boundaries", codegen::boundaries(&eq, split)),
                         ("probes", codegen::probes(&eq, split)),
+                        ("gather_populations", codegen::gather_populations(&eq, split)),
                     ] {
                         validate(&format!("{name} {kind:?} {gas:?} {split:?}"), &src);
                         // no run-time indexing of const arrays (naga + lavapipe copy them per
@@ -103,7 +104,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(n, 7 + 2 * 2 * 2 * 7);
+        assert_eq!(n, 7 + 2 * 2 * 2 * 8);
     }
 
     /// A mirror that differs from its shader is caught (the check can fail).
