@@ -12,6 +12,7 @@
 //! `moments_collide`, `advect`, and the boundary fill `ghost_fill`, `face_fill`, `periodic_copy`.
 
 use crate::fluid::Equilibrium;
+use crate::fluid::layout::HaloReach;
 use crate::fluid::upwind::stencils;
 use std::fmt::Write;
 
@@ -526,15 +527,42 @@ fn face_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     }
 }
 
-// Periodic halos: entries hold (node = destination, source).
+// Periodic halos: (destination, source, reach code of fluid::layout::HaloReach, 0); only the
+// values of h that the advection reads at the destination are copied (periodic_reach_code).
+@group(0) @binding(4) var<storage, read> periodic_pairs: array<vec4<u32>>;
 @compute @workgroup_size(WG)
 fn periodic_copy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let t = thread_index(gid, nwg);
     if (t >= P.count) { return; }
-    copy_node(images[t].y, images[t].x);
-}
+    let e = periodic_pairs[t];
+    let d = e.x;
+    let s = e.y;
+    let N = P.n_nodes;
+    switch e.z {
 "#;
+    let q = eq.q();
+    for axis in 0..eq.set.dim {
+        for depth in [-2i8, -1, 1, 2] {
+            let reach = HaloReach::Axis { axis, depth };
+            let _ = writeln!(s, "        case {}u: {{", periodic_reach_code(reach));
+            for v in (0..nv).filter(|&v| reach.read_by(eq.set.c[v % q])) {
+                let _ = writeln!(s, "            {} = {};", split.at("h", v, "d"), split.at("h", v, "s"));
+            }
+            s += "        }\n";
+        }
+    }
+    s += "        default: {}\n    }\n}\n";
     s
+}
+
+/// The code of a periodic halo node's [`HaloReach`] in the `periodic_copy` kernel's table:
+/// 0 for a node no stencil reads (left out of the table), else 1 + 4 · axis + the depth's
+/// index (−2, −1, +1, +2 → 0, 1, 2, 3).
+pub fn periodic_reach_code(reach: HaloReach) -> u32 {
+    match reach {
+        HaloReach::Unread => 0,
+        HaloReach::Axis { axis, depth } => 1 + 4 * axis as u32 + [0, 1, 0, 2, 3][(depth + 2) as usize],
+    }
 }
 
 /// The codes of the boundary kernels' entries (`Entry.code`), defined once here and written

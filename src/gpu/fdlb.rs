@@ -371,7 +371,7 @@ impl GpuFluid {
                     ),
                     (
                         PIPE_PERIODIC,
-                        self.bind(&self.pipelines[PIPE_PERIODIC], &[(0, &self.params_count[2]), (2, &self.periodic.0), (3, &self.mac)], &arrays),
+                        self.bind(&self.pipelines[PIPE_PERIODIC], &[(0, &self.params_count[2]), (4, &self.periodic.0)], &[(10 + g, &self.h)]),
                         self.periodic.1,
                     ),
                 ]

@@ -4,9 +4,9 @@
 //! ([`GpuFluid::set_geometry`], the `fluid_geometry` stage).
 
 use super::{Entry, GpuFluid, Params, storage};
-use crate::fluid::layout::NodeKind;
+use crate::fluid::layout::{HaloReach, NodeKind};
 use crate::fluid::{FaceCondition, FluidSolver};
-use crate::gpu::codegen::{FaceCode, GHOST_ISOTHERMAL};
+use crate::gpu::codegen::{FaceCode, GHOST_ISOTHERMAL, periodic_reach_code};
 use crate::gpu::thin_wall::{self, ThinTapEntry};
 use wgpu::util::DeviceExt;
 
@@ -18,7 +18,9 @@ pub(super) struct Tables {
     /// Eight (node, weight bits) image taps per ghost.
     pub images: Vec<[u32; 2]>,
     pub faces: Vec<Entry>,
-    pub periodic: Vec<[u32; 2]>,
+    /// (destination, source, reach code, 0) of the periodic halo nodes that a stencil reads
+    /// ([`crate::gpu::codegen::periodic_reach_code`]).
+    pub periodic: Vec<[u32; 4]>,
     pub thin_taps: Vec<ThinTapEntry>,
     pub thin_ranges: Vec<[u32; 2]>,
 }
@@ -71,7 +73,13 @@ impl Tables {
             }
             faces.push(e);
         }
-        let periodic = s.layout.periodic.iter().flat_map(|r| (0..r.len).map(move |k| [(r.dst + k) as u32, (r.src + k) as u32])).collect();
+        let periodic = s
+            .layout
+            .periodic
+            .iter()
+            .filter(|r| r.reach != HaloReach::Unread)
+            .flat_map(|r| (0..r.len).map(move |k| [(r.dst + k) as u32, (r.src + k) as u32, periodic_reach_code(r.reach), 0]))
+            .collect();
         let (thin_taps, thin_ranges) = thin_wall::entries(&s.layout);
         Tables { kind, ghosts, images, faces, periodic, thin_taps, thin_ranges }
     }
