@@ -120,6 +120,9 @@ fn gpu_stepping_in_the_render_world_matches_the_cpu() {
     app.finish();
     app.cleanup();
     app.insert_resource(SimulationControl { paused: false, steps_per_frame: 8, single_steps: 0 });
+    // the panel's plot of the first probe (the panel itself needs a window)
+    #[cfg(feature = "render")]
+    app.add_systems(Update, phonation::render::plots::record_plots);
     let e = app.world_mut().spawn((FluidSimulation::from_scene(&sc), GpuStepping)).id();
     let mut got = None;
     // 200 steps: the inflow (an acoustic front from the inlet) has reached the probe by then.
@@ -139,6 +142,33 @@ fn gpu_stepping_in_the_render_world_matches_the_cpu() {
     assert!(probes.values[0][1] > 0.01, "the flow has reached the probe: {:?}", probes.values);
     // The CPU mirror was not stepped (the entity is GPU-stepped).
     assert_eq!(app.world().get::<FluidSimulation>(e).unwrap().solver.step_count, 0);
+    // What the panel shows of it comes from the device's readbacks, not from the CPU mirror's
+    // initial state: the backend, the time and step, and the probe's plot (one point per
+    // readback, at its step's time).
+    #[cfg(feature = "render")]
+    {
+        use phonation::render::panel::fluid_status;
+        use phonation::render::plots::{PROBE_UY_CM_S, PlotHistory, first_probe_uy};
+        let sim = app.world().get::<FluidSimulation>(e).unwrap();
+        let [backend, time] = fluid_status(sim, Some(&probes));
+        assert!(backend.starts_with("GPU backend"), "{backend}");
+        assert!(time.ends_with(&format!("(step {} read back)", probes.step)), "{time}");
+        let series = app.world().get::<PlotHistory>(e).and_then(|h| h.get(PROBE_UY_CM_S)).expect("the probe's plot");
+        let points: Vec<[f64; 2]> = series.points.iter().copied().collect();
+        let now = first_probe_uy(sim, Some(&probes)).unwrap();
+        let last = *points.last().unwrap();
+        eprintln!(
+            "probe plot: {} points, t {:.4} … {:.4} ms; the last readback at {:.4} ms, u_y {:.3} cm/s",
+            points.len(),
+            points[0][0],
+            last[0],
+            now[0],
+            now[1]
+        );
+        // (the first readback may be of step 0)
+        assert!(points.len() >= 5 && points.windows(2).all(|w| w[1][0] > w[0][0]) && last[0] > 0.0, "{points:?}");
+        assert!(last[0] <= now[0] && (last[0] < now[0] || last[1] == now[1]), "{last:?} vs {now:?}");
+    }
     let mut cpu = sc.build_solver();
     cpu.run(probes.step).unwrap();
     for (k, (_, x)) in sc.probes.iter().enumerate() {

@@ -210,8 +210,10 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
     // the values of h that the advection reads there ([`HaloReach`]). f and the macroscopic
     // fields are read at fluid nodes only (the moments pass, the ghosts' images, the face halos'
     // sources, every observation), so their periodic halos are not copied.
-    let read = HaloReads::new(eq);
-    copy_runs_parallel(fields.pop, fields.h, &layout.periodic, |r| read.values(r.reach));
+    if !layout.periodic.is_empty() {
+        let read = HaloReads::new(eq);
+        copy_runs_parallel(fields.pop, fields.h, &layout.periodic, |r| read.values(r.reach));
+    }
 }
 
 /// Per [`HaloReach`], the values of a node (the populations, then the rotational-energy ones)

@@ -23,10 +23,11 @@
 //! What stays on the CPU is the geometry (a per-step layout build over the lattice, O(N)),
 //! measured as the `fluid_geometry` share of the step, and for method 1 the traction's
 //! arithmetic, on the populations of the few nodes it samples ([`Self::traction_nodes`] counts
-//! them; a traction kernel on the device would bring back only the particles' loads). For method 2 the wall momentum per node no longer crosses the bus. The
-//! exchange's diagnostics that the CPU solver sums over the run (momentum to non-body walls,
-//! mass to the walls, the wall-frame momentum) are summed per workgroup by the hand-over's first
-//! kernel and over the workgroups on the CPU (32 B per 64 nodes come back). Bodies with a
+//! them; a traction kernel on the device would bring back only the particles' loads). For
+//! method 2 the wall momentum per node no longer crosses the bus. The exchange's diagnostics
+//! that the CPU solver sums over the run (momentum to non-body walls, mass to the walls, the
+//! wall-frame momentum) are summed per workgroup by the hand-over's first kernel and over the
+//! workgroups on the CPU (32 B per 64 nodes come back). Bodies with a
 //! prescribed motion are moved by the CPU after every solid sub-step, as the CPU solver does,
 //! and only their particles' kinematics are written to the device
 //! ([`GpuSolid::upload_kinematics`]).

@@ -35,7 +35,7 @@ impl Plugin for PhonationDiagnosticsPlugin {
 fn measure(
     steps: Res<StepsThisFrame>,
     time: Res<Time<Real>>,
-    fluids: Query<(Entity, &FluidSimulation, Option<&InitialMass>)>,
+    fluids: Query<(Entity, &FluidSimulation, Option<&InitialMass>, Has<super::GpuFluidHandle>)>,
     coupled: Query<(Entity, &CoupledSimulation, Option<&InitialMass>)>,
     solids: Query<&SolidSimulation>,
     mut diagnostics: Diagnostics,
@@ -61,14 +61,22 @@ fn measure(
             }
         }
     };
-    for (e, sim, m0) in &fluids {
-        air(e, &sim.solver, m0);
+    let mut device_nodes = 0usize;
+    for (e, sim, m0, on_gpu) in &fluids {
+        if on_gpu {
+            // stepped on the device: its CPU solver holds the initial state, so only its nodes
+            // count (no Mach or mass drift from it)
+            device_nodes += sim.solver.layout.grid.interior_len();
+        } else {
+            air(e, &sim.solver, m0);
+        }
     }
     for (e, sim, m0) in &coupled {
         air(e, &sim.solver.fluid, m0);
         particles += sim.solver.solid.particles.len();
     }
     particles += solids.iter().map(|s| s.solver.particles.len()).sum::<usize>();
+    let nodes = nodes + device_nodes;
     if dt > 0.0 {
         diagnostics.add_measurement(&STEPS_PER_SECOND, || steps.0 as f64 / dt);
         diagnostics.add_measurement(&NODE_UPDATES_PER_SECOND, || (steps.0 as f64 * nodes as f64) / dt);

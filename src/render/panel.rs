@@ -14,7 +14,7 @@ use super::slice::SliceView;
 use super::{DrawSettings, DrawSystems};
 use crate::plugin::diagnostics::{MASS_DRIFT, MAX_MACH, NODE_UPDATES_PER_SECOND, STEPS_PER_SECOND};
 use crate::plugin::{
-    CoupledDiagnostics, CoupledGlottis, CoupledSimulation, CoupledStatus, FluidSimulation, FluidStatus, LatticeGasDiagnostics, LatticeGasSimulation,
+    CoupledDiagnostics, CoupledGlottis, CoupledSimulation, CoupledStatus, FluidSimulation, FluidStatus, GpuProbes, LatticeGasDiagnostics, LatticeGasSimulation,
     SimulationControl, VoiceDiagnostics,
 };
 use crate::scene::schema::Field;
@@ -88,7 +88,10 @@ fn panel_ui(
         Option<&PlotHistory>,
         Option<&SliceView>,
     )>,
-    fluids: Query<(&FluidSimulation, Option<&PanelTarget>, Option<&FluidStatus>, Option<&PlotHistory>, Option<&SliceView>), Without<CoupledSimulation>>,
+    fluids: Query<
+        (&FluidSimulation, Option<&PanelTarget>, Option<&FluidStatus>, Option<&PlotHistory>, Option<&SliceView>, Option<&GpuProbes>),
+        Without<CoupledSimulation>,
+    >,
     gases: Query<(&LatticeGasSimulation, Option<&PanelTarget>, Option<&LatticeGasDiagnostics>, Option<&PlotHistory>, Option<&SliceView>)>,
     targets: Query<(), With<PanelTarget>>,
     time: Res<Time<Real>>,
@@ -147,19 +150,27 @@ fn panel_ui(
             }
             history_plot(ui, plots, F0);
         }
-        for (sim, target, status, plots, slice) in &fluids {
+        for (sim, target, status, plots, slice, gpu) in &fluids {
             ui.separator();
             target_error(ui, target);
             if let Some(FluidStatus::Unstable(why)) = status {
                 ui.colored_label(egui::Color32::LIGHT_RED, format!("stopped: {why}"));
             }
-            let s = &sim.solver;
-            ui.label(format!("CPU backend · FDLB air · {} nodes", s.layout.grid.interior_len()));
-            let t = sim.units.map_or(f64::NAN, |u| u.time_to_physical(s.time));
-            ui.label(format!("t = {:.3} ms ({} steps)", t * 1e3, s.step_count));
-            ui.label(format!("{rates} · {:.2e} nodes/s · max Mach {:.3}", smoothed.get(&NODE_UPDATES_PER_SECOND), smoothed.get(&MAX_MACH)));
-            ui.label(format!("mass drift {:.2e}", smoothed.get(&MASS_DRIFT)));
-            slice_legend(ui, slice, settings.slice);
+            let [backend, time] = fluid_status(sim, gpu);
+            ui.label(backend);
+            ui.label(time);
+            if gpu.is_some() {
+                // its state stays on the device: Mach, mass drift and slices come from a CPU
+                // solver, which is not stepped
+                ui.label(format!("{rates} · {:.2e} nodes/s", smoothed.get(&NODE_UPDATES_PER_SECOND)));
+                if settings.slice.is_some() {
+                    ui.label("slice: not drawn for a GPU-stepped fluid (its state stays on the device)");
+                }
+            } else {
+                ui.label(format!("{rates} · {:.2e} nodes/s · max Mach {:.3}", smoothed.get(&NODE_UPDATES_PER_SECOND), smoothed.get(&MAX_MACH)));
+                ui.label(format!("mass drift {:.2e}", smoothed.get(&MASS_DRIFT)));
+                slice_legend(ui, slice, settings.slice);
+            }
             history_plot(ui, plots, PROBE_UY_CM_S);
         }
         for (sim, target, diag, plots, slice) in &gases {
@@ -177,6 +188,22 @@ fn panel_ui(
         }
     });
     Ok(())
+}
+
+/// The panel's first two lines for a fluid: where it is stepped, and its time and step — for
+/// a GPU-stepped fluid ([`GpuProbes`]) those of the device's last readback, as its CPU solver is
+/// not stepped.
+pub fn fluid_status(sim: &FluidSimulation, gpu: Option<&GpuProbes>) -> [String; 2] {
+    let s = &sim.solver;
+    let nodes = s.layout.grid.interior_len();
+    let ms = |t: f64| sim.units.map_or(f64::NAN, |u| u.time_to_physical(t)) * 1e3;
+    match gpu {
+        Some(p) => [
+            format!("GPU backend (render device) · FDLB air · {nodes} nodes"),
+            format!("t = {:.3} ms (step {} read back)", ms(p.step as f64 * s.params.dt), p.step),
+        ],
+        None => [format!("CPU backend · FDLB air · {nodes} nodes"), format!("t = {:.3} ms ({} steps)", ms(s.time), s.step_count)],
+    }
 }
 
 /// Why the panel's last rebuild was refused, if it was.

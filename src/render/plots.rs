@@ -4,7 +4,7 @@
 //! the simulation stepped to each entity's [`PlotHistory`]; the glottal flow is drawn from
 //! [`CoupledGlottis`]'s own per-step samples.
 
-use crate::plugin::{CoupledGlottis, FluidSimulation, LatticeGasDiagnostics, StepsThisFrame, VoiceDiagnostics};
+use crate::plugin::{CoupledGlottis, FluidSimulation, GpuProbes, LatticeGasDiagnostics, StepsThisFrame, VoiceDiagnostics};
 use bevy::prelude::*;
 use bevy_egui::egui;
 use egui_plot::{Line, Plot};
@@ -64,7 +64,7 @@ pub const PROBE_UY_LATTICE: &str = "u_Y at the probe (ℓ/step)";
 pub fn record_plots(
     steps: Res<StepsThisFrame>,
     mut sims: Query<
-        (Entity, Option<&VoiceDiagnostics>, Option<&FluidSimulation>, Option<&LatticeGasDiagnostics>, Option<&mut PlotHistory>),
+        (Entity, Option<&VoiceDiagnostics>, Option<&FluidSimulation>, Option<&GpuProbes>, Option<&LatticeGasDiagnostics>, Option<&mut PlotHistory>),
         Or<(With<VoiceDiagnostics>, With<FluidSimulation>, With<LatticeGasDiagnostics>)>,
     >,
     mut commands: Commands,
@@ -72,18 +72,19 @@ pub fn record_plots(
     if steps.0 == 0 {
         return;
     }
-    for (e, voice, fluid, gas, history) in &mut sims {
+    for (e, voice, fluid, gpu, gas, history) in &mut sims {
         let record = |h: &mut PlotHistory| {
             if let Some(v) = voice
                 && let Some(m) = &v.measures
             {
                 h.push(F0, "t (ms)", [v.time * 1e3, m.f0_autocorrelation_hz]);
             }
-            if let Some(f) = fluid
-                && let (Some(u), Some((_, node))) = (f.units.as_ref(), f.probes.first())
-            {
-                let m = f.solver.macro_at(*node);
-                h.push(PROBE_UY_CM_S, "t (ms)", [u.time_to_physical(f.solver.time) * 1e3, u.velocity_to_physical(m.u[1])]);
+            if let Some(p) = fluid.and_then(|f| first_probe_uy(f, gpu)) {
+                // a GPU readback is new when its time is (readbacks lag the frames)
+                let last = h.get(PROBE_UY_CM_S).and_then(|s| s.points.back()).map(|q| q[0]);
+                if gpu.is_none() || last != Some(p[0]) {
+                    h.push(PROBE_UY_CM_S, "t (ms)", p);
+                }
             }
             if let Some(d) = gas
                 && let Some(v) = d.probe_velocity
@@ -102,6 +103,18 @@ pub fn record_plots(
             }
         }
     }
+}
+
+/// The first probe's transverse velocity of a fluid scene with units: (t in ms, u_y in cm/s).
+/// A GPU-stepped fluid ([`GpuProbes`]) reads the device's last probe readback (its CPU solver
+/// is not stepped), `None` before the first one.
+pub fn first_probe_uy(f: &FluidSimulation, gpu: Option<&GpuProbes>) -> Option<[f64; 2]> {
+    let (u, (_, node)) = (f.units.as_ref()?, f.probes.first()?);
+    let (time, uy) = match gpu {
+        Some(p) => (p.step as f64 * f.solver.params.dt, p.values.first().filter(|_| p.readbacks > 0)?[2] as f64),
+        None => (f.solver.time, f.solver.macro_at(*node).u[1]),
+    };
+    Some([u.time_to_physical(time) * 1e3, u.velocity_to_physical(uy)])
 }
 
 /// A small plot of `points` under its name `name` (the x axis labelled `x_label`).
