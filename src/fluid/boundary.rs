@@ -219,25 +219,26 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
 /// Per [`HaloReach`], the values of a node (the populations, then the rotational-energy ones)
 /// whose advection stencil reads a halo node of that reach.
 struct HaloReads {
-    /// Indexed by axis · 4 + (depth −2, −1, +1, +2 → 0, 1, 2, 3).
+    /// Indexed by [`HaloReach::index`].
     by_reach: Vec<Vec<usize>>,
 }
 
 impl HaloReads {
     fn new(eq: &Equilibrium) -> Self {
         let q = eq.q();
-        let by_reach = (0..3)
-            .flat_map(|axis| [-2i8, -1, 1, 2].map(|depth| HaloReach::Axis { axis, depth }))
-            .map(|reach| (0..eq.values_per_node()).filter(|&v| reach.read_by(eq.set.c[v % q])).collect())
-            .collect();
+        let mut by_reach = vec![Vec::new(); HaloReach::AXIS_REACHES];
+        for axis in 0..3 {
+            for depth in [-2i8, -1, 1, 2] {
+                let reach = HaloReach::Axis { axis, depth };
+                let k = reach.index().expect("an axis reach");
+                by_reach[k] = (0..eq.values_per_node()).filter(|&v| reach.read_by(eq.set.c[v % q])).collect();
+            }
+        }
         HaloReads { by_reach }
     }
 
     fn values(&self, reach: HaloReach) -> &[usize] {
-        match reach {
-            HaloReach::Unread => &[],
-            HaloReach::Axis { axis, depth } => &self.by_reach[axis * 4 + [0, 1, 0, 2, 3][(depth + 2) as usize]],
-        }
+        reach.index().map_or(&[], |k| &self.by_reach[k])
     }
 }
 

@@ -83,6 +83,18 @@ impl HaloReach {
         }
     }
 
+    /// Number of [`HaloReach::Axis`] reaches: 3 axes × 4 depths.
+    pub const AXIS_REACHES: usize = 12;
+
+    /// The index of an [`HaloReach::Axis`] reach below [`Self::AXIS_REACHES`]: 4 · axis + the
+    /// depth's index (−2, −1, +1, +2 → 0, 1, 2, 3); `None` for [`HaloReach::Unread`].
+    pub fn index(&self) -> Option<usize> {
+        match *self {
+            HaloReach::Unread => None,
+            HaloReach::Axis { axis, depth } => Some(4 * axis + [0, 1, 0, 2, 3][(depth + 2) as usize]),
+        }
+    }
+
     /// Whether the advection stencil of velocity `c` reads the node: at depth ±1 every velocity
     /// with c_a ≠ 0 (its −s or +s tap), at −2 those with c_a > 0 and at +2 those with c_a < 0
     /// (the −2s tap).

@@ -556,13 +556,9 @@ fn periodic_copy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
 }
 
 /// The code of a periodic halo node's [`HaloReach`] in the `periodic_copy` kernel's table:
-/// 0 for a node no stencil reads (left out of the table), else 1 + 4 · axis + the depth's
-/// index (−2, −1, +1, +2 → 0, 1, 2, 3).
+/// 0 for a node no stencil reads (left out of the table), else 1 + [`HaloReach::index`].
 pub fn periodic_reach_code(reach: HaloReach) -> u32 {
-    match reach {
-        HaloReach::Unread => 0,
-        HaloReach::Axis { axis, depth } => 1 + 4 * axis as u32 + [0, 1, 0, 2, 3][(depth + 2) as usize],
-    }
+    reach.index().map_or(0, |k| 1 + k as u32)
 }
 
 /// The codes of the boundary kernels' entries (`Entry.code`), defined once here and written
