@@ -438,6 +438,15 @@ impl CoupledParity {
         }
     }
 
+    /// The figures, for the test's log.
+    fn summary(&self) -> String {
+        format!(
+            "largest displacement {:.3e} cm, displacement difference {:.2e}, populations {:.2e}; force on the flap {:?} (CPU) vs {:?} (GPU); \
+             nodes uncovered / covered {:?} (CPU) vs {:?} (GPU)",
+            self.umax, self.du, self.df, self.fc, self.fg, self.cpu_nodes, self.gpu_nodes
+        )
+    }
+
     /// The same nodes changed side (some did), and displacements, populations and force within
     /// `bound` of their scale.
     fn assert_within(&self, bound: f64) {
@@ -1132,15 +1141,8 @@ fn coupled_steps_on_the_gpu_match_the_cpu_over_200_steps() {
     let p = CoupledParity::of(&cpu, &gpu, &x0);
     let dv = rel_vec(&g.solid.particles.velocity, &cpu.solid.particles.velocity);
     eprintln!(
-        "coupled, {steps} steps: largest displacement {:.3e} cm, displacement difference {:.2e}, velocity {dv:.2e} (the solid alone: {dv_alone:.2e}), populations {:.2e}; \
-         force on the flap {:?} (CPU) vs {:?} (GPU); nodes uncovered / covered {:?} (CPU) vs {:?} (GPU), {} population round trips, {} new boundary tables; shares {:?}",
-        p.umax,
-        p.du,
-        p.df,
-        p.fc,
-        p.fg,
-        p.cpu_nodes,
-        p.gpu_nodes,
+        "coupled, {steps} steps: {}; velocity {dv:.2e} (the solid alone: {dv_alone:.2e}); {} population round trips, {} new boundary tables; shares {:?}",
+        p.summary(),
         gpu.round_trips,
         gpu.fluid.geometry_rebinds,
         gpu.stage_shares()
@@ -1349,19 +1351,7 @@ fn weak_coupled_steps_on_the_gpu_match_the_cpu() {
     gpu.run(steps).unwrap();
     gpu.download_into();
     let p = CoupledParity::of(&cpu, &gpu, &x0);
-    eprintln!(
-        "method 1, {steps} steps: largest displacement {:.3e} cm, displacement difference {:.2e}, populations {:.2e}; force on the flap {:?} (CPU) vs {:?} (GPU); \
-         nodes uncovered / covered {:?} (CPU) vs {:?} (GPU), {} uploads of the populations; shares {:?}",
-        p.umax,
-        p.du,
-        p.df,
-        p.fc,
-        p.fg,
-        p.cpu_nodes,
-        p.gpu_nodes,
-        gpu.round_trips,
-        gpu.stage_shares()
-    );
+    eprintln!("method 1, {steps} steps: {}; {} population round trips; shares {:?}", p.summary(), gpu.round_trips, gpu.stage_shares());
     p.assert_within(1e-4);
     assert_eq!(gpu.step_count(), steps);
     // the traction brought back the nodes it samples, not the lattice

@@ -22,7 +22,7 @@
 //!   the domain twice as large.
 
 use super::equilibrium::{Equilibrium, MACRO_FIELDS, Macro};
-use super::layout::{HaloReach, Layout};
+use super::layout::Layout;
 use super::storage::{RowBlocked, copy_runs_parallel};
 use super::timestep::StepParams;
 
@@ -207,39 +207,10 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
     }
 
     // Periodic halos last, so that they also copy ghosts that lie next to a periodic face: only
-    // the values of h that the advection reads there ([`HaloReach`]). f and the macroscopic
-    // fields are read at fluid nodes only (the moments pass, the ghosts' images, the face halos'
-    // sources, every observation), so their periodic halos are not copied.
-    if !layout.periodic.is_empty() {
-        let read = HaloReads::new(eq);
-        copy_runs_parallel(fields.pop, fields.h, &layout.periodic, |r| read.values(r.reach));
-    }
-}
-
-/// Per [`HaloReach`], the values of a node (the populations, then the rotational-energy ones)
-/// whose advection stencil reads a halo node of that reach.
-struct HaloReads {
-    /// Indexed by [`HaloReach::index`].
-    by_reach: Vec<Vec<usize>>,
-}
-
-impl HaloReads {
-    fn new(eq: &Equilibrium) -> Self {
-        let q = eq.q();
-        let mut by_reach = vec![Vec::new(); HaloReach::AXIS_REACHES];
-        for axis in 0..3 {
-            for depth in [-2i8, -1, 1, 2] {
-                let reach = HaloReach::Axis { axis, depth };
-                let k = reach.index().expect("an axis reach");
-                by_reach[k] = (0..eq.values_per_node()).filter(|&v| reach.read_by(eq.set.c[v % q])).collect();
-            }
-        }
-        HaloReads { by_reach }
-    }
-
-    fn values(&self, reach: HaloReach) -> &[usize] {
-        reach.index().map_or(&[], |k| &self.by_reach[k])
-    }
+    // the values of h that the advection reads there (`Equilibrium::values_read_at`). f and the
+    // macroscopic fields are read at fluid nodes only (the moments pass, the ghosts' images, the
+    // face halos' sources, every observation), so their periodic halos are not copied.
+    copy_runs_parallel(fields.pop, fields.h, &layout.periodic, |r| eq.values_read_at(r.reach));
 }
 
 fn read_macro(fields: &StageFields, node: usize) -> Macro {
@@ -294,7 +265,7 @@ fn set_node(eq: &Equilibrium, fields: &mut StageFields, node: usize, m: &Macro, 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fluid::layout::NodeKind;
+    use crate::fluid::layout::{HaloReach, NodeKind};
     use crate::fluid::upwind::stencils;
     use crate::fluid::{FluidSolver, GasModel, Grid, Obstacle, Shape, VelocitySet, VelocitySetKind, timestep};
     use std::collections::HashSet;

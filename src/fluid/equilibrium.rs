@@ -5,6 +5,7 @@
 //! translational internal energy is `Dθ/2`; a diatomic gas carries `ζθ/2` more in the second
 //! distribution `G_i` (ζ = 5 − D rotational degrees of freedom so that γ = 1.4 in 2D and 3D).
 
+use super::layout::HaloReach;
 use super::velocity_set::VelocitySet;
 use serde::{Deserialize, Serialize};
 
@@ -78,6 +79,9 @@ pub struct Equilibrium {
     pub rot_half: f64,
     /// Per axis, [`Self::mirror_permutation`] (built once: the slip faces use it every stage).
     mirror: [Vec<usize>; 3],
+    /// Per [`HaloReach::index`], [`Self::values_read_at`] (built once: the periodic fill uses
+    /// it every stage).
+    halo_reads: Vec<Vec<usize>>,
 }
 
 impl Equilibrium {
@@ -88,7 +92,20 @@ impl Equilibrium {
         let q = set.c.len();
         let nv = q * gas.distributions();
         let mirror = std::array::from_fn(|axis| (0..nv).map(|v| (v / q) * q + set.mirror(axis, v % q)).collect());
-        Equilibrium { energy_dof_half: 0.5 * (set.dim as f64 + zeta), rot_half: 0.5 * zeta, set, gas, cf, half_c2, mirror }
+        let mut halo_reads = vec![Vec::new(); HaloReach::AXIS_REACHES];
+        for axis in 0..3 {
+            for depth in [-2i8, -1, 1, 2] {
+                let reach = HaloReach::Axis { axis, depth };
+                halo_reads[reach.index().expect("an axis reach")] = (0..nv).filter(|&v| reach.read_by(set.c[v % q])).collect();
+            }
+        }
+        Equilibrium { energy_dof_half: 0.5 * (set.dim as f64 + zeta), rot_half: 0.5 * zeta, set, gas, cf, half_c2, mirror, halo_reads }
+    }
+
+    /// The values of a node (f_i, then the diatomic G_i) whose advection stencil reads a halo
+    /// node of `reach` ([`HaloReach::read_by`]); none for an unread one.
+    pub fn values_read_at(&self, reach: HaloReach) -> &[usize] {
+        reach.index().map_or(&[], |k| &self.halo_reads[k])
     }
 
     pub fn q(&self) -> usize {

@@ -540,12 +540,11 @@ fn periodic_copy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     let N = P.n_nodes;
     switch e.z {
 "#;
-    let q = eq.q();
     for axis in 0..eq.set.dim {
         for depth in [-2i8, -1, 1, 2] {
             let reach = HaloReach::Axis { axis, depth };
             let _ = writeln!(s, "        case {}u: {{", periodic_reach_code(reach));
-            for v in (0..nv).filter(|&v| reach.read_by(eq.set.c[v % q])) {
+            for &v in eq.values_read_at(reach) {
                 let _ = writeln!(s, "            {} = {};", split.at("h", v, "d"), split.at("h", v, "s"));
             }
             s += "        }\n";
