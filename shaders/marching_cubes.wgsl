@@ -5,7 +5,8 @@
 // table's), three vertices each, unindexed: ready for a non-indexed or indirect draw. The
 // first vertex's w holds the cell index and the second's the triangle's rank in its cell (bit
 // patterns), so a test can put the triangles back in the CPU twin's order. Past `capacity` the
-// triangles are counted but not written.
+// triangles are counted but not written. Every normal's w carries the extraction's body tag, so
+// that several bodies (the two folds) share one set of output buffers and one draw.
 
 struct Params {
     // nodes per axis, .w: the table's words per case
@@ -17,7 +18,8 @@ struct Params {
     capacity: u32,
     // cells in a row of the dispatch grid (threads per workgroup row × workgroups along x)
     row: u32,
-    _pad: u32,
+    // the tag written in every normal's w (the body's index)
+    body: u32,
 };
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -101,7 +103,7 @@ fn marching_cubes(@builtin(global_invocation_id) gid: vec3<u32>) {
             positions[3u * slot + v] = vec4<f32>(p0 + s * (p1 - p0), tag);
             let g = gradient(n0) * (1.0 - s) + gradient(n1) * s;
             let len = length(g);
-            normals[3u * slot + v] = vec4<f32>(select(vec3<f32>(0.0), -g / len, len > 0.0), 0.0);
+            normals[3u * slot + v] = vec4<f32>(select(vec3<f32>(0.0), -g / len, len > 0.0), f32(P.body));
         }
     }
 }

@@ -1001,6 +1001,81 @@ fn marching_cubes_matches_its_cpu_twin() {
     }
 }
 
+/// The bodies' surfaces made wholly on the GPU (level set on the grid, then marching cubes,
+/// every body into one set of buffers; what the plugin draws) match their CPU twins
+/// (`particle_field::level_set_grid`, `extract`), body by body: the 2D glottis's two folds as
+/// the coupling sees them, and a 3D solid beam. Bounds: L is a sum of ≤ ~40 terms
+/// r_e/max(r, r_min) − 1, each ≤ 1, whose r is an f32 difference of coordinates ≤ ~130 cells
+/// (rounding ~130 · 6e-8 ≈ 8e-6 cells, times |d(r_e/r)/dr| ≤ r_e/r_min² = 2/r_min ≤ 2 per
+/// cell): ≤ 40 · 1.6e-5 ≈ 6e-4 if every term's error had the same sign; 1e-3 bounds it. A
+/// vertex sits where the field crosses 0 along an edge: it moves by ΔL / |ΔL along the edge|
+/// · h, and |ΔL| along an edge of h = ½ cell near the surface is ≥ ~0.1 (L rises by ~1 over r_e):
+/// 1e-3 / 0.1 · h = 5e-3 cells bounds it; the normals (differences of the same values over 2h):
+/// 5e-2. A node whose L is within 1e-3 of 0 may fall on the other side and change its cells'
+/// cases: the triangle counts may then differ by a few; they are asserted equal where no node
+/// is that close, and within 1 % otherwise.
+#[test]
+fn the_fold_surface_on_the_gpu_matches_its_cpu_twin() {
+    use phonation::fluid::KernelLevelSet;
+    use phonation::gpu::fold_surface::GpuFoldSurface;
+    use phonation::gpu::marching_cubes::OwnedSurface;
+    use phonation::mesh::extract;
+    use phonation::mesh::particle_field::level_set_grid;
+    let Some(ctx) = context() else { return };
+    let gpu = GpuFoldSurface::new(&ctx.device);
+    let compare = |label: &str, sets: &[KernelLevelSet], h: f64, dim: usize| {
+        let capacity: u32 = sets.iter().map(|s| extract(&level_set_grid(s, h, dim), 0.0).triangles.len() as u32).sum::<u32>() + 64;
+        let out = OwnedSurface::new(&ctx.device, capacity);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        gpu.record(&ctx.device, &mut enc, sets, h, dim, &out.buffers());
+        ctx.queue.submit([enc.finish()]);
+        let (tris, count) = out.download(&ctx);
+        assert_eq!(count as usize, tris.len(), "{label}: all written");
+        let mut total = 0;
+        for (k, set) in sets.iter().enumerate() {
+            let cpu_grid = level_set_grid(set, h, dim);
+            let gpu_grid = gpu.level_set_grid(&ctx, set, h, dim);
+            assert_eq!((gpu_grid.dims, gpu_grid.origin), (cpu_grid.dims, cpu_grid.origin), "{label} body {k}: grid");
+            let dl = cpu_grid.values.iter().zip(&gpu_grid.values).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
+            let close = cpu_grid.values.iter().filter(|v| v.abs() < 1e-3).count();
+            let cpu = extract(&cpu_grid, 0.0);
+            let mine: Vec<_> = tris.iter().filter(|t| t.body == k as u32).collect();
+            total += mine.len();
+            eprintln!(
+                "{label} body {k}: {} nodes, L within {dl:.2e} ({close} nodes within 1e-3 of 0); triangles GPU {} / CPU {}",
+                cpu_grid.values.len(),
+                mine.len(),
+                cpu.triangles.len()
+            );
+            assert!(dl < 1e-3, "{label} body {k}: L differs by {dl}");
+            assert!(cpu.triangles.len() > 100, "{label} body {k}: {} triangles", cpu.triangles.len());
+            if close > 0 {
+                assert!((mine.len() as f64 / cpu.triangles.len() as f64 - 1.0).abs() < 0.01, "{label} body {k}: triangle counts");
+                continue;
+            }
+            assert_eq!(mine.len(), cpu.triangles.len(), "{label} body {k}: triangle count");
+            let (mut dp, mut dn) = (0f64, 0f64);
+            for (t, g) in mine.iter().enumerate() {
+                assert_eq!(g.cell, cpu.cells[t], "{label} body {k}: triangle {t}'s cell");
+                for (v, &i) in cpu.triangles[t].iter().enumerate() {
+                    dp = dp.max((g.positions[v] - cpu.positions[i as usize]).length());
+                    dn = dn.max((g.normals[v] - cpu.normals[i as usize]).length());
+                }
+            }
+            eprintln!("{label} body {k}: vertices within {dp:.2e} cells, normals within {dn:.2e}");
+            assert!(dp < 5e-3 && dn < 5e-2, "{label} body {k}: positions {dp:e}, normals {dn:e}");
+        }
+        assert_eq!(total, tris.len(), "{label}: every triangle tagged with a body");
+    };
+    let glottis = phonation::scene::coupled::CoupledScene::parse(phonation::scene::builtin("glottis_2d_c").unwrap()).unwrap().build().unwrap();
+    compare("glottis_2d_c", &glottis.drawn_level_sets(), 0.5, 2);
+    let mut p = phonation::solid::Particles::new(3, 1.0);
+    for x in phonation::solid::particles::sample_box(3, DVec3::ZERO, DVec3::new(12.0, 5.0, 4.0), 1.0) {
+        p.push(x, 1.0, 0, 0, false);
+    }
+    compare("a 12 × 5 × 4 beam", &phonation::coupling::level_set::body_level_sets(&p), 1.0, 3);
+}
+
 /// Tracers on the GPU follow the CPU twin over 250 steps through a real flow (the channel with
 /// a cylinder after 200 steps, frozen), re-seeding included. Bounds: each step adds f32
 /// rounding of ~1e-7 of the coordinates (≤ 40 cells: ~1e-5 cells per step with the

@@ -223,7 +223,11 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         // the CPU twins and, with a device, the GPU kernels, measured in this process
         let ctx = if backend != BenchBackend::Cpu { Some(phonation::gpu::GpuContext::new()?) } else { None };
         let (n, tracers) = if quick { (48, 20_000) } else { (128, 100_000) };
-        let rows = phonation::gpu::bench::drawing_speed(ctx.as_ref(), n, tracers);
+        let mut rows = phonation::gpu::bench::drawing_speed(ctx.as_ref(), n, tracers);
+        // the glottis's folds as the plugin draws them
+        let glottis = phonation::scene::coupled::CoupledScene::parse(phonation::scene::builtin("glottis_2d_c").expect("a built-in scene"))?.build()?;
+        let source = phonation::run::surface::SurfaceSource::coupled(&glottis);
+        rows.push(phonation::gpu::bench::fold_surface_speed(ctx.as_ref(), "glottis_2d_c", &source.sets, source.spacing, source.dim));
         println!("drawing kernels (CPU twin serial{}):", ctx.as_ref().map(|c| format!("; GPU {}", c.describe())).unwrap_or_default());
         println!("{:>26} {:>8} {:>14} {:>14} {:>10} {:>10}", "kernel", "size", "CPU /s", "GPU /s", "GPU/CPU", "triangles");
         for r in &rows {

@@ -182,6 +182,45 @@ pub fn drawing_speed(ctx: Option<&GpuContext>, n: usize, tracers: usize) -> Vec<
     out
 }
 
+/// The bodies' surface made from their level sets `sets` (grid spacing `h`, dimension `dim`),
+/// on the CPU ([`crate::mesh::particle_field::body_surfaces`]) and on the GPU
+/// ([`super::fold_surface::GpuFoldSurface::record`]: the particles and bins go up, the level
+/// set and marching cubes run, nothing comes back — what the plugin does on a frame that
+/// stepped); best of three (CPU) and five (GPU) in this process, per grid node sampled.
+pub fn fold_surface_speed(ctx: Option<&GpuContext>, label: &str, sets: &[crate::fluid::KernelLevelSet], h: f64, dim: usize) -> DrawingSpeed {
+    use crate::mesh::particle_field::{SurfaceGrid, body_surfaces};
+    let nodes: usize = sets.iter().filter(|s| !s.points.is_empty()).map(|s| SurfaceGrid::around(s, h, dim).nodes()).sum();
+    let mut triangles = 0;
+    let cpu = (0..3)
+        .map(|_| {
+            let t = Instant::now();
+            triangles = body_surfaces(sets, h, dim, |p| p).triangles.len();
+            t.elapsed().as_secs_f64()
+        })
+        .fold(f64::INFINITY, f64::min);
+    let gpu = ctx.map(|ctx| {
+        let surface = super::fold_surface::GpuFoldSurface::new(&ctx.device);
+        let out = super::marching_cubes::OwnedSurface::new(&ctx.device, triangles as u32 + 64);
+        (0..5)
+            .map(|_| {
+                let t = Instant::now();
+                let mut enc = ctx.device.create_command_encoder(&Default::default());
+                surface.record(&ctx.device, &mut enc, sets, h, dim, &out.buffers());
+                ctx.queue.submit([enc.finish()]);
+                let _ = ctx.device.poll(wgpu::PollType::wait_indefinitely());
+                t.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min)
+    });
+    DrawingSpeed {
+        kernel: "folds' surface (L + cubes)".into(),
+        size: label.into(),
+        cpu_per_s: nodes as f64 / cpu,
+        gpu_per_s: gpu.map(|s| nodes as f64 / s),
+        triangles: Some(triangles),
+    }
+}
+
 /// The coupled step of one scene (either method) on the GPU ([`super::coupled::GpuCoupled`])
 /// and on the CPU, the same number of steps in one process.
 #[derive(Clone, Debug, serde::Serialize)]

@@ -8,6 +8,7 @@ pub mod context;
 pub mod coupled;
 pub mod coupling;
 pub mod fdlb;
+pub mod fold_surface;
 pub mod lattice_gas;
 pub mod lattice_gas_codegen;
 pub mod marching_cubes;

@@ -7,21 +7,48 @@ use super::marching_cubes::{ScalarGrid, TriangleMesh, extract};
 use crate::fluid::KernelLevelSet;
 use glam::DVec3;
 
-/// L of `set` (2.124) at the nodes of a grid of spacing `h` (the set's length unit) over the box
-/// of its particles grown by r_e and one more node, so that the field is outside (−φ) at the
-/// grid's border and the surface closes. In 2D (`dim` 2) the plane z = 0 as a slab one spacing
-/// thick ([`ScalarGrid::slab`]).
+/// The grid a body's level set is sampled on for its surface: `dims` nodes per axis from node
+/// (0, 0, 0) at `origin`, `spacing` apart (the set's length unit); a 2D body's is a slab
+/// ([`ScalarGrid::slab`]: three layers, the body's plane z = 0 in the middle one).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceGrid {
+    pub dims: [usize; 3],
+    pub origin: DVec3,
+    pub spacing: f64,
+    pub slab: bool,
+}
+
+impl SurfaceGrid {
+    /// The box of `set`'s particles grown by r_e and one more node, so that the field is outside
+    /// (−φ) at the grid's border and the surface closes; nodes `h` apart. In 2D (`dim` 2) the
+    /// plane z = 0 as a slab one spacing thick.
+    pub fn around(set: &KernelLevelSet, h: f64, dim: usize) -> Self {
+        let (lo, hi, _) = set.bin_box();
+        let lo = DVec3::from_array(lo) - DVec3::splat(h);
+        let hi = DVec3::from_array(hi) + DVec3::splat(h);
+        let n = |a: usize| ((hi[a] - lo[a]) / h).ceil() as usize + 1;
+        if dim == 2 {
+            SurfaceGrid { dims: [n(0), n(1), 3], origin: DVec3::new(lo.x, lo.y, -h), spacing: h, slab: true }
+        } else {
+            SurfaceGrid { dims: [n(0), n(1), n(2)], origin: lo, spacing: h, slab: false }
+        }
+    }
+
+    pub fn nodes(&self) -> usize {
+        self.dims.iter().product()
+    }
+}
+
+/// L of `set` (2.124) at the nodes of its [`SurfaceGrid::around`] (spacing `h`, dimension
+/// `dim`). Its GPU twin is shaders/level_set_grid.wgsl.
 pub fn level_set_grid(set: &KernelLevelSet, h: f64, dim: usize) -> ScalarGrid {
-    let (lo, hi, _) = set.bin_box();
-    let lo = DVec3::from_array(lo) - DVec3::splat(h);
-    let hi = DVec3::from_array(hi) + DVec3::splat(h);
-    let n = |a: usize| ((hi[a] - lo[a]) / h).ceil() as usize + 1;
+    let g = SurfaceGrid::around(set, h, dim);
     let level = |x: DVec3| set.level(x.to_array()).0;
-    if dim == 2 {
-        let plane = ScalarGrid::sample([n(0), n(1), 1], DVec3::new(lo.x, lo.y, 0.0), h, level);
-        ScalarGrid::slab([n(0), n(1)], plane.origin, h, &plane.values, 0.0)
+    if g.slab {
+        let plane = ScalarGrid::sample([g.dims[0], g.dims[1], 1], DVec3::new(g.origin.x, g.origin.y, 0.0), h, level);
+        ScalarGrid::slab([g.dims[0], g.dims[1]], plane.origin, h, &plane.values, 0.0)
     } else {
-        ScalarGrid::sample([n(0), n(1), n(2)], lo, h, level)
+        ScalarGrid::sample(g.dims, g.origin, h, level)
     }
 }
 

@@ -1,7 +1,9 @@
 //! The bodies of every [`CoupledSimulation`] and [`SolidSimulation`] as a triangle mesh: the
 //! level set of their particles through marching cubes ([`crate::run::surface`]), rebuilt on
 //! the frames the simulation stepped, one colour per body (the two folds of a glottis apart).
-//! World units are the scene's (cm for the glottis).
+//! World units are the scene's (cm for the glottis). This is the CPU path: in an app that
+//! renders, the same surface is made on the GPU ([`super::gpu_fold_mesh`]) unless
+//! [`super::DrawSettings::folds_on_gpu`] is off.
 
 use super::{DrawSettings, DrawSystems};
 use crate::mesh::TriangleMesh;
@@ -46,17 +48,35 @@ pub fn to_bevy_mesh(m: &TriangleMesh) -> Mesh {
         .with_inserted_indices(Indices::U32(idx))
 }
 
-#[allow(clippy::type_complexity)]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn update_fold_meshes(
     settings: Res<DrawSettings>,
     steps: Res<StepsThisFrame>,
     mut sims: ParamSet<(Query<(Entity, &CoupledSimulation, Option<&mut FoldMesh>)>, Query<(Entity, &SolidSimulation, Option<&mut FoldMesh>)>)>,
-    mut drawn: Query<&mut Visibility, With<FoldMeshOf>>,
+    mut drawn: Query<(Entity, &mut Visibility), With<FoldMeshOf>>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: Option<ResMut<Assets<StandardMaterial>>>,
+    device: Option<Res<bevy::render::renderer::RenderDevice>>,
     mut commands: Commands,
 ) {
-    for mut vis in &mut drawn {
+    if super::gpu_fold_mesh::on_gpu(&settings, device.as_deref()) {
+        // the surfaces are made on the GPU (super::gpu_fold_mesh): no CPU mesh
+        for (e, _) in &drawn {
+            commands.entity(e).despawn();
+        }
+        for (e, _, fm) in &sims.p0() {
+            if fm.is_some() {
+                commands.entity(e).remove::<FoldMesh>();
+            }
+        }
+        for (e, _, fm) in &sims.p1() {
+            if fm.is_some() {
+                commands.entity(e).remove::<FoldMesh>();
+            }
+        }
+        return;
+    }
+    for (_, mut vis) in &mut drawn {
         *vis = if settings.folds { Visibility::Inherited } else { Visibility::Hidden };
     }
     if !settings.folds {

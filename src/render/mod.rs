@@ -7,7 +7,8 @@
 //! | [`crate::plugin::PhonationPlugin`] | steps every simulation entity on the CPU (pause, single step, steps per frame) | [`crate::plugin::PhonationSystems`] (one set per solver stage list) |
 //! | [`crate::plugin::PhonationDiagnosticsPlugin`] | steps/s, node updates/s, particles, max Mach, mass drift in Bevy's `DiagnosticsStore` | [`crate::plugin::PhonationSystems::Diagnostics`] |
 //! | [`DrawPlugin`] | [`DrawSettings`] and the drawing's order; [`view::FrameSimulation`] cameras | [`DrawSystems`] |
-//! | [`fold_mesh::FoldMeshPlugin`] | each coupled or solid simulation's bodies as a mesh ([`crate::mesh`]: the level set the air sees, marching cubes), coloured per body | [`DrawSystems::FoldMesh`] |
+//! | [`fold_mesh::FoldMeshPlugin`] | each coupled or solid simulation's bodies as a mesh ([`crate::mesh`]: the level set the air sees, marching cubes on the CPU), coloured per body — in apps without a render device or with [`DrawSettings::folds_on_gpu`] off | [`DrawSystems::FoldMesh`] |
+//! | [`gpu_fold_mesh::GpuFoldMeshPlugin`] | the same surfaces made on the GPU in the render world on the frames the simulation stepped (level set on a grid and marching cubes, [`crate::gpu::fold_surface`]) and drawn from the kernels' buffers by a material — no readback but the triangle count | [`DrawSystems::FoldMesh`] (sources), the `RenderGraph` schedule (kernels) |
 //! | [`tracers::TracerPlugin`] | tracers born at the inlet and carried by the air ([`crate::fluid::tracers`], RK2), drawn as streaks coloured by speed | [`DrawSystems::Tracers`] |
 //! | [`gpu_tracers::GpuTracerPlugin`] | the tracers of a GPU-stepped fluid ([`crate::plugin::GpuStepping`] with [`crate::plugin::PhonationGpuPlugin`]) advected in the render world after the frame's steps and drawn from the device's buffer by a line material — no readback | [`DrawSystems::Tracers`] (spawning), the `RenderGraph` schedule (kernel) |
 //! | [`slice::SlicePlugin`] | the plane of the 2D lattice (coupled, fluid) or the lattice gas's coarse-grained field as an image of speed, pressure, vorticity, …, with its range and unit | [`DrawSystems::Slice`] |
@@ -15,16 +16,17 @@
 //!
 //! The drawing systems run after the simulation's sets in `Update`; every plugin can be left
 //! out of the group (`PhonationPlugins.build().disable::<TracerPlugin>()`). What is drawn is
-//! chosen by the [`DrawSettings`] resource. The drawing of CPU-stepped simulations reads the CPU
-//! solvers (meshes and images are uploaded each frame); a GPU-stepped fluid's tracers stay on the
-//! device ([`gpu_tracers`]). The GPU marching cubes ([`crate::gpu::marching_cubes`]) exists and is
-//! checked against its CPU twin, but is not yet wired into the render world.
+//! chosen by the [`DrawSettings`] resource. The folds' surfaces are made on the GPU from the CPU
+//! solvers' particles (their level sets go up, the mesh never comes back); the tracers and slices
+//! of CPU-stepped simulations are computed on the CPU and uploaded each frame; a GPU-stepped
+//! fluid's tracers stay on the device ([`gpu_tracers`]).
 
 use crate::plugin::{PhonationDiagnosticsPlugin, PhonationPlugin, PhonationSystems};
 use bevy::app::PluginGroupBuilder;
 use bevy::prelude::*;
 
 pub mod fold_mesh;
+pub mod gpu_fold_mesh;
 pub mod gpu_tracers;
 pub mod panel;
 pub mod plots;
@@ -37,6 +39,9 @@ pub mod view;
 #[derive(Resource, Debug, Clone, PartialEq)]
 pub struct DrawSettings {
     pub folds: bool,
+    /// Make the folds' surface on the GPU in the render world ([`gpu_fold_mesh`]) when the app
+    /// has a render device; otherwise, or when off, on the CPU ([`fold_mesh`]).
+    pub folds_on_gpu: bool,
     pub tracers: bool,
     /// Tracers per simulation.
     pub tracer_count: usize,
@@ -46,7 +51,7 @@ pub struct DrawSettings {
 
 impl Default for DrawSettings {
     fn default() -> Self {
-        DrawSettings { folds: true, tracers: true, tracer_count: 4000, slice: Some(crate::scene::schema::Field::Speed) }
+        DrawSettings { folds: true, folds_on_gpu: true, tracers: true, tracer_count: 4000, slice: Some(crate::scene::schema::Field::Speed) }
     }
 }
 
@@ -69,6 +74,7 @@ impl PluginGroup for PhonationPlugins {
             .add(PhonationDiagnosticsPlugin)
             .add(DrawPlugin)
             .add(fold_mesh::FoldMeshPlugin)
+            .add(gpu_fold_mesh::GpuFoldMeshPlugin)
             .add(tracers::TracerPlugin)
             .add(gpu_tracers::GpuTracerPlugin)
             .add(slice::SlicePlugin)

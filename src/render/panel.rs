@@ -114,6 +114,7 @@ fn panel_ui(
         ui.add(egui::Slider::new(&mut control.steps_per_frame, 1..=500).logarithmic(true).text("steps per frame"));
         ui.separator();
         ui.checkbox(&mut settings.folds, "folds (marching cubes)");
+        ui.checkbox(&mut settings.folds_on_gpu, "folds made on the GPU (when rendering)");
         ui.checkbox(&mut settings.tracers, "tracers (FDLB air)");
         let mut field = settings.slice;
         egui::ComboBox::from_label("slice").selected_text(field.map_or("none".to_string(), |f| format!("{f:?}").to_lowercase())).show_ui(ui, |ui| {

@@ -133,7 +133,7 @@ fn clear_simulation(ec: &mut EntityCommands) {
     use crate::plugin::*;
     ec.remove::<(CoupledSimulation, CoupledStatus, CoupledGlottis, CoupledDiagnostics, VoiceDiagnostics, diagnostics::InitialMass)>();
     ec.remove::<(FluidSimulation, FluidStatus, FluidDiagnostics, LatticeGasSimulation, LatticeGasDiagnostics)>();
-    ec.remove::<(super::fold_mesh::FoldMesh, super::tracers::FlowTracers, super::slice::SliceView, super::plots::PlotHistory)>();
+    ec.remove::<(super::fold_mesh::FoldMesh, super::gpu_fold_mesh::GpuFoldMesh, super::tracers::FlowTracers, super::slice::SliceView, super::plots::PlotHistory)>();
 }
 
 /// Rebuilds the [`PanelTarget`]'s simulation when [`PanelState`] differs from what it was built

@@ -3,6 +3,7 @@
 //! the air sees for a coupled scene, the particles' own for a solid.
 
 use crate::coupling::CoupledSolver;
+use crate::fluid::KernelLevelSet;
 use crate::mesh::TriangleMesh;
 use crate::mesh::particle_field::body_surfaces;
 use crate::solid::SolidSolver;
@@ -14,21 +15,51 @@ fn spacing(dim: usize) -> f64 {
     if dim == 3 { 1.0 } else { 0.5 }
 }
 
-/// The coupled bodies' surfaces {L = 0} ([`CoupledSolver::drawn_level_sets`]), scene units; a
-/// 2D scene's as a slab one sampling spacing thick around z = 0.
-pub fn coupled_surface(c: &CoupledSolver) -> TriangleMesh {
-    let dim = c.fluid.layout.grid.dim;
-    let dx = c.units.dx;
-    // the inverse of CoupledSolver::to_lattice (z = 0 is the nodes' plane in 2D)
-    let to_world = move |p: DVec3| if dim == 3 { (p + DVec3::splat(0.5)) * dx } else { DVec3::new((p.x + 0.5) * dx, (p.y + 0.5) * dx, p.z * dx) };
-    body_surfaces(&c.drawn_level_sets(), spacing(dim), dim, to_world)
+/// What the bodies' surfaces are made from: one level set per body (in the sets' own length
+/// unit: lattice cells for a coupled scene, particle spacings for a solid), the grid spacing
+/// they are sampled at and the dimension, and the map to scene units, x ↦ (x + `offset`) ·
+/// `scale`. [`Self::mesh`] makes the surface on the CPU; the plugin's GPU fold mesh makes it
+/// from the same source on the device.
+#[derive(Clone, Debug)]
+pub struct SurfaceSource {
+    pub sets: Vec<KernelLevelSet>,
+    pub spacing: f64,
+    pub dim: usize,
+    pub offset: DVec3,
+    pub scale: f64,
 }
 
-/// A solid's bodies' surfaces ([`crate::coupling::level_set::body_level_sets`]), scene units.
+impl SurfaceSource {
+    /// The coupled bodies' level sets as the air sees them ([`CoupledSolver::drawn_level_sets`]);
+    /// the inverse of `CoupledSolver::to_lattice` (cell centres at +½; z = 0 is the nodes' plane
+    /// in 2D).
+    pub fn coupled(c: &CoupledSolver) -> Self {
+        let dim = c.fluid.layout.grid.dim;
+        let offset = if dim == 3 { DVec3::splat(0.5) } else { DVec3::new(0.5, 0.5, 0.0) };
+        SurfaceSource { sets: c.drawn_level_sets(), spacing: spacing(dim), dim, offset, scale: c.units.dx }
+    }
+
+    /// A solid's bodies' level sets ([`crate::coupling::level_set::body_level_sets`]).
+    pub fn solid(s: &SolidSolver) -> Self {
+        let p = &s.particles;
+        SurfaceSource { sets: crate::coupling::level_set::body_level_sets(p), spacing: spacing(p.dim), dim: p.dim, offset: DVec3::ZERO, scale: p.spacing }
+    }
+
+    /// The surfaces {L = 0} as one mesh in scene units, each vertex tagged with its body
+    /// ([`body_surfaces`]); a 2D scene's as a slab one sampling spacing thick around z = 0.
+    pub fn mesh(&self) -> TriangleMesh {
+        body_surfaces(&self.sets, self.spacing, self.dim, |p| (p + self.offset) * self.scale)
+    }
+}
+
+/// The coupled bodies' surfaces {L = 0}, scene units.
+pub fn coupled_surface(c: &CoupledSolver) -> TriangleMesh {
+    SurfaceSource::coupled(c).mesh()
+}
+
+/// A solid's bodies' surfaces, scene units.
 pub fn solid_surface(s: &SolidSolver) -> TriangleMesh {
-    let p = &s.particles;
-    let l0 = p.spacing;
-    body_surfaces(&crate::coupling::level_set::body_level_sets(p), spacing(p.dim), p.dim, move |x| x * l0)
+    SurfaceSource::solid(s).mesh()
 }
 
 #[cfg(test)]
