@@ -1076,6 +1076,58 @@ fn the_fold_surface_on_the_gpu_matches_its_cpu_twin() {
     compare("a 12 × 5 × 4 beam", &phonation::coupling::level_set::body_level_sets(&p), 1.0, 3);
 }
 
+/// The slice made on the device from a GPU fluid's macro buffer (values, range, colours) gives
+/// the CPU's image (`output::fields::slice` + `png_map::rgba_top_down`: what the Bevy slice and
+/// the PNG snapshots draw) for every field, on the coarse glottis after 60 coupled steps (the lung
+/// pressure's front in the trachea; the folds grey), uploaded to the GPU. Bounds: the values are f32 (ρ, u, θ from the moments in f32: ~1e-7
+/// relative); the gauge pressure (ρθ − θ₀) and the vorticity (differences of neighbours'
+/// velocities) lose digits to cancellation, up to ~1e-7 · θ₀ / |p − θ₀| ≈ 1e-4 of the range
+/// here; the colour of a value is its 8-bit truncation, so a value that close to a level's edge
+/// may take the next level: every channel within 1 level, and the range within 1e-3 of its
+/// width.
+#[test]
+fn the_slice_on_the_gpu_matches_its_cpu_twin() {
+    use phonation::gpu::slice::GpuSlice;
+    use phonation::output::fields::{plane_map, slice};
+    use phonation::output::png_map::rgba_top_down;
+    use phonation::scene::schema::Field;
+    let Some(ctx) = context() else { return };
+    let sc = phonation::scene::coupled::CoupledScene::parse(phonation::scene::builtin("glottis_2d_coarse").unwrap()).unwrap();
+    let mut c = sc.build().unwrap();
+    for _ in 0..60 {
+        c.step().unwrap();
+    }
+    let gpu = GpuFluid::from_solver(&ctx, &c.fluid).unwrap();
+    for field in [Field::Speed, Field::Pressure, Field::Vorticity, Field::Density, Field::Temperature] {
+        let map = plane_map(field, &c.units);
+        let s = GpuSlice::new(&ctx.device, &gpu, &c.fluid.layout.grid, map);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        s.record(&gpu, &mut enc);
+        ctx.queue.submit([enc.finish()]);
+        let (px, range) = s.download(&ctx);
+        let (cpu_px, cpu_range) = rgba_top_down(&slice(&c.fluid, &c.units, field), map.signed);
+        let width = cpu_range.1 - cpu_range.0;
+        let dr = (range.0 - cpu_range.0).abs().max((range.1 - cpu_range.1).abs()) / width;
+        let diff: Vec<i32> = px.iter().zip(&cpu_px).map(|(a, b)| (*a as i32 - *b as i32).abs()).collect();
+        let off = diff.iter().filter(|d| **d > 0).count();
+        let grey = cpu_px.chunks(4).filter(|p| p[..3] == [110, 110, 110]).count();
+        eprintln!(
+            "{field:?}: {}×{} pixels ({grey} grey), range GPU ({:.5e}, {:.5e}) CPU ({:.5e}, {:.5e}): {dr:.1e} of its width; {off} channels differ, by at most {}",
+            s.size().0,
+            s.size().1,
+            range.0,
+            range.1,
+            cpu_range.0,
+            cpu_range.1,
+            diff.iter().max().unwrap()
+        );
+        assert_eq!(px.len(), cpu_px.len());
+        assert!(grey > 100, "{field:?}: the folds grey");
+        assert!(dr < 1e-3, "{field:?}: range {range:?} vs {cpu_range:?}");
+        assert!(diff.iter().all(|d| *d <= 1), "{field:?}: a channel differs by more than one level");
+    }
+}
+
 /// Tracers on the GPU follow the CPU twin over 250 steps through a real flow (the channel with
 /// a cylinder after 200 steps, frozen), re-seeding included. Bounds: each step adds f32
 /// rounding of ~1e-7 of the coordinates (≤ 40 cells: ~1e-5 cells per step with the

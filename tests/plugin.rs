@@ -831,8 +831,8 @@ fn the_fold_mesh_made_on_the_gpu_draws_the_cpu_meshs_folds() {
 /// A GPU-stepped fluid's tracers stay on the device: advected in the render world after the
 /// frame's steps and drawn from the device's buffer by the line material. The tracers move with
 /// the channel's inflow (their mean x grows), stay in the lattice, and show in the rendered
-/// image; with the tracers switched off the image is the background. The PNGs are kept in the
-/// test's target directory.
+/// image; with the tracers switched off the image is the background; its slice is made on the
+/// device too. The PNGs are kept in the test's target directory.
 #[cfg(feature = "render")]
 #[test]
 fn gpu_tracers_are_advected_and_drawn_on_the_device() {
@@ -889,17 +889,32 @@ fn gpu_tracers_are_advected_and_drawn_on_the_device() {
     // the CPU mirror was not stepped, and no CPU tracers were made for it
     assert_eq!(app.world().get::<FluidSimulation>(e).unwrap().solver.step_count, 0);
     assert!(app.world().get::<phonation::render::tracers::FlowTracers>(e).is_none());
-    // no slice of the CPU mirror, which is not stepped
+    // the slice is made on the device (render::gpu_slice; its kernels' parity with the CPU slice
+    // is tests/gpu.rs `the_slice_on_the_gpu_matches_its_cpu_twin`), not from the CPU mirror:
+    // the speed in the channel fills the lattice's rectangle with more than a few colours, and
+    // its range comes back for the legend
+    use phonation::render::gpu_slice::GpuSliceOf;
+    use phonation::render::slice::{SliceOf, SliceView};
     app.world_mut().resource_mut::<DrawSettings>().slice = Some(phonation::scene::schema::Field::Speed);
-    app.update();
-    assert!(app.world().get::<phonation::render::slice::SliceView>(e).is_none(), "a GPU-stepped fluid has no CPU slice");
-    // the lines go with their simulation
+    let sliced = capture(&mut app, "gpu_slice.png");
+    let view = app.world().get::<SliceView>(e).expect("a slice view").clone();
+    let quads =
+        |app: &mut App| (app.world_mut().query::<&SliceOf>().iter(app.world()).count(), app.world_mut().query::<&GpuSliceOf>().iter(app.world()).count());
+    let colours: std::collections::HashSet<[u8; 3]> = sliced.chunks(4).map(|p| [p[0], p[1], p[2]]).collect();
+    eprintln!("GPU slice: speed {:.4e} … {:.4e} {}, {:.3} of the image, {} colours", view.range.0, view.range.1, view.unit, share(&sliced), colours.len());
+    assert_eq!(quads(&mut app), (0, 1), "the GPU slice's quad, no CPU slice");
+    assert!(view.range.0 >= 0.0 && view.range.1 > view.range.0 && view.range.1.is_finite(), "range {:?}", view.range);
+    // the lattice's rectangle is 0.28 of this image (the framing leaves the left part to the
+    // panel): the slice fills it
+    assert!(share(&sliced) > 0.25 && colours.len() > 20, "slice drawn over {} of the image, {} colours", share(&sliced), colours.len());
+    // the lines and the slice go with their simulation
     let lines = |app: &mut App| app.world_mut().query::<&phonation::render::gpu_tracers::GpuTracersOf>().iter(app.world()).count();
     assert_eq!(lines(&mut app), 1);
     app.world_mut().despawn(e);
     app.update();
     app.update();
     assert_eq!(lines(&mut app), 0);
+    assert_eq!(quads(&mut app), (0, 0));
 }
 
 fn sim_nodes(app: &App, e: Entity) -> [usize; 3] {

@@ -599,8 +599,8 @@ struct ProbeParams { step: u32, count: u32, n_nodes: u32, _pad: u32 };
 @group(0) @binding(2) var<storage, read_write> out: array<u32>;
 "#;
     s += &split.declare("src", "read", 10);
-    s += "@compute @workgroup_size(WG)\nfn main(@builtin(global_invocation_id) gid: vec3<u32>) {\n";
-    s += "    let k = gid.x;\n    if (k == 0u) { out[0] = PP.step; }\n    if (k >= PP.count) { return; }\n    let node = nodes[k];\n    let N = PP.n_nodes;\n";
+    s += "@compute @workgroup_size(WG)\nfn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {\n";
+    s += "    let k = gid.x + gid.y * nwg.x * WG;\n    if (k == 0u) { out[0] = PP.step; }\n    if (k >= PP.count) { return; }\n    let node = nodes[k];\n    let N = PP.n_nodes;\n";
     for v in 0..nv {
         let _ = writeln!(s, "    let f{v} = {};", split.at("src", v, "node"));
     }

@@ -76,7 +76,8 @@ const PIPE_FACE: usize = 3;
 const PIPE_PERIODIC: usize = 4;
 const PIPE_THIN: usize = 5;
 
-struct ProbeKernel {
+/// The moments kernel of a fixed list of nodes (the plugin's probes, a slice's plane).
+pub struct MomentsAt {
     pipeline: wgpu::ComputePipeline,
     nodes: wgpu::Buffer,
     params: wgpu::Buffer,
@@ -86,7 +87,7 @@ struct ProbeKernel {
 pub struct GpuFluid {
     device: wgpu::Device,
     eq: crate::fluid::Equilibrium,
-    probe: Option<ProbeKernel>,
+    probe: Option<MomentsAt>,
     /// The `gather` kernel of [`Self::download_nodes_into`], built at its first use.
     gather: Option<gather::GatherKernel>,
     queue: wgpu::Queue,
@@ -452,25 +453,38 @@ impl GpuFluid {
     /// Records the probe kernel: the macroscopic state of `nodes` after the recorded steps, with
     /// the step index, into `out` (u32 words: 1 + 5 per probe, see [`codegen::probes`]).
     pub fn record_probes(&mut self, enc: &mut wgpu::CommandEncoder, nodes: &[usize], out: &wgpu::Buffer) {
-        if self.probe.is_none() || self.probe.as_ref().is_some_and(|p| p.count != nodes.len()) {
-            let words: Vec<u32> = nodes.iter().map(|&n| n as u32).collect();
-            self.probe = Some(ProbeKernel {
-                pipeline: pipeline_of(&self.device, "probes", &codegen::probes(&self.eq, self.split), "main"),
-                nodes: storage(&self.device, "probe nodes", bytemuck::cast_slice(&words)),
-                params: self.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("probe params"),
-                    size: 16,
-                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                }),
-                count: nodes.len(),
-            });
+        if self.probe.as_ref().is_none_or(|p| p.count != nodes.len()) {
+            self.probe = Some(self.moments_at(nodes));
         }
         let p = self.probe.as_ref().unwrap();
-        self.queue.write_buffer(&p.params, 0, bytemuck::cast_slice(&[self.step_count as u32, nodes.len() as u32, self.stride as u32, 0]));
-        let bg = self.bind(&p.pipeline, &[(0, &p.params), (1, &p.nodes), (2, out)], &[(10, &self.f[self.cur])]);
+        self.record_moments(enc, p, out);
+    }
+
+    /// The probe kernel ([`codegen::probes`]) for a fixed list of nodes: [`Self::record_moments`]
+    /// writes their moments from the current populations.
+    pub fn moments_at(&self, nodes: &[usize]) -> MomentsAt {
+        let words: Vec<u32> = nodes.iter().map(|&n| n as u32).collect();
+        MomentsAt {
+            pipeline: pipeline_of(&self.device, "probes", &codegen::probes(&self.eq, self.split), "main"),
+            nodes: storage(&self.device, "probe nodes", bytemuck::cast_slice(&words)),
+            params: self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("probe params"),
+                size: 16,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            count: nodes.len(),
+        }
+    }
+
+    /// Records the moments of `m`'s nodes into `out` (at least 1 + 5 · count words: the step
+    /// index, then ρ, u_x, u_y, u_z, θ per node as f32 bits, lattice units), from the
+    /// populations of the last completed step.
+    pub fn record_moments(&self, enc: &mut wgpu::CommandEncoder, m: &MomentsAt, out: &wgpu::Buffer) {
+        self.queue.write_buffer(&m.params, 0, bytemuck::cast_slice(&[self.step_count as u32, m.count as u32, self.stride as u32, 0]));
+        let bg = self.bind(&m.pipeline, &[(0, &m.params), (1, &m.nodes), (2, out)], &[(10, &self.f[self.cur])]);
         let mut pass = enc.begin_compute_pass(&Default::default());
-        Self::dispatch(&mut pass, &p.pipeline, &bg, nodes.len().max(1) as u32);
+        Self::dispatch(&mut pass, &m.pipeline, &bg, m.count.max(1) as u32);
     }
 
     /// Runs `steps` steps with every stage in its own compute pass bracketed by timestamps, and

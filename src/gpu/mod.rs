@@ -12,6 +12,7 @@ pub mod fold_surface;
 pub mod lattice_gas;
 pub mod lattice_gas_codegen;
 pub mod marching_cubes;
+pub mod slice;
 pub mod solid;
 mod thin_wall;
 pub mod tracers;

@@ -73,6 +73,7 @@ mod tests {
             ("shaders/coupling.wgsl", include_str!("../../shaders/coupling.wgsl").to_string()),
             ("shaders/marching_cubes.wgsl", include_str!("../../shaders/marching_cubes.wgsl").to_string()),
             ("shaders/level_set_grid.wgsl", crate::gpu::fold_surface::SHADER.to_string()),
+            ("shaders/slice.wgsl", crate::gpu::slice::SHADER.to_string()),
             ("shaders/tracers.wgsl (+ hash.wgsl)", crate::gpu::tracers::SHADER.to_string()),
             ("shaders/solid.wgsl", include_str!("../../shaders/solid.wgsl").to_string()),
             ("shaders/solid_contact.wgsl", include_str!("../../shaders/solid_contact.wgsl").to_string()),
@@ -105,7 +106,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(n, 8 + 2 * 2 * 2 * 8);
+        assert_eq!(n, 9 + 2 * 2 * 2 * 8);
     }
 
     /// A mirror that differs from its shader is caught (the check can fail).

@@ -47,3 +47,18 @@ pub fn slice(s: &FluidSolver, units: &Units, field: Field) -> Slice {
     }
     Slice { nx, ny, values }
 }
+
+/// What [`slice`] computes for `field`, as the GPU slice kernel takes it
+/// ([`crate::gpu::slice::PlaneMap`]): the lattice quantity, its map to scene units, and the
+/// colour map (signed for pressure and vorticity, as the PNG snapshots).
+pub fn plane_map(field: Field, units: &Units) -> crate::gpu::slice::PlaneMap {
+    use crate::gpu::slice::{PlaneMap, Quantity};
+    let (quantity, scale, offset) = match field {
+        Field::Density => (Quantity::Density, units.density_to_physical(1.0), 0.0),
+        Field::Speed => (Quantity::Speed, units.velocity_to_physical(1.0), 0.0),
+        Field::Pressure => (Quantity::Pressure, units.pressure_unit(), units.theta0),
+        Field::Temperature => (Quantity::Temperature, 1.0 / units.theta0, 0.0),
+        Field::Vorticity => (Quantity::Vorticity, 1.0 / units.time(), 0.0),
+    };
+    PlaneMap { quantity, scale, offset, signed: matches!(field, Field::Pressure | Field::Vorticity) }
+}

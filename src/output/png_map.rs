@@ -46,6 +46,22 @@ pub fn colour(v: Option<f64>, (lo, hi): (f64, f64), signed: bool) -> [u8; 3] {
     }
 }
 
+/// RGBA8 pixels of `slice` in rows from the top (y up in the world), in [`colour`]'s map over
+/// [`colour_range`], and that range: the image the Bevy slice draws (the GPU slice kernel,
+/// shaders/slice.wgsl, is its twin).
+pub fn rgba_top_down(slice: &Slice, signed: bool) -> (Vec<u8>, (f64, f64)) {
+    let range = colour_range(slice, signed);
+    let mut data = Vec::with_capacity(4 * slice.nx * slice.ny);
+    for row in 0..slice.ny {
+        let y = slice.ny - 1 - row;
+        for x in 0..slice.nx {
+            let rgb = colour(slice.values[x + slice.nx * y], range, signed);
+            data.extend_from_slice(&[rgb[0], rgb[1], rgb[2], 255]);
+        }
+    }
+    (data, range)
+}
+
 /// Writes `slice` as an RGB PNG, scaled up by an integer factor so that small grids stay
 /// visible. `signed`: symmetric range around zero.
 pub fn write_png(path: &Path, slice: &Slice, signed: bool) -> std::io::Result<(f64, f64)> {

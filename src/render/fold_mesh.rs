@@ -49,7 +49,7 @@ pub fn to_bevy_mesh(m: &TriangleMesh) -> Mesh {
 }
 
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
-fn update_fold_meshes(
+pub(super) fn update_fold_meshes(
     settings: Res<DrawSettings>,
     steps: Res<StepsThisFrame>,
     mut sims: ParamSet<(Query<(Entity, &CoupledSimulation, Option<&mut FoldMesh>)>, Query<(Entity, &SolidSimulation, Option<&mut FoldMesh>)>)>,

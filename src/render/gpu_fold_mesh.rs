@@ -129,8 +129,10 @@ impl Plugin for GpuFoldMeshPlugin {
                 Shader::from_wgsl(include_str!("../../shaders/fold_surface_draw.wgsl"), "phonation/shaders/fold_surface_draw.wgsl"),
             )
             .expect("a fixed shader handle");
-        app.add_plugins((MaterialPlugin::<FoldSurfaceMaterial>::default(), ExtractComponentPlugin::<GpuFoldMesh>::default()))
-            .add_systems(Update, (update_gpu_fold_meshes, spawn_gpu_fold_meshes).chain().in_set(super::DrawSystems::FoldMesh));
+        app.add_plugins((MaterialPlugin::<FoldSurfaceMaterial>::default(), ExtractComponentPlugin::<GpuFoldMesh>::default())).add_systems(
+            Update,
+            (update_gpu_fold_meshes, spawn_gpu_fold_meshes).chain().after(super::fold_mesh::update_fold_meshes).in_set(super::DrawSystems::FoldMesh),
+        );
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
             render_app.add_systems(RenderGraph, make_gpu_fold_surfaces.before(RenderGraphSystems::Render));
         }

@@ -12,6 +12,7 @@
 //! | [`tracers::TracerPlugin`] | tracers born at the inlet and carried by the air ([`crate::fluid::tracers`], RK2), drawn as streaks coloured by speed | [`DrawSystems::Tracers`] |
 //! | [`gpu_tracers::GpuTracerPlugin`] | the tracers of a GPU-stepped fluid ([`crate::plugin::GpuStepping`] with [`crate::plugin::PhonationGpuPlugin`]) advected in the render world after the frame's steps and drawn from the device's buffer by a line material — no readback | [`DrawSystems::Tracers`] (spawning), the `RenderGraph` schedule (kernel) |
 //! | [`slice::SlicePlugin`] | the plane of the 2D lattice (coupled, fluid) or the lattice gas's coarse-grained field as an image of speed, pressure, vorticity, …, with its range and unit | [`DrawSystems::Slice`] |
+//! | [`gpu_slice::GpuSlicePlugin`] | the slice of a GPU-stepped fluid made by compute passes in the render world after the frame's steps (the plane's moments, values in scene units, range, colours: [`crate::gpu::slice`]) and copied into its texture — only the range comes back, for the legend | [`DrawSystems::Slice`] (set-up), the `RenderGraph` schedule (kernels) |
 //! | [`panel::PanelPlugin`] | the egui panel: presets of every drawn kind ([`presets`]), lung pressure, fold moduli, coupling method, pause / step / steps per frame, what to draw, diagnostics and live plots ([`plots`]: glottal flow, f0, a probe's velocity) | [`DrawSystems::Panel`] |
 //!
 //! The drawing systems run after the simulation's sets in `Update`; every plugin can be left
@@ -19,7 +20,7 @@
 //! chosen by the [`DrawSettings`] resource. The folds' surfaces are made on the GPU from the CPU
 //! solvers' particles (their level sets go up, the mesh never comes back); the tracers and slices
 //! of CPU-stepped simulations are computed on the CPU and uploaded each frame; a GPU-stepped
-//! fluid's tracers stay on the device ([`gpu_tracers`]).
+//! fluid's tracers and slice stay on the device ([`gpu_tracers`], [`gpu_slice`]).
 
 use crate::plugin::{PhonationDiagnosticsPlugin, PhonationPlugin, PhonationSystems};
 use bevy::app::PluginGroupBuilder;
@@ -27,6 +28,7 @@ use bevy::prelude::*;
 
 pub mod fold_mesh;
 pub mod gpu_fold_mesh;
+pub mod gpu_slice;
 pub mod gpu_tracers;
 pub mod panel;
 pub mod plots;
@@ -78,6 +80,7 @@ impl PluginGroup for PhonationPlugins {
             .add(tracers::TracerPlugin)
             .add(gpu_tracers::GpuTracerPlugin)
             .add(slice::SlicePlugin)
+            .add(gpu_slice::GpuSlicePlugin)
             .add(panel::PanelPlugin)
     }
 }

@@ -161,12 +161,10 @@ fn panel_ui(
             ui.label(backend);
             ui.label(time);
             if gpu.is_some() {
-                // its state stays on the device: Mach, mass drift and slices come from a CPU
-                // solver, which is not stepped
+                // its state stays on the device: Mach and mass drift come from a CPU solver,
+                // which is not stepped (its slice is made on the device: render::gpu_slice)
                 ui.label(format!("{rates} · {:.2e} nodes/s", smoothed.get(&NODE_UPDATES_PER_SECOND)));
-                if settings.slice.is_some() {
-                    ui.label("slice: not drawn for a GPU-stepped fluid (its state stays on the device)");
-                }
+                slice_legend(ui, slice, settings.slice);
             } else {
                 ui.label(format!("{rates} · {:.2e} nodes/s · max Mach {:.3}", smoothed.get(&NODE_UPDATES_PER_SECOND), smoothed.get(&MAX_MACH)));
                 ui.label(format!("mass drift {:.2e}", smoothed.get(&MASS_DRIFT)));

@@ -3,16 +3,16 @@
 //! symmetric about zero, solids grey — the maps of the PNG snapshots. Drawn for coupled and
 //! fluid simulations (scene units) and for the lattice gas (its coarse-grained field averaged
 //! over Z, in ℓ and steps: speed, density, vorticity). Its range and unit are kept in
-//! [`SliceView`] for the panel's legend. A GPU-stepped fluid ([`crate::plugin::GpuStepping`]) has
-//! no slice: its CPU mirror is not stepped, and a compute pass that writes the image from the
-//! device's fields is not built yet.
+//! [`SliceView`] for the panel's legend. A GPU-stepped fluid ([`crate::plugin::GpuStepping`]) gets
+//! its slice from a compute pass on the device instead ([`super::gpu_slice`]): its CPU mirror is
+//! not stepped.
 
 use super::{DrawSettings, DrawSystems};
 use crate::fluid::FluidSolver;
 use crate::lattice_gas::coarse::coarse_grain;
 use crate::output::coarse::{CoarseMap, z_mean_slice};
 use crate::output::fields::{Slice, slice};
-use crate::output::png_map::{colour, colour_range};
+use crate::output::png_map::rgba_top_down;
 use crate::plugin::{CoupledSimulation, FluidSimulation, LatticeGasSimulation, StepsThisFrame};
 use crate::scene::schema::Field;
 use crate::units::Units;
@@ -54,16 +54,7 @@ pub fn signed(f: Field) -> bool {
 /// RGBA8 pixels of `s` (rows from the top, y up in the world) in the PNG snapshots' colours, and
 /// the range mapped.
 pub fn pixels(s: &Slice, field: Field) -> (Vec<u8>, (f64, f64)) {
-    let range = colour_range(s, signed(field));
-    let mut data = Vec::with_capacity(4 * s.nx * s.ny);
-    for row in 0..s.ny {
-        let y = s.ny - 1 - row;
-        for x in 0..s.nx {
-            let rgb = colour(s.values[x + s.nx * y], range, signed(field));
-            data.extend_from_slice(&[rgb[0], rgb[1], rgb[2], 255]);
-        }
-    }
-    (data, range)
+    rgba_top_down(s, signed(field))
 }
 
 /// A plane to draw: its values, its size in world units, its depth and its values' unit.
@@ -76,10 +67,17 @@ pub struct Plane {
 
 /// The z-mid plane of an FDLB lattice (scene units).
 pub fn fluid_plane(s: &FluidSolver, units: &Units, field: Field) -> Plane {
+    let (w, h, z) = plane_geometry(s, units);
+    Plane { slice: slice(s, units, field), size: (w, h), z, unit: unit_of(field) }
+}
+
+/// Where an FDLB lattice's plane is drawn: its width and height and its depth (scene units;
+/// behind the bodies in 2D, at mid-depth in 3D).
+pub fn plane_geometry(s: &FluidSolver, units: &Units) -> (f32, f32, f32) {
     let g = &s.layout.grid;
     let dx = units.dx as f32;
     let z = if g.dim == 3 { 0.5 * g.n[2] as f32 * dx } else { -dx };
-    Plane { slice: slice(s, units, field), size: (g.n[0] as f32 * dx, g.n[1] as f32 * dx), z, unit: unit_of(field) }
+    (g.n[0] as f32 * dx, g.n[1] as f32 * dx, z)
 }
 
 /// The lattice gas's coarse-grained field, averaged over Z, in ℓ (its cells are 2ℓ): speed,
@@ -106,7 +104,7 @@ impl Plugin for SlicePlugin {
 }
 
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
-fn update_slices(
+pub(super) fn update_slices(
     settings: Res<DrawSettings>,
     steps: Res<StepsThisFrame>,
     mut sims: Query<
