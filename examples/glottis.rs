@@ -6,12 +6,16 @@
 //!     cargo run --release --example glottis
 //!     cargo run --release --example glottis -- --preset glottis_2d_coarse --steps-per-frame 20
 //!     cargo run --release --example glottis -- --preset lattice_gas_wake
+//!     cargo run --release --example glottis -- --preset cylinder_wake --air-on-gpu
 //!     cargo run --release --example glottis -- --frames 30 --screenshot glottis.png
 //!
-//! The simulation runs on the CPU backend (the window's panel says so); the GPU draws it.
+//! The simulation runs on the CPU backend (the window's panel says so) and the GPU draws it —
+//! the folds' surface made on the GPU from the particles; with `--air-on-gpu` (or the panel's
+//! checkbox) a fluid preset's air steps on the GPU in the render world, its tracers and slice
+//! made there too.
 
 use bevy::prelude::*;
-use phonation::plugin::SimulationControl;
+use phonation::plugin::{PhonationGpuPlugin, SimulationControl};
 use phonation::render::PhonationPlugins;
 use phonation::render::panel::{PanelState, PanelTarget};
 use phonation::render::view::{CapturePlugin, FrameSimulation};
@@ -24,11 +28,13 @@ fn arg(name: &str) -> Option<String> {
 fn main() {
     let preset = arg("--preset").unwrap_or_else(|| "glottis_2d_c".into());
     let steps = arg("--steps-per-frame").and_then(|s| s.parse().ok()).unwrap_or(5);
-    let window = Window { title: format!("phonation — {preset} (CPU backend)"), resolution: (1280, 800).into(), ..default() };
+    let air_on_gpu = std::env::args().any(|a| a == "--air-on-gpu");
+    let backend = if air_on_gpu { "air on the GPU" } else { "CPU backend" };
+    let window = Window { title: format!("phonation — {preset} ({backend})"), resolution: (1280, 800).into(), ..default() };
     let mut app = App::new();
     app.add_plugins(DefaultPlugins.set(WindowPlugin { primary_window: Some(window), ..default() }))
-        .add_plugins(PhonationPlugins)
-        .insert_resource(PanelState { preset, ..default() })
+        .add_plugins((PhonationPlugins, PhonationGpuPlugin))
+        .insert_resource(PanelState { preset, air_on_gpu, ..default() })
         .insert_resource(SimulationControl { steps_per_frame: steps, ..default() })
         .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
         .add_systems(Startup, setup);

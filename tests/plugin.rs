@@ -786,6 +786,12 @@ fn the_fold_mesh_made_on_the_gpu_draws_the_cpu_meshs_folds() {
     *app.world_mut().resource_mut::<DrawSettings>() = settings(false);
     let cpu = capture(&mut app, &handle, "folds_cpu.png");
     assert_eq!(count(&mut app), (1, 0), "the CPU mesh alone");
+    let cpu_mesh = app.world().get::<phonation::render::fold_mesh::FoldMesh>(e).expect("the CPU mesh");
+    assert_eq!(
+        phonation::render::panel::fold_surface_line(Some(cpu_mesh), None).unwrap(),
+        format!("folds: {cpu_triangles} triangles, made on the CPU"),
+        "the panel's line"
+    );
     *app.world_mut().resource_mut::<DrawSettings>() = settings(true);
     let gpu = capture(&mut app, &handle, "folds_gpu.png");
     assert_eq!(count(&mut app), (0, 1), "the GPU surface alone");
@@ -804,6 +810,11 @@ fn the_fold_mesh_made_on_the_gpu_draws_the_cpu_meshs_folds() {
     // the same triangles: a node's L within f32 rounding (1e-5 measured) of 0 could change a
     // cell's case; none does on the glottis (tests/gpu.rs), so the counts agree to 1 %
     let t = fm.triangles.expect("the count read back");
+    assert_eq!(
+        phonation::render::panel::fold_surface_line(None, Some(&fm)).unwrap(),
+        format!("folds: {t} triangles, made on the GPU (room for {})", fm.capacity),
+        "the panel's line"
+    );
     assert!((t as f64 / cpu_triangles as f64 - 1.0).abs() < 0.01, "GPU {t}, CPU {cpu_triangles}");
     assert!(either as f64 > 0.01 * (w * h) as f64, "folds drawn: {either} pixels");
     assert!(iou > 0.95, "fold pixels overlap {iou}");
@@ -915,6 +926,54 @@ fn gpu_tracers_are_advected_and_drawn_on_the_device() {
     app.update();
     assert_eq!(lines(&mut app), 0);
     assert_eq!(quads(&mut app), (0, 0));
+}
+
+/// The panel's "air stepped on the GPU" for a fluid preset: the preset's air goes to the render
+/// device (its probes come back, its CPU mirror stays at step 0, its slice is made on the
+/// device); a coupled preset with it is refused naming the setting and the old simulation
+/// stays; ticking it off rebuilds the preset on the CPU on a new entity (the device's handles
+/// and readbacks go with the old one).
+#[cfg(feature = "render")]
+#[test]
+fn the_panel_steps_a_fluid_presets_air_on_the_gpu() {
+    use phonation::plugin::{GpuFluidHandle, GpuProbes, PhonationGpuPlugin};
+    use phonation::render::DrawSystems;
+    use phonation::render::panel::{PanelState, PanelTarget, apply_panel};
+    use phonation::render::slice::SliceView;
+    if !has_gpu() {
+        return;
+    }
+    let (mut app, _, _) = headless_render_app(PhonationGpuPlugin, 320, 240);
+    app.add_systems(Update, apply_panel.in_set(DrawSystems::Panel));
+    app.insert_resource(PanelState { preset: "cylinder_wake".into(), air_on_gpu: true, ..default() });
+    app.world_mut().spawn(PanelTarget::default());
+    let target = |app: &mut App| app.world_mut().query_filtered::<Entity, With<PanelTarget>>().single(app.world()).unwrap();
+    for _ in 0..12 {
+        app.update();
+    }
+    let e = target(&mut app);
+    let probes = app.world().get::<GpuProbes>(e).expect("probes read back from the device").clone();
+    let mirror_steps = app.world().get::<FluidSimulation>(e).unwrap().solver.step_count;
+    let sliced = app.world().get::<SliceView>(e).is_some_and(|v| v.range.1 > v.range.0);
+    eprintln!("air on the GPU: step {} read back ({} readbacks), CPU mirror at step {mirror_steps}, slice read back: {sliced}", probes.step, probes.readbacks);
+    assert!(app.world().get::<GpuFluidHandle>(e).is_some(), "stepped on the render device");
+    assert!(probes.readbacks > 0 && probes.step > 0 && mirror_steps == 0, "probes {probes:?}, mirror {mirror_steps}");
+    assert!(sliced, "the slice made on the device, its range read back");
+    // a coupled preset cannot have its air on the GPU in the app: refused, the old one stays
+    app.insert_resource(PanelState { preset: "glottis_2d_coarse".into(), air_on_gpu: true, ..default() });
+    app.update();
+    let why = app.world().get::<PanelTarget>(e).unwrap().error.clone().unwrap_or_default();
+    assert!(why.starts_with("air_on_gpu:") && why.contains("glottis_2d_coarse"), "{why}");
+    assert!(app.world().get::<GpuFluidHandle>(e).is_some());
+    // off again: the preset on the CPU, on a new entity
+    app.insert_resource(PanelState { preset: "cylinder_wake".into(), ..default() });
+    for _ in 0..4 {
+        app.update();
+    }
+    let cpu = target(&mut app);
+    assert!(cpu != e && app.world().get_entity(e).is_err(), "rebuilt on a new entity");
+    assert!(app.world().get::<GpuFluidHandle>(cpu).is_none());
+    assert!(app.world().get::<FluidSimulation>(cpu).unwrap().solver.step_count > 0, "stepped on the CPU");
 }
 
 fn sim_nodes(app: &App, e: Entity) -> [usize; 3] {

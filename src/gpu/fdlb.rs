@@ -509,10 +509,11 @@ impl GpuFluid {
         Some(FDLB_STEP.iter().zip(timer.total).map(|(s, t)| (s.name, t)).collect())
     }
 
-    /// First inadmissible node and its code (1 density, 2 velocity, 3 temperature), if any.
     /// The macro buffer (ρ, ux, uy, uz, θ of every padded node, quantity k at `k · stride +
-    /// node`, written by each step's first stage), the node kinds (0 = fluid) and the stride:
-    /// what drawing kernels (tracers, slices) read without a copy.
+    /// node`, written by the moments pass of each RK2 stage: after a step, the moments of its
+    /// second stage's predictor state, not of the populations the step ended with — those are
+    /// [`Self::record_moments`]'s), the node kinds (0 = fluid) and the stride: what the tracer
+    /// kernel reads without a copy.
     pub fn macro_buffers(&self) -> (&wgpu::Buffer, &wgpu::Buffer, u32) {
         (&self.mac, &self.kind, (self.mac.size() / (5 * 4)) as u32)
     }

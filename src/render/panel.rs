@@ -8,6 +8,8 @@
 //! The parameters live in [`PanelState`]; [`apply_panel`] (in [`super::presets`]) rebuilds the
 //! simulation of the [`PanelTarget`] entity whenever they differ from what it was built with.
 
+use super::fold_mesh::FoldMesh;
+use super::gpu_fold_mesh::GpuFoldMesh;
 use super::plots::{F0, PROBE_UY_CM_S, PROBE_UY_LATTICE, PlotHistory, glottal_flow_points, record_plots, show_line};
 pub use super::presets::{PRESETS, RESOLUTIONS, apply_panel, build_preset, preset_moduli, scene_of};
 use super::slice::SliceView;
@@ -35,11 +37,16 @@ pub struct PanelState {
     /// Factor of the preset's lattice cells (the particles' spacing divided by it; one of
     /// [`super::presets::RESOLUTIONS`] in the panel); `None` keeps the preset's.
     pub resolution: Option<f64>,
+    /// Step a fluid preset's air on the render device ([`crate::plugin::GpuStepping`]; the app
+    /// needs [`crate::plugin::PhonationGpuPlugin`]): its tracers and slice are then made on the
+    /// device too. Refused for the coupled and lattice-gas presets, which the app steps on the
+    /// CPU.
+    pub air_on_gpu: bool,
 }
 
 impl Default for PanelState {
     fn default() -> Self {
-        PanelState { preset: "glottis_2d_c".into(), lung_pressure: None, fold_moduli: None, method: None, resolution: None }
+        PanelState { preset: "glottis_2d_c".into(), lung_pressure: None, fold_moduli: None, method: None, resolution: None, air_on_gpu: false }
     }
 }
 
@@ -87,6 +94,7 @@ fn panel_ui(
         Option<&CoupledStatus>,
         Option<&PlotHistory>,
         Option<&SliceView>,
+        (Option<&FoldMesh>, Option<&GpuFoldMesh>),
     )>,
     fluids: Query<
         (&FluidSimulation, Option<&PanelTarget>, Option<&FluidStatus>, Option<&PlotHistory>, Option<&SliceView>, Option<&GpuProbes>),
@@ -125,7 +133,7 @@ fn panel_ui(
         });
         settings.slice = field;
         let rates = format!("{:.0} frames/s · {:.0} steps/s", 1.0 / time.delta_secs().max(1e-6), smoothed.get(&STEPS_PER_SECOND));
-        for (sim, target, diag, voice, g, status, plots, slice) in &coupled {
+        for (sim, target, diag, voice, g, status, plots, slice, (cpu_folds, gpu_folds)) in &coupled {
             ui.separator();
             target_error(ui, target);
             if let Some(CoupledStatus::Unstable(why)) = status {
@@ -136,6 +144,9 @@ fn panel_ui(
             ui.label(format!("t = {:.3} ms ({} steps)", s.time * 1e3, s.step_count));
             ui.label(format!("{rates} · {:.2e} nodes/s · max Mach {:.3}", smoothed.get(&NODE_UPDATES_PER_SECOND), smoothed.get(&MAX_MACH)));
             slice_legend(ui, slice, settings.slice);
+            if let Some(line) = fold_surface_line(cpu_folds, gpu_folds).filter(|_| settings.folds) {
+                ui.label(line);
+            }
             if let Some(d) = diag {
                 ui.label(format!("air momentum {:.3e} · solid {:.3e}", d.fluid_momentum.length(), d.solid_momentum.length()));
             }
@@ -212,10 +223,25 @@ fn target_error(ui: &mut egui::Ui, target: Option<&PanelTarget>) {
     }
 }
 
+/// What the folds' surface is: its triangles and where it was made (on the GPU: the count read
+/// back, and the room its buffers have).
+pub fn fold_surface_line(cpu: Option<&FoldMesh>, gpu: Option<&GpuFoldMesh>) -> Option<String> {
+    match (gpu, cpu) {
+        (Some(g), _) => Some(match g.triangles {
+            Some(t) => format!("folds: {t} triangles, made on the GPU (room for {})", g.capacity),
+            None => "folds: made on the GPU (count not read back yet)".to_string(),
+        }),
+        (None, Some(c)) => Some(format!("folds: {} triangles, made on the CPU", c.triangles)),
+        (None, None) => None,
+    }
+}
+
 /// The slice's range and unit, or why the field is not drawn.
 fn slice_legend(ui: &mut egui::Ui, slice: Option<&SliceView>, field: Option<Field>) {
     let Some(field) = field else { return };
     match slice.filter(|v| v.field == field) {
+        // a slice made on the device until its range is read back
+        Some(v) if v.range.0.is_nan() => ui.label(format!("slice {:?}: range not read back yet ({})", v.field, v.unit)),
         Some(v) => ui.label(format!("slice {:?}: {:.3e} … {:.3e} {}", v.field, v.range.0, v.range.1, v.unit)),
         None => ui.label(format!("slice {field:?}: not a field of this simulation")),
     };
@@ -260,6 +286,9 @@ fn scene_controls(ui: &mut egui::Ui, state: &mut PanelState) {
                 }
             }
         });
+    }
+    if kind == Some(crate::scene::SceneKind::Fluid) {
+        ui.checkbox(&mut state.air_on_gpu, "air stepped on the GPU (render device)");
     }
     if kind != Some(crate::scene::SceneKind::Coupled) {
         return;

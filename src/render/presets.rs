@@ -5,7 +5,7 @@
 //! panel's widgets or from the app's own code (tests set the state directly).
 
 use super::panel::{PanelState, PanelTarget};
-use crate::plugin::{CoupledGlottis, CoupledSimulation, FluidSimulation, LatticeGasSimulation};
+use crate::plugin::{CoupledGlottis, CoupledSimulation, FluidSimulation, GpuStepping, LatticeGasSimulation};
 use crate::scene::coupled::CoupledScene;
 use crate::scene::{Scene, SceneKind};
 use bevy::ecs::system::EntityCommands;
@@ -96,6 +96,13 @@ pub enum PresetSimulation {
 /// The simulation of `state`, or why it is refused (naming the parameter).
 pub fn build_preset(state: &PanelState) -> Result<PresetSimulation, String> {
     let text = crate::scene::builtin(&state.preset).ok_or_else(|| format!("preset: no built-in scene {}", state.preset))?;
+    if state.air_on_gpu && SceneKind::of(text) != SceneKind::Fluid {
+        return Err(format!(
+            "air_on_gpu: preset {} is a {:?} scene, which the app steps on the CPU (the air of a fluid preset steps on the GPU; `phonation run --backend gpu` runs a coupled scene on the GPU)",
+            state.preset,
+            SceneKind::of(text)
+        ));
+    }
     if SceneKind::of(text) == SceneKind::Coupled {
         let sc = scene_of(state)?;
         let solver = sc.build().map_err(|e| e.to_string())?;
@@ -138,21 +145,29 @@ fn clear_simulation(ec: &mut EntityCommands) {
 
 /// Rebuilds the [`PanelTarget`]'s simulation when [`PanelState`] differs from what it was built
 /// with; the drawings of the old one go with it. A refused state keeps the old simulation and
-/// says why in [`PanelTarget::error`].
+/// says why in [`PanelTarget::error`]. A simulation stepped on the GPU (the old one or the new)
+/// is rebuilt on a new entity, so that the device's handles, readbacks and their observers go
+/// with the old entity.
 pub fn apply_panel(
     state: Res<PanelState>,
-    mut targets: Query<(Entity, &mut PanelTarget)>,
+    mut targets: Query<(Entity, &mut PanelTarget, Has<GpuStepping>)>,
     drawn: Query<(Entity, &super::fold_mesh::FoldMeshOf)>,
     slices: Query<(Entity, &super::slice::SliceOf)>,
     mut commands: Commands,
 ) {
-    for (e, mut t) in &mut targets {
+    for (old, mut t, on_gpu) in &mut targets {
         if t.built.as_ref() == Some(&*state) {
             continue;
         }
         t.built = Some(state.clone());
         match build_preset(&state) {
             Ok(sim) => {
+                let e = if on_gpu || state.air_on_gpu {
+                    commands.entity(old).despawn();
+                    commands.spawn(PanelTarget { built: Some(state.clone()), error: None }).id()
+                } else {
+                    old
+                };
                 let mut ec = commands.entity(e);
                 clear_simulation(&mut ec);
                 match sim {
@@ -164,6 +179,9 @@ pub fn apply_panel(
                     }
                     PresetSimulation::Fluid(f) => {
                         ec.insert(*f);
+                        if state.air_on_gpu {
+                            ec.insert(GpuStepping);
+                        }
                     }
                     PresetSimulation::LatticeGas(g) => {
                         ec.insert(*g);
@@ -171,12 +189,12 @@ pub fn apply_panel(
                 }
                 t.error = None;
                 for (m, of) in &drawn {
-                    if of.0 == e {
+                    if of.0 == old {
                         commands.entity(m).despawn();
                     }
                 }
                 for (m, of) in &slices {
-                    if of.0 == e {
+                    if of.0 == old {
                         commands.entity(m).despawn();
                     }
                 }
