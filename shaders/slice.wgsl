@@ -109,6 +109,7 @@ fn slice_range(@builtin(local_invocation_index) i: u32) {
         var a = lo_part[0];
         var b = hi_part[0];
         if (P.halo.w == 1u) {
+            // (the CPU floors at 1e-300, below f32's range)
             let m = max(max(abs(a), abs(b)), 1e-30);
             a = -m;
             b = m;

@@ -139,6 +139,14 @@ impl GpuContext {
     }
 }
 
+/// Workgroups of 64 threads for `threads` threads (2D past 65,535 along x), and the threads in
+/// a row of that grid: a kernel's thread index is `gid.x + gid.y · row`.
+pub fn dispatch_grid(threads: usize) -> ((u32, u32), u32) {
+    let groups = (threads as u32).div_ceil(64).max(1);
+    let (gx, gy) = if groups <= 65_535 { (groups, 1) } else { (65_535, groups.div_ceil(65_535)) };
+    ((gx, gy), gx * 64)
+}
+
 /// Copies a storage buffer into a mappable one and reads it back (blocks until done).
 pub fn read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buffer) -> Vec<u8> {
     let staging = device.create_buffer(&wgpu::BufferDescriptor {

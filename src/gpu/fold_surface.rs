@@ -6,8 +6,8 @@
 //! nothing comes back: the plugin draws the buffers ([`crate::render::gpu_fold_mesh`], feature
 //! `render`).
 
-use super::context::{GpuContext, buffer_layout, compute_pipelines, read_buffer};
-use super::marching_cubes::{FieldOnDevice, GpuMarchingCubes, SurfaceBuffers, dispatch_grid};
+use super::context::{GpuContext, buffer_layout, compute_pipelines, dispatch_grid, read_buffer};
+use super::marching_cubes::{FieldOnDevice, GpuMarchingCubes, SurfaceBuffers};
 use crate::fluid::KernelLevelSet;
 use crate::mesh::ScalarGrid;
 use crate::mesh::particle_field::SurfaceGrid;

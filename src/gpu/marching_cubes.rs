@@ -6,14 +6,13 @@
 //! The kernel writes three unindexed vertices per triangle, so a renderer can draw the
 //! buffers as they are, with the counter as the draw's vertex count / 3.
 
-use super::context::{GpuContext, buffer_layout, compute_pipelines, read_buffer};
+use super::context::{GpuContext, buffer_layout, compute_pipelines, dispatch_grid, read_buffer};
 use crate::mesh::marching_cubes::{CASES, ScalarGrid};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use wgpu::util::DeviceExt;
 
 const SHADER: &str = include_str!("../../shaders/marching_cubes.wgsl");
-const WORKGROUP: u32 = 64;
 
 /// The kernel's uniform (`Params` in the shader).
 #[repr(C)]
@@ -55,13 +54,6 @@ pub struct FieldOnDevice<'a> {
     pub dims: [usize; 3],
     pub origin: DVec3,
     pub spacing: f64,
-}
-
-/// Workgroups for `threads` threads of [`WORKGROUP`] (2D past 65,535), and the threads in a row.
-pub(super) fn dispatch_grid(threads: usize) -> ((u32, u32), u32) {
-    let groups = (threads as u32).div_ceil(WORKGROUP).max(1);
-    let (gx, gy) = if groups <= 65_535 { (groups, 1) } else { (65_535, groups.div_ceil(65_535)) };
-    ((gx, gy), gx * WORKGROUP)
 }
 
 /// The compiled kernel and the case table on the device.

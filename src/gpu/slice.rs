@@ -6,7 +6,7 @@
 //! `output::png_map::rgba_top_down` (the PNG snapshots' maps). Only the two ends of the range
 //! need to come back (for a legend).
 
-use super::context::{GpuContext, buffer_layout, compute_pipelines, read_buffer};
+use super::context::{GpuContext, buffer_layout, compute_pipelines, dispatch_grid, read_buffer};
 use super::fdlb::{GpuFluid, MomentsAt};
 use crate::fluid::Grid;
 use bytemuck::{Pod, Zeroable};
@@ -118,9 +118,7 @@ impl GpuSlice {
     /// slice was made for).
     pub fn record(&self, fluid: &GpuFluid, enc: &mut wgpu::CommandEncoder) {
         fluid.record_moments(enc, &self.moments_at, &self.moments);
-        let threads = self.nx * self.ny;
-        let groups = threads.div_ceil(64).max(1);
-        let (gx, gy) = if groups <= 65_535 { (groups, 1) } else { (65_535, groups.div_ceil(65_535)) };
+        let ((gx, gy), _) = dispatch_grid((self.nx * self.ny) as usize);
         for (k, p) in self.pipelines.iter().enumerate() {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("slice"), timestamp_writes: None });
             pass.set_pipeline(p);

@@ -51,12 +51,6 @@ pub fn signed(f: Field) -> bool {
     matches!(f, Field::Pressure | Field::Vorticity)
 }
 
-/// RGBA8 pixels of `s` (rows from the top, y up in the world) in the PNG snapshots' colours, and
-/// the range mapped.
-pub fn pixels(s: &Slice, field: Field) -> (Vec<u8>, (f64, f64)) {
-    rgba_top_down(s, signed(field))
-}
-
 /// A plane to draw: its values, its size in world units, its depth and its values' unit.
 pub struct Plane {
     pub slice: Slice,
@@ -134,7 +128,7 @@ pub(super) fn update_slices(
             // a field the simulation does not have: no slice (the panel says why)
             let Some(plane) = plane else { continue };
             shown.push(e);
-            let (data, range) = pixels(&plane.slice, field);
+            let (data, range) = rgba_top_down(&plane.slice, signed(field));
             match view {
                 Some(mut v) => {
                     if let Some(mut img) = images.get_mut(&v.image) {
