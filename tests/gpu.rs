@@ -268,14 +268,14 @@ fn a_lost_device_stops_the_run_with_a_diagnosis() {
     }
     let mut e = FluidEngine::new(Backend::Gpu, scene(false, GasModel::Monatomic)).unwrap();
     e.advance(3).expect("a healthy device steps");
-    let kept = phonation::state::state_hash(&e.solver);
+    let kept = phonation::state::state_hash(e.state());
     e.lose_device();
     let err = e.advance(3).expect_err("a lost device must stop the run");
     eprintln!("{err}");
     assert_eq!(err.part, Part::Device, "{err}");
-    assert!(err.reason.contains("device lost"), "{err}");
-    assert_eq!(e.solver.step_count, 3, "the mirror keeps the last downloaded state");
-    assert_eq!(phonation::state::state_hash(&e.solver), kept, "the mirror keeps the last downloaded state");
+    assert!(err.reason.contains("device lost") && err.reason.contains("step 3's"), "{err}");
+    assert_eq!((e.state().step_count, e.mirrored_step()), (3, 3), "the mirror keeps the last downloaded state");
+    assert_eq!(phonation::state::state_hash(e.state()), kept, "the mirror keeps the last downloaded state");
 }
 
 #[test]
@@ -305,6 +305,57 @@ fn headless_run_on_the_gpu_writes_the_same_probes_as_the_cpu() {
         assert!((c[4] - g[4]).abs() < 1e-3 * 10.0, "u {} vs {}", c[4], g[4]);
         assert!((c[5] - g[5]).abs() < 1e-3 * 10.0, "v {} vs {}", c[5], g[5]);
     }
+}
+
+/// A GPU run brings back only what its outputs read: each probe sample gathers the probes'
+/// nodes on the device (not the lattice), snapshots and the end bring the whole state, once
+/// per step. The probe rows are those of a run that brought the whole state back at every
+/// sample, byte for byte (the same f32 populations; the moments taken on the CPU either way).
+#[test]
+fn a_gpu_run_brings_back_only_what_its_outputs_read() {
+    use phonation::output::probes::ProbeWriter;
+    use phonation::run::{Backend, FluidEngine, Readback, RunOptions, run_scene};
+    use phonation::step::Solver;
+    let Some(_ctx) = context() else { return };
+    let text = std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/good_base.toml")).unwrap()
+        + "\n[output]\nprobe_every = 10\nsnapshots = 2\npng_fields = [\"speed\"]\nvtk = false\n";
+    let sc = phonation::scene::load(&text).unwrap();
+    let dir = std::env::temp_dir().join(format!("phonation-gpu-readback-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let r = run_scene(&sc, &dir, &RunOptions { steps: Some(60), show_progress: false, backend: Backend::Gpu, ..Default::default() }).unwrap();
+    let lazy = std::fs::read_to_string(dir.join("probes.csv")).unwrap();
+
+    // the same run, bringing back the whole state at every sample
+    let mut e = FluidEngine::new(Backend::Gpu, sc.build_solver()).unwrap();
+    let eager_path = dir.join("eager_probes.csv");
+    let mut w = ProbeWriter::create(&eager_path, e.state(), &sc.probes).unwrap();
+    w.sample(e.state(), &sc.units).unwrap();
+    assert_eq!(e.readback, Readback::default(), "the uploaded state needs no readback");
+    let mut whole = 0;
+    for k in 1..=6 {
+        e.advance(10).unwrap();
+        w.sample(e.state(), &sc.units).unwrap();
+        whole = e.readback.bytes / k;
+    }
+    drop(w);
+    let eager = std::fs::read_to_string(&eager_path).unwrap();
+    assert_eq!(lazy.lines().count(), 8, "header, the start and six samples:\n{lazy}");
+    assert_eq!(lazy, eager, "gathered probe nodes give the rows of whole readbacks");
+    // a gathered node costs its populations only
+    e.advance(1).unwrap();
+    let before = e.readback.bytes;
+    let nodes: Vec<usize> = sc.probes.iter().map(|(_, x)| sc.grid.index(*x)).collect();
+    e.state_at(&nodes);
+    let per_node = e.readback.bytes - before;
+    assert!(per_node > 0 && per_node * 100 < whole, "{per_node} B per node, {whole} B per state");
+
+    let got = r.readback.expect("a GPU run reports its readback");
+    eprintln!("readback of the GPU run: {got:?} ({whole} B per whole state, {per_node} B per probe node)");
+    // two snapshots (steps 30 and 60, the second also the end's state), one probe node × 6 samples
+    assert_eq!((got.whole_states, got.nodes), (2, 6), "{got:?}");
+    assert_eq!(got.bytes, 2 * whole + 6 * per_node, "{got:?}");
+    assert_eq!(e.step_count(), 61);
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The foundation issue's CI validations, on the GPU backend, with the same tolerances.
@@ -1591,7 +1642,7 @@ fn every_scene_key_changes_the_gpu_state_or_is_refused() {
             Scene::Fluid(sc) => {
                 let mut g = FluidEngine::new(Backend::Gpu, sc.build_solver()).map_err(|x| e(&x))?;
                 g.advance(2).map_err(|x| e(&x))?;
-                state_hash(&g.solver) + &serde_json::to_string(&sc.summary()).unwrap()
+                state_hash(g.state()) + &serde_json::to_string(&sc.summary()).unwrap()
             }
             Scene::Solid(sc) => {
                 let mut g = SolidEngine::new(Backend::Gpu, sc.build().map_err(|x| e(&x))?, sc.file.solid.cg_tolerance).map_err(|x| e(&x))?;

@@ -116,6 +116,24 @@ pub struct LatticeSpeed {
     pub stage_fractions: Vec<(String, f64)>,
     /// Why the size could not run on this backend (too large for the device, …).
     pub skipped: Option<String>,
+    /// GPU: what a probe sample costs the run loop, in seconds and in steps of this lattice —
+    /// the whole state brought back into the CPU mirror against the probes' nodes gathered on
+    /// the device ([`crate::run::FluidEngine::state_at`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub readback: Option<ReadbackCost>,
+}
+
+/// The cost of one probe sample of a GPU run (see [`LatticeSpeed::readback`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct ReadbackCost {
+    /// Whole state into the mirror (s): what every sample cost before the gather.
+    pub whole_s: f64,
+    /// The populations of [`ReadbackCost::nodes`] nodes gathered (s).
+    pub gathered_s: f64,
+    pub nodes: usize,
+    /// The two in steps of the lattice (wall time ÷ one step's).
+    pub whole_steps: f64,
+    pub gathered_steps: f64,
 }
 
 /// The benchmark problem: a periodic box of `n` nodes with a smooth shear flow, A > 0.
@@ -164,6 +182,7 @@ pub fn lattice_speed(set: VelocitySetKind, n: [usize; 3], steps: u64, repetition
         bandwidth_fraction: fraction_of_bandwidth(ups * bytes, footprint, bandwidth),
         stage_fractions: s.timings.report().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
         skipped: None,
+        readback: None,
     }
 }
 

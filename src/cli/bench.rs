@@ -281,6 +281,12 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                         let st: Vec<String> = l.stage_fractions.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
                         println!("         GPU stages (timestamps): {}", st.join(", "));
                     }
+                    if let Some(r) = &l.readback {
+                        println!(
+                            "         a probe sample: whole state back {:.3e} s ({:.2e} steps), {} nodes gathered {:.3e} s ({:.2e} steps)",
+                            r.whole_s, r.whole_steps, r.nodes, r.gathered_s, r.gathered_steps
+                        );
+                    }
                 }
             }
             gpu.push(l);

@@ -75,6 +75,7 @@ pub fn lattice_speed(ctx: &GpuContext, set: VelocitySetKind, n: [usize; 3], step
         bandwidth_fraction: None,
         skipped: None,
         stage_fractions: Vec::new(),
+        readback: None,
     };
     let mut gpu = match GpuFluid::from_solver(ctx, &cpu) {
         Ok(g) => g,
@@ -93,11 +94,32 @@ pub fn lattice_speed(ctx: &GpuContext, set: VelocitySetKind, n: [usize; 3], step
     out.node_updates_per_s = steps as f64 * cpu.layout.fluid_count as f64 / wall;
     (out.median_node_updates_per_s, out.worst_node_updates_per_s) = (out.node_updates_per_s, out.node_updates_per_s);
     out.bandwidth_fraction = Some(out.node_updates_per_s * bytes / bandwidth);
+    out.readback = Some(readback_cost(&mut gpu, cpu, wall / steps as f64));
     if let Some(st) = gpu.profile_stages(ctx, 3) {
         let all: f64 = st.iter().map(|(_, t)| t).sum();
         out.stage_fractions = st.into_iter().map(|(n, t)| (n.to_string(), t / all.max(1e-30))).collect();
     }
     out
+}
+
+/// What one probe sample of a GPU run costs (best of 5): the whole state brought back into the
+/// CPU mirror, as the run loop did at every sample, against 4 nodes' populations gathered on the
+/// device, as it does now; `step_s` is one step's wall time.
+fn readback_cost(gpu: &mut GpuFluid, mut cpu: crate::fluid::FluidSolver, step_s: f64) -> crate::bench::ReadbackCost {
+    let n = cpu.layout.grid.n;
+    let nodes: Vec<usize> = (0..4).map(|k| cpu.layout.grid.index([(n[0] * k / 4) as i64, (n[1] / 2) as i64, (n[2] / 2) as i64])).collect();
+    let best = |f: &mut dyn FnMut()| {
+        (0..5)
+            .map(|_| {
+                let t = Instant::now();
+                f();
+                t.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let whole_s = best(&mut || gpu.download_into(&mut cpu));
+    let gathered_s = best(&mut || gpu.download_nodes_into(&nodes, &mut cpu));
+    crate::bench::ReadbackCost { whole_s, gathered_s, nodes: nodes.len(), whole_steps: whole_s / step_s, gathered_steps: gathered_s / step_s }
 }
 
 /// Speed of the drawing kernels, CPU twin and (when a device is given) GPU kernel measured in

@@ -40,6 +40,11 @@ impl ProbeWriter {
         Ok(ProbeWriter { out, probes: probes_at, dim })
     }
 
+    /// The nodes the probes read (padded indices): the populations a sample needs.
+    pub fn nodes(&self) -> Vec<usize> {
+        self.probes.iter().map(|(_, n)| *n).collect()
+    }
+
     /// Appends one row for the solver's current state and flushes it.
     pub fn sample(&mut self, s: &FluidSolver, units: &Units) -> std::io::Result<()> {
         write!(self.out, "{},{:.9e}", s.step_count, units.time_to_physical(s.time))?;

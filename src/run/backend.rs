@@ -62,7 +62,7 @@ fn uploaded(ctx: &GpuContext) -> Result<DeviceHealth, GpuError> {
 /// The instability a run stops with when its device fails (lost, out of memory, a rejected
 /// command) during the advance that ended at `step`: the run loop then keeps the outputs
 /// written so far, and the mirror holds the last state downloaded before the failure.
-fn device_failure(why: String, step: u64, time: f64, time_unit: &'static str, n: u64) -> Instability {
+fn device_failure(why: String, step: u64, time: f64, time_unit: &'static str, n: u64, kept: u64) -> Instability {
     Instability {
         part: Part::Device,
         step,
@@ -71,18 +71,41 @@ fn device_failure(why: String, step: u64, time: f64, time_unit: &'static str, n:
         site: Site::Everywhere,
         quantity: "device state",
         value: f64::NAN,
-        reason: format!("{why} (within the last {n} steps; the state kept is the last one downloaded)"),
+        reason: format!("{why} (within the last {n} steps; the state kept is the last one downloaded, step {kept}'s)"),
     }
 }
 
-/// The FDLB fluid on a backend. On the GPU, [`FluidEngine::solver`] mirrors the GPU state after
-/// every [`Solver::advance`].
+/// The FDLB fluid on a backend. On the GPU the CPU solver is a mirror that receives the
+/// device's state only when it is read: [`FluidEngine::state`] brings the whole state of the
+/// step reached (once per step), [`FluidEngine::state_at`] only the populations of a few nodes
+/// (a probe sample). An advance itself brings back nothing but the instability flag.
 pub struct FluidEngine {
-    pub solver: FluidSolver,
+    solver: FluidSolver,
     gpu: Option<Box<GpuFluid>>,
     health: Option<DeviceHealth>,
     /// What runs it ("cpu (2 threads)", "gpu: …").
     pub name: String,
+    /// GPU: the step whose whole state the mirror holds (None: none brought back yet; the
+    /// mirror then holds the uploaded initial state, `start`).
+    whole: Option<u64>,
+    /// GPU: the step the solver was uploaded at.
+    start: u64,
+    /// GPU: the device failed or reported an instability, so its state is not read again (the
+    /// mirror keeps the last state brought back).
+    failed: bool,
+    /// What came back from the device so far.
+    pub readback: Readback,
+}
+
+/// What a GPU run brought back from the device (the instability flag of every advance aside).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Readback {
+    /// Whole states (every node's populations).
+    pub whole_states: u64,
+    /// Single nodes' populations gathered on the device (probe samples).
+    pub nodes: u64,
+    /// Bytes of populations these carried (f32).
+    pub bytes: u64,
 }
 
 impl FluidEngine {
@@ -98,11 +121,11 @@ impl FluidEngine {
                 let solver = build()?;
                 let g = Box::new(GpuFluid::from_solver(&ctx, &solver)?);
                 let health = Some(uploaded(&ctx)?);
-                return Ok(Self { solver, gpu: Some(g), health, name });
+                return Ok(Self::engine(solver, Some(g), health, name));
             }
             None => None,
         };
-        Ok(Self { solver: build()?, gpu, health: None, name })
+        Ok(Self::engine(build()?, gpu, None, name))
     }
 
     /// Picks the backend and uploads `solver` to the GPU when it is chosen.
@@ -112,7 +135,72 @@ impl FluidEngine {
             Some(ctx) => (Some(Box::new(GpuFluid::from_solver(&ctx, &solver)?)), Some(uploaded(&ctx)?)),
             None => (None, None),
         };
-        Ok(Self { solver, gpu, health, name })
+        Ok(Self::engine(solver, gpu, health, name))
+    }
+
+    fn engine(solver: FluidSolver, gpu: Option<Box<GpuFluid>>, health: Option<DeviceHealth>, name: String) -> Self {
+        let start = solver.step_count;
+        Self { solver, gpu, health, name, whole: None, start, failed: false, readback: Readback::default() }
+    }
+
+    /// The whole state of the step reached. On the GPU it is brought back now unless the
+    /// mirror already holds it; after a device failure or an instability the mirror keeps the
+    /// last state brought back (see [`Self::mirrored_step`]).
+    pub fn state(&mut self) -> &FluidSolver {
+        if let Some(g) = self.gpu.as_ref()
+            && !self.failed
+            && !self.holds(g.step_count)
+        {
+            g.download_into(&mut self.solver);
+            self.whole = Some(g.step_count);
+            self.readback.whole_states += 1;
+            self.readback.bytes += 4 * (g.n_nodes * g.nv) as u64;
+        }
+        &self.solver
+    }
+
+    /// The solver with the populations of `nodes` (padded node indices) at the step reached
+    /// and its step counter and time; the other nodes as last brought back. On the GPU only
+    /// these nodes cross the bus (the `gather` kernel): what a probe sample reads
+    /// ([`crate::output::probes::ProbeWriter::nodes`]), bit for bit what [`Self::state`] would
+    /// give at them.
+    pub fn state_at(&mut self, nodes: &[usize]) -> &FluidSolver {
+        if let Some(g) = self.gpu.as_ref()
+            && !self.failed
+            && !self.holds(g.step_count)
+        {
+            let g = self.gpu.as_mut().expect("checked above");
+            g.download_nodes_into(nodes, &mut self.solver);
+            self.readback.nodes += nodes.len() as u64;
+            self.readback.bytes += 4 * (nodes.len() * g.nv) as u64;
+        }
+        &self.solver
+    }
+
+    /// Whether a GPU steps it.
+    pub fn is_gpu(&self) -> bool {
+        self.gpu.is_some()
+    }
+
+    /// Whether the mirror holds the whole state of `step` (the uploaded one before any was
+    /// brought back).
+    fn holds(&self, step: u64) -> bool {
+        self.whole.unwrap_or(self.start) == step
+    }
+
+    /// The step whose whole state the solver holds: the step reached on the CPU; on the GPU
+    /// the last one [`Self::state`] brought back (the uploaded one before any).
+    pub fn mirrored_step(&self) -> u64 {
+        match &self.gpu {
+            None => self.solver.step_count,
+            Some(_) => self.whole.unwrap_or(self.start),
+        }
+    }
+
+    /// The solver with the whole state of the step reached (see [`Self::state`]).
+    pub fn into_solver(mut self) -> FluidSolver {
+        self.state();
+        self.solver
     }
 
     /// Destroys the GPU device, as a driver reset would lose it (tests of the diagnosis).
@@ -130,19 +218,26 @@ impl Solver for FluidEngine {
     }
 
     fn step_count(&self) -> u64 {
-        self.solver.step_count
+        match &self.gpu {
+            None => self.solver.step_count,
+            Some(g) => g.step_count,
+        }
     }
 
-    /// On the GPU: `n` steps, then the state copied back into the mirror (which keeps the last
-    /// state copied back when the GPU reports an instability).
+    /// On the GPU: `n` steps and the device's instability flag; the state stays on the device
+    /// until [`FluidEngine::state`] or [`FluidEngine::state_at`] reads it. After an instability
+    /// or a device failure the mirror keeps the last state brought back.
     fn advance(&mut self, n: u64) -> Result<(), Instability> {
         let Some(g) = self.gpu.as_mut() else { return self.solver.run(n) };
-        let s = &mut self.solver;
+        let s = &self.solver;
+        let kept = self.whole.unwrap_or(self.start);
         g.run(n);
         if let Some(why) = self.health.as_ref().and_then(|h| h.settle()) {
-            return Err(device_failure(why, g.step_count, g.step_count as f64 * s.params.dt, "lattice units", n));
+            self.failed = true;
+            return Err(device_failure(why, g.step_count, g.step_count as f64 * s.params.dt, "lattice units", n, kept));
         }
         if let Some((node, code)) = g.instability() {
+            self.failed = true;
             let quantity = ["", "density", "velocity", "temperature"][code as usize];
             return Err(Instability {
                 part: Part::Fluid,
@@ -152,10 +247,11 @@ impl Solver for FluidEngine {
                 site: Site::Node(s.layout.grid.coords(node)),
                 quantity,
                 value: f64::NAN,
-                reason: format!("{quantity} left its admissible range on the GPU within the last {n} steps"),
+                reason: format!(
+                    "{quantity} left its admissible range on the GPU within the last {n} steps (the last whole state brought back is step {kept}'s)"
+                ),
             });
         }
-        g.download_into(s);
         Ok(())
     }
 
@@ -238,7 +334,7 @@ impl Solver for SolidEngine {
         g.run(n);
         if let Some(why) = self.health.as_ref().and_then(|h| h.settle()) {
             let s = &self.solver;
-            return Err(device_failure(why, s.step_count + n, s.time + n as f64 * s.dt, "s", n));
+            return Err(device_failure(why, s.step_count + n, s.time + n as f64 * s.dt, "s", n, s.step_count));
         }
         g.download_into(&mut self.solver);
         match self.solver.non_finite() {
@@ -318,10 +414,11 @@ impl Solver for CoupledEngine {
             CoupledOn::Cpu(c) => return c.run(n),
             CoupledOn::Gpu(g) => g,
         };
+        let kept = g.cpu.step_count;
         let r = g.run(n);
         if let Some(why) = self.health.as_ref().and_then(|h| h.settle()) {
             let c = &g.cpu;
-            return Err(device_failure(why, c.step_count, c.time, "s", n));
+            return Err(device_failure(why, c.step_count, c.time, "s", n, kept));
         }
         // the state of the step reached, or of the failed one (to be written as the last snapshot)
         g.download_into();
@@ -384,7 +481,7 @@ impl Solver for LatticeGasEngine {
             Some(g) => {
                 g.advance(n);
                 if let Some(why) = self.health.as_ref().and_then(|h| h.settle()) {
-                    return Err(device_failure(why, self.step_count + n, (self.step_count + n) as f64, "lattice units", n));
+                    return Err(device_failure(why, self.step_count + n, (self.step_count + n) as f64, "lattice units", n, self.step_count));
                 }
                 g.download_into(&mut self.gas);
             }

@@ -8,7 +8,7 @@ use crate::scene::build::SceneSummary;
 use crate::scene::schema::Field;
 use crate::state::state_hash;
 use crate::step::Solver;
-pub use backend::{Backend, CoupledEngine, FluidEngine, LatticeGasEngine, SolidEngine, pick_gpu};
+pub use backend::{Backend, CoupledEngine, FluidEngine, LatticeGasEngine, Readback, SolidEngine, pick_gpu};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -60,6 +60,10 @@ pub struct RunReport {
     pub state_hash: String,
     /// The step this run resumed from (a checkpoint), if it did.
     pub resumed_from_step: Option<u64>,
+    /// On the GPU: what came back from the device (whole states for snapshots, checkpoints and
+    /// the end; the probes' nodes for each probe sample).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub readback: Option<backend::Readback>,
     pub files: Vec<PathBuf>,
 }
 
@@ -111,7 +115,8 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
     let resumed = record.is_some();
     let resumed_from_step = resumed.then_some(ck.resume.as_ref().map_or(0, |c| c.step));
     let mut files = vec![dir.join("probes.csv")];
-    let mut probes = ProbeWriter::open(&files[0], &engine.solver, &scene.probes, resumed)?;
+    let mut probes = ProbeWriter::open(&files[0], engine.state(), &scene.probes, resumed)?;
+    let probe_nodes = probes.nodes();
     let snaps = scene.file.output.snapshots;
     let snap_every = if snaps > 0 { (total / snaps).max(1) } else { u64::MAX };
     let (m0, mut k_snap) = match &record {
@@ -120,27 +125,32 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
             (checkpoint::from_bits(&r["m0"], "m0")?[0], r["k_snap"].as_u64().unwrap_or(0))
         }
         None => {
-            probes.sample(&engine.solver, &units)?;
-            (engine.solver.totals().mass, 0)
+            probes.sample(engine.state(), &units)?;
+            (engine.state().totals().mass, 0)
         }
     };
     let progress = opts.show_progress.then_some("steps");
     let outcome = driver::drive_until(&mut engine, total, opts.stop_at, &[scene.file.output.probe_every, snap_every, ck.period()], progress, |e, t| {
+        // a probe sample brings back the probes' nodes only; snapshots and checkpoints the state
         if t.hit[0] || t.last {
-            probes.sample(&e.solver, &units)?;
+            probes.sample(e.state_at(&probe_nodes), &units)?;
         }
         if t.hit[1] && k_snap < snaps {
             k_snap += 1;
-            snapshot(&e.solver, scene, dir, k_snap, &mut files)?;
+            snapshot(e.state(), scene, dir, k_snap, &mut files)?;
         }
         if t.hit[2] {
             let record = serde_json::json!({"m0": checkpoint::bits(&[m0]), "k_snap": k_snap, "files": checkpoint::file_names(&files[1..])});
-            ck.save(dir, t.step, total, &e.solver, record, &["probes.csv"])?;
+            ck.save(dir, t.step, total, e.state(), record, &["probes.csv"])?;
         }
         Ok(())
     })?;
-    let s = &engine.solver;
-    // A final snapshot of whatever state the run reached (the last finite one if unstable).
+    let readback = engine.is_gpu().then_some(engine.readback);
+    let stage_fractions = engine.stage_shares().into_iter().map(|(n, f)| (n.to_string(), f)).collect();
+    let name = engine.name.clone();
+    // A final snapshot of whatever state the run reached (if unstable, the last one brought
+    // back from a GPU, the last finite one on the CPU).
+    let s = &engine.into_solver();
     let status = match &outcome.instability {
         Some(e) => {
             snapshot(s, scene, dir, 999, &mut files)?;
@@ -152,7 +162,7 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
     let steps_done = s.step_count;
     let steps_here = steps_done - resumed_from_step.unwrap_or(0);
     let mut report = RunReport {
-        backend: engine.name.clone(),
+        backend: name,
         scene: scene.summary(),
         status,
         steps_done,
@@ -161,9 +171,10 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
         node_updates_per_s: steps_here as f64 * s.layout.fluid_count as f64 / wall.max(1e-9),
         mass_drift: (s.totals().mass - m0) / m0,
         max_mach: s.max_mach(),
-        stage_fractions: engine.stage_shares().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
+        stage_fractions,
         state_hash: state_hash(s),
         resumed_from_step,
+        readback,
         files,
     };
     if ck.writes() {

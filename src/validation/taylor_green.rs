@@ -109,11 +109,12 @@ impl TaylorGreenCase {
             engine.advance(n).expect("Taylor–Green run stays stable");
             step += n;
             if step >= steps / 2 {
-                ts.push(engine.solver.time);
-                ls.push(amplitude(&engine.solver).ln());
+                let s = engine.state();
+                ts.push(s.time);
+                ls.push(amplitude(s).ln());
             }
         }
-        let s = engine.solver;
+        let s = engine.into_solver();
         let wall = t0.elapsed().as_secs_f64();
         let measured = -slope(&ts, &ls);
         let m1 = s.totals().mass;
