@@ -249,14 +249,52 @@ fn line_plot(path: &Path, title: &str, x_desc: &str, y_desc: &str, pts: &[(f64, 
     let (x0, x1) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.0), b.max(p.0)));
     let (y0, y1) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
     let (x0, x1) = if x0 < x1 { (x0, x1) } else { (0.0, 1.0) };
-    let pad = 0.05 * (y1 - y0).abs().max(1e-9);
-    let (y0, y1) = if y0.is_finite() { (y0 - pad, y1 + pad) } else { (0.0, 1.0) };
+    let (y0, y1) = value_range(y0, y1);
     let mut chart =
         ChartBuilder::on(&root).caption(title, ("sans-serif", 18)).margin(12).x_label_area_size(40).y_label_area_size(70).build_cartesian_2d(x0..x1, y0..y1)?;
-    chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).draw()?;
+    let (xspan, yspan) = (x1 - x0, y1 - y0);
+    chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).x_label_formatter(&|v| tick_label(*v, xspan)).y_label_formatter(&|v| tick_label(*v, yspan)).draw()?;
     chart.draw_series(LineSeries::new(pts.iter().cloned(), BLUE.stroke_width(1)))?;
     root.present()?;
     Ok(path.to_path_buf())
+}
+
+/// The plotted range of values spanning [lo, hi], 5 % added on each side. A series that does
+/// not vary (a closed glottis: U_g = 0 throughout) gets a range of ±10 % of its magnitude (±0.5
+/// around zero) instead of one set by round-off.
+fn value_range(lo: f64, hi: f64) -> (f64, f64) {
+    if !(lo.is_finite() && hi.is_finite()) {
+        return (0.0, 1.0);
+    }
+    let scale = lo.abs().max(hi.abs());
+    if hi - lo <= 1e-9 * scale || scale == 0.0 {
+        let half = if scale > 0.0 { 0.1 * scale } else { 0.5 };
+        return (lo - half, hi + half);
+    }
+    let pad = 0.05 * (hi - lo);
+    (lo - pad, hi + pad)
+}
+
+/// A tick label of `v` on an axis spanning `span`: the decimals the tick spacing (about a tenth
+/// of the span) resolves and no more, scientific notation for magnitudes of 10⁵ and more or
+/// below 10⁻³, and 0 for a value that is zero to the spacing (plotters' own labels print the
+/// round-off of a tick at zero with eleven decimals, and 800000.0 for 8·10⁵).
+fn tick_label(v: f64, span: f64) -> String {
+    let step = span.abs() / 10.0;
+    if !(step > 0.0 && v.is_finite()) {
+        return format!("{v}");
+    }
+    if v.abs() < 1e-6 * step {
+        return "0".into();
+    }
+    let step_exp = step.log10().floor();
+    let big = span.abs().max(v.abs());
+    if !(1e-3..1e5).contains(&big) {
+        let digits = (v.abs().log10().floor() - step_exp).clamp(0.0, 6.0) as usize;
+        return format!("{v:.digits$e}");
+    }
+    let decimals = (-step_exp).clamp(0.0, 12.0) as usize;
+    format!("{v:.decimals$}")
 }
 
 /// `phonation analyze DIR`: read `DIR/glottal_flow.csv` and (re)write the voice outputs, with
@@ -268,4 +306,52 @@ pub fn analyze_dir(dir: &Path, opts: &VoiceOptions, extra: serde_json::Value) ->
         m.extend(e);
     }
     write_voice_outputs(dir, &s, opts, more)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{line_plot, tick_label, value_range};
+
+    #[test]
+    fn tick_labels_carry_the_digits_of_the_tick_spacing() {
+        let cases = [
+            (1.2e-13, 600.0, "0"),
+            (200.0, 650.0, "200"),
+            (445.0, 50.0, "445"),
+            (0.3, 1.0, "0.3"),
+            (-100.0, 120.0, "-100"),
+            (-800000.0, 1.4e6, "-8e5"),
+            (250000.0, 1.4e6, "2e5"),
+            (1.25e6, 1.0e6, "1.2e6"),
+            (5e-11, 1e-10, "5e-11"),
+            (0.004, 0.01, "0.004"),
+        ];
+        for (v, span, want) in cases {
+            assert_eq!(tick_label(v, span), want, "{v} on a span of {span}");
+        }
+        // a series that does not vary gets a readable range, not one set by round-off
+        assert_eq!(value_range(0.0, 0.0), (-0.5, 0.5));
+        assert_eq!(value_range(590.0, 590.0), (531.0, 649.0));
+        assert_eq!(value_range(0.0, 100.0), (-5.0, 105.0));
+    }
+
+    /// The SVG's axis labels of a closed glottis (U_g = 0 throughout) and of a flow derivative
+    /// of 10⁶ cm³/s²: short, and zero printed as 0.
+    #[test]
+    fn plots_of_a_zero_flow_and_of_a_large_derivative_have_short_labels() {
+        let dir = std::env::temp_dir().join(format!("phonation_voice_plot_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for (name, scale) in [("zero", 0.0), ("large", 9.3e5)] {
+            let pts: Vec<(f64, f64)> = (0..400).map(|i| (445.0 + 0.125 * i as f64, scale * (0.05 * i as f64).sin())).collect();
+            let path = line_plot(&dir.join(format!("{name}.svg")), "t", "t (ms)", "v", &pts).unwrap();
+            let svg = std::fs::read_to_string(path).unwrap().replace('\n', " ");
+            let labels: Vec<String> =
+                svg.split("<text").skip(1).filter_map(|t| t.split_once('>').map(|(_, r)| r.split("</text>").next().unwrap_or("").trim().to_string())).collect();
+            let ticks: Vec<&String> = labels.iter().filter(|l| l.parse::<f64>().is_ok()).collect();
+            assert!(ticks.len() >= 10, "{name}: {labels:?}");
+            assert!(ticks.iter().all(|l| l.len() <= 6), "{name}: {ticks:?}");
+            assert!(ticks.iter().any(|l| l.as_str() == "0"), "{name}: zero is labelled 0: {ticks:?}");
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }
