@@ -268,14 +268,42 @@ fn a_lost_device_stops_the_run_with_a_diagnosis() {
     }
     let mut e = FluidEngine::new(Backend::Gpu, scene(false, GasModel::Monatomic)).unwrap();
     e.advance(3).expect("a healthy device steps");
-    let kept = phonation::state::state_hash(e.state());
+    let kept = phonation::state::state_hash(e.state().unwrap());
     e.lose_device();
     let err = e.advance(3).expect_err("a lost device must stop the run");
     eprintln!("{err}");
     assert_eq!(err.part, Part::Device, "{err}");
     assert!(err.reason.contains("device lost") && err.reason.contains("step 3's"), "{err}");
-    assert_eq!((e.state().step_count, e.mirrored_step()), (3, 3), "the mirror keeps the last downloaded state");
-    assert_eq!(phonation::state::state_hash(e.state()), kept, "the mirror keeps the last downloaded state");
+    assert_eq!((e.mirror().step_count, e.mirrored_step()), (3, 3), "the mirror keeps the last downloaded state");
+    assert_eq!(phonation::state::state_hash(e.mirror()), kept, "the mirror keeps the last downloaded state");
+}
+
+/// A read of the state that fails (here the device is lost between an advance and the read)
+/// leaves the mirror as it was — no zeros from the failed read reach it or the outputs — and
+/// returns the diagnosis, which the next advance returns too.
+#[test]
+fn a_failed_read_leaves_the_mirror_and_stops_the_run() {
+    use phonation::run::{Backend, FluidEngine};
+    use phonation::step::{Part, Solver};
+    if context().is_none() {
+        return;
+    }
+    let solver = scene(false, GasModel::Monatomic);
+    let initial = phonation::state::state_hash(&solver);
+    let mut e = FluidEngine::new(Backend::Gpu, solver).unwrap();
+    e.advance(3).expect("a healthy device steps");
+    e.lose_device();
+    let err = e.state().map(|_| ()).expect_err("the read must fail on a lost device");
+    eprintln!("{err}");
+    assert_eq!(err.part, Part::Device, "{err}");
+    assert!(err.reason.contains("device lost") && err.reason.contains("reading step 3's state back") && err.reason.contains("step 0's"), "{err}");
+    assert_eq!(e.mirror().step_count, 0, "the mirror keeps the uploaded state");
+    assert_eq!(phonation::state::state_hash(e.mirror()), initial, "no zeros from the failed read");
+    assert!(e.state_at(&[0]).is_err(), "no read after a failed one");
+    // (value is NaN in every diagnosis of a device: compare the rest)
+    let same = |a: &phonation::step::Instability| (a.part, a.step, a.reason.clone()) == (err.part, err.step, err.reason.clone());
+    assert!(e.read_failure().is_some_and(same), "{:?}", e.read_failure());
+    assert!(same(&e.advance(1).expect_err("the next advance reports the failed read")));
 }
 
 #[test]
@@ -328,13 +356,13 @@ fn a_gpu_run_brings_back_only_what_its_outputs_read() {
     // the same run, bringing back the whole state at every sample
     let mut e = FluidEngine::new(Backend::Gpu, sc.build_solver()).unwrap();
     let eager_path = dir.join("eager_probes.csv");
-    let mut w = ProbeWriter::create(&eager_path, e.state(), &sc.probes).unwrap();
-    w.sample(e.state(), &sc.units).unwrap();
+    let mut w = ProbeWriter::create(&eager_path, e.mirror(), &sc.probes).unwrap();
+    w.sample(e.state().unwrap(), &sc.units).unwrap();
     assert_eq!(e.readback, Readback::default(), "the uploaded state needs no readback");
     let mut whole = 0;
     for k in 1..=6 {
         e.advance(10).unwrap();
-        w.sample(e.state(), &sc.units).unwrap();
+        w.sample(e.state().unwrap(), &sc.units).unwrap();
         whole = e.readback.bytes / k;
     }
     drop(w);
@@ -345,7 +373,7 @@ fn a_gpu_run_brings_back_only_what_its_outputs_read() {
     e.advance(1).unwrap();
     let before = e.readback.bytes;
     let nodes: Vec<usize> = sc.probes.iter().map(|(_, x)| sc.grid.index(*x)).collect();
-    e.state_at(&nodes);
+    e.state_at(&nodes).unwrap();
     let per_node = e.readback.bytes - before;
     assert!(per_node > 0 && per_node * 100 < whole, "{per_node} B per node, {whole} B per state");
 
@@ -1642,7 +1670,7 @@ fn every_scene_key_changes_the_gpu_state_or_is_refused() {
             Scene::Fluid(sc) => {
                 let mut g = FluidEngine::new(Backend::Gpu, sc.build_solver()).map_err(|x| e(&x))?;
                 g.advance(2).map_err(|x| e(&x))?;
-                state_hash(g.state()) + &serde_json::to_string(&sc.summary()).unwrap()
+                state_hash(g.state().map_err(|x| e(&x))?) + &serde_json::to_string(&sc.summary()).unwrap()
             }
             Scene::Solid(sc) => {
                 let mut g = SolidEngine::new(Backend::Gpu, sc.build().map_err(|x| e(&x))?, sc.file.solid.cg_tolerance).map_err(|x| e(&x))?;

@@ -117,8 +117,8 @@ fn readback_cost(gpu: &mut GpuFluid, mut cpu: crate::fluid::FluidSolver, step_s:
             })
             .fold(f64::INFINITY, f64::min)
     };
-    let whole_s = best(&mut || gpu.download_into(&mut cpu));
-    let gathered_s = best(&mut || gpu.download_nodes_into(&nodes, &mut cpu));
+    let whole_s = best(&mut || assert!(gpu.download_into(&mut cpu), "the state came back"));
+    let gathered_s = best(&mut || assert!(gpu.download_nodes_into(&nodes, &mut cpu), "the nodes came back"));
     crate::bench::ReadbackCost { whole_s, gathered_s, nodes: nodes.len(), whole_steps: whole_s / step_s, gathered_steps: gathered_s / step_s }
 }
 

@@ -147,8 +147,16 @@ pub fn dispatch_grid(threads: usize) -> ((u32, u32), u32) {
     ((gx, gy), gx * 64)
 }
 
-/// Copies a storage buffer into a mappable one and reads it back (blocks until done).
+/// Copies a storage buffer into a mappable one and reads it back (blocks until done). When the
+/// read fails (a lost device, no memory left for the staging buffer) zeros of the buffer's size
+/// come back, and the run layer, which checks the device's health after every advance, stops
+/// with the failure; a reader whose outputs must not see those zeros uses [`try_read_buffer`].
 pub fn read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buffer) -> Vec<u8> {
+    try_read_buffer(device, queue, b).unwrap_or_else(|| vec![0; b.size() as usize])
+}
+
+/// [`read_buffer`], or None when the read fails (nothing allocated for the failed read).
+pub fn try_read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buffer) -> Option<Vec<u8>> {
     let staging = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
         size: b.size(),
@@ -163,15 +171,13 @@ pub fn read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buffer)
     let done = mapped.clone();
     slice.map_async(wgpu::MapMode::Read, move |r| *done.lock().expect("readback") = Some(r));
     let _ = device.poll(wgpu::PollType::wait_indefinitely());
-    // A lost device fails the map: zeros come back, and the run layer, which checks the
-    // device's health after every download, stops with the loss (DeviceHealth).
     if !matches!(mapped.lock().expect("readback").take(), Some(Ok(()))) {
-        eprintln!("gpu: reading a buffer back failed (device lost?)");
-        return vec![0; b.size() as usize];
+        eprintln!("gpu: reading a buffer back failed (device lost or out of memory)");
+        return None;
     }
     let out = slice.get_mapped_range().to_vec();
     staging.unmap();
-    out
+    Some(out)
 }
 
 /// Compute pipelines for the named entry points of one module, sharing a pipeline layout.

@@ -260,9 +260,9 @@ impl GpuCoupled {
         Ok(())
     }
 
-    /// Copies the whole GPU state (populations, particles) into [`Self::cpu`] for outputs.
-    pub fn download_into(&mut self) {
-        self.fluid.download_into(&mut self.cpu.fluid);
-        self.solid.download_into(&mut self.cpu.solid);
+    /// Copies the whole GPU state (populations, particles) into [`Self::cpu`] for outputs; false
+    /// when a read failed (each part is left as it was when its own read fails).
+    pub fn download_into(&mut self) -> bool {
+        self.fluid.download_into(&mut self.cpu.fluid) & self.solid.download_into(&mut self.cpu.solid)
     }
 }

@@ -250,10 +250,15 @@ impl GpuLatticeGas {
         raw.iter().flat_map(|w| [*w as u16, (*w >> 16) as u16]).collect()
     }
 
-    /// Copies the GPU state and step into a CPU gas of the same scene.
-    pub fn download_into(&self, g: &mut LatticeGas) {
-        g.set_cell_words(&self.cell_words());
+    /// Copies the GPU state and step into a CPU gas of the same scene. When the read fails (a
+    /// lost device, no memory for the staging buffer) `g` is left as it was and false comes
+    /// back.
+    pub fn download_into(&self, g: &mut LatticeGas) -> bool {
+        let Some(raw) = super::context::try_read_buffer(&self.device, &self.queue, &self.states[self.cur]) else { return false };
+        let words: Vec<u16> = bytemuck::cast_slice::<u8, u32>(&raw).iter().flat_map(|w| [*w as u16, (*w >> 16) as u16]).collect();
+        g.set_cell_words(&words);
         g.step = self.step;
+        true
     }
 
     /// The step counter as the GPU holds it (advanced by the `advance_step` kernel).

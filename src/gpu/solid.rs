@@ -443,15 +443,27 @@ impl GpuSolid {
             .collect()
     }
 
-    /// Copies the GPU state (positions, velocities, spins, quaternions) into a CPU solver.
-    pub fn download_into(&self, s: &mut SolidSolver) {
-        s.particles.position = self.download_vectors(SolidArray::Position);
-        s.particles.velocity = self.download_vectors(SolidArray::Velocity);
-        s.particles.spin = self.download_vectors(SolidArray::Spin);
-        s.particles.rotation =
-            self.read_f32(Buf::Quat).chunks(4).take(self.n).map(|c| DQuat::from_xyzw(c[0] as f64, c[1] as f64, c[2] as f64, c[3] as f64)).collect();
+    /// Copies the GPU state (positions, velocities, spins, quaternions) into a CPU solver. When
+    /// a read fails (a lost device, no memory for a staging buffer) `s` is left as it was and
+    /// false comes back.
+    pub fn download_into(&self, s: &mut SolidSolver) -> bool {
+        let read = |buf: Buf| super::context::try_read_buffer(&self.device, &self.queue, &self.buffers[buf]);
+        let (Some(pos), Some(vel), Some(spin), Some(quat)) = (read(Buf::Pos), read(Buf::Vel), read(Buf::Spin), read(Buf::Quat)) else { return false };
+        let vectors = |raw: &[u8]| -> Vec<DVec3> {
+            bytemuck::cast_slice::<u8, f32>(raw).chunks(4).take(self.n).map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)).collect()
+        };
+        // the position buffer holds the displacement from the reference position
+        s.particles.position = vectors(&pos).into_iter().zip(&self.reference).map(|(u, x)| *x + u).collect();
+        s.particles.velocity = vectors(&vel);
+        s.particles.spin = vectors(&spin);
+        s.particles.rotation = bytemuck::cast_slice::<u8, f32>(&quat)
+            .chunks(4)
+            .take(self.n)
+            .map(|c| DQuat::from_xyzw(c[0] as f64, c[1] as f64, c[2] as f64, c[3] as f64))
+            .collect();
         s.step_count = self.step_count;
         s.time = self.step_count as f64 * self.dt;
+        true
     }
 }
 

@@ -75,6 +75,13 @@ fn device_failure(why: String, step: u64, time: f64, time_unit: &'static str, n:
     }
 }
 
+/// The instability of a download after an advance that failed (the mirror was left as it was):
+/// the device's failure if it recorded one.
+fn failed_download(health: Option<&DeviceHealth>, step: u64, time: f64, time_unit: &'static str, n: u64, kept: u64) -> Instability {
+    let why = health.and_then(|h| h.settle()).unwrap_or_else(|| "reading the state back failed".into());
+    device_failure(why, step, time, time_unit, n, kept)
+}
+
 /// The FDLB fluid on a backend. On the GPU the CPU solver is a mirror that receives the
 /// device's state only when it is read: [`FluidEngine::state`] brings the whole state of the
 /// step reached (once per step), [`FluidEngine::state_at`] only the populations of a few nodes
@@ -93,6 +100,9 @@ pub struct FluidEngine {
     /// GPU: the device failed or reported an instability, so its state is not read again (the
     /// mirror keeps the last state brought back).
     failed: bool,
+    /// GPU: a read of the state that failed (a lost device, no memory for the staging buffer),
+    /// returned by the next advance (and by [`FluidEngine::read_failure`]).
+    read_failure: Option<Instability>,
     /// What came back from the device so far.
     pub readback: Readback,
 }
@@ -140,41 +150,79 @@ impl FluidEngine {
 
     fn engine(solver: FluidSolver, gpu: Option<Box<GpuFluid>>, health: Option<DeviceHealth>, name: String) -> Self {
         let start = solver.step_count;
-        Self { solver, gpu, health, name, whole: None, start, failed: false, readback: Readback::default() }
+        Self { solver, gpu, health, name, whole: None, start, failed: false, read_failure: None, readback: Readback::default() }
     }
 
     /// The whole state of the step reached. On the GPU it is brought back now unless the
-    /// mirror already holds it; after a device failure or an instability the mirror keeps the
-    /// last state brought back (see [`Self::mirrored_step`]).
-    pub fn state(&mut self) -> &FluidSolver {
+    /// mirror already holds it. A read that fails (a lost device, no memory for the staging
+    /// buffer) leaves the mirror as it was and returns the diagnosis, which the next advance
+    /// returns too; after a device failure or an instability the mirror keeps the last state
+    /// brought back ([`Self::mirror`], [`Self::mirrored_step`]).
+    pub fn state(&mut self) -> Result<&FluidSolver, Instability> {
         if let Some(g) = self.gpu.as_ref()
             && !self.failed
             && !self.holds(g.step_count)
         {
-            g.download_into(&mut self.solver);
+            if !g.download_into(&mut self.solver) {
+                return Err(self.failed_read());
+            }
             self.whole = Some(g.step_count);
             self.readback.whole_states += 1;
             self.readback.bytes += 4 * (g.n_nodes * g.nv) as u64;
         }
-        &self.solver
+        self.pending()
     }
 
     /// The solver with the populations of `nodes` (padded node indices) at the step reached
     /// and its step counter and time; the other nodes as last brought back. On the GPU only
     /// these nodes cross the bus (the `gather` kernel): what a probe sample reads
     /// ([`crate::output::probes::ProbeWriter::nodes`]), bit for bit what [`Self::state`] would
-    /// give at them.
-    pub fn state_at(&mut self, nodes: &[usize]) -> &FluidSolver {
+    /// give at them. A failed read as in [`Self::state`].
+    pub fn state_at(&mut self, nodes: &[usize]) -> Result<&FluidSolver, Instability> {
         if let Some(g) = self.gpu.as_ref()
             && !self.failed
             && !self.holds(g.step_count)
         {
             let g = self.gpu.as_mut().expect("checked above");
-            g.download_nodes_into(nodes, &mut self.solver);
+            if !g.download_nodes_into(nodes, &mut self.solver) {
+                return Err(self.failed_read());
+            }
             self.readback.nodes += nodes.len() as u64;
             self.readback.bytes += 4 * (nodes.len() * g.nv) as u64;
         }
+        self.pending()
+    }
+
+    /// The mirror as it is: the whole state of [`Self::mirrored_step`] (on the CPU, of the
+    /// step reached).
+    pub fn mirror(&self) -> &FluidSolver {
         &self.solver
+    }
+
+    /// The failed read not yet returned by an advance, if any.
+    pub fn read_failure(&self) -> Option<&Instability> {
+        self.read_failure.as_ref()
+    }
+
+    /// The mirror, or the read failure that left it behind.
+    fn pending(&self) -> Result<&FluidSolver, Instability> {
+        match &self.read_failure {
+            Some(e) => Err(e.clone()),
+            None => Ok(&self.solver),
+        }
+    }
+
+    /// Records a read of the device's state that failed: no more reads; the diagnosis names the
+    /// device's failure and the step of the state kept.
+    fn failed_read(&mut self) -> Instability {
+        self.failed = true;
+        let why = self.health.as_ref().and_then(|h| h.settle()).unwrap_or_else(|| "reading the state back failed".into());
+        let step = self.gpu.as_ref().map_or(self.solver.step_count, |g| g.step_count);
+        let kept = self.whole.unwrap_or(self.start);
+        let mut e = device_failure(why.clone(), step, step as f64 * self.solver.params.dt, "lattice units", 0, kept);
+        e.reason = format!("{why} (reading step {step}'s state back; the state kept is the last one downloaded, step {kept}'s)");
+        self.read_failure = Some(e.clone());
+        e
     }
 
     /// Whether a GPU steps it.
@@ -197,9 +245,10 @@ impl FluidEngine {
         }
     }
 
-    /// The solver with the whole state of the step reached (see [`Self::state`]).
+    /// The solver with the whole state of the step reached (see [`Self::state`]; after a
+    /// failure, the last one brought back).
     pub fn into_solver(mut self) -> FluidSolver {
-        self.state();
+        let _ = self.state();
         self.solver
     }
 
@@ -228,6 +277,9 @@ impl Solver for FluidEngine {
     /// until [`FluidEngine::state`] or [`FluidEngine::state_at`] reads it. After an instability
     /// or a device failure the mirror keeps the last state brought back.
     fn advance(&mut self, n: u64) -> Result<(), Instability> {
+        if let Some(e) = self.read_failure.take() {
+            return Err(e);
+        }
         let Some(g) = self.gpu.as_mut() else { return self.solver.run(n) };
         let s = &self.solver;
         let kept = self.whole.unwrap_or(self.start);
@@ -336,7 +388,11 @@ impl Solver for SolidEngine {
             let s = &self.solver;
             return Err(device_failure(why, s.step_count + n, s.time + n as f64 * s.dt, "s", n, s.step_count));
         }
-        g.download_into(&mut self.solver);
+        let kept = self.solver.step_count;
+        if !g.download_into(&mut self.solver) {
+            let s = &self.solver;
+            return Err(failed_download(self.health.as_ref(), s.step_count + n, s.time + n as f64 * s.dt, "s", n, kept));
+        }
         match self.solver.non_finite() {
             None => Ok(()),
             Some(i) => Err(self.solver.instability_at(i)),
@@ -421,7 +477,10 @@ impl Solver for CoupledEngine {
             return Err(device_failure(why, c.step_count, c.time, "s", n, kept));
         }
         // the state of the step reached, or of the failed one (to be written as the last snapshot)
-        g.download_into();
+        if !g.download_into() {
+            let c = &g.cpu;
+            return Err(failed_download(self.health.as_ref(), c.step_count, c.time, "s", n, kept));
+        }
         r
     }
 
@@ -483,7 +542,10 @@ impl Solver for LatticeGasEngine {
                 if let Some(why) = self.health.as_ref().and_then(|h| h.settle()) {
                     return Err(device_failure(why, self.step_count + n, (self.step_count + n) as f64, "lattice units", n, self.step_count));
                 }
-                g.download_into(&mut self.gas);
+                if !g.download_into(&mut self.gas) {
+                    let step = self.step_count + n;
+                    return Err(failed_download(self.health.as_ref(), step, step as f64, "lattice units", n, self.step_count));
+                }
             }
             None => {
                 for _ in 0..n {

@@ -115,7 +115,7 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
     let resumed = record.is_some();
     let resumed_from_step = resumed.then_some(ck.resume.as_ref().map_or(0, |c| c.step));
     let mut files = vec![dir.join("probes.csv")];
-    let mut probes = ProbeWriter::open(&files[0], engine.state(), &scene.probes, resumed)?;
+    let mut probes = ProbeWriter::open(&files[0], engine.mirror(), &scene.probes, resumed)?;
     let probe_nodes = probes.nodes();
     let snaps = scene.file.output.snapshots;
     let snap_every = if snaps > 0 { (total / snaps).max(1) } else { u64::MAX };
@@ -125,33 +125,39 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
             (checkpoint::from_bits(&r["m0"], "m0")?[0], r["k_snap"].as_u64().unwrap_or(0))
         }
         None => {
-            probes.sample(engine.state(), &units)?;
-            (engine.state().totals().mass, 0)
+            probes.sample(engine.mirror(), &units)?;
+            (engine.mirror().totals().mass, 0)
         }
     };
     let progress = opts.show_progress.then_some("steps");
     let outcome = driver::drive_until(&mut engine, total, opts.stop_at, &[scene.file.output.probe_every, snap_every, ck.period()], progress, |e, t| {
-        // a probe sample brings back the probes' nodes only; snapshots and checkpoints the state
+        // A probe sample brings back the probes' nodes only; snapshots and checkpoints the
+        // state. A read that fails writes nothing: the next advance (or the end) reports it.
         if t.hit[0] || t.last {
-            probes.sample(e.state_at(&probe_nodes), &units)?;
+            let Ok(s) = e.state_at(&probe_nodes) else { return Ok(()) };
+            probes.sample(s, &units)?;
         }
         if t.hit[1] && k_snap < snaps {
+            let Ok(s) = e.state() else { return Ok(()) };
             k_snap += 1;
-            snapshot(e.state(), scene, dir, k_snap, &mut files)?;
+            snapshot(s, scene, dir, k_snap, &mut files)?;
         }
         if t.hit[2] {
+            let Ok(s) = e.state() else { return Ok(()) };
             let record = serde_json::json!({"m0": checkpoint::bits(&[m0]), "k_snap": k_snap, "files": checkpoint::file_names(&files[1..])});
-            ck.save(dir, t.step, total, e.state(), record, &["probes.csv"])?;
+            ck.save(dir, t.step, total, s, record, &["probes.csv"])?;
         }
         Ok(())
     })?;
+    // a read that failed at the last event has no advance after it to report it
+    let instability = outcome.instability.clone().or_else(|| engine.read_failure().cloned());
     let readback = engine.is_gpu().then_some(engine.readback);
     let stage_fractions = engine.stage_shares().into_iter().map(|(n, f)| (n.to_string(), f)).collect();
     let name = engine.name.clone();
     // A final snapshot of whatever state the run reached (if unstable, the last one brought
     // back from a GPU, the last finite one on the CPU).
     let s = &engine.into_solver();
-    let status = match &outcome.instability {
+    let status = match &instability {
         Some(e) => {
             snapshot(s, scene, dir, 999, &mut files)?;
             unstable(e, scene)

@@ -67,7 +67,7 @@ impl SodCase {
         let steps = ((t_end / params.dt) - 0.5).ceil().max(0.0) as u64;
         let mut engine = FluidEngine::new(backend, solver)?;
         engine.advance(steps).expect("Sod shock tube stays stable");
-        let solver = engine.state();
+        let solver = engine.state().expect("the state comes back");
         let t = solver.time;
         let field: Vec<Macro> = (0..n).map(|x| solver.macro_at_coords([x as i64, 0, 0])).collect();
         let xi = |x: f64| (x - x0) / t;

@@ -45,11 +45,12 @@ pub fn sound_speed_on(set: VelocitySetKind, gas: GasModel, n: usize, backend: Ba
     let t_end = 3.2 * 2.0 * PI / omega;
     let mode = |s: &FluidSolver| -> f64 { (0..n).map(|x| (s.macro_at_coords([x as i64, 0, 0]).rho - 1.0) * (k * x as f64).cos()).sum::<f64>() };
     let mut engine = FluidEngine::new(backend, s)?;
-    let mut prev = (engine.state().time, mode(engine.state()));
+    let s = engine.state().expect("the initial state is on the CPU");
+    let mut prev = (s.time, mode(s));
     let mut crossings = Vec::new();
     while prev.0 < t_end {
         engine.advance(1).expect("acoustic mode stays stable");
-        let s = engine.state();
+        let s = engine.state().expect("the state comes back");
         let cur = (s.time, mode(s));
         if prev.1.signum() != cur.1.signum() {
             crossings.push(prev.0 + (cur.0 - prev.0) * prev.1 / (prev.1 - cur.1));

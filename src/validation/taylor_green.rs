@@ -109,7 +109,7 @@ impl TaylorGreenCase {
             engine.advance(n).expect("Taylor–Green run stays stable");
             step += n;
             if step >= steps / 2 {
-                let s = engine.state();
+                let s = engine.state().expect("the state comes back");
                 ts.push(s.time);
                 ls.push(amplitude(s).ln());
             }

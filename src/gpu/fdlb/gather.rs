@@ -33,12 +33,13 @@ pub(super) struct GatherKernel {
 impl GpuFluid {
     /// Copies the populations fⁿ of `nodes` (padded indices) into the same nodes of `s`, a
     /// solver of the same scene (f32 → f64 as [`Self::download_into`], which copies every
-    /// node), with the step count and time; the other nodes of `s` are left as they are.
-    pub fn download_nodes_into(&mut self, nodes: &[usize], s: &mut FluidSolver) {
-        s.step_count = self.step_count;
-        s.time = self.step_count as f64 * s.params.dt;
+    /// node), with the step count and time; the other nodes of `s` are left as they are. When
+    /// the read fails `s` is left as it was and false comes back.
+    pub fn download_nodes_into(&mut self, nodes: &[usize], s: &mut FluidSolver) -> bool {
         if nodes.is_empty() {
-            return;
+            s.step_count = self.step_count;
+            s.time = self.step_count as f64 * s.params.dt;
+            return true;
         }
         let (count, nv) = (nodes.len(), self.nv);
         if self.gather.as_ref().is_none_or(|g| g.capacity < count) {
@@ -71,7 +72,7 @@ impl GpuFluid {
             Self::dispatch(&mut pass, &g.pipeline, &bg, count as u32);
         }
         self.queue.submit([enc.finish()]);
-        let raw = self.read_buffer(&g.out);
+        let Some(raw) = crate::gpu::context::try_read_buffer(&self.device, &self.queue, &g.out) else { return false };
         let vals: &[f32] = bytemuck::cast_slice(&raw);
         let mut node_vals = vec![0.0; nv];
         for (k, &node) in nodes.iter().enumerate() {
@@ -80,6 +81,9 @@ impl GpuFluid {
             }
             s.pop.scatter(&mut s.f, node, &node_vals);
         }
+        s.step_count = self.step_count;
+        s.time = self.step_count as f64 * s.params.dt;
+        true
     }
 }
 

@@ -52,9 +52,13 @@ impl GpuFluid {
     }
 
     /// Copies the GPU state into a CPU solver of the same scene (f64, CPU layout), with the step
-    /// count and time, so that the CPU-side outputs (probes, snapshots) can be written.
-    pub fn download_into(&self, s: &mut FluidSolver) {
-        let gpu = self.download(GpuArray::State);
+    /// count and time, so that the CPU-side outputs (probes, snapshots) can be written. When the
+    /// read fails (a lost device, no memory for the staging buffer) `s` is left as it was and
+    /// false comes back.
+    pub fn download_into(&self, s: &mut FluidSolver) -> bool {
+        let Some(raw) = crate::gpu::context::try_read_buffer(&self.device, &self.queue, &self.f[self.cur]) else { return false };
+        let raw: &[f32] = bytemuck::cast_slice(&raw);
+        let gpu: Vec<f32> = raw.chunks(self.stride).flat_map(|c| c[..self.n_nodes].iter().copied()).collect();
         let n = self.n_nodes;
         let nv = self.nv;
         let mut vals = vec![0.0; nv];
@@ -66,6 +70,7 @@ impl GpuFluid {
         }
         s.step_count = self.step_count;
         s.time = self.step_count as f64 * s.params.dt;
+        true
     }
 
     /// Largest |GPU − CPU| / scale over the fluid nodes of the state, with scale the largest
