@@ -380,10 +380,44 @@ fn a_gpu_run_brings_back_only_what_its_outputs_read() {
     let got = r.readback.expect("a GPU run reports its readback");
     eprintln!("readback of the GPU run: {got:?} ({whole} B per whole state, {per_node} B per probe node)");
     // two snapshots (steps 30 and 60, the second also the end's state), one probe node × 6 samples
-    assert_eq!((got.whole_states, got.nodes), (2, 6), "{got:?}");
+    assert_eq!((got.whole_states, got.gathered), (2, 6), "{got:?}");
     assert_eq!(got.bytes, 2 * whole + 6 * per_node, "{got:?}");
     assert_eq!(e.step_count(), 61);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The lattice gas on the GPU brings back the probes' bands of rows only; the coarse fields and
+/// the end bring the whole state. The probe rows and the final state are the CPU run's bit for
+/// bit (the gas is integers).
+#[test]
+fn a_lattice_gas_run_on_the_gpu_brings_back_the_probes_rows_only() {
+    use phonation::run::lattice_gas::run_lattice_gas_scene;
+    use phonation::run::{Backend, RunOptions};
+    let Some(_ctx) = context() else { return };
+    let text = "name = \"small_wake\"\n[lattice_gas]\ncells = [32, 16, 2]\ndensity = 0.2\ninterference = 0.1\nsteps = 60\n\
+                [lattice_gas.inlet]\nvelocity = 0.2\n[lattice_gas.cylinder]\ncenter = [16.0, 8.0]\nradius = 3.0\n\
+                [lattice_gas.output]\ncoarse_block = 4\nevery = 30\nprobe_every = 5\n";
+    let sc = phonation::scene::lattice_gas::LatticeGasScene::parse(text).unwrap();
+    let run = |backend: Backend| {
+        let dir = std::env::temp_dir().join(format!("phonation-gpu-lg-readback-{backend:?}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let r = run_lattice_gas_scene(&sc, &dir, &RunOptions { backend, show_progress: false, ..Default::default() }).unwrap();
+        let probe = std::fs::read_to_string(dir.join("probe.csv")).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        (r, probe)
+    };
+    let (cpu, cpu_probe) = run(Backend::Cpu);
+    let (gpu, gpu_probe) = run(Backend::Gpu);
+    assert_eq!(gpu_probe.lines().count(), 13, "header and 12 samples:\n{gpu_probe}");
+    assert_eq!(cpu_probe, gpu_probe, "the probes' rows give the CPU's samples");
+    assert_eq!(cpu.state_hash, gpu.state_hash);
+    assert!(cpu.readback.is_none() && gpu.device_failure.is_none());
+    let got = gpu.readback.expect("a GPU run reports its readback");
+    eprintln!("lattice-gas readback: {got:?}");
+    // the coarse fields at 30 and 60 (the end's state too); each sample reads whole rows (32 × 2 cells)
+    assert_eq!(got.whole_states, 2, "{got:?}");
+    assert!(got.gathered > 0 && got.gathered % (12 * 64) == 0, "{got:?}");
+    assert_eq!(got.bytes, 2 * 24 * (2 * 32 * 16 * 2 + got.gathered), "{got:?}");
 }
 
 /// The foundation issue's CI validations, on the GPU backend, with the same tolerances.
@@ -1680,7 +1714,7 @@ fn every_scene_key_changes_the_gpu_state_or_is_refused() {
             Scene::LatticeGas(sc) => {
                 let mut g = LatticeGasEngine::new(Backend::Gpu, sc.build()).map_err(|x| e(&x))?;
                 g.advance(2).map_err(|x| e(&x))?;
-                state_hash(&g.gas)
+                state_hash(g.state().map_err(|x| e(&x))?)
             }
             Scene::Coupled(sc) => {
                 let mut g = CoupledEngine::new(Backend::Gpu, sc.build().map_err(|x| e(&x))?, sc.solid.file.solid.cg_tolerance).map_err(|x| e(&x))?;

@@ -128,7 +128,7 @@ pub struct LatticeSpeed {
 pub struct ReadbackCost {
     /// Whole state into the mirror (s): what every sample cost before the gather.
     pub whole_s: f64,
-    /// The populations of [`ReadbackCost::nodes`] nodes gathered (s).
+    /// The probes' [`ReadbackCost::nodes`] nodes (lattice gas: cells in bands of rows) brought back (s).
     pub gathered_s: f64,
     pub nodes: usize,
     /// The two in steps of the lattice (wall time ÷ one step's).

@@ -331,14 +331,25 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             }
         }
         let mut gpu_gas = Vec::new();
+        let mut gpu_gas_readback = Vec::new();
         if wants("lattice_gas") {
             lattice_gas_header();
-            let sizes: Vec<[usize; 3]> = if quick { vec![[32, 16, 8]] } else { vec![[128, 64, 32], [512, 256, 128]] };
+            // (512 × 256 × 4: the lattice of lattice_gas_wake_large)
+            let sizes: Vec<[usize; 3]> = if quick { vec![[32, 16, 8], [512, 256, 4]] } else { vec![[128, 64, 32], [512, 256, 4], [512, 256, 128]] };
             for cells in sizes {
                 match phonation::gpu::lattice_gas::lattice_gas_speed(&ctx, cells, if quick { 5 } else { 100 }, bw) {
                     Ok(v) => {
                         let vs = cpu_gas.map(|c| format!("  {:.1}× the CPU", v.site_updates_per_s / c)).unwrap_or_default();
                         lattice_gas_row(&v, &vs);
+                        // the large wake's probe band: 2 × coarse_block = 16 ℓ either side, 9 rows
+                        let step_s = 16.0 * (cells[0] * cells[1] * cells[2]) as f64 / v.site_updates_per_s;
+                        if let Ok(r) = phonation::gpu::lattice_gas::readback_cost(&ctx, cells, 9, step_s) {
+                            println!(
+                                "         a probe sample: whole state back {:.3e} s ({:.2e} steps), {} cells (9 rows) {:.3e} s ({:.2e} steps)",
+                                r.whole_s, r.whole_steps, r.nodes, r.gathered_s, r.gathered_steps
+                            );
+                            gpu_gas_readback.push(r);
+                        }
                         gpu_gas.push(v);
                     }
                     Err(e) => println!("lattice gas {cells:?} skipped: {e}"),
@@ -389,7 +400,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         }
         report.insert(
             "gpu".into(),
-            serde_json::json!({ "adapter": ctx.describe(), "copy_bandwidth_gb_s": bw / 1e9, "lattices": gpu, "solid": gpu_solid, "lattice_gas": gpu_gas, "coupled": gpu_coupled }),
+            serde_json::json!({ "adapter": ctx.describe(), "copy_bandwidth_gb_s": bw / 1e9, "lattices": gpu, "solid": gpu_solid, "lattice_gas": gpu_gas, "lattice_gas_readback": gpu_gas_readback, "coupled": gpu_coupled }),
         );
     }
     if let Some(p) = json {

@@ -157,14 +157,28 @@ pub fn read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buffer)
 
 /// [`read_buffer`], or None when the read fails (nothing allocated for the failed read).
 pub fn try_read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buffer) -> Option<Vec<u8>> {
+    try_read_ranges(device, queue, b, &[(0, b.size())])
+}
+
+/// The byte ranges (offset, length; multiples of 4) of `b`, one after the other, or None when
+/// the read fails: one staging buffer, one copy per range.
+pub fn try_read_ranges(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buffer, ranges: &[(u64, u64)]) -> Option<Vec<u8>> {
+    let size: u64 = ranges.iter().map(|r| r.1).sum();
+    if size == 0 {
+        return Some(Vec::new());
+    }
     let staging = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
-        size: b.size(),
+        size,
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
     let mut enc = device.create_command_encoder(&Default::default());
-    enc.copy_buffer_to_buffer(b, 0, &staging, 0, b.size());
+    let mut at = 0;
+    for &(offset, len) in ranges {
+        enc.copy_buffer_to_buffer(b, offset, &staging, at, len);
+        at += len;
+    }
     queue.submit([enc.finish()]);
     let slice = staging.slice(..);
     let mapped = Arc::new(Mutex::new(None));

@@ -261,6 +261,29 @@ impl GpuLatticeGas {
         true
     }
 
+    /// Copies the cells of rows `y0..=y1` (every X, every Z) into the same cells of `g`, a gas of
+    /// the same scene, leaving its other cells and its step as they are: what a probe over a few
+    /// rows reads ([`crate::scene::lattice_gas::region_velocity`]) without the whole state. Per
+    /// velocity and Z layer the rows are one contiguous run of words (X fastest, X even). When
+    /// the read fails `g` is left as it was and false comes back.
+    pub fn download_rows_into(&self, y0: usize, y1: usize, g: &mut LatticeGas) -> bool {
+        let ([nx, _, nz], n) = (g.dims, g.cells());
+        // (first u16 index, count) per velocity and layer; both even (X even)
+        let runs: Vec<(usize, usize)> =
+            (0..Q).flat_map(|k| (0..nz).map(move |z| (k, z))).map(|(k, z)| (k * n + g.cell_index(0, y0, z), (y1 + 1 - y0) * nx)).collect();
+        let ranges: Vec<(u64, u64)> = runs.iter().map(|&(a, len)| (2 * a as u64, 2 * len as u64)).collect();
+        let Some(raw) = super::context::try_read_ranges(&self.device, &self.queue, &self.states[self.cur], &ranges) else { return false };
+        let words: &[u16] = bytemuck::cast_slice(&raw);
+        let mut at = 0;
+        for &(a, len) in &runs {
+            for (i, &w) in words[at..at + len].iter().enumerate() {
+                g.set_cell_word((a + i) / n, (a + i) % n, w);
+            }
+            at += len;
+        }
+        true
+    }
+
     /// The step counter as the GPU holds it (advanced by the `advance_step` kernel).
     pub fn device_step(&self) -> u32 {
         bytemuck::cast_slice::<u8, u32>(&read_buffer(&self.device, &self.queue, &self.step_buffer))[0]
@@ -312,6 +335,32 @@ pub fn lattice_gas_speed(ctx: &GpuContext, cells: [usize; 3], steps: u64, bandwi
         None => Vec::new(),
     };
     Ok(crate::lattice_gas::bench::speed_of(false, ctx.describe(), &g, steps, s, crate::lattice_gas::bench::BYTES_PER_SITE_UPDATE, bandwidth, shares))
+}
+
+/// What one probe sample of a GPU lattice-gas run costs (best of 5): the whole state brought
+/// back into the CPU mirror, as the run loop did at every sample, against a band of `rows` rows
+/// (every X and Z), as it does now; in seconds and in steps of `step_s` each.
+pub fn readback_cost(ctx: &GpuContext, cells: [usize; 3], rows: usize, step_s: f64) -> Result<crate::bench::ReadbackCost, GpuError> {
+    let table = CollisionTable::shared();
+    let mut g = crate::lattice_gas::bench::benchmark_gas(cells);
+    let mut gpu = GpuLatticeGas::new(ctx, &g, table)?;
+    gpu.advance(2);
+    gpu.wait();
+    let best = |f: &mut dyn FnMut()| {
+        (0..5)
+            .map(|_| {
+                let t = std::time::Instant::now();
+                f();
+                t.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let y0 = cells[1].saturating_sub(rows) / 2;
+    let y1 = (y0 + rows).min(cells[1]) - 1;
+    let whole_s = best(&mut || assert!(gpu.download_into(&mut g), "the state came back"));
+    let gathered_s = best(&mut || assert!(gpu.download_rows_into(y0, y1, &mut g), "the rows came back"));
+    let band = (y1 + 1 - y0) * cells[0] * cells[2];
+    Ok(crate::bench::ReadbackCost { whole_s, gathered_s, nodes: band, whole_steps: whole_s / step_s, gathered_steps: gathered_s / step_s })
 }
 
 #[cfg(test)]

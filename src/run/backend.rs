@@ -12,6 +12,7 @@ use crate::gpu::{DeviceHealth, GpuContext, GpuError, GpuFluid};
 use crate::lattice_gas::collision::CollisionTable;
 use crate::lattice_gas::lattice::LatticeGas;
 use crate::lattice_gas::step::LatticeGasTimings;
+use crate::lattice_gas::velocities::Q;
 use crate::solid::SolidSolver;
 use crate::step::{Part, Site, Solver};
 use serde::Serialize;
@@ -112,9 +113,10 @@ pub struct FluidEngine {
 pub struct Readback {
     /// Whole states (every node's populations).
     pub whole_states: u64,
-    /// Single nodes' populations gathered on the device (probe samples).
-    pub nodes: u64,
-    /// Bytes of populations these carried (f32).
+    /// Nodes (lattice gas: cells) read for probe samples: the fluid's gathered on the device,
+    /// the lattice gas's in bands of rows.
+    pub gathered: u64,
+    /// Bytes these carried (fluid: f32 populations; lattice gas: 16-bit words).
     pub bytes: u64,
 }
 
@@ -187,7 +189,7 @@ impl FluidEngine {
             if !g.download_nodes_into(nodes, &mut self.solver) {
                 return Err(self.failed_read());
             }
-            self.readback.nodes += nodes.len() as u64;
+            self.readback.gathered += nodes.len() as u64;
             self.readback.bytes += 4 * (nodes.len() * g.nv) as u64;
         }
         self.pending()
@@ -493,18 +495,27 @@ impl Solver for CoupledEngine {
 }
 
 /// The integer lattice gas on a backend. It cannot go unstable (its state is bits; particle
-/// number and momentum are conserved exactly by every collision), so [`Solver::step`] always
-/// succeeds. `gas.step` is the position of its random streams (`u32`, wrapping, as on the GPU);
-/// the step counter is [`Solver::step_count`]. On the GPU, `gas` mirrors the GPU state after
-/// every advance.
+/// number and momentum are conserved exactly by every collision), so on the CPU
+/// [`Solver::step`] always succeeds (a GPU can fail). The gas's `step` is the position of its
+/// random streams (`u32`, wrapping, as on the GPU); the step counter is [`Solver::step_count`].
+/// On the GPU the CPU gas is a mirror that receives the device's state only when it is read:
+/// [`LatticeGasEngine::state`] the whole state (once per step), [`LatticeGasEngine::state_rows`]
+/// a band of rows (a probe).
 pub struct LatticeGasEngine {
-    pub gas: LatticeGas,
+    gas: LatticeGas,
     table: &'static CollisionTable,
     gpu: Option<GpuLatticeGas>,
     health: Option<DeviceHealth>,
     step_count: u64,
+    /// GPU: the step whose whole state the mirror holds (the uploaded one before any read).
+    whole: u64,
+    /// GPU: a read failed, returned by the next advance; no read after it.
+    read_failure: Option<Instability>,
+    failed: bool,
     pub timings: LatticeGasTimings,
     pub name: String,
+    /// What came back from the device so far (`gathered`: cells of probe bands).
+    pub readback: Readback,
 }
 
 impl LatticeGasEngine {
@@ -515,14 +526,102 @@ impl LatticeGasEngine {
             Some(ctx) => (Some(GpuLatticeGas::new(ctx, &gas, table)?), Some(uploaded(ctx)?)),
             None => (None, None),
         };
-        Ok(Self { gas, table, gpu, health, step_count: 0, timings: LatticeGasTimings::default(), name })
+        Ok(Self {
+            gas,
+            table,
+            gpu,
+            health,
+            step_count: 0,
+            whole: 0,
+            read_failure: None,
+            failed: false,
+            timings: LatticeGasTimings::default(),
+            name,
+            readback: Readback::default(),
+        })
     }
 
     /// The engine of a gas restored from a checkpoint taken at step `step_count` (the gas keeps
     /// its own wrapping random-stream position).
     pub fn starting_at(mut self, step_count: u64) -> Self {
         self.step_count = step_count;
+        self.whole = step_count;
         self
+    }
+
+    /// Whether a GPU steps it.
+    pub fn is_gpu(&self) -> bool {
+        self.gpu.is_some()
+    }
+
+    /// The whole state of the step reached (on the GPU brought back now unless the mirror
+    /// holds it). A read that fails leaves the mirror as it was and returns the device's
+    /// diagnosis, which the next advance returns too.
+    pub fn state(&mut self) -> Result<&LatticeGas, Instability> {
+        if let Some(g) = self.gpu.as_ref()
+            && !self.failed
+            && self.whole != self.step_count
+        {
+            if !g.download_into(&mut self.gas) {
+                return Err(self.failed_read());
+            }
+            self.whole = self.step_count;
+            self.readback.whole_states += 1;
+            self.readback.bytes += 2 * (Q * self.gas.cells()) as u64;
+        }
+        self.pending()
+    }
+
+    /// The gas with the cells of rows `y0..=y1` (every X and Z) at the step reached, the others
+    /// as last brought back: on the GPU only that band crosses the bus. A failed read as in
+    /// [`Self::state`].
+    pub fn state_rows(&mut self, y0: usize, y1: usize) -> Result<&LatticeGas, Instability> {
+        if let Some(g) = self.gpu.as_ref()
+            && !self.failed
+            && self.whole != self.step_count
+        {
+            if !g.download_rows_into(y0, y1, &mut self.gas) {
+                return Err(self.failed_read());
+            }
+            let cells = (y1 + 1 - y0) * self.gas.dims[0] * self.gas.dims[2];
+            self.readback.gathered += cells as u64;
+            self.readback.bytes += 2 * (Q * cells) as u64;
+        }
+        self.pending()
+    }
+
+    /// The mirror as it is (on the CPU, the state of the step reached).
+    pub fn mirror(&self) -> &LatticeGas {
+        &self.gas
+    }
+
+    /// The failed read not yet returned by an advance, if any.
+    pub fn read_failure(&self) -> Option<&Instability> {
+        self.read_failure.as_ref()
+    }
+
+    fn pending(&self) -> Result<&LatticeGas, Instability> {
+        match &self.read_failure {
+            Some(e) => Err(e.clone()),
+            None => Ok(&self.gas),
+        }
+    }
+
+    fn failed_read(&mut self) -> Instability {
+        self.failed = true;
+        let why = self.health.as_ref().and_then(|h| h.settle()).unwrap_or_else(|| "reading the state back failed".into());
+        let (step, kept) = (self.step_count, self.whole);
+        let mut e = device_failure(why.clone(), step, step as f64, "lattice units", 0, kept);
+        e.reason = format!("{why} (reading step {step}'s state back; the state kept is the last one downloaded, step {kept}'s)");
+        self.read_failure = Some(e.clone());
+        e
+    }
+
+    /// The gas with the whole state of the step reached (after a failure, the last one brought
+    /// back).
+    pub fn into_gas(mut self) -> LatticeGas {
+        let _ = self.state();
+        self.gas
     }
 }
 
@@ -536,15 +635,15 @@ impl Solver for LatticeGasEngine {
     }
 
     fn advance(&mut self, n: u64) -> Result<(), Instability> {
+        if let Some(e) = self.read_failure.take() {
+            return Err(e);
+        }
         match self.gpu.as_mut() {
             Some(g) => {
                 g.advance(n);
                 if let Some(why) = self.health.as_ref().and_then(|h| h.settle()) {
-                    return Err(device_failure(why, self.step_count + n, (self.step_count + n) as f64, "lattice units", n, self.step_count));
-                }
-                if !g.download_into(&mut self.gas) {
-                    let step = self.step_count + n;
-                    return Err(failed_download(self.health.as_ref(), step, step as f64, "lattice units", n, self.step_count));
+                    self.failed = true;
+                    return Err(device_failure(why, self.step_count + n, (self.step_count + n) as f64, "lattice units", n, self.whole));
                 }
             }
             None => {

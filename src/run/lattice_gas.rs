@@ -7,7 +7,7 @@ use crate::lattice_gas::coarse::coarse_grain;
 use crate::lattice_gas::lattice::Diagonals;
 use crate::lattice_gas::spectrum::{Peak, dominant_frequency};
 use crate::output::coarse::{write_csv, write_pngs, write_vtk};
-use crate::scene::lattice_gas::{LatticeGasScene, region_velocity};
+use crate::scene::lattice_gas::{LatticeGasScene, region_rows, region_velocity};
 use crate::state::state_hash;
 use crate::step::Solver;
 use serde::Serialize;
@@ -47,6 +47,14 @@ pub struct LatticeGasReport {
     pub state_hash: String,
     /// The step this run resumed from (a checkpoint), if it did.
     pub resumed_from_step: Option<u64>,
+    /// The gas cannot go unstable; a GPU can fail (lost, out of memory): the diagnosis, the
+    /// outputs written before it kept.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub device_failure: Option<String>,
+    /// On the GPU: what came back from the device (whole states for the coarse fields,
+    /// checkpoints and the end; the probes' bands of rows).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub readback: Option<super::backend::Readback>,
     pub files: Vec<String>,
 }
 
@@ -82,20 +90,34 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, opts: &RunOptions
         }
         None => {
             writeln!(probe_csv, "step,u_x,u_y,upstream_u_x")?;
-            (engine.gas.invariants().particles, Vec::new())
+            (engine.mirror().invariants().particles, Vec::new())
         }
     };
+    let half = 2.0 * o.coarse_block as f64;
     let outcome = driver::drive_until(&mut engine, total, opts.stop_at, &[o.probe_every, o.every, ck.period()], Some("steps"), |e, t| {
-        let (g, done) = (&e.gas, t.step);
+        let done = t.step;
+        // A probe brings back the rows it reads only (on the GPU), the coarse field and a
+        // checkpoint the whole state; a read that fails writes nothing (the next advance, or
+        // the end, reports it).
         if t.hit[0]
             && let Some(p) = sc.probe
         {
-            let u = region_velocity(g, p, 2.0 * o.coarse_block as f64);
-            let up = upstream.map(|a| region_velocity(g, a, 2.0 * o.coarse_block as f64)[0]);
+            let (y0, y1) = region_rows(e.mirror().dims, p, half);
+            let Ok(g) = e.state_rows(y0, y1) else { return Ok(()) };
+            let u = region_velocity(g, p, half);
+            let up = match upstream {
+                Some(a) => {
+                    let (y0, y1) = region_rows(g.dims, a, half);
+                    let Ok(g) = e.state_rows(y0, y1) else { return Ok(()) };
+                    Some(region_velocity(g, a, half)[0])
+                }
+                None => None,
+            };
             writeln!(probe_csv, "{done},{:.6},{:.6},{}", u[0], u[1], up.map(|v| format!("{v:.6}")).unwrap_or_default())?;
             samples.push((u[1], up));
         }
         if t.hit[1] || t.last {
+            let Ok(g) = e.state() else { return Ok(()) };
             probe_csv.flush()?;
             let f = coarse_grain(g, o.coarse_block);
             let stem = format!("coarse_{done:07}");
@@ -105,6 +127,7 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, opts: &RunOptions
             files.extend([format!("{stem}.csv"), format!("{stem}.vtk"), format!("{stem}_speed.png"), format!("{stem}_uy.png")]);
         }
         if t.hit[2] {
+            let Ok(g) = e.state() else { return Ok(()) };
             probe_csv.flush()?;
             let uy: Vec<f64> = samples.iter().map(|s| s.0).collect();
             let up: Vec<f64> = samples.iter().filter_map(|s| s.1).collect();
@@ -123,7 +146,12 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, opts: &RunOptions
     }
     let (done, wall) = (outcome.steps, outcome.wall_s);
     let steps_here = done - start;
-    let g = &engine.gas;
+    // a read that failed at the last event has no advance after it to report it
+    let instability = outcome.instability.clone().or_else(|| engine.read_failure().cloned());
+    let readback = engine.is_gpu().then_some(engine.readback);
+    let stage_shares = engine.stage_shares().into_iter().map(|(n, f)| (n.to_string(), f)).collect();
+    let backend = engine.name.clone();
+    let g = &engine.into_gas();
     probe_csv.flush()?;
     let last_half = &samples[samples.len() / 2..];
     let wake_peak = dominant_frequency(&last_half.iter().map(|s| s.0).collect::<Vec<_>>(), o.probe_every as f64);
@@ -141,7 +169,7 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, opts: &RunOptions
     let sites = 16 * g.cells() as u64;
     let report = LatticeGasReport {
         name: sc.file.name.clone(),
-        backend: engine.name.clone(),
+        backend,
         cells: s.cells,
         sites,
         density: s.density,
@@ -150,7 +178,7 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, opts: &RunOptions
         steps: done,
         wall_s: wall,
         site_updates_per_s: sites as f64 * steps_here as f64 / wall.max(1e-12),
-        stage_shares: engine.stage_shares().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
+        stage_shares,
         particles_start,
         particles_end: g.invariants().particles,
         inlet_velocity,
@@ -161,6 +189,8 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, opts: &RunOptions
         strouhal,
         state_hash: state_hash(g),
         resumed_from_step: (start > 0).then_some(start),
+        device_failure: instability.map(|e| e.to_string()),
+        readback,
         files,
     };
     std::fs::write(dir.join("summary.json"), serde_json::to_string_pretty(&report)?)?;

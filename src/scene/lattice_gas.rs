@@ -211,14 +211,21 @@ impl LatticeGasScene {
     }
 }
 
+/// The cell rows `y0..=y1` that [`region_velocity`] reads for a square of half-width `half` ℓ
+/// around `at` (ℓ) in a gas of `dims` cells.
+pub fn region_rows(dims: [usize; 3], at: [f64; 2], half: f64) -> (usize, usize) {
+    let y0 = ((at[1] - half) / 2.0).ceil().max(0.0) as usize;
+    let y1 = (((at[1] + half) / 2.0).floor() as usize).min(dims[1] - 1);
+    (y0, y1)
+}
+
 /// Mean velocity (X, Y; ℓ/step) of the fluid sites of the cells within a square of half-width
 /// `half` ℓ around `at` (ℓ), over all Z.
 pub fn region_velocity(g: &LatticeGas, at: [f64; 2], half: f64) -> [f64; 2] {
     let (mut n, mut j) = (0u64, [0i64; 2]);
     let x0 = ((at[0] - half) / 2.0).ceil().max(0.0) as usize;
     let x1 = (((at[0] + half) / 2.0).floor() as usize).min(g.dims[0] - 1);
-    let y0 = ((at[1] - half) / 2.0).ceil().max(0.0) as usize;
-    let y1 = (((at[1] + half) / 2.0).floor() as usize).min(g.dims[1] - 1);
+    let (y0, y1) = region_rows(g.dims, at, half);
     for z in 0..g.dims[2] {
         for y in y0..=y1 {
             for x in x0..=x1 {
