@@ -358,12 +358,12 @@ fn a_gpu_run_brings_back_only_what_its_outputs_read() {
     let eager_path = dir.join("eager_probes.csv");
     let mut w = ProbeWriter::create(&eager_path, e.mirror(), &sc.probes).unwrap();
     w.sample(e.state().unwrap(), &sc.units).unwrap();
-    assert_eq!(e.readback, Readback::default(), "the uploaded state needs no readback");
+    assert_eq!(e.readback(), Readback::default(), "the uploaded state needs no readback");
     let mut whole = 0;
     for k in 1..=6 {
         e.advance(10).unwrap();
         w.sample(e.state().unwrap(), &sc.units).unwrap();
-        whole = e.readback.bytes / k;
+        whole = e.readback().bytes / k;
     }
     drop(w);
     let eager = std::fs::read_to_string(&eager_path).unwrap();
@@ -371,10 +371,10 @@ fn a_gpu_run_brings_back_only_what_its_outputs_read() {
     assert_eq!(lazy, eager, "gathered probe nodes give the rows of whole readbacks");
     // a gathered node costs its populations only
     e.advance(1).unwrap();
-    let before = e.readback.bytes;
+    let before = e.readback().bytes;
     let nodes: Vec<usize> = sc.probes.iter().map(|(_, x)| sc.grid.index(*x)).collect();
     e.state_at(&nodes).unwrap();
-    let per_node = e.readback.bytes - before;
+    let per_node = e.readback().bytes - before;
     assert!(per_node > 0 && per_node * 100 < whole, "{per_node} B per node, {whole} B per state");
 
     let got = r.readback.expect("a GPU run reports its readback");

@@ -93,19 +93,8 @@ pub struct FluidEngine {
     health: Option<DeviceHealth>,
     /// What runs it ("cpu (2 threads)", "gpu: …").
     pub name: String,
-    /// GPU: the step whose whole state the mirror holds (None: none brought back yet; the
-    /// mirror then holds the uploaded initial state, `start`).
-    whole: Option<u64>,
-    /// GPU: the step the solver was uploaded at.
-    start: u64,
-    /// GPU: the device failed or reported an instability, so its state is not read again (the
-    /// mirror keeps the last state brought back).
-    failed: bool,
-    /// GPU: a read of the state that failed (a lost device, no memory for the staging buffer),
-    /// returned by the next advance (and by [`FluidEngine::read_failure`]).
-    read_failure: Option<Instability>,
-    /// What came back from the device so far.
-    pub readback: Readback,
+    /// GPU: what the mirror holds.
+    mirror: Mirror,
 }
 
 /// What a GPU run brought back from the device (the instability flag of every advance aside).
@@ -118,6 +107,51 @@ pub struct Readback {
     pub gathered: u64,
     /// Bytes these carried (fluid: f32 populations; lattice gas: 16-bit words).
     pub bytes: u64,
+}
+
+/// The bookkeeping of a GPU engine's CPU mirror, which receives the device's state only when
+/// an output reads it: the step whose whole state it holds, a read that failed, what came back.
+struct Mirror {
+    /// The step whose whole state the mirror holds (the uploaded one before any read).
+    whole: u64,
+    /// The device failed, reported an instability or a read failed: no more reads (the mirror
+    /// keeps the last state brought back).
+    failed: bool,
+    /// A read that failed (a lost device, no memory for the staging buffer), returned by the
+    /// next advance.
+    read_failure: Option<Instability>,
+    readback: Readback,
+}
+
+impl Mirror {
+    fn new(step: u64) -> Self {
+        Mirror { whole: step, failed: false, read_failure: None, readback: Readback::default() }
+    }
+
+    /// Whether a read at `step` must go to the device.
+    fn behind(&self, step: u64) -> bool {
+        !self.failed && self.whole != step
+    }
+
+    /// Records a read of step `step`'s state that failed; the diagnosis names the device's
+    /// failure (when `health` recorded one) and the step of the state kept.
+    fn failed_read(&mut self, health: Option<&DeviceHealth>, step: u64, time: f64, time_unit: &'static str) -> Instability {
+        self.failed = true;
+        let why = health.and_then(|h| h.settle()).unwrap_or_else(|| "reading the state back failed".into());
+        let kept = self.whole;
+        let mut e = device_failure(why.clone(), step, time, time_unit, 0, kept);
+        e.reason = format!("{why} (reading step {step}'s state back; the state kept is the last one downloaded, step {kept}'s)");
+        self.read_failure = Some(e.clone());
+        e
+    }
+
+    /// `t` (the mirror), or the failed read that left it behind.
+    fn pending<'a, T>(&self, t: &'a T) -> Result<&'a T, Instability> {
+        match &self.read_failure {
+            Some(e) => Err(e.clone()),
+            None => Ok(t),
+        }
+    }
 }
 
 impl FluidEngine {
@@ -151,8 +185,8 @@ impl FluidEngine {
     }
 
     fn engine(solver: FluidSolver, gpu: Option<Box<GpuFluid>>, health: Option<DeviceHealth>, name: String) -> Self {
-        let start = solver.step_count;
-        Self { solver, gpu, health, name, whole: None, start, failed: false, read_failure: None, readback: Readback::default() }
+        let mirror = Mirror::new(solver.step_count);
+        Self { solver, gpu, health, name, mirror }
     }
 
     /// The whole state of the step reached. On the GPU it is brought back now unless the
@@ -162,17 +196,16 @@ impl FluidEngine {
     /// brought back ([`Self::mirror`], [`Self::mirrored_step`]).
     pub fn state(&mut self) -> Result<&FluidSolver, Instability> {
         if let Some(g) = self.gpu.as_ref()
-            && !self.failed
-            && !self.holds(g.step_count)
+            && self.mirror.behind(g.step_count)
         {
             if !g.download_into(&mut self.solver) {
                 return Err(self.failed_read());
             }
-            self.whole = Some(g.step_count);
-            self.readback.whole_states += 1;
-            self.readback.bytes += 4 * (g.n_nodes * g.nv) as u64;
+            self.mirror.whole = g.step_count;
+            self.mirror.readback.whole_states += 1;
+            self.mirror.readback.bytes += 4 * (g.n_nodes * g.nv) as u64;
         }
-        self.pending()
+        self.mirror.pending(&self.solver)
     }
 
     /// The solver with the populations of `nodes` (padded node indices) at the step reached
@@ -181,18 +214,16 @@ impl FluidEngine {
     /// ([`crate::output::probes::ProbeWriter::nodes`]), bit for bit what [`Self::state`] would
     /// give at them. A failed read as in [`Self::state`].
     pub fn state_at(&mut self, nodes: &[usize]) -> Result<&FluidSolver, Instability> {
-        if let Some(g) = self.gpu.as_ref()
-            && !self.failed
-            && !self.holds(g.step_count)
+        if let Some(g) = self.gpu.as_mut()
+            && self.mirror.behind(g.step_count)
         {
-            let g = self.gpu.as_mut().expect("checked above");
             if !g.download_nodes_into(nodes, &mut self.solver) {
                 return Err(self.failed_read());
             }
-            self.readback.gathered += nodes.len() as u64;
-            self.readback.bytes += 4 * (nodes.len() * g.nv) as u64;
+            self.mirror.readback.gathered += nodes.len() as u64;
+            self.mirror.readback.bytes += 4 * (nodes.len() * g.nv) as u64;
         }
-        self.pending()
+        self.mirror.pending(&self.solver)
     }
 
     /// The mirror as it is: the whole state of [`Self::mirrored_step`] (on the CPU, of the
@@ -203,28 +234,17 @@ impl FluidEngine {
 
     /// The failed read not yet returned by an advance, if any.
     pub fn read_failure(&self) -> Option<&Instability> {
-        self.read_failure.as_ref()
+        self.mirror.read_failure.as_ref()
     }
 
-    /// The mirror, or the read failure that left it behind.
-    fn pending(&self) -> Result<&FluidSolver, Instability> {
-        match &self.read_failure {
-            Some(e) => Err(e.clone()),
-            None => Ok(&self.solver),
-        }
+    /// What came back from the device so far (nothing on the CPU).
+    pub fn readback(&self) -> Readback {
+        self.mirror.readback
     }
 
-    /// Records a read of the device's state that failed: no more reads; the diagnosis names the
-    /// device's failure and the step of the state kept.
     fn failed_read(&mut self) -> Instability {
-        self.failed = true;
-        let why = self.health.as_ref().and_then(|h| h.settle()).unwrap_or_else(|| "reading the state back failed".into());
-        let step = self.gpu.as_ref().map_or(self.solver.step_count, |g| g.step_count);
-        let kept = self.whole.unwrap_or(self.start);
-        let mut e = device_failure(why.clone(), step, step as f64 * self.solver.params.dt, "lattice units", 0, kept);
-        e.reason = format!("{why} (reading step {step}'s state back; the state kept is the last one downloaded, step {kept}'s)");
-        self.read_failure = Some(e.clone());
-        e
+        let step = self.step_count();
+        self.mirror.failed_read(self.health.as_ref(), step, step as f64 * self.solver.params.dt, "lattice units")
     }
 
     /// Whether a GPU steps it.
@@ -232,18 +252,12 @@ impl FluidEngine {
         self.gpu.is_some()
     }
 
-    /// Whether the mirror holds the whole state of `step` (the uploaded one before any was
-    /// brought back).
-    fn holds(&self, step: u64) -> bool {
-        self.whole.unwrap_or(self.start) == step
-    }
-
     /// The step whose whole state the solver holds: the step reached on the CPU; on the GPU
     /// the last one [`Self::state`] brought back (the uploaded one before any).
     pub fn mirrored_step(&self) -> u64 {
         match &self.gpu {
             None => self.solver.step_count,
-            Some(_) => self.whole.unwrap_or(self.start),
+            Some(_) => self.mirror.whole,
         }
     }
 
@@ -279,19 +293,19 @@ impl Solver for FluidEngine {
     /// until [`FluidEngine::state`] or [`FluidEngine::state_at`] reads it. After an instability
     /// or a device failure the mirror keeps the last state brought back.
     fn advance(&mut self, n: u64) -> Result<(), Instability> {
-        if let Some(e) = self.read_failure.take() {
+        if let Some(e) = self.mirror.read_failure.take() {
             return Err(e);
         }
         let Some(g) = self.gpu.as_mut() else { return self.solver.run(n) };
         let s = &self.solver;
-        let kept = self.whole.unwrap_or(self.start);
+        let kept = self.mirror.whole;
         g.run(n);
         if let Some(why) = self.health.as_ref().and_then(|h| h.settle()) {
-            self.failed = true;
+            self.mirror.failed = true;
             return Err(device_failure(why, g.step_count, g.step_count as f64 * s.params.dt, "lattice units", n, kept));
         }
         if let Some((node, code)) = g.instability() {
-            self.failed = true;
+            self.mirror.failed = true;
             let quantity = ["", "density", "velocity", "temperature"][code as usize];
             return Err(Instability {
                 part: Part::Fluid,
@@ -507,15 +521,10 @@ pub struct LatticeGasEngine {
     gpu: Option<GpuLatticeGas>,
     health: Option<DeviceHealth>,
     step_count: u64,
-    /// GPU: the step whose whole state the mirror holds (the uploaded one before any read).
-    whole: u64,
-    /// GPU: a read failed, returned by the next advance; no read after it.
-    read_failure: Option<Instability>,
-    failed: bool,
+    /// GPU: what the mirror holds (`readback.gathered`: cells of probe bands).
+    mirror: Mirror,
     pub timings: LatticeGasTimings,
     pub name: String,
-    /// What came back from the device so far (`gathered`: cells of probe bands).
-    pub readback: Readback,
 }
 
 impl LatticeGasEngine {
@@ -526,26 +535,14 @@ impl LatticeGasEngine {
             Some(ctx) => (Some(GpuLatticeGas::new(ctx, &gas, table)?), Some(uploaded(ctx)?)),
             None => (None, None),
         };
-        Ok(Self {
-            gas,
-            table,
-            gpu,
-            health,
-            step_count: 0,
-            whole: 0,
-            read_failure: None,
-            failed: false,
-            timings: LatticeGasTimings::default(),
-            name,
-            readback: Readback::default(),
-        })
+        Ok(Self { gas, table, gpu, health, step_count: 0, mirror: Mirror::new(0), timings: LatticeGasTimings::default(), name })
     }
 
     /// The engine of a gas restored from a checkpoint taken at step `step_count` (the gas keeps
     /// its own wrapping random-stream position).
     pub fn starting_at(mut self, step_count: u64) -> Self {
         self.step_count = step_count;
-        self.whole = step_count;
+        self.mirror.whole = step_count;
         self
     }
 
@@ -559,17 +556,16 @@ impl LatticeGasEngine {
     /// diagnosis, which the next advance returns too.
     pub fn state(&mut self) -> Result<&LatticeGas, Instability> {
         if let Some(g) = self.gpu.as_ref()
-            && !self.failed
-            && self.whole != self.step_count
+            && self.mirror.behind(self.step_count)
         {
             if !g.download_into(&mut self.gas) {
                 return Err(self.failed_read());
             }
-            self.whole = self.step_count;
-            self.readback.whole_states += 1;
-            self.readback.bytes += 2 * (Q * self.gas.cells()) as u64;
+            self.mirror.whole = self.step_count;
+            self.mirror.readback.whole_states += 1;
+            self.mirror.readback.bytes += 2 * (Q * self.gas.cells()) as u64;
         }
-        self.pending()
+        self.mirror.pending(&self.gas)
     }
 
     /// The gas with the cells of rows `y0..=y1` (every X and Z) at the step reached, the others
@@ -577,17 +573,16 @@ impl LatticeGasEngine {
     /// [`Self::state`].
     pub fn state_rows(&mut self, y0: usize, y1: usize) -> Result<&LatticeGas, Instability> {
         if let Some(g) = self.gpu.as_ref()
-            && !self.failed
-            && self.whole != self.step_count
+            && self.mirror.behind(self.step_count)
         {
             if !g.download_rows_into(y0, y1, &mut self.gas) {
                 return Err(self.failed_read());
             }
             let cells = (y1 + 1 - y0) * self.gas.dims[0] * self.gas.dims[2];
-            self.readback.gathered += cells as u64;
-            self.readback.bytes += 2 * (Q * cells) as u64;
+            self.mirror.readback.gathered += cells as u64;
+            self.mirror.readback.bytes += 2 * (Q * cells) as u64;
         }
-        self.pending()
+        self.mirror.pending(&self.gas)
     }
 
     /// The mirror as it is (on the CPU, the state of the step reached).
@@ -597,24 +592,17 @@ impl LatticeGasEngine {
 
     /// The failed read not yet returned by an advance, if any.
     pub fn read_failure(&self) -> Option<&Instability> {
-        self.read_failure.as_ref()
+        self.mirror.read_failure.as_ref()
     }
 
-    fn pending(&self) -> Result<&LatticeGas, Instability> {
-        match &self.read_failure {
-            Some(e) => Err(e.clone()),
-            None => Ok(&self.gas),
-        }
+    /// What came back from the device so far (nothing on the CPU).
+    pub fn readback(&self) -> Readback {
+        self.mirror.readback
     }
 
     fn failed_read(&mut self) -> Instability {
-        self.failed = true;
-        let why = self.health.as_ref().and_then(|h| h.settle()).unwrap_or_else(|| "reading the state back failed".into());
-        let (step, kept) = (self.step_count, self.whole);
-        let mut e = device_failure(why.clone(), step, step as f64, "lattice units", 0, kept);
-        e.reason = format!("{why} (reading step {step}'s state back; the state kept is the last one downloaded, step {kept}'s)");
-        self.read_failure = Some(e.clone());
-        e
+        let step = self.step_count;
+        self.mirror.failed_read(self.health.as_ref(), step, step as f64, "lattice units")
     }
 
     /// The gas with the whole state of the step reached (after a failure, the last one brought
@@ -635,15 +623,15 @@ impl Solver for LatticeGasEngine {
     }
 
     fn advance(&mut self, n: u64) -> Result<(), Instability> {
-        if let Some(e) = self.read_failure.take() {
+        if let Some(e) = self.mirror.read_failure.take() {
             return Err(e);
         }
         match self.gpu.as_mut() {
             Some(g) => {
                 g.advance(n);
                 if let Some(why) = self.health.as_ref().and_then(|h| h.settle()) {
-                    self.failed = true;
-                    return Err(device_failure(why, self.step_count + n, (self.step_count + n) as f64, "lattice units", n, self.whole));
+                    self.mirror.failed = true;
+                    return Err(device_failure(why, self.step_count + n, (self.step_count + n) as f64, "lattice units", n, self.mirror.whole));
                 }
             }
             None => {

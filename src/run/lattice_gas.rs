@@ -148,7 +148,7 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, opts: &RunOptions
     let steps_here = done - start;
     // a read that failed at the last event has no advance after it to report it
     let instability = outcome.instability.clone().or_else(|| engine.read_failure().cloned());
-    let readback = engine.is_gpu().then_some(engine.readback);
+    let readback = engine.is_gpu().then(|| engine.readback());
     let stage_shares = engine.stage_shares().into_iter().map(|(n, f)| (n.to_string(), f)).collect();
     let backend = engine.name.clone();
     let g = &engine.into_gas();

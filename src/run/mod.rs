@@ -151,7 +151,7 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
     })?;
     // a read that failed at the last event has no advance after it to report it
     let instability = outcome.instability.clone().or_else(|| engine.read_failure().cloned());
-    let readback = engine.is_gpu().then_some(engine.readback);
+    let readback = engine.is_gpu().then(|| engine.readback());
     let stage_fractions = engine.stage_shares().into_iter().map(|(n, f)| (n.to_string(), f)).collect();
     let name = engine.name.clone();
     // A final snapshot of whatever state the run reached (if unstable, the last one brought
