@@ -136,6 +136,18 @@ pub struct ReadbackCost {
     pub gathered_steps: f64,
 }
 
+/// The shortest wall time (s) of `repetitions` calls of `f` (the machines here are shared: the
+/// shortest is the least disturbed).
+pub fn best_of(repetitions: usize, f: &mut dyn FnMut()) -> f64 {
+    (0..repetitions.max(1))
+        .map(|_| {
+            let t = Instant::now();
+            f();
+            t.elapsed().as_secs_f64()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
 /// The benchmark problem: a periodic box of `n` nodes with a smooth shear flow, A > 0.
 pub fn benchmark_solver(set: VelocitySetKind, n: [usize; 3]) -> FluidSolver {
     let vs = VelocitySet::new(set);

@@ -108,15 +108,7 @@ pub fn lattice_speed(ctx: &GpuContext, set: VelocitySetKind, n: [usize; 3], step
 fn readback_cost(gpu: &mut GpuFluid, mut cpu: crate::fluid::FluidSolver, step_s: f64) -> crate::bench::ReadbackCost {
     let n = cpu.layout.grid.n;
     let nodes: Vec<usize> = (0..4).map(|k| cpu.layout.grid.index([(n[0] * k / 4) as i64, (n[1] / 2) as i64, (n[2] / 2) as i64])).collect();
-    let best = |f: &mut dyn FnMut()| {
-        (0..5)
-            .map(|_| {
-                let t = Instant::now();
-                f();
-                t.elapsed().as_secs_f64()
-            })
-            .fold(f64::INFINITY, f64::min)
-    };
+    let best = |f: &mut dyn FnMut()| crate::bench::best_of(5, f);
     let whole_s = best(&mut || assert!(gpu.download_into(&mut cpu), "the state came back"));
     let gathered_s = best(&mut || assert!(gpu.download_nodes_into(&nodes, &mut cpu), "the nodes came back"));
     crate::bench::ReadbackCost { whole_s, gathered_s, nodes: nodes.len(), whole_steps: whole_s / step_s, gathered_steps: gathered_s / step_s }
@@ -146,15 +138,7 @@ pub fn drawing_speed(ctx: Option<&GpuContext>, n: usize, tracers: usize) -> Vec<
     let c = DVec3::splat(0.5 * (n as f64 - 1.0) + 0.13);
     let grid = ScalarGrid::sample([n; 3], DVec3::ZERO, 1.0, |x| 0.35 * n as f64 - (x - c).length());
     let cells = grid.cells() as f64;
-    let best = |f: &mut dyn FnMut()| {
-        (0..3)
-            .map(|_| {
-                let t = Instant::now();
-                f();
-                t.elapsed().as_secs_f64()
-            })
-            .fold(f64::INFINITY, f64::min)
-    };
+    let best = |f: &mut dyn FnMut()| crate::bench::best_of(3, f);
     let mut triangles = 0;
     let cpu = best(&mut || triangles = extract(&grid, 0.0).triangles.len());
     let gpu = ctx.map(|ctx| {

@@ -346,15 +346,7 @@ pub fn readback_cost(ctx: &GpuContext, cells: [usize; 3], rows: usize, step_s: f
     let mut gpu = GpuLatticeGas::new(ctx, &g, table)?;
     gpu.advance(2);
     gpu.wait();
-    let best = |f: &mut dyn FnMut()| {
-        (0..5)
-            .map(|_| {
-                let t = std::time::Instant::now();
-                f();
-                t.elapsed().as_secs_f64()
-            })
-            .fold(f64::INFINITY, f64::min)
-    };
+    let best = |f: &mut dyn FnMut()| crate::bench::best_of(5, f);
     let y0 = cells[1].saturating_sub(rows) / 2;
     let y1 = (y0 + rows).min(cells[1]) - 1;
     let whole_s = best(&mut || assert!(gpu.download_into(&mut g), "the state came back"));
