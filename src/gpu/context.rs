@@ -41,7 +41,8 @@ impl DeviceHealth {
         let h = DeviceHealth { state: Arc::default(), device: device.clone() };
         let lost = h.state.clone();
         device.set_device_lost_callback(move |reason, msg| {
-            lost.lock().expect("device health").lost.get_or_insert_with(|| format!("device lost ({reason:?}): {msg}"));
+            let msg = if msg.is_empty() { String::new() } else { format!(": {msg}") };
+            lost.lock().expect("device health").lost.get_or_insert_with(|| format!("device lost ({reason:?}){msg}"));
         });
         let err = h.state.clone();
         device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
