@@ -2,6 +2,7 @@
 //! ParaView) and a summary (JSON). Each writer flushes as it goes so that a run that stops early
 //! keeps everything written so far.
 
+pub mod axis;
 pub mod coarse;
 pub mod fields;
 pub mod mesh;

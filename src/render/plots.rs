@@ -120,9 +120,15 @@ pub fn first_probe_uy(f: &FluidSimulation, gpu: Option<&GpuProbes>) -> Option<[f
 /// A small plot of `points` under its name `name` (the x axis labelled `x_label`).
 pub fn show_line(ui: &mut egui::Ui, id: &str, name: &str, x_label: &str, points: Vec<[f64; 2]>) {
     ui.label(egui::RichText::new(name).small());
-    Plot::new(id).height(90.0).x_axis_label(x_label.to_string()).allow_scroll(false).allow_zoom(false).show(ui, |p| {
-        p.line(Line::new(name.to_string(), points));
-    });
+    // labels with the digits of the tick spacing (egui_plot's own print a flow of ~0 as
+    // 0.00000000000 and −0.0000000000001)
+    let label = |mark: egui_plot::GridMark, _: &std::ops::RangeInclusive<f64>| crate::output::axis::tick_label(mark.value, 10.0 * mark.step_size);
+    Plot::new(id).height(90.0).x_axis_label(x_label.to_string()).x_axis_formatter(label).y_axis_formatter(label).allow_scroll(false).allow_zoom(false).show(
+        ui,
+        |p| {
+            p.line(Line::new(name.to_string(), points));
+        },
+    );
 }
 
 /// The glottal flow kept by `g` (cm³/s) against time (ms), its last sample at `t_now` (s), one
