@@ -3,6 +3,8 @@
 //! engine per kind of solver, each a [`Solver`], so that the run loop ([`super::driver`]) treats
 //! them alike; the GPU context is picked here, above the physics core.
 
+pub use super::mirror::Readback;
+use super::mirror::{Mirror, device_failure, failed_download};
 use crate::coupling::CoupledSolver;
 use crate::fluid::{FluidSolver, Instability};
 use crate::gpu::coupled::GpuCoupled;
@@ -60,29 +62,6 @@ fn uploaded(ctx: &GpuContext) -> Result<DeviceHealth, GpuError> {
     }
 }
 
-/// The instability a run stops with when its device fails (lost, out of memory, a rejected
-/// command) during the advance that ended at `step`: the run loop then keeps the outputs
-/// written so far, and the mirror holds the last state downloaded before the failure.
-fn device_failure(why: String, step: u64, time: f64, time_unit: &'static str, n: u64, kept: u64) -> Instability {
-    Instability {
-        part: Part::Device,
-        step,
-        time,
-        time_unit,
-        site: Site::Everywhere,
-        quantity: "device state",
-        value: f64::NAN,
-        reason: format!("{why} (within the last {n} steps; the state kept is the last one downloaded, step {kept}'s)"),
-    }
-}
-
-/// The instability of a download after an advance that failed (the mirror was left as it was):
-/// the device's failure if it recorded one.
-fn failed_download(health: Option<&DeviceHealth>, step: u64, time: f64, time_unit: &'static str, n: u64, kept: u64) -> Instability {
-    let why = health.and_then(|h| h.settle()).unwrap_or_else(|| "reading the state back failed".into());
-    device_failure(why, step, time, time_unit, n, kept)
-}
-
 /// The FDLB fluid on a backend. On the GPU the CPU solver is a mirror that receives the
 /// device's state only when it is read: [`FluidEngine::state`] brings the whole state of the
 /// step reached (once per step), [`FluidEngine::state_at`] only the populations of a few nodes
@@ -95,63 +74,6 @@ pub struct FluidEngine {
     pub name: String,
     /// GPU: what the mirror holds.
     mirror: Mirror,
-}
-
-/// What a GPU run brought back from the device (the instability flag of every advance aside).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
-pub struct Readback {
-    /// Whole states (every node's populations).
-    pub whole_states: u64,
-    /// Nodes (lattice gas: cells) read for probe samples: the fluid's gathered on the device,
-    /// the lattice gas's in bands of rows.
-    pub gathered: u64,
-    /// Bytes these carried (fluid: f32 populations; lattice gas: 16-bit words).
-    pub bytes: u64,
-}
-
-/// The bookkeeping of a GPU engine's CPU mirror, which receives the device's state only when
-/// an output reads it: the step whose whole state it holds, a read that failed, what came back.
-struct Mirror {
-    /// The step whose whole state the mirror holds (the uploaded one before any read).
-    whole: u64,
-    /// The device failed, reported an instability or a read failed: no more reads (the mirror
-    /// keeps the last state brought back).
-    failed: bool,
-    /// A read that failed (a lost device, no memory for the staging buffer), returned by the
-    /// next advance.
-    read_failure: Option<Instability>,
-    readback: Readback,
-}
-
-impl Mirror {
-    fn new(step: u64) -> Self {
-        Mirror { whole: step, failed: false, read_failure: None, readback: Readback::default() }
-    }
-
-    /// Whether a read at `step` must go to the device.
-    fn behind(&self, step: u64) -> bool {
-        !self.failed && self.whole != step
-    }
-
-    /// Records a read of step `step`'s state that failed; the diagnosis names the device's
-    /// failure (when `health` recorded one) and the step of the state kept.
-    fn failed_read(&mut self, health: Option<&DeviceHealth>, step: u64, time: f64, time_unit: &'static str) -> Instability {
-        self.failed = true;
-        let why = health.and_then(|h| h.settle()).unwrap_or_else(|| "reading the state back failed".into());
-        let kept = self.whole;
-        let mut e = device_failure(why.clone(), step, time, time_unit, 0, kept);
-        e.reason = format!("{why} (reading step {step}'s state back; the state kept is the last one downloaded, step {kept}'s)");
-        self.read_failure = Some(e.clone());
-        e
-    }
-
-    /// `t` (the mirror), or the failed read that left it behind.
-    fn pending<'a, T>(&self, t: &'a T) -> Result<&'a T, Instability> {
-        match &self.read_failure {
-            Some(e) => Err(e.clone()),
-            None => Ok(t),
-        }
-    }
 }
 
 impl FluidEngine {

@@ -17,6 +17,7 @@ pub mod checkpoint;
 pub mod coupled;
 pub mod driver;
 pub mod lattice_gas;
+mod mirror;
 #[cfg(test)]
 mod resume_tests;
 pub mod solid;
