@@ -1,6 +1,10 @@
 //! Frequency and amplitude of a displacement that oscillates about a mean (a flap's tip, a
-//! fold's margin): upward crossings of the series' mean, located by linear interpolation between
-//! samples. Robust to a slowly drifting amplitude, unlike a spectrum peak over a short window.
+//! fold's margin), two ways: upward crossings of the series' mean, located by linear
+//! interpolation between samples (robust to a slowly drifting amplitude, but a strong higher mode
+//! adds crossings and reads as a higher frequency), and the highest peak of the amplitude
+//! spectrum (robust to harmonics and higher modes: the frequency that carries the most motion).
+
+use super::pitch::{F0Range, f0_spectrum};
 
 /// What a displacement series did over the analysed window (units of the series and of `dt`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -15,6 +19,11 @@ pub struct Oscillation {
     pub last_half_range: f64,
     /// Mean of x over the window.
     pub mean: f64,
+    /// Frequency of the highest peak of the amplitude spectrum (Hann window, sub-bin parabolic
+    /// refinement; [`f0_spectrum`]) between two cycles per window and the Nyquist frequency
+    /// (1/time unit of `dt`): the mode that carries the most motion, which a higher mode's extra
+    /// mean crossings do not move. `None` when the spectrum has no peak there.
+    pub spectral_peak: Option<f64>,
 }
 
 /// The oscillation of `x` sampled every `dt`; `None` with fewer than two full cycles.
@@ -45,6 +54,7 @@ pub fn oscillation(x: &[f64], dt: f64) -> Option<Oscillation> {
         max_abs: x.iter().fold(0.0, |m, v| m.max(v.abs())),
         last_half_range: 0.5 * (hi - lo),
         mean,
+        spectral_peak: f0_spectrum(x, dt, F0Range { min_hz: 2.0 / (x.len() as f64 * dt), max_hz: 0.5 / dt }),
     })
 }
 
@@ -84,5 +94,27 @@ mod tests {
         assert!((o.mean - 0.3).abs() < 0.05, "{o:?}");
         // Fewer than two cycles: no answer.
         assert!(oscillation(&x[..500], dt).is_none());
+        // the spectral peak is the fundamental's
+        let p = o.spectral_peak.unwrap();
+        assert!((p - f).abs() < 5e-3 * f, "{p}");
+    }
+
+    /// A strong third harmonic (0.8 of the fundamental, in opposite phase: sin θ − 0.8 sin 3θ =
+    /// sin θ (3.2 sin²θ − 1.4) has four more zeros per period, at sin²θ = 0.4375 — the shape of
+    /// the flap's tip with method 1) triples the crossing count's frequency; the spectral peak
+    /// stays on the fundamental.
+    #[test]
+    fn a_strong_higher_mode_moves_the_crossing_count_but_not_the_spectral_peak() {
+        let (f, dt) = (3.1, 1e-3);
+        let x: Vec<f64> = (0..3000)
+            .map(|k| {
+                let th = 2.0 * std::f64::consts::PI * f * k as f64 * dt;
+                th.sin() - 0.8 * (3.0 * th).sin()
+            })
+            .collect();
+        let o = oscillation(&x, dt).unwrap();
+        assert!((o.frequency / f - 3.0).abs() < 0.05, "crossings read {} Hz", o.frequency);
+        let p = o.spectral_peak.unwrap();
+        assert!((p - f).abs() < 5e-3 * f, "spectral peak {p} Hz");
     }
 }

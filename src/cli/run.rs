@@ -122,8 +122,16 @@ fn run_coupled(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> anyhow::Resu
     for p in &r.particle_probes {
         match &p.oscillation {
             Some(o) => eprintln!(
-                "probe {}: largest |dy| {:.4e}; from t = {:.3} s: {} cycles at {:.4} Hz, last half range {:.4e}, mean {:.3e}",
-                p.name, p.max_abs_dy, p.window_start_s, o.cycles, o.frequency, o.last_half_range, o.mean
+                "probe {}: largest |dy| {:.4e}; from t = {:.3} s: spectral peak {} Hz, largest |dy| {:.4e}; {} mean crossings at {:.4} Hz, last half range {:.4e}, mean {:.3e}",
+                p.name,
+                p.max_abs_dy,
+                p.window_start_s,
+                o.spectral_peak.map_or("none".into(), |f| format!("{f:.4}")),
+                o.max_abs,
+                o.cycles,
+                o.frequency,
+                o.last_half_range,
+                o.mean
             ),
             None => eprintln!("probe {}: largest |dy| {:.4e}; fewer than two cycles from t = {:.3} s", p.name, p.max_abs_dy, p.window_start_s),
         }

@@ -10,7 +10,8 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct AnalyzeArgs {
-    /// A run's output directory holding glottal_flow.csv.
+    /// A run's output directory holding glottal_flow.csv (a glottis: the voice measures), or
+    /// coupling.csv (any coupled run: its particle probes' oscillation, e.g. the flap's tip).
     pub dir: PathBuf,
     /// The last fraction (0, 1] of the run analysed.
     #[arg(long, default_value_t = 0.5)]
@@ -33,6 +34,9 @@ pub fn analyze(a: AnalyzeArgs) -> anyhow::Result<()> {
     if !(a.f0_min > 0.0 && a.f0_max > a.f0_min) {
         bail!("--f0-min/--f0-max: need 0 < min < max (got {}, {})", a.f0_min, a.f0_max);
     }
+    if !a.dir.join("glottal_flow.csv").exists() && a.dir.join("coupling.csv").exists() {
+        return analyze_particle_probes(&a.dir, a.window);
+    }
     let opts = VoiceOptions { window_fraction: a.window, f0_range: F0Range { min_hz: a.f0_min, max_hz: a.f0_max }, ..VoiceOptions::default() };
     let extra = match a.lung_pressure {
         Some(p) if !p.is_finite() || p.abs() > 1e6 => bail!("--lung-pressure: {p} is not a pressure in dyn/cm² within ±10⁶"),
@@ -54,6 +58,36 @@ pub fn analyze(a: AnalyzeArgs) -> anyhow::Result<()> {
     for f in &r.files {
         println!("wrote {}", f.display());
     }
+    Ok(())
+}
+
+/// The particle probes of a coupled run's coupling.csv over its last `window` fraction: printed,
+/// and written to `particle_probes.json`.
+fn analyze_particle_probes(dir: &std::path::Path, window: f64) -> anyhow::Result<()> {
+    let reports = phonation::run::particle_probes::probe_reports_from_csv(&dir.join("coupling.csv"), window)?;
+    for p in &reports {
+        match &p.oscillation {
+            Some(o) => println!(
+                "probe {}: from t = {:.3} s: spectral peak {} Hz, largest |dy| {:.4e}; {} mean crossings at {:.4} Hz, last half range {:.4e}, mean {:.3e} (largest |dy| of the whole run {:.4e})",
+                p.name,
+                p.window_start_s,
+                o.spectral_peak.map_or("none".into(), |f| format!("{f:.4}")),
+                o.max_abs,
+                o.cycles,
+                o.frequency,
+                o.last_half_range,
+                o.mean,
+                p.max_abs_dy
+            ),
+            None => println!("probe {}: fewer than two cycles from t = {:.3} s (largest |dy| of the whole run {:.4e})", p.name, p.window_start_s, p.max_abs_dy),
+        }
+    }
+    let out = dir.join("particle_probes.json");
+    std::fs::write(
+        &out,
+        serde_json::to_string_pretty(&serde_json::json!({ "analysed_from": dir.join("coupling.csv"), "window_fraction": window, "probes": reports }))?,
+    )?;
+    println!("wrote {}", out.display());
     Ok(())
 }
 

@@ -10,6 +10,8 @@ use crate::coupling::CoupledSolver;
 use crate::coupling::glottis::GlottalSample;
 use crate::output::probes::ProbeWriter;
 use crate::output::voice::{GlottalSeries, write_voice_outputs};
+pub use crate::run::particle_probes::ParticleProbeReport;
+use crate::run::particle_probes::probe_reports;
 use crate::run::solid::write_vtk;
 use crate::scene::coupled::CoupledScene;
 use crate::state::state_hash;
@@ -69,20 +71,6 @@ pub struct ExchangeReport {
     pub mass_to_walls: f64,
     /// Σ (p − u_w m): the momentum the walls took in their own frame (a diagnostic).
     pub wall_frame_momentum: [f64; 3],
-}
-
-/// The oscillation of a particle probe's y displacement (scene units: frequency in Hz, lengths
-/// in cm or m) over the second half of the run (the first half is the start-up).
-#[derive(Clone, Debug, Serialize)]
-pub struct ParticleProbeReport {
-    pub name: String,
-    /// Largest |dy| over the whole run.
-    pub max_abs_dy: f64,
-    /// None with fewer than two full cycles in the window.
-    pub oscillation: Option<crate::analysis::oscillation::Oscillation>,
-    /// Start of the analysed window (s); for a resumed run only the samples since the resume
-    /// are analysed.
-    pub window_start_s: f64,
 }
 
 /// What the glottis of a coupled run did (scene units, cgs: cm, cm², cm³/s).
@@ -184,27 +172,6 @@ fn csv_header(c: &CoupledSolver, probes: &[(String, Vec<usize>)]) -> String {
 fn probe_displacements(c: &CoupledSolver, probes: &[(String, Vec<usize>)]) -> Vec<glam::DVec3> {
     let p = &c.solid.particles;
     probes.iter().map(|(_, sel)| sel.iter().map(|&i| p.position[i] - p.reference[i]).sum::<glam::DVec3>() / sel.len() as f64).collect()
-}
-
-/// The oscillation of each probe's dy samples `(t, dy)` over the second half of the samples' span.
-fn probe_reports(probes: &[(String, Vec<usize>)], samples: &[(f64, Vec<f64>)]) -> Vec<ParticleProbeReport> {
-    let (t0, t1) = (samples.first().map_or(0.0, |s| s.0), samples.last().map_or(0.0, |s| s.0));
-    let start = 0.5 * (t0 + t1);
-    let window: Vec<&(f64, Vec<f64>)> = samples.iter().filter(|s| s.0 >= start).collect();
-    let dt = if window.len() > 1 { (window[window.len() - 1].0 - window[0].0) / (window.len() - 1) as f64 } else { 0.0 };
-    probes
-        .iter()
-        .enumerate()
-        .map(|(k, (name, _))| {
-            let y: Vec<f64> = window.iter().map(|s| s.1[k]).collect();
-            ParticleProbeReport {
-                name: name.clone(),
-                max_abs_dy: samples.iter().fold(0.0, |m, s| m.max(s.1[k].abs())),
-                oscillation: crate::analysis::oscillation::oscillation(&y, dt),
-                window_start_s: start,
-            }
-        })
-        .collect()
 }
 
 /// One row of `coupling.csv`; `probe_d`: each particle probe's displacement
@@ -380,7 +347,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
             mass_to_walls: e.mass_to_walls,
             wall_frame_momentum: e.wall_frame.to_array(),
         }),
-        particle_probes: probe_reports(&particle_probes, &probe_samples),
+        particle_probes: probe_reports(&particle_probes.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(), &probe_samples, 0.5),
         glottis: glottis_report,
         instability: instability.map(|e| e.to_string()),
         state_hash: state_hash(c),

@@ -18,6 +18,7 @@ pub mod coupled;
 pub mod driver;
 pub mod lattice_gas;
 mod mirror;
+pub mod particle_probes;
 #[cfg(test)]
 mod resume_tests;
 pub mod solid;

@@ -4,7 +4,10 @@
 //! thick enough that a row of nodes always lies inside it), three particles across the 0.06 cm
 //! flap, released in its first bending mode; run at lattice Mach [`VALIDATION_MACH`] = 0.2. The tip's transverse
 //! oscillation over the second half of the run against the published envelope of coupled codes:
-//! frequency 2.94–3.31 Hz, largest tip displacement 1.0–1.42 cm. Outputs are kept in
+//! frequency 2.94–3.31 Hz, largest tip displacement 1.0–1.42 cm. The frequency is the tip's
+//! spectral peak (the mode carrying the most motion: a higher mode riding on the flutter adds
+//! mean crossings, so the crossing count would read it as a faster flutter), the displacement the
+//! largest |dy| over the same window (what the published codes report). Outputs are kept in
 //! `out/validate/<scene>/`.
 
 use crate::run::coupled::{CoupledReport, run_coupled_scene};
@@ -55,13 +58,13 @@ pub fn rows(scene: &str, label: &str) -> Vec<(String, f64, String, bool)> {
     )];
     let tip = r.particle_probes.iter().find(|p| p.name == "tip");
     let (f, d) = match tip {
-        Some(p) => (p.oscillation.as_ref().map_or(f64::NAN, |o| o.frequency), p.oscillation.as_ref().map_or(f64::NAN, |o| o.last_half_range)),
+        Some(p) => (p.oscillation.as_ref().and_then(|o| o.spectral_peak).unwrap_or(f64::NAN), p.oscillation.as_ref().map_or(f64::NAN, |o| o.max_abs)),
         None => (f64::NAN, f64::NAN),
     };
     let inside = |v: f64, (lo, hi): (f64, f64)| v >= lo && v <= hi;
-    out.push((format!("{label}: tip frequency (Hz)"), f, format!("{}–{} Hz", FREQUENCY_HZ.0, FREQUENCY_HZ.1), inside(f, FREQUENCY_HZ)));
+    out.push((format!("{label}: tip frequency, spectral peak (Hz)"), f, format!("{}–{} Hz", FREQUENCY_HZ.0, FREQUENCY_HZ.1), inside(f, FREQUENCY_HZ)));
     out.push((
-        format!("{label}: tip amplitude, last cycle (cm)"),
+        format!("{label}: largest tip displacement, second half (cm)"),
         d,
         format!("{}–{} cm", TIP_DISPLACEMENT_CM.0, TIP_DISPLACEMENT_CM.1),
         inside(d, TIP_DISPLACEMENT_CM),
