@@ -380,7 +380,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                     Ok(v) => {
                         let st: Vec<String> = v.gpu_stage_shares.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
                         println!(
-                            "{:>30} {:>7} nodes {:>6} particles ×{} sub-steps: {:.2} steps/s ({:.2}× the CPU), {:.0} s per simulated s; coupling stages {:.0}% ({}); {} population round trips",
+                            "{:>30} {:>7} nodes {:>6} particles ×{} sub-steps: {:.2} steps/s ({:.2}× the CPU), {:.0} s per simulated s; coupling stages {:.0}% ({}); {} changes of layout, {:.0} nodes' populations across the bus each",
                             v.scene,
                             v.nodes,
                             v.particles,
@@ -390,7 +390,8 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                             v.gpu_wall_per_simulated_s,
                             100.0 * v.gpu_coupling_share,
                             st.join(", "),
-                            v.round_trips
+                            v.round_trips,
+                            v.nodes_per_round_trip
                         );
                         gpu_coupled.push(v);
                     }

@@ -48,6 +48,11 @@ pub struct PolygonWalls {
 }
 
 impl PolygonWalls {
+    /// The fluid's layout with these walls.
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
     /// Whether installing these walls in a fluid of layout `current` makes nodes enter or leave
     /// the fluid (their populations, and their fluid neighbours', are then read and written).
     pub fn changes_nodes(&self, current: &Layout) -> bool {

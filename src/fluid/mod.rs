@@ -28,7 +28,7 @@ pub use boundary::{Boundaries, Face, FaceCondition, InletProfile};
 pub use equilibrium::{Equilibrium, GasModel, Macro};
 pub use geometry::{KernelLevelSet, Obstacle, Polygon, Shape};
 pub use grid::Grid;
-pub use moving::GeometryChange;
+pub use moving::{GeometryChange, LayoutChange, NodeChange};
 pub use solver::{FluidSolver, Instability, Totals};
 pub use steady::SelectiveFrequencyDamping;
 pub use timestep::StepParams;

@@ -15,6 +15,75 @@ use super::geometry::Obstacle;
 use super::layout::{Layout, NodeKind, multilinear_corners};
 use super::solver::FluidSolver;
 
+/// The nodes a change of layout touches (padded indices, ascending): those that leave the
+/// fluid, and those that join it with the neighbours they take their populations from.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LayoutChange {
+    pub nodes: Vec<(usize, NodeChange)>,
+}
+
+/// How a node changes side.
+#[derive(Clone, Debug, PartialEq)]
+pub enum NodeChange {
+    /// It leaves the fluid (with its mass).
+    Covered,
+    /// It joins the fluid, filled with the mean populations of these neighbours (the 3ᴰ − 1
+    /// surrounding nodes that are fluid in both layouts; none for an isolated node, which
+    /// keeps its populations).
+    Uncovered(Vec<usize>),
+}
+
+impl LayoutChange {
+    /// The change from layout `old` to `new` (of the same lattice).
+    pub fn between(old: &Layout, new: &Layout) -> Self {
+        assert_eq!(new.grid.padded, old.grid.padded, "a layout of the same lattice");
+        let grid = &new.grid;
+        let offsets = neighbour_offsets(grid.dim);
+        let fluid = |l: &Layout, k: usize| l.kind[k] == NodeKind::Fluid;
+        let mut nodes = Vec::new();
+        for node in 0..grid.len() {
+            match (fluid(old, node), fluid(new, node)) {
+                (true, false) => nodes.push((node, NodeChange::Covered)),
+                (false, true) => {
+                    let x = grid.coords(node);
+                    let neighbours = offsets
+                        .iter()
+                        .map(|d| [x[0] + d[0], x[1] + d[1], x[2] + d[2]])
+                        .filter(|y| grid.contains(*y))
+                        .map(|y| grid.index(y))
+                        .filter(|&k| fluid(old, k) && fluid(new, k))
+                        .collect();
+                    nodes.push((node, NodeChange::Uncovered(neighbours)));
+                }
+                _ => {}
+            }
+        }
+        LayoutChange { nodes }
+    }
+
+    /// Every node whose populations the change reads: the nodes that change side (an isolated
+    /// node keeps its own; method 2 books the momentum of every node that changes side) and the
+    /// neighbours the fresh nodes are filled from — sorted, without repeats.
+    pub fn reads(&self) -> Vec<usize> {
+        let mut r: Vec<usize> = Vec::new();
+        for (node, change) in &self.nodes {
+            r.push(*node);
+            if let NodeChange::Uncovered(nb) = change {
+                r.extend(nb);
+            }
+        }
+        r.sort_unstable();
+        r.dedup();
+        r
+    }
+
+    /// The nodes whose populations the change writes: the uncovered ones that have a fluid
+    /// neighbour.
+    pub fn fresh(&self) -> Vec<usize> {
+        self.nodes.iter().filter(|(_, c)| matches!(c, NodeChange::Uncovered(nb) if !nb.is_empty())).map(|(n, _)| *n).collect()
+    }
+}
+
 /// What a geometry update did to the fluid (lattice units).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct GeometryChange {
@@ -44,48 +113,40 @@ impl FluidSolver {
     }
 
     /// Installs `new` (a layout of the same lattice, [`Self::layout_with`]) and initialises
-    /// uncovered nodes from the populations of their fluid neighbours.
+    /// uncovered nodes from the populations of their fluid neighbours. It reads the populations
+    /// of [`LayoutChange::reads`] only and writes those of the fresh nodes
+    /// ([`LayoutChange::fresh`]): a backend whose populations live elsewhere (the GPU) brings
+    /// back and sends up those nodes alone.
     pub fn set_layout(&mut self, new: Layout) -> GeometryChange {
-        assert_eq!(new.grid.padded, self.layout.grid.padded, "a layout of the same lattice");
-        let old = std::mem::replace(&mut self.layout, new);
-        let grid = &self.layout.grid;
+        let plan = LayoutChange::between(&self.layout, &new);
+        self.layout = new;
         let nv = self.pop.nv;
-        let mut change = GeometryChange::default();
-        let mut sum = vec![0.0; nv];
-        let mut fk = vec![0.0; nv];
         let q = self.eq.q();
-        let offsets: Vec<[i64; 3]> = neighbour_offsets(grid.dim);
+        let mut change = GeometryChange::default();
+        let mut fk = vec![0.0; nv];
         let mut fresh: Vec<(usize, Vec<f64>)> = Vec::new();
-        for node in 0..grid.len() {
-            let (was, is) = (old.kind[node] == NodeKind::Fluid, self.layout.kind[node] == NodeKind::Fluid);
-            if was && !is {
-                change.covered += 1;
-                self.pop.gather(&self.f, node, &mut fk);
-                change.mass_change -= fk[..q].iter().sum::<f64>();
-            } else if !was && is {
-                change.uncovered += 1;
-                let x = grid.coords(node);
-                sum.iter_mut().for_each(|v| *v = 0.0);
-                let mut count = 0usize;
-                for d in &offsets {
-                    let y = [x[0] + d[0], x[1] + d[1], x[2] + d[2]];
-                    if !grid.contains(y) {
+        for (node, c) in &plan.nodes {
+            match c {
+                NodeChange::Covered => {
+                    change.covered += 1;
+                    self.pop.gather(&self.f, *node, &mut fk);
+                    change.mass_change -= fk[..q].iter().sum::<f64>();
+                }
+                NodeChange::Uncovered(neighbours) => {
+                    change.uncovered += 1;
+                    if neighbours.is_empty() {
+                        change.isolated += 1;
                         continue;
                     }
-                    let k = grid.index(y);
-                    if old.kind[k] == NodeKind::Fluid && self.layout.kind[k] == NodeKind::Fluid {
+                    let mut sum = vec![0.0; nv];
+                    for &k in neighbours {
                         self.pop.gather(&self.f, k, &mut fk);
                         sum.iter_mut().zip(&fk).for_each(|(s, v)| *s += v);
-                        count += 1;
                     }
+                    let vals: Vec<f64> = sum.iter().map(|s| s / neighbours.len() as f64).collect();
+                    change.mass_change += vals[..q].iter().sum::<f64>();
+                    fresh.push((*node, vals));
                 }
-                if count == 0 {
-                    change.isolated += 1;
-                    continue;
-                }
-                let vals: Vec<f64> = sum.iter().map(|s| s / count as f64).collect();
-                change.mass_change += vals[..q].iter().sum::<f64>();
-                fresh.push((node, vals));
             }
         }
         for (node, vals) in fresh {
@@ -260,6 +321,44 @@ mod tests {
             assert!((m.rho - (1.0 + 0.01 * p[0] / 24.0)).abs() < 1e-12, "{p:?}: {m:?}");
         }
         s.step().expect("stays stable after the move");
+    }
+
+    /// A change of layout reads the populations of `LayoutChange::reads` only and writes those
+    /// of `fresh` only (what the GPU backend brings back and sends up instead of the whole
+    /// state): with every other node's populations NaN, the disc moved by 0.7 cells gives the
+    /// same fresh values and mass change, bit for bit, and changes no other node.
+    #[test]
+    fn a_change_of_layout_reads_and_writes_only_the_nodes_it_lists() {
+        let mut whole = box_solver(&[disc(10.0)]);
+        let new = whole.layout_with(&[disc(10.7)]);
+        let change = LayoutChange::between(&whole.layout, &new);
+        let (reads, fresh) = (change.reads(), change.fresh());
+        let covered = change.nodes.iter().filter(|(_, c)| *c == NodeChange::Covered).count();
+        assert!(covered > 0 && fresh.len() > 0 && reads.len() > fresh.len() + covered, "{} reads, {} fresh, {covered} covered", reads.len(), fresh.len());
+        assert!(reads.windows(2).all(|w| w[0] < w[1]));
+        let mut listed = box_solver(&[disc(10.0)]);
+        let nv = whole.pop.nv;
+        for node in 0..whole.layout.grid.len() {
+            if reads.binary_search(&node).is_err() {
+                listed.pop.scatter(&mut listed.f, node, &vec![f64::NAN; nv]);
+            }
+        }
+        let before = whole.f.clone();
+        let a = whole.set_layout(new.clone());
+        let b = listed.set_layout(new);
+        assert_eq!(a.mass_change.to_bits(), b.mass_change.to_bits(), "{a:?} vs {b:?}");
+        assert_eq!((a.uncovered, a.covered, a.isolated), (b.uncovered, b.covered, b.isolated));
+        let (mut x, mut y, mut was) = (vec![0.0f64; nv], vec![0.0f64; nv], vec![0.0f64; nv]);
+        for node in 0..whole.layout.grid.len() {
+            whole.pop.gather(&whole.f, node, &mut x);
+            whole.pop.gather(&before, node, &mut was);
+            let written = x.iter().zip(&was).any(|(p, q)| p.to_bits() != q.to_bits());
+            assert_eq!(written, fresh.contains(&node), "node {node}");
+            if written {
+                listed.pop.gather(&listed.f, node, &mut y);
+                assert!(x.iter().zip(&y).all(|(p, q)| p.to_bits() == q.to_bits()), "node {node}");
+            }
+        }
     }
 
     #[test]

@@ -244,9 +244,11 @@ pub struct CoupledGpuSpeed {
     /// The coupling's own stages (fluid_geometry + momentum_exchange or surface_traction) as a
     /// share of a GPU step (the goal: ≤ 25 % at the flap's size on a real GPU).
     pub gpu_coupling_share: f64,
-    /// GPU steps on which nodes changed side (the populations' round trip, or their upload for
-    /// method 1).
+    /// GPU steps on which nodes changed side (the nodes the change reads came back, the fresh
+    /// ones went up).
     pub round_trips: u64,
+    /// Nodes whose populations crossed the bus for those changes (both ways), per change.
+    pub nodes_per_round_trip: f64,
 }
 
 /// Times `steps` coupled steps of the solver `build` makes, on the GPU (a device of its own,
@@ -260,7 +262,7 @@ pub fn coupled_speed(scene: &str, build: impl Fn() -> crate::coupling::CoupledSo
     let mut g = super::coupled::GpuCoupled::new(GpuContext::new()?, build())?;
     let warm = g.run(2).is_ok();
     g.timings.iter_mut().for_each(|t| *t = std::time::Duration::ZERO);
-    let trips = g.round_trips;
+    let (trips, trip_nodes) = (g.round_trips, g.round_trip_nodes);
     let t = Instant::now();
     let gpu_ok = warm && g.run(steps).is_ok();
     let gpu_wall = t.elapsed().as_secs_f64();
@@ -281,5 +283,6 @@ pub fn coupled_speed(scene: &str, build: impl Fn() -> crate::coupling::CoupledSo
         gpu_stage_shares: shares,
         gpu_coupling_share: coupling,
         round_trips: g.round_trips - trips,
+        nodes_per_round_trip: (g.round_trip_nodes - trip_nodes) as f64 / (g.round_trips - trips).max(1) as f64,
     })
 }

@@ -6,7 +6,7 @@
 //!
 //! | stage | where it runs |
 //! |---|---|
-//! | `fluid_geometry` | the particles' positions and velocities come back (16 B each); the level sets' layout (ghost depths, normals, wall velocities, 2.124–2.126, 2.130) is built on the CPU ([`CoupledSolver::next_level_set_walls`]) and its tables uploaded ([`GpuFluid::set_geometry`]); on a step where nodes change side, the populations make a round trip so that covered nodes book their momentum and fresh ones take their neighbours' mean on the CPU ([`Self::round_trips`] counts them) |
+//! | `fluid_geometry` | the particles' positions and velocities come back (16 B each); the level sets' layout (ghost depths, normals, wall velocities, 2.124–2.126, 2.130) is built on the CPU ([`CoupledSolver::next_level_set_walls`]) and its tables uploaded ([`GpuFluid::set_geometry`]); on a step where nodes change side, the populations of the nodes the change reads (those that change side and the fresh ones' neighbours, [`LayoutChange::reads`]) come back by the `gather` kernel so that covered nodes book their momentum and fresh ones take their neighbours' mean on the CPU, and the fresh nodes go up by the `scatter` kernel ([`Self::round_trips`], [`Self::round_trip_nodes`] count them) |
 //! | `fluid` | one FDLB step on the GPU with the walls' face fluxes recorded after each advection (2.122–2.123, [`GpuFluid::record_face_fluxes`]) |
 //! | `momentum_exchange` | the geometry stage's node changes (a short list, on steps where nodes change side) added to the face-flux record on the device; each wall node's momentum handed to the particles within r_e with normalised kernel weights (2.127–2.128) by the gather kernels of [`CouplingKernels::hand_over`] (deterministic, no atomics), the record cleared there; only the particles' forces come back, as their loads, with the exchange's run sums per workgroup |
 //! | `solid` | the solid's sub-steps on the GPU ([`GpuSolid`]) with those loads and the air's added mass (2.129) |
@@ -15,7 +15,7 @@
 //!
 //! | stage | where it runs |
 //! |---|---|
-//! | `fluid_geometry` | the particles come back (with their spins and rotations: the surface points turn with them); the surface polygons' walls are built on the CPU ([`CoupledSolver::next_polygon_walls`]) and their tables uploaded; on a step where nodes change side the populations make a round trip so that fresh nodes take their neighbours' mean on the CPU ([`CoupledSolver::install_polygon_walls`]) |
+//! | `fluid_geometry` | the particles come back (with their spins and rotations: the surface points turn with them); the surface polygons' walls are built on the CPU ([`CoupledSolver::next_polygon_walls`]) and their tables uploaded; on a step where nodes change side the nodes the change reads come back and the fresh nodes, filled with their neighbours' mean on the CPU ([`CoupledSolver::install_polygon_walls`]), go up, as for method 2 |
 //! | `fluid` | one FDLB step on the GPU |
 //! | `surface_traction` | the populations of the nodes the traction samples come back ([`CoupledSolver::traction_nodes`], packed by the `gather` kernel, [`GpuFluid::download_nodes_into`]); the traction samples the air at one and two cells along each surface piece's normal (2.110–2.113) on the CPU, and the surface particles' loads go up |
 //! | `solid` | the solid's explicit sub-steps on the GPU |
@@ -37,6 +37,7 @@ use super::coupling::CouplingKernels;
 use super::fdlb::GpuFluid;
 use super::solid::{GpuSolid, SolidArray};
 use crate::coupling::{CoupledSolver, Method, WeakOptions};
+use crate::fluid::LayoutChange;
 use crate::stages::CoupledStageKind;
 use crate::step::{Instability, Part, Site};
 use glam::DVec3;
@@ -46,8 +47,9 @@ use std::time::{Duration, Instant};
 pub struct GpuCoupled {
     /// The CPU side: the scene's solver, which holds the geometry (layout, level sets), the
     /// exchange's bookkeeping, the scene's loads and the step counter. Its particles are
-    /// brought from the GPU at every step; its fluid populations on steps where nodes change
-    /// side, by [`Self::download_into`], and (method 1) at the nodes the traction samples.
+    /// brought from the GPU at every step; its fluid populations at the nodes a change of
+    /// layout reads, (method 1) at the nodes the traction samples, and all of them by
+    /// [`Self::download_into`].
     pub cpu: CoupledSolver,
     pub fluid: GpuFluid,
     pub solid: GpuSolid,
@@ -56,9 +58,15 @@ pub struct GpuCoupled {
     /// Wall time per stage of the coupling's stage list (each stage ends with a wait on the
     /// device, so the times are the stages' own).
     pub timings: Vec<Duration>,
-    /// Steps on which nodes changed side, so that the populations made a round trip (method 2)
-    /// or went up from the CPU (method 1).
+    /// Steps on which nodes changed side, so that the populations of the nodes the change
+    /// reads came back and those of the fresh nodes went up.
     pub round_trips: u64,
+    /// Nodes whose populations crossed the bus for those changes (both ways).
+    pub round_trip_nodes: u64,
+    /// A change of layout brings the whole state back and sends it all up again instead of the
+    /// nodes it reads and writes: the reference the node lists are checked against (the device
+    /// ends bit for bit the same), off by default.
+    pub whole_round_trips: bool,
     /// The particles of the bodies with a prescribed motion (ascending).
     prescribed: Vec<usize>,
     /// Nodes whose populations method 1's traction stages brought back, summed over the steps
@@ -83,7 +91,19 @@ impl GpuCoupled {
             let moved: Vec<u16> = cpu.bodies.iter().filter(|b| b.motion.is_some()).map(|b| b.surface.body).collect();
             (0..p.len()).filter(|&i| moved.contains(&p.body[i])).collect()
         };
-        Ok(GpuCoupled { cpu, fluid, solid, kernels, ctx, timings, round_trips: 0, prescribed, traction_nodes: 0 })
+        Ok(GpuCoupled {
+            cpu,
+            fluid,
+            solid,
+            kernels,
+            ctx,
+            timings,
+            round_trips: 0,
+            round_trip_nodes: 0,
+            whole_round_trips: false,
+            prescribed,
+            traction_nodes: 0,
+        })
     }
 
     /// Whether this backend runs `cpu`'s scene, or why not (naming the field): both coupling
@@ -171,15 +191,55 @@ impl GpuCoupled {
         self.download_particles(true)?;
         let Some(walls) = self.cpu.next_polygon_walls(o)? else { return Ok(()) };
         if walls.changes_nodes(&self.cpu.fluid.layout) {
-            self.fluid.download_into(&mut self.cpu.fluid);
+            let change = LayoutChange::between(&self.cpu.fluid.layout, walls.layout());
+            self.bring_back(&change)?;
             self.cpu.install_polygon_walls(walls);
-            self.fluid.upload_state(&self.cpu.fluid);
-            self.round_trips += 1;
+            self.send_up(&change);
         } else {
             self.cpu.install_polygon_walls(walls);
         }
         self.fluid.set_geometry(&self.cpu.fluid);
         Ok(())
+    }
+
+    /// Before a change of layout: the populations it reads into the CPU mirror — the nodes that
+    /// change side and the fresh nodes' neighbours ([`LayoutChange::reads`], by the `gather`
+    /// kernel), or the whole state with [`Self::whole_round_trips`].
+    fn bring_back(&mut self, change: &LayoutChange) -> Result<(), Instability> {
+        self.round_trips += 1;
+        let ok = if self.whole_round_trips {
+            self.round_trip_nodes += self.fluid.n_nodes as u64;
+            self.fluid.download_into(&mut self.cpu.fluid)
+        } else {
+            let reads = change.reads();
+            self.round_trip_nodes += reads.len() as u64;
+            self.fluid.download_nodes_into(&reads, &mut self.cpu.fluid)
+        };
+        if ok {
+            return Ok(());
+        }
+        Err(Instability {
+            part: Part::Device,
+            step: self.cpu.step_count,
+            time: self.cpu.time,
+            time_unit: "s",
+            site: Site::Everywhere,
+            quantity: "device state",
+            value: f64::NAN,
+            reason: "reading back the nodes that change side failed".into(),
+        })
+    }
+
+    /// After a change of layout: the populations it wrote (the fresh nodes, by the `scatter`
+    /// kernel), or the whole state with [`Self::whole_round_trips`].
+    fn send_up(&mut self, change: &LayoutChange) {
+        if self.whole_round_trips {
+            self.fluid.upload_state(&self.cpu.fluid);
+        } else {
+            let fresh = change.fresh();
+            self.round_trip_nodes += fresh.len() as u64;
+            self.fluid.upload_nodes_from(&fresh, &self.cpu.fluid);
+        }
     }
 
     /// Method 1's tractions (2.110–2.113) from the device's populations at the nodes the
@@ -198,10 +258,10 @@ impl GpuCoupled {
         self.download_particles(false)?;
         let walls = self.cpu.next_level_set_walls()?;
         if walls.changes_nodes(&self.cpu.fluid.layout) {
-            self.fluid.download_into(&mut self.cpu.fluid);
+            let change = LayoutChange::between(&self.cpu.fluid.layout, &walls.layout);
+            self.bring_back(&change)?;
             self.cpu.install_level_set_walls(walls);
-            self.fluid.upload_state(&self.cpu.fluid);
-            self.round_trips += 1;
+            self.send_up(&change);
         } else {
             self.cpu.install_level_set_walls(walls);
         }

@@ -89,7 +89,9 @@ pub struct GpuFluid {
     eq: crate::fluid::Equilibrium,
     probe: Option<MomentsAt>,
     /// The `gather` kernel of [`Self::download_nodes_into`], built at its first use.
-    gather: Option<gather::GatherKernel>,
+    gather: Option<gather::NodeListKernel>,
+    /// The `scatter` kernel of [`Self::upload_nodes_from`], built at its first use.
+    scatter: Option<gather::NodeListKernel>,
     queue: wgpu::Queue,
     pub nv: usize,
     /// Padded node count of the lattice.
@@ -276,6 +278,7 @@ impl GpuFluid {
             eq: eq.clone(),
             probe: None,
             gather: None,
+            scatter: None,
             face_fluxes: None,
             nv,
             n_nodes: n,

@@ -96,6 +96,7 @@ mod tests {
                         ("boundaries", codegen::boundaries(&eq, split)),
                         ("probes", codegen::probes(&eq, split)),
                         ("gather_populations", codegen::gather_populations(&eq, split)),
+                        ("scatter_populations", codegen::scatter_populations(&eq, split)),
                     ] {
                         validate(&format!("{name} {kind:?} {gas:?} {split:?}"), &src);
                         // no run-time indexing of const arrays (naga + lavapipe copy them per
@@ -106,7 +107,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(n, 9 + 2 * 2 * 2 * 8);
+        assert_eq!(n, 9 + 2 * 2 * 2 * 9);
     }
 
     /// A mirror that differs from its shader is caught (the check can fail).

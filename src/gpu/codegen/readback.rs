@@ -1,5 +1,6 @@
-//! The read-back kernels: the macroscopic state of a list of nodes (`probes`) and their
-//! populations (`gather`), so that a reader of a few nodes brings back only those.
+//! The kernels of a list of nodes: their macroscopic state (`probes`) and their populations
+//! (`gather`), so that a reader of a few nodes brings back only those, and the way back
+//! (`scatter`), so that a writer of a few nodes sends up only those.
 
 use super::{Split, WORKGROUP, moments_code};
 use crate::fluid::Equilibrium;
@@ -46,6 +47,30 @@ struct GatherParams { count: u32, n_nodes: u32, _p0: u32, _p1: u32 };
     let _ = writeln!(s, "    let b = k * {nv}u;");
     for v in 0..nv {
         let _ = writeln!(s, "    out[b + {v}u] = {};", split.at("src", v, "node"));
+    }
+    s += "}\n";
+    s
+}
+
+/// The `scatter` kernel, the inverse of [`gather_populations`]: the populations of a list of
+/// nodes, packed node after node (`vals[k · nv + v]` = value v of `nodes[k]`), written into the
+/// state array, so that a CPU stage that changes a few nodes (the nodes a moving body uncovers)
+/// sends up only those ([`super::fdlb::GpuFluid::upload_nodes_from`]).
+pub fn scatter_populations(eq: &Equilibrium, split: Split) -> String {
+    let nv = eq.values_per_node();
+    let mut s = format!("const WG: u32 = {WORKGROUP}u;\n");
+    s += r#"
+struct GatherParams { count: u32, n_nodes: u32, _p0: u32, _p1: u32 };
+@group(0) @binding(0) var<uniform> GP: GatherParams;
+@group(0) @binding(1) var<storage, read> nodes: array<u32>;
+@group(0) @binding(2) var<storage, read> vals: array<f32>;
+"#;
+    s += &split.declare("dst", "read_write", 10);
+    s += "@compute @workgroup_size(WG)\nfn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {\n";
+    s += "    let k = gid.x + gid.y * nwg.x * WG;\n    if (k >= GP.count) { return; }\n    let node = nodes[k];\n    let N = GP.n_nodes;\n";
+    let _ = writeln!(s, "    let b = k * {nv}u;");
+    for v in 0..nv {
+        let _ = writeln!(s, "    {} = vals[b + {v}u];", split.at("dst", v, "node"));
     }
     s += "}\n";
     s

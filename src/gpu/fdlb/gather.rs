@@ -1,8 +1,11 @@
-//! Bringing back the populations of a few nodes: the `gather` kernel
+//! The populations of a few nodes across the bus, either way: the `gather` kernel
 //! ([`codegen::gather_populations`]) packs them node after node on the device, and only they
-//! cross the bus. Method 1's traction on the GPU reads the air at one and two cells from each
-//! surface piece ([`crate::coupling::traction::sampled_nodes`]): a few hundred nodes of the
-//! lattice's thousands.
+//! come back; the `scatter` kernel ([`codegen::scatter_populations`]) writes packed values
+//! into their nodes, and only they go up. Method 1's traction on the GPU reads the air at one
+//! and two cells from each surface piece ([`crate::coupling::traction::sampled_nodes`]): a few
+//! hundred nodes of the lattice's thousands; a moving body's change of layout reads the nodes
+//! that change side and their neighbours and writes the fresh nodes
+//! ([`crate::fluid::LayoutChange`]).
 
 use super::{GpuFluid, pipeline_of};
 use crate::fluid::FluidSolver;
@@ -21,13 +24,75 @@ pub(super) struct GatherParams {
     _p1: u32,
 }
 
-/// The kernel with buffers for up to `capacity` nodes (grown by powers of two).
-pub(super) struct GatherKernel {
+/// A node-list kernel (gather or scatter) with buffers for up to `capacity` nodes (grown by
+/// powers of two).
+pub(super) struct NodeListKernel {
     pipeline: wgpu::ComputePipeline,
     params: wgpu::Buffer,
     nodes: wgpu::Buffer,
-    out: wgpu::Buffer,
+    /// The packed populations (`vals[k · nv + v]`).
+    values: wgpu::Buffer,
     capacity: usize,
+}
+
+/// Which way a node-list kernel moves populations.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Way {
+    Gather,
+    Scatter,
+}
+
+impl GpuFluid {
+    /// Makes the `way` kernel (built at its first use) ready for `nodes`: room for them, their
+    /// list and the uniform written.
+    fn prepare_node_list(&mut self, way: Way, nodes: &[usize]) {
+        let (count, nv) = (nodes.len(), self.nv);
+        let slot = match way {
+            Way::Gather => &mut self.gather,
+            Way::Scatter => &mut self.scatter,
+        };
+        if slot.as_ref().is_none_or(|g| g.capacity < count) {
+            let capacity = count.next_power_of_two();
+            let pipeline = match slot.take() {
+                Some(g) => g.pipeline,
+                None => match way {
+                    Way::Gather => pipeline_of(&self.device, "gather", &codegen::gather_populations(&self.eq, self.split), "main"),
+                    Way::Scatter => pipeline_of(&self.device, "scatter", &codegen::scatter_populations(&self.eq, self.split), "main"),
+                },
+            };
+            let buffer = |label, size: usize, usage| {
+                self.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: size as u64, usage, mapped_at_creation: false })
+            };
+            use wgpu::BufferUsages as U;
+            let values = match way {
+                Way::Gather => U::STORAGE | U::COPY_SRC,
+                Way::Scatter => U::STORAGE | U::COPY_DST,
+            };
+            *slot = Some(NodeListKernel {
+                pipeline,
+                params: buffer("node list params", size_of::<GatherParams>(), U::UNIFORM | U::COPY_DST),
+                nodes: buffer("node list", 4 * capacity, U::STORAGE | U::COPY_DST),
+                values: buffer("node list populations", 4 * nv * capacity, values),
+                capacity,
+            });
+        }
+        let g = slot.as_ref().expect("built above");
+        let words: Vec<u32> = nodes.iter().map(|&n| n as u32).collect();
+        self.queue.write_buffer(&g.nodes, 0, bytemuck::cast_slice(&words));
+        let params = GatherParams { count: count as u32, n_nodes: self.stride as u32, _p0: 0, _p1: 0 };
+        self.queue.write_buffer(&g.params, 0, bytemuck::bytes_of(&params));
+    }
+
+    /// Records and submits the node-list kernel `k` over `count` nodes on fⁿ.
+    fn run_node_list(&self, k: &NodeListKernel, count: usize) {
+        let bg = self.bind(&k.pipeline, &[(0, &k.params), (1, &k.nodes), (2, &k.values)], &[(10, &self.f[self.cur])]);
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            Self::dispatch(&mut pass, &k.pipeline, &bg, count as u32);
+        }
+        self.queue.submit([enc.finish()]);
+    }
 }
 
 impl GpuFluid {
@@ -41,38 +106,11 @@ impl GpuFluid {
             s.time = self.step_count as f64 * s.params.dt;
             return true;
         }
-        let (count, nv) = (nodes.len(), self.nv);
-        if self.gather.as_ref().is_none_or(|g| g.capacity < count) {
-            let capacity = count.next_power_of_two();
-            let pipeline = match self.gather.take() {
-                Some(g) => g.pipeline,
-                None => pipeline_of(&self.device, "gather", &codegen::gather_populations(&self.eq, self.split), "main"),
-            };
-            let buffer = |label, size: usize, usage| {
-                self.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: size as u64, usage, mapped_at_creation: false })
-            };
-            use wgpu::BufferUsages as U;
-            self.gather = Some(GatherKernel {
-                pipeline,
-                params: buffer("gather params", size_of::<GatherParams>(), U::UNIFORM | U::COPY_DST),
-                nodes: buffer("gather nodes", 4 * capacity, U::STORAGE | U::COPY_DST),
-                out: buffer("gathered populations", 4 * nv * capacity, U::STORAGE | U::COPY_SRC),
-                capacity,
-            });
-        }
-        let g = self.gather.as_ref().expect("built above");
-        let words: Vec<u32> = nodes.iter().map(|&n| n as u32).collect();
-        self.queue.write_buffer(&g.nodes, 0, bytemuck::cast_slice(&words));
-        let params = GatherParams { count: count as u32, n_nodes: self.stride as u32, _p0: 0, _p1: 0 };
-        self.queue.write_buffer(&g.params, 0, bytemuck::bytes_of(&params));
-        let bg = self.bind(&g.pipeline, &[(0, &g.params), (1, &g.nodes), (2, &g.out)], &[(10, &self.f[self.cur])]);
-        let mut enc = self.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            Self::dispatch(&mut pass, &g.pipeline, &bg, count as u32);
-        }
-        self.queue.submit([enc.finish()]);
-        let Some(raw) = crate::gpu::context::try_read_buffer(&self.device, &self.queue, &g.out) else { return false };
+        let nv = self.nv;
+        self.prepare_node_list(Way::Gather, nodes);
+        let g = self.gather.as_ref().expect("built by prepare_node_list");
+        self.run_node_list(g, nodes.len());
+        let Some(raw) = crate::gpu::context::try_read_buffer(&self.device, &self.queue, &g.values) else { return false };
         let vals: &[f32] = bytemuck::cast_slice(&raw);
         let mut node_vals = vec![0.0; nv];
         for (k, &node) in nodes.iter().enumerate() {
@@ -84,6 +122,28 @@ impl GpuFluid {
         s.step_count = self.step_count;
         s.time = self.step_count as f64 * s.params.dt;
         true
+    }
+
+    /// Writes the populations fⁿ of `nodes` (padded indices) of `s`, a solver of the same
+    /// scene, into the device's state (f64 → f32 as [`Self::upload_state`], which writes every
+    /// node); the other nodes are left as they are.
+    pub fn upload_nodes_from(&mut self, nodes: &[usize], s: &FluidSolver) {
+        if nodes.is_empty() {
+            return;
+        }
+        let nv = self.nv;
+        let mut vals = vec![0f32; nodes.len() * nv];
+        let mut node_vals = vec![0.0; nv];
+        for (k, &node) in nodes.iter().enumerate() {
+            s.pop.gather(&s.f, node, &mut node_vals);
+            for (x, v) in vals[k * nv..(k + 1) * nv].iter_mut().zip(&node_vals) {
+                *x = *v as f32;
+            }
+        }
+        self.prepare_node_list(Way::Scatter, nodes);
+        let k = self.scatter.as_ref().expect("built by prepare_node_list");
+        self.queue.write_buffer(&k.values, 0, bytemuck::cast_slice(&vals));
+        self.run_node_list(k, nodes.len());
     }
 }
 
