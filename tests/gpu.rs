@@ -1718,6 +1718,33 @@ fn gathered_populations_are_the_downloaded_ones() {
     }
 }
 
+/// The fluid's totals summed on the device (`GpuFluid::totals`: f32 partial sums per 1024 nodes,
+/// added in f64) against the CPU's f64 sums (`FluidSolver::totals`) of the same f32 state
+/// brought back, in 2D and 3D with a diatomic gas (its extra energy values) and obstacles: the
+/// difference is the partial sums' f32 round-off, held to 1e-6 of Σ|terms| (the mass; the
+/// momentum's terms are bounded by the mass times the largest |c|; measured on lavapipe: mass 2–3·10⁻⁸, momentum 4·10⁻¹⁰, energy 3·10⁻⁸).
+#[test]
+fn gpu_totals_match_the_cpu_sums() {
+    let Some(ctx) = context() else { return };
+    for dim3 in [false, true] {
+        let cpu = scene(dim3, GasModel::Diatomic);
+        let mut gpu = GpuFluid::from_solver(&ctx, &cpu).unwrap();
+        gpu.run(5);
+        let mut down = scene(dim3, GasModel::Diatomic);
+        gpu.download_into(&mut down);
+        let (c, g) = (down.totals(), gpu.totals().expect("the read succeeds"));
+        let cmax = down.eq.set.c.iter().flat_map(|c| c.iter().map(|v| v.abs())).max().unwrap() as f64;
+        let scale_p = c.mass * cmax;
+        let dm = (g.mass - c.mass).abs() / c.mass;
+        let dp = (0..3).map(|a| (g.momentum[a] - c.momentum[a]).abs()).fold(0.0, f64::max) / scale_p;
+        let de = (g.energy - c.energy).abs() / c.energy;
+        eprintln!("{}: mass {dm:.1e}, momentum {dp:.1e} (of mass × |c|max), energy {de:.1e}; CPU {c:?} GPU {g:?}", if dim3 { "3D" } else { "2D" });
+        assert!(dm < 1e-6 && dp < 1e-6 && de < 1e-6, "mass {dm:e} momentum {dp:e} energy {de:e}");
+        // the momentum is not zero (the scene flows), so the bound on it is not empty
+        assert!(c.momentum.iter().any(|v| v.abs() > 1e-3 * scale_p), "{c:?}");
+    }
+}
+
 /// No setting silently ignored, on the GPU backends: every number and flag of a small scene of
 /// each kind the GPU runs (the fluid channel of tests/good_base.toml, the oscillating plate, a
 /// lattice-gas wake, the method-2 flap), nudged as in tests/scenes.rs

@@ -76,36 +76,59 @@ impl Glottis {
     }
 
     /// Samples the glottis of `c` now (2D: the folds' surface polygons; 3D: their level sets,
-    /// [`section_3d`]).
+    /// [`section_3d`]): [`Self::section`] read on `c`'s air.
     pub fn sample(&self, c: &CoupledSolver) -> GlottalSample {
-        if c.fluid.layout.grid.dim == 3 {
-            return self.sample_3d(c);
+        self.section(c).sample(&c.fluid)
+    }
+
+    /// The narrowest section of the glottis of `c` from its particles alone: its geometry and
+    /// the fluid nodes whose flux is the glottal flow (the air is not read, so that a backend
+    /// whose air lives elsewhere brings back those nodes only).
+    pub fn section(&self, c: &CoupledSolver) -> GlottalSection {
+        let (lower_margin, upper_margin) = self.margins(&c.solid.particles);
+        let u = &c.units;
+        let g = &c.fluid.layout.grid;
+        let fluid = |node: usize| c.fluid.layout.kind[node] == NodeKind::Fluid;
+        let mut sec = GlottalSection { sample: GlottalSample { lower_margin, upper_margin, ..Default::default() }, nodes: Vec::new(), flow_factors: [0.0; 3] };
+        if g.dim == 3 {
+            let sets = c.drawn_level_sets();
+            let Some(s3) = section_3d(&sets[self.left], &sets[self.right], u.position_to_lattice(self.mid_line), [g.n[1], g.n[2]]) else {
+                // the folds share no row: no glottis to read
+                (sec.sample.gap, sec.sample.narrowest_y) = (f64::NAN, f64::NAN);
+                return sec;
+            };
+            for l in s3.lines.iter().filter(|l| l.gap > 0.0) {
+                sec.nodes.extend(((l.left.ceil() as i64)..=(l.right.floor() as i64)).map(|x| g.index([x, s3.row, l.z])).filter(|&n| fluid(n)));
+            }
+            let dx = u.dx;
+            sec.sample.gap = s3.lines.iter().map(|l| l.gap).fold(f64::INFINITY, f64::min) * dx;
+            sec.sample.narrowest_y = u.length_to_physical(s3.row as f64 + 0.5);
+            sec.sample.area = s3.area * dx * dx;
+            sec.flow_factors = [u.velocity, dx, dx];
+            return sec;
         }
         let p = &c.solid.particles;
         let left = c.bodies[self.left].surface.points(p);
         let right = c.bodies[self.right].surface.points(p);
         let (gap, y) = narrowest(&left, &right);
-        let u = &c.units;
         // the lattice row through the narrowest section, the fluid nodes between the folds
         let row = u.position_to_lattice(y).round() as i64;
-        let g = &c.fluid.layout.grid;
-        let mut flux = 0.0;
         if (0..g.n[1] as i64).contains(&row) && gap > 0.0 {
             let yr = u.length_to_physical(row as f64 + 0.5);
             let (xl, xr) = (rightmost_at(&left, yr), leftmost_at(&right, yr));
-            for i in 0..g.n[0] as i64 {
-                let x = u.length_to_physical(i as f64 + 0.5);
-                let node = g.index([i, row, 0]);
-                if c.fluid.layout.kind[node] == NodeKind::Fluid && xl.is_none_or(|a| x > a) && xr.is_none_or(|b| x < b) {
-                    let m = c.fluid.macro_at(node);
-                    flux += m.rho * m.u[1];
-                }
-            }
+            sec.nodes = (0..g.n[0] as i64)
+                .filter(|&i| {
+                    let x = u.length_to_physical(i as f64 + 0.5);
+                    xl.is_none_or(|a| x > a) && xr.is_none_or(|b| x < b)
+                })
+                .map(|i| g.index([i, row, 0]))
+                .filter(|&n| fluid(n))
+                .collect();
         }
+        (sec.sample.gap, sec.sample.narrowest_y, sec.sample.area) = (gap, y, gap.max(0.0) * self.length);
         // Σ ρu_y Δx / ρ₀ in lattice units → cm²/s per unit length
-        let flow = flux * u.velocity * u.dx * self.length;
-        let (lower_margin, upper_margin) = self.margins(p);
-        GlottalSample { gap, narrowest_y: y, area: gap.max(0.0) * self.length, flow, lower_margin, upper_margin }
+        sec.flow_factors = [u.velocity, u.dx, self.length];
+        sec
     }
 
     /// Lateral (opening) displacement of the lower and upper margins, mean of both folds.
@@ -118,39 +141,25 @@ impl Glottis {
     }
 }
 
-impl Glottis {
-    /// The 3D glottis: the narrowest section of the opening between the folds' walls as the air
-    /// sees them (their level sets, [`section_3d`]), its area (cm², the real area: no fold
-    /// length applies), the volume flow through it, ∫ ρu_y dA / ρ₀ over the fluid nodes of that
-    /// lattice row between the walls (cm³/s), and the smallest lateral gap in it (cm).
-    fn sample_3d(&self, c: &CoupledSolver) -> GlottalSample {
-        let (lower_margin, upper_margin) = self.margins(&c.solid.particles);
-        let sets = c.drawn_level_sets();
-        let u = &c.units;
-        let g = &c.fluid.layout.grid;
-        let Some(sec) = section_3d(&sets[self.left], &sets[self.right], u.position_to_lattice(self.mid_line), [g.n[1], g.n[2]]) else {
-            // the folds share no row: no glottis to read
-            return GlottalSample { gap: f64::NAN, narrowest_y: f64::NAN, lower_margin, upper_margin, ..Default::default() };
-        };
-        let mut flux = 0.0;
-        for l in sec.lines.iter().filter(|l| l.gap > 0.0) {
-            for x in (l.left.ceil() as i64)..=(l.right.floor() as i64) {
-                let node = g.index([x, sec.row, l.z]);
-                if c.fluid.layout.kind[node] == NodeKind::Fluid {
-                    let m = c.fluid.macro_at(node);
-                    flux += m.rho * m.u[1];
-                }
-            }
-        }
-        let dx = u.dx;
-        GlottalSample {
-            gap: sec.lines.iter().map(|l| l.gap).fold(f64::INFINITY, f64::min) * dx,
-            narrowest_y: u.length_to_physical(sec.row as f64 + 0.5),
-            area: sec.area * dx * dx,
-            flow: flux * u.velocity * dx * dx,
-            lower_margin,
-            upper_margin,
-        }
+/// The narrowest section of a glottis ([`Glottis::section`]): its sample but for the flow, and
+/// the fluid nodes the flow is summed over.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GlottalSection {
+    /// Everything but `flow` (0 here).
+    pub sample: GlottalSample,
+    /// The fluid nodes (padded indices) of the section between the folds, in order.
+    pub nodes: Vec<usize>,
+    /// The physical flow (cm³/s) is Σ ρu_y over `nodes` (lattice units) times these three
+    /// factors, in order (2D: U, Δx, the fold length; 3D: U, Δx, Δx).
+    pub flow_factors: [f64; 3],
+}
+
+impl GlottalSection {
+    /// The sample with the flow through the section read from `fluid` (at [`Self::nodes`] only).
+    pub fn sample(&self, fluid: &crate::fluid::FluidSolver) -> GlottalSample {
+        let flux: f64 = self.nodes.iter().map(|&n| fluid.macro_at(n)).map(|m| m.rho * m.u[1]).fold(0.0, |a, b| a + b);
+        let [a, b, c] = self.flow_factors;
+        GlottalSample { flow: flux * a * b * c, ..self.sample }
     }
 }
 

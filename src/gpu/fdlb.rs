@@ -17,6 +17,7 @@ mod face_fluxes;
 mod gather;
 mod geometry;
 mod readback;
+mod totals;
 
 pub use readback::{GpuArray, compare_nodes};
 
@@ -92,6 +93,8 @@ pub struct GpuFluid {
     gather: Option<gather::NodeListKernel>,
     /// The `scatter` kernel of [`Self::upload_nodes_from`], built at its first use.
     scatter: Option<gather::NodeListKernel>,
+    /// The `totals` kernel of [`Self::totals`], built at its first use.
+    totals: Option<totals::TotalsKernel>,
     queue: wgpu::Queue,
     pub nv: usize,
     /// Padded node count of the lattice.
@@ -279,6 +282,7 @@ impl GpuFluid {
             probe: None,
             gather: None,
             scatter: None,
+            totals: None,
             face_fluxes: None,
             nv,
             n_nodes: n,

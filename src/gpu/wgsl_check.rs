@@ -97,6 +97,7 @@ mod tests {
                         ("probes", codegen::probes(&eq, split)),
                         ("gather_populations", codegen::gather_populations(&eq, split)),
                         ("scatter_populations", codegen::scatter_populations(&eq, split)),
+                        ("totals", codegen::totals(&eq, split)),
                     ] {
                         validate(&format!("{name} {kind:?} {gas:?} {split:?}"), &src);
                         // no run-time indexing of const arrays (naga + lavapipe copy them per
@@ -107,7 +108,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(n, 9 + 2 * 2 * 2 * 9);
+        assert_eq!(n, 9 + 2 * 2 * 2 * 10);
     }
 
     /// A mirror that differs from its shader is caught (the check can fail).

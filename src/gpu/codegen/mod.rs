@@ -248,7 +248,7 @@ mod boundaries;
 mod readback;
 mod walls;
 pub use boundaries::{FaceCode, GHOST_ISOTHERMAL, boundaries, periodic_reach_code};
-pub use readback::{gather_populations, probes, scatter_populations};
+pub use readback::{TOTALS_PER_THREAD, gather_populations, probes, scatter_populations, totals};
 pub use walls::{face_fluxes, thin_wall, thin_wall_fluxes};
 
 // Every generated module is validated by naga in `gpu::wgsl_check`.

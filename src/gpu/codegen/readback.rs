@@ -75,3 +75,54 @@ struct GatherParams { count: u32, n_nodes: u32, _p0: u32, _p1: u32 };
     s += "}\n";
     s
 }
+
+/// Nodes each thread of the `totals` kernel sums before the workgroup's tree reduction: a
+/// workgroup covers `WORKGROUP × TOTALS_PER_THREAD` = 1024 nodes, 20 bytes come back for them.
+pub const TOTALS_PER_THREAD: u32 = 16;
+
+/// The `totals` kernel: the fluid's mass Σ f_i, momentum Σ f_i c_i and energy Σ f_i c_i²/2 + Σ g
+/// over the fluid nodes (kind 0), as [`crate::fluid::FluidSolver::totals`] sums them, reduced on
+/// the device to one partial sum per workgroup (`out[5 g + j]`, j = mass, j_x, j_y, j_z,
+/// energy; f32), which the CPU adds in f64 — so that a reader of the totals (the coupled run's
+/// csv) does not bring the lattice back.
+pub fn totals(eq: &Equilibrium, split: Split) -> String {
+    let nv = eq.values_per_node();
+    let mut s = format!("const WG: u32 = {WORKGROUP}u;\nconst PER_THREAD: u32 = {TOTALS_PER_THREAD}u;\n");
+    s += r#"
+struct TotalsParams { n_nodes: u32, groups: u32, _p0: u32, _p1: u32 };
+@group(0) @binding(0) var<uniform> TP: TotalsParams;
+@group(0) @binding(1) var<storage, read> kind: array<u32>;
+@group(0) @binding(2) var<storage, read_write> out: array<f32>;
+var<workgroup> s_m: array<f32, WG>;
+var<workgroup> s_x: array<f32, WG>;
+var<workgroup> s_y: array<f32, WG>;
+var<workgroup> s_z: array<f32, WG>;
+var<workgroup> s_e: array<f32, WG>;
+"#;
+    s += &split.declare("src", "read", 10);
+    s += "@compute @workgroup_size(WG)\nfn main(@builtin(local_invocation_index) lid: u32, @builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {\n";
+    s += "    let g = wid.x + wid.y * nwg.x;\n    let N = TP.n_nodes;\n";
+    s += "    var m = 0.0; var px = 0.0; var py = 0.0; var pz = 0.0; var e = 0.0;\n";
+    s += "    if (g < TP.groups) {\n        for (var j = 0u; j < PER_THREAD; j++) {\n            let node = (g * PER_THREAD + j) * WG + lid;\n            if (node < N && kind[node] == 0u) {\n";
+    for v in 0..nv {
+        let _ = writeln!(s, "    let f{v} = {};", split.at("src", v, "node"));
+    }
+    s += &moments_code(eq);
+    s += "                m += rho; px += jx; py += jy; pz += jz; e += en;\n            }\n        }\n    }\n";
+    s += r#"    s_m[lid] = m; s_x[lid] = px; s_y[lid] = py; s_z[lid] = pz; s_e[lid] = e;
+    workgroupBarrier();
+    for (var w = WG / 2u; w > 0u; w = w / 2u) {
+        if (lid < w) {
+            s_m[lid] += s_m[lid + w]; s_x[lid] += s_x[lid + w]; s_y[lid] += s_y[lid + w];
+            s_z[lid] += s_z[lid + w]; s_e[lid] += s_e[lid + w];
+        }
+        workgroupBarrier();
+    }
+    if (lid == 0u && g < TP.groups) {
+        out[5u * g] = s_m[0]; out[5u * g + 1u] = s_x[0]; out[5u * g + 2u] = s_y[0];
+        out[5u * g + 3u] = s_z[0]; out[5u * g + 4u] = s_e[0];
+    }
+}
+"#;
+    s
+}
