@@ -1525,7 +1525,11 @@ fn a_coupled_scene_runs_on_the_gpu_backend_with_the_cpus_outputs() {
     use phonation::run::{Backend, RunOptions};
     use phonation::scene::coupled::CoupledScene;
     let Some(_ctx) = context() else { return };
-    let sc = CoupledScene::parse(&SMALL_FLAP.replace("[coupling]", "[output]\nprobe_every = 10\nsnapshots = 1\n[coupling]\noutput_every = 20")).unwrap();
+    let sc = CoupledScene::parse(&SMALL_FLAP.replace(
+        "[coupling]",
+        "[[probes]]\nname = \"wake\"\nposition = [3.0, 1.3]\n[output]\nprobe_every = 10\nsnapshots = 1\n[coupling]\noutput_every = 20\nprobes = [{ name = \"tip\", min = [2.5, 1.15], max = [2.6, 1.25] }]",
+    ))
+    .unwrap();
     let read = |backend: Backend| {
         let dir = std::env::temp_dir().join(format!("phonation-gpu-coupled-{backend:?}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
@@ -1538,12 +1542,30 @@ fn a_coupled_scene_runs_on_the_gpu_backend_with_the_cpus_outputs() {
     };
     let (rc, header, cpu) = read(Backend::Cpu);
     let (rg, _, gpu) = read(Backend::Gpu);
+    // what came back for the outputs: one whole state (the snapshot at step 100, also the end),
+    // the air's totals summed on the device for the 5 csv rows and the summary's mass drift, the
+    // probe's node at the 10 samples, the solid with each (15 kB) — not the lattice at every
+    // row and sample (10 advances: 10 whole states before)
+    let rb = rg.readback.expect("a GPU run reports what came back");
+    eprintln!("read back: {rb:?}");
+    assert!(rc.readback.is_none());
+    assert_eq!((rb.whole_states, rb.totals, rb.gathered), (1, 6, 10), "{rb:?}");
+    assert!(rb.bytes < 3 * 4 * 21 * 80 * 48, "{rb:?}");
     eprintln!("{} / {}: stage shares {:?}", rc.backend, rg.backend, rg.stage_shares);
     assert!(rc.backend.starts_with("cpu") && rg.backend.starts_with("gpu"), "{} / {}", rc.backend, rg.backend);
     assert!(rg.instability.is_none() && rg.steps == 100 && rg.stage_shares.len() == 4);
     assert_eq!(cpu.len(), gpu.len());
     let col = |name: &str| header.iter().position(|h| h.starts_with(name)).unwrap_or_else(|| panic!("no column {name} in {header:?}"));
     let (fx, dy) = (col("force_x_0"), col("mean_dy_0"));
+    // the air's mass and momentum of the rows: summed on the device on the GPU, held to the
+    // populations' parity bound (1e-4 of the scale: the mass, and the mass times the inflow)
+    let (mass, px) = (col("fluid_mass"), col("fluid_px"));
+    for (c, g) in cpu.iter().zip(&gpu) {
+        assert!((c[mass] / g[mass] - 1.0).abs() < 1e-4, "mass {} vs {}", c[mass], g[mass]);
+        assert!((c[px] - g[px]).abs() < 1e-4 * cpu[0][px].abs(), "momentum {} vs {}", c[px], g[px]);
+    }
+    let tip = col("tip_dy");
+    assert!(gpu.iter().all(|r| r[tip].is_finite()) && gpu.last().unwrap()[tip] != 0.0, "the tip probe is read from the device's particles");
     let f_scale = cpu.iter().map(|r| r[fx].abs()).fold(0.0, f64::max);
     let d_scale = cpu.iter().map(|r| r[dy].abs()).fold(0.0, f64::max);
     for (c, g) in cpu.iter().zip(&gpu) {
@@ -1779,7 +1801,7 @@ fn every_scene_key_changes_the_gpu_state_or_is_refused() {
             Scene::Coupled(sc) => {
                 let mut g = CoupledEngine::new(Backend::Gpu, sc.build().map_err(|x| e(&x))?, sc.solid.file.solid.cg_tolerance).map_err(|x| e(&x))?;
                 g.advance(2).map_err(|x| e(&x))?;
-                state_hash(g.solver()) + &serde_json::to_string(&sc.fluid.summary()).unwrap()
+                state_hash(g.state().map_err(|x| e(&x))?) + &serde_json::to_string(&sc.fluid.summary()).unwrap()
             }
             Scene::TwoMass(_) => unreachable!("no GPU backend"),
         })

@@ -320,6 +320,12 @@ impl GpuCoupled {
         Ok(())
     }
 
+    /// Copies the solid's state (particles, rotations, contact anchors) into [`Self::cpu`];
+    /// false when the read failed (the solid left as it was).
+    pub fn download_solid(&mut self) -> bool {
+        self.solid.download_into(&mut self.cpu.solid)
+    }
+
     /// Copies the whole GPU state (populations, particles) into [`Self::cpu`] for outputs; false
     /// when a read failed (each part is left as it was when its own read fails).
     pub fn download_into(&mut self) -> bool {

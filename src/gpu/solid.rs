@@ -443,6 +443,11 @@ impl GpuSolid {
             .collect()
     }
 
+    /// Bytes [`Self::download_into`] brings back: four arrays of four f32 per particle.
+    pub fn state_bytes(&self) -> u64 {
+        64 * self.n as u64
+    }
+
     /// Copies the GPU state (positions, velocities, spins, quaternions) into a CPU solver. When
     /// a read fails (a lost device, no memory for a staging buffer) `s` is left as it was and
     /// false comes back.

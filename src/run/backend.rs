@@ -5,9 +5,7 @@
 
 pub use super::mirror::Readback;
 use super::mirror::{Mirror, device_failure, failed_download};
-use crate::coupling::CoupledSolver;
 use crate::fluid::{FluidSolver, Instability};
-use crate::gpu::coupled::GpuCoupled;
 use crate::gpu::lattice_gas::GpuLatticeGas;
 use crate::gpu::solid::GpuSolid;
 use crate::gpu::{DeviceHealth, GpuContext, GpuError, GpuFluid};
@@ -291,7 +289,7 @@ impl SolidEngine {
 }
 
 /// The GPU solid's CG tolerance for the scene's `solid.cg_tolerance` (see [`SolidEngine::new`]).
-fn gpu_cg_tolerance(cg_tolerance: Option<f64>) -> anyhow::Result<f64> {
+pub(super) fn gpu_cg_tolerance(cg_tolerance: Option<f64>) -> anyhow::Result<f64> {
     Ok(match cg_tolerance {
         Some(t) if t < GPU_CG_FLOOR => anyhow::bail!(crate::error::SceneError {
             field: "solid.cg_tolerance".into(),
@@ -341,91 +339,6 @@ impl Solver for SolidEngine {
         match self.gpu {
             None => self.solver.stage_shares(),
             Some(_) => Vec::new(),
-        }
-    }
-}
-
-/// The coupled solver on a backend: the CPU reference, or method 2 on the GPU
-/// ([`GpuCoupled`]), whose CPU side [`CoupledEngine::solver`] receives the whole GPU state
-/// after every [`Solver::advance`].
-pub struct CoupledEngine {
-    on: CoupledOn,
-    health: Option<DeviceHealth>,
-    pub name: String,
-}
-
-/// Where the coupled solver runs.
-enum CoupledOn {
-    Cpu(CoupledSolver),
-    Gpu(Box<GpuCoupled>),
-}
-
-impl CoupledEngine {
-    /// Picks the backend and uploads `solver` to the GPU when it is chosen (both coupling
-    /// methods; a scene the GPU backend does not run is refused by `--backend gpu` naming the
-    /// field, and run on the CPU by `auto`, which says why). `cg_tolerance`: the scene's `solid.cg_tolerance`, as for
-    /// [`SolidEngine::new`] (checked before anything is uploaded).
-    pub fn new(backend: Backend, solver: CoupledSolver, cg_tolerance: Option<f64>) -> anyhow::Result<Self> {
-        let (ctx, name) = pick_gpu(backend)?;
-        let Some(ctx) = ctx else { return Ok(Self { on: CoupledOn::Cpu(solver), health: None, name }) };
-        if let Err(why) = GpuCoupled::supports(&solver) {
-            if backend == Backend::Gpu {
-                return Err(why.into());
-            }
-            let name = format!("cpu ({} threads; the GPU backend does not run this scene: {why})", rayon::current_num_threads());
-            return Ok(Self { on: CoupledOn::Cpu(solver), health: None, name });
-        }
-        let tolerance = gpu_cg_tolerance(cg_tolerance)?;
-        let health = ctx.health.clone();
-        let mut g = GpuCoupled::new(ctx, solver)?;
-        g.solid.cg_tolerance = tolerance;
-        if let Some(why) = health.settle() {
-            return Err(GpuError::Failed(why).into());
-        }
-        Ok(Self { on: CoupledOn::Gpu(Box::new(g)), health: Some(health), name })
-    }
-
-    /// The coupled solver (on the GPU: its CPU side, holding the state of the last advance).
-    pub fn solver(&self) -> &CoupledSolver {
-        match &self.on {
-            CoupledOn::Cpu(c) => c,
-            CoupledOn::Gpu(g) => &g.cpu,
-        }
-    }
-}
-
-impl Solver for CoupledEngine {
-    fn step(&mut self) -> Result<(), Instability> {
-        self.advance(1)
-    }
-
-    fn step_count(&self) -> u64 {
-        self.solver().step_count
-    }
-
-    fn advance(&mut self, n: u64) -> Result<(), Instability> {
-        let g = match &mut self.on {
-            CoupledOn::Cpu(c) => return c.run(n),
-            CoupledOn::Gpu(g) => g,
-        };
-        let kept = g.cpu.step_count;
-        let r = g.run(n);
-        if let Some(why) = self.health.as_ref().and_then(|h| h.settle()) {
-            let c = &g.cpu;
-            return Err(device_failure(why, c.step_count, c.time, "s", n, kept));
-        }
-        // the state of the step reached, or of the failed one (to be written as the last snapshot)
-        if !g.download_into() {
-            let c = &g.cpu;
-            return Err(failed_download(self.health.as_ref(), c.step_count, c.time, "s", n, kept));
-        }
-        r
-    }
-
-    fn stage_shares(&self) -> Vec<(&'static str, f64)> {
-        match &self.on {
-            CoupledOn::Cpu(c) => c.stage_shares(),
-            CoupledOn::Gpu(g) => g.stage_shares(),
         }
     }
 }

@@ -8,6 +8,7 @@ use super::{RunOptions, checkpoint};
 use crate::analysis::voice::VoiceOptions;
 use crate::coupling::CoupledSolver;
 use crate::coupling::glottis::GlottalSample;
+use crate::fluid::Totals;
 use crate::output::probes::ProbeWriter;
 use crate::output::voice::{GlottalSeries, write_voice_outputs};
 pub use crate::run::particle_probes::ParticleProbeReport;
@@ -55,6 +56,8 @@ pub struct CoupledReport {
     pub state_hash: String,
     /// The step this run resumed from (a checkpoint), if it did.
     pub resumed_from_step: Option<u64>,
+    /// GPU runs: what came back from the device for the outputs (None on the CPU).
+    pub readback: Option<super::Readback>,
     pub files: Vec<PathBuf>,
 }
 
@@ -176,7 +179,7 @@ fn probe_displacements(c: &CoupledSolver, probes: &[(String, Vec<usize>)]) -> Ve
 
 /// One row of `coupling.csv`; `probe_d`: each particle probe's displacement
 /// ([`probe_displacements`]).
-fn csv_row(c: &CoupledSolver, probe_d: &[glam::DVec3]) -> String {
+fn csv_row(c: &CoupledSolver, probe_d: &[glam::DVec3], totals: &Totals) -> String {
     let p = &c.solid.particles;
     let mut r = format!("{},{:.9e}", c.step_count, c.time);
     for (k, b) in c.bodies.iter().enumerate() {
@@ -195,8 +198,7 @@ fn csv_row(c: &CoupledSolver, probe_d: &[glam::DVec3]) -> String {
         r += &format!(",{:.9e},{:.9e}", d.x, d.y);
     }
     let max_d = (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max);
-    let totals = c.fluid.totals();
-    let fm = c.fluid_momentum(&totals);
+    let fm = c.fluid_momentum(totals);
     let sm = p.linear_momentum();
     let tm = c.added_mass_momentum();
     r + &format!(
@@ -216,7 +218,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
     let mut probe_samples: Vec<(f64, Vec<f64>)> = Vec::new();
     std::fs::create_dir_all(dir)?;
     let record = ck.restore(&mut c, dir)?.cloned();
-    let mut engine = super::backend::CoupledEngine::new(opts.backend, c, sc.solid.file.solid.cg_tolerance)?;
+    let mut engine = super::CoupledEngine::new(opts.backend, c, sc.solid.file.solid.cg_tolerance)?;
     let c = engine.solver();
     let resumed = record.is_some();
     let resumed_from_step = resumed.then_some(c.step_count);
@@ -250,7 +252,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
         None => {
             writeln!(csv, "{}", csv_header(&c, &particle_probes))?;
             let d = probe_displacements(&c, &particle_probes);
-            writeln!(csv, "{}", csv_row(&c, &d))?;
+            writeln!(csv, "{}", csv_row(&c, &d, &c.fluid.totals()))?;
             probe_samples.push((c.time, d.iter().map(|d| d.y).collect()));
             csv.flush()?;
             probes.sample(&c.fluid, &fluid_scene.units)?;
@@ -271,11 +273,15 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
         Ok(())
     };
     let progress = opts.show_progress.then_some("coupled steps");
+    let probe_nodes = probes.nodes();
     let outcome = super::driver::drive_until(&mut engine, total, opts.stop_at, &[every, probe_every, snap_every, ck.period()], progress, |e, t| {
-        let c = e.solver();
+        // on the GPU each read brings back what it needs (see run::coupled_engine); a read that
+        // fails writes nothing, and the next advance (or the end) stops the run with it
         if t.hit[0] || t.last {
+            let Ok(totals) = e.totals() else { return Ok(()) };
+            let Ok(c) = e.observe(|_| Vec::new()) else { return Ok(()) };
             let d = probe_displacements(c, &particle_probes);
-            writeln!(csv, "{}", csv_row(c, &d))?;
+            writeln!(csv, "{}", csv_row(c, &d, &totals))?;
             csv.flush()?;
             // uniformly sampled (not the last step's extra row): the oscillation needs a
             // constant interval
@@ -284,19 +290,34 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
             }
         }
         if t.hit[1] || t.last {
+            let mut section = None;
+            let Ok(c) = e.observe(|c| {
+                let mut nodes = probe_nodes.clone();
+                if let Some(g) = &glottis {
+                    let s = g.section(c);
+                    nodes.extend(&s.nodes);
+                    section = Some(s);
+                }
+                nodes
+            }) else {
+                return Ok(());
+            };
             probes.sample(&c.fluid, &fluid_scene.units)?;
-        }
-        // uniformly sampled: the voice measures need a constant interval
-        if t.hit[1]
-            && let (Some(g), Some(r)) = (&glottis, &mut record_g)
-        {
-            r.push(g.sample(c))?;
+            // uniformly sampled: the voice measures need a constant interval
+            if t.hit[1]
+                && let Some(r) = &mut record_g
+            {
+                let s = section.unwrap_or_else(|| glottis.as_ref().expect("a glottal record has a glottis").section(c));
+                r.push(s.sample(&c.fluid))?;
+            }
         }
         if t.hit[2] && k_snap < snaps {
+            let Ok(c) = e.state() else { return Ok(()) };
             k_snap += 1;
             snapshot(c, k_snap, &mut files)?;
         }
         if t.hit[3] {
+            let Ok(c) = e.state() else { return Ok(()) };
             let names = checkpoint::file_names(files[2..].iter().filter(|f| **f != glottal_path));
             let samples: Vec<f64> = record_g.iter().flat_map(|r| r.samples.iter().flat_map(glottal_values)).collect();
             let record = serde_json::json!({"m0": checkpoint::bits(&[m0]), "k_snap": k_snap, "files": names, "glottal_samples": checkpoint::bits(&samples)});
@@ -313,6 +334,11 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
     }
     let wall = outcome.wall_s;
     let instability = outcome.instability;
+    // the air's mass at the end from the same sums as the csv rows (on the GPU, the device's)
+    let final_mass = engine.totals().map(|t| t.mass).unwrap_or(f64::NAN);
+    // the whole state of the step reached (after a device failure: the last one brought back)
+    let _ = engine.state();
+    let readback = engine.is_gpu().then(|| engine.readback());
     let c = engine.solver();
     if instability.is_some() {
         snapshot(c, 999, &mut files)?;
@@ -338,7 +364,8 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
         stage_shares: crate::step::Solver::stage_shares(&engine).into_iter().map(|(n, s)| (n.to_string(), s)).collect(),
         final_forces: c.forces.total.iter().map(|f| f.to_array()).collect(),
         max_displacement: (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max),
-        fluid_mass_drift: (c.fluid.totals().mass - m0) / m0,
+        fluid_mass_drift: (final_mass - m0) / m0,
+        readback,
         uncovered: c.geometry.uncovered,
         covered: c.geometry.covered,
         exchange: c.exchange().map(|e| ExchangeReport {

@@ -37,7 +37,10 @@ pub struct Readback {
     /// Nodes (lattice gas: cells) read for probe samples: the fluid's gathered on the device,
     /// the lattice gas's in bands of rows.
     pub gathered: u64,
-    /// Bytes these carried (fluid: f32 populations; lattice gas: 16-bit words).
+    /// Sums of the air's totals made on the device (a coupled run's csv rows).
+    pub totals: u64,
+    /// Bytes these carried (fluid: f32 populations and partial sums; a coupled run's solid as
+    /// well; lattice gas: 16-bit words).
     pub bytes: u64,
 }
 

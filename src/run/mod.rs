@@ -8,13 +8,15 @@ use crate::scene::build::SceneSummary;
 use crate::scene::schema::Field;
 use crate::state::state_hash;
 use crate::step::Solver;
-pub use backend::{Backend, CoupledEngine, FluidEngine, LatticeGasEngine, Readback, SolidEngine, pick_gpu};
+pub use backend::{Backend, FluidEngine, LatticeGasEngine, Readback, SolidEngine, pick_gpu};
+pub use coupled_engine::CoupledEngine;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 pub mod backend;
 pub mod checkpoint;
 pub mod coupled;
+mod coupled_engine;
 pub mod driver;
 pub mod lattice_gas;
 mod mirror;
