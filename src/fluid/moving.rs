@@ -334,7 +334,7 @@ mod tests {
         let change = LayoutChange::between(&whole.layout, &new);
         let (reads, fresh) = (change.reads(), change.fresh());
         let covered = change.nodes.iter().filter(|(_, c)| *c == NodeChange::Covered).count();
-        assert!(covered > 0 && fresh.len() > 0 && reads.len() > fresh.len() + covered, "{} reads, {} fresh, {covered} covered", reads.len(), fresh.len());
+        assert!(covered > 0 && !fresh.is_empty() && reads.len() > fresh.len() + covered, "{} reads, {} fresh, {covered} covered", reads.len(), fresh.len());
         assert!(reads.windows(2).all(|w| w[0] < w[1]));
         let mut listed = box_solver(&[disc(10.0)]);
         let nv = whole.pop.nv;
