@@ -201,8 +201,9 @@ pub fn cases() -> Vec<Case> {
             out
         }),
         ("fsi_wall_flap", || {
-            // The Wall flap, both methods, 3 s each at D = 20 cells and lattice Mach 0.2 (81,000
-            // coupled steps, ~80 min each on one core here).
+            // The Wall flap, both methods, 3 s each at D = 20 cells and lattice Mach 0.1
+            // (fsi_flap::VALIDATION_MACH; 160,800 coupled steps, ~5 h each on one core here,
+            // GPU-sized).
             let mut out = super::fsi_flap::rows("wall_flap", "method 1");
             out.extend(super::fsi_flap::rows("wall_flap_conserving", "method 2"));
             out
