@@ -120,21 +120,7 @@ fn run_coupled(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> anyhow::Resu
     );
     eprintln!("stage shares: {}", r.stage_shares.iter().map(|(n, s)| format!("{n} {:.0}%", 100.0 * s)).collect::<Vec<_>>().join(", "));
     for p in &r.particle_probes {
-        match &p.oscillation {
-            Some(o) => eprintln!(
-                "probe {}: largest |dy| {:.4e}; from t = {:.3} s: spectral peak {} Hz, largest |dy| {:.4e}; {} mean crossings at {:.4} Hz, last half range {:.4e}, mean {:.3e}",
-                p.name,
-                p.max_abs_dy,
-                p.window_start_s,
-                o.spectral_peak.map_or("none".into(), |f| format!("{f:.4}")),
-                o.max_abs,
-                o.cycles,
-                o.frequency,
-                o.last_half_range,
-                o.mean
-            ),
-            None => eprintln!("probe {}: largest |dy| {:.4e}; fewer than two cycles from t = {:.3} s", p.name, p.max_abs_dy, p.window_start_s),
-        }
+        eprintln!("{p}");
     }
     eprintln!("state hash {} (BLAKE3 of the final state: equal for bit-identical runs)", r.state_hash);
     eprintln!("outputs in {}", dir.display());

@@ -66,21 +66,7 @@ pub fn analyze(a: AnalyzeArgs) -> anyhow::Result<()> {
 fn analyze_particle_probes(dir: &std::path::Path, window: f64) -> anyhow::Result<()> {
     let reports = phonation::run::particle_probes::probe_reports_from_csv(&dir.join("coupling.csv"), window)?;
     for p in &reports {
-        match &p.oscillation {
-            Some(o) => println!(
-                "probe {}: from t = {:.3} s: spectral peak {} Hz, largest |dy| {:.4e}; {} mean crossings at {:.4} Hz, last half range {:.4e}, mean {:.3e} (largest |dy| of the whole run {:.4e})",
-                p.name,
-                p.window_start_s,
-                o.spectral_peak.map_or("none".into(), |f| format!("{f:.4}")),
-                o.max_abs,
-                o.cycles,
-                o.frequency,
-                o.last_half_range,
-                o.mean,
-                p.max_abs_dy
-            ),
-            None => println!("probe {}: fewer than two cycles from t = {:.3} s (largest |dy| of the whole run {:.4e})", p.name, p.window_start_s, p.max_abs_dy),
-        }
+        println!("{p}");
     }
     let out = dir.join("particle_probes.json");
     std::fs::write(

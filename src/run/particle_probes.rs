@@ -23,6 +23,33 @@ pub struct ParticleProbeReport {
     pub window_start_s: f64,
 }
 
+impl std::fmt::Display for ParticleProbeReport {
+    /// One line: the window's spectral peak and largest |dy|, the mean-crossing count, and the
+    /// whole run's largest |dy|.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.oscillation {
+            Some(o) => write!(
+                f,
+                "probe {}: from t = {:.3} s: spectral peak {} Hz, largest |dy| {:.4e}; {} mean crossings at {:.4} Hz, last half range {:.4e}, mean {:.3e} (largest |dy| of the whole run {:.4e})",
+                self.name,
+                self.window_start_s,
+                o.spectral_peak.map_or("none".into(), |f| format!("{f:.4}")),
+                o.max_abs,
+                o.cycles,
+                o.frequency,
+                o.last_half_range,
+                o.mean,
+                self.max_abs_dy
+            ),
+            None => write!(
+                f,
+                "probe {}: fewer than two cycles from t = {:.3} s (largest |dy| of the whole run {:.4e})",
+                self.name, self.window_start_s, self.max_abs_dy
+            ),
+        }
+    }
+}
+
 /// The oscillation of each probe's dy samples `(t, dy per probe)` over the last `fraction`
 /// (0, 1] of the samples' time span.
 pub fn probe_reports(names: &[String], samples: &[(f64, Vec<f64>)], fraction: f64) -> Vec<ParticleProbeReport> {

@@ -33,23 +33,7 @@ struct ProbeParams { step: u32, count: u32, n_nodes: u32, _pad: u32 };
 /// = value v of `nodes[k]`), so that a CPU stage reading a few nodes (method 1's traction)
 /// brings back only those ([`super::fdlb::GpuFluid::download_nodes_into`]).
 pub fn gather_populations(eq: &Equilibrium, split: Split) -> String {
-    let nv = eq.values_per_node();
-    let mut s = format!("const WG: u32 = {WORKGROUP}u;\n");
-    s += r#"
-struct GatherParams { count: u32, n_nodes: u32, _p0: u32, _p1: u32 };
-@group(0) @binding(0) var<uniform> GP: GatherParams;
-@group(0) @binding(1) var<storage, read> nodes: array<u32>;
-@group(0) @binding(2) var<storage, read_write> out: array<f32>;
-"#;
-    s += &split.declare("src", "read", 10);
-    s += "@compute @workgroup_size(WG)\nfn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {\n";
-    s += "    let k = gid.x + gid.y * nwg.x * WG;\n    if (k >= GP.count) { return; }\n    let node = nodes[k];\n    let N = GP.n_nodes;\n";
-    let _ = writeln!(s, "    let b = k * {nv}u;");
-    for v in 0..nv {
-        let _ = writeln!(s, "    out[b + {v}u] = {};", split.at("src", v, "node"));
-    }
-    s += "}\n";
-    s
+    node_list(eq, split, false)
 }
 
 /// The `scatter` kernel, the inverse of [`gather_populations`]: the populations of a list of
@@ -57,20 +41,29 @@ struct GatherParams { count: u32, n_nodes: u32, _p0: u32, _p1: u32 };
 /// state array, so that a CPU stage that changes a few nodes (the nodes a moving body uncovers)
 /// sends up only those ([`super::fdlb::GpuFluid::upload_nodes_from`]).
 pub fn scatter_populations(eq: &Equilibrium, split: Split) -> String {
+    node_list(eq, split, true)
+}
+
+/// A node-list kernel: gather (state → packed `vals`) or `scatter` (packed `vals` → state).
+fn node_list(eq: &Equilibrium, split: Split, scatter: bool) -> String {
     let nv = eq.values_per_node();
+    let (vals, state) = if scatter { ("read", "read_write") } else { ("read_write", "read") };
     let mut s = format!("const WG: u32 = {WORKGROUP}u;\n");
-    s += r#"
-struct GatherParams { count: u32, n_nodes: u32, _p0: u32, _p1: u32 };
+    s += &format!(
+        "
+struct GatherParams {{ count: u32, n_nodes: u32, _p0: u32, _p1: u32 }};
 @group(0) @binding(0) var<uniform> GP: GatherParams;
 @group(0) @binding(1) var<storage, read> nodes: array<u32>;
-@group(0) @binding(2) var<storage, read> vals: array<f32>;
-"#;
-    s += &split.declare("dst", "read_write", 10);
+@group(0) @binding(2) var<storage, {vals}> vals: array<f32>;
+"
+    );
+    s += &split.declare("state", state, 10);
     s += "@compute @workgroup_size(WG)\nfn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {\n";
     s += "    let k = gid.x + gid.y * nwg.x * WG;\n    if (k >= GP.count) { return; }\n    let node = nodes[k];\n    let N = GP.n_nodes;\n";
     let _ = writeln!(s, "    let b = k * {nv}u;");
     for v in 0..nv {
-        let _ = writeln!(s, "    {} = vals[b + {v}u];", split.at("dst", v, "node"));
+        let at = split.at("state", v, "node");
+        let _ = if scatter { writeln!(s, "    {at} = vals[b + {v}u];") } else { writeln!(s, "    vals[b + {v}u] = {at};") };
     }
     s += "}\n";
     s
