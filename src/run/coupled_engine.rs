@@ -137,7 +137,7 @@ impl CoupledEngine {
                 match g.fluid.totals() {
                     Some(t) => {
                         self.mirror.readback.totals += 1;
-                        self.mirror.readback.bytes += 20 * g.fluid.n_nodes.div_ceil(1024) as u64;
+                        self.mirror.readback.bytes += g.fluid.totals_bytes();
                         Ok(t)
                     }
                     None => Err(Self::failed_read(&mut self.mirror, self.health.as_ref(), &g.cpu)),

@@ -29,6 +29,11 @@ pub(super) struct TotalsKernel {
 }
 
 impl GpuFluid {
+    /// Bytes one [`Self::totals`] brings back: 20 per workgroup of 1024 nodes.
+    pub fn totals_bytes(&self) -> u64 {
+        20 * (self.stride as u64).div_ceil((WORKGROUP * TOTALS_PER_THREAD) as u64).max(1)
+    }
+
     /// Mass, momentum and energy of fⁿ over the fluid nodes (lattice units), as
     /// [`crate::fluid::FluidSolver::totals`] sums them, summed on the device in f32 per 1024
     /// nodes and over those partial sums in f64; `None` when the read fails. Against the CPU's
