@@ -110,7 +110,8 @@ impl GpuFluid {
         self.prepare_node_list(Way::Gather, nodes);
         let g = self.gather.as_ref().expect("built by prepare_node_list");
         self.run_node_list(g, nodes.len());
-        let Some(raw) = crate::gpu::context::try_read_buffer(&self.device, &self.queue, &g.values) else { return false };
+        // only the listed nodes' values (the buffer has room for up to twice as many)
+        let Some(raw) = crate::gpu::context::try_read_ranges(&self.device, &self.queue, &g.values, &[(0, 4 * (nodes.len() * nv) as u64)]) else { return false };
         let vals: &[f32] = bytemuck::cast_slice(&raw);
         let mut node_vals = vec![0.0; nv];
         for (k, &node) in nodes.iter().enumerate() {
