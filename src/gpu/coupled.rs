@@ -6,7 +6,7 @@
 //!
 //! | stage | where it runs |
 //! |---|---|
-//! | `fluid_geometry` | the particles' positions and velocities come back (16 B each); the level sets' layout (ghost depths, normals, wall velocities, 2.124–2.126, 2.130) is built on the CPU ([`CoupledSolver::next_level_set_walls`]) and its tables uploaded ([`GpuFluid::set_geometry`]); on a step where nodes change side, the populations of the nodes the change reads (those that change side and the fresh ones' neighbours, [`LayoutChange::reads`]) come back by the `gather` kernel so that covered nodes book their momentum and fresh ones take their neighbours' mean on the CPU, and the fresh nodes go up by the `scatter` kernel ([`Self::round_trips`], [`Self::round_trip_nodes`] count them) |
+//! | `fluid_geometry` | the particles' positions and velocities come back (16 B each); the level sets' layout (ghost depths, normals, wall velocities, 2.124–2.126, 2.130) is built on the CPU ([`CoupledSolver::next_level_set_walls`]) and its tables uploaded ([`GpuFluid::set_geometry`]); on a step where nodes change side, the populations of the nodes the change reads (those that change side and the fresh ones' neighbours, [`LayoutChange::reads`]) come back by the `gather` kernel so that covered nodes book their momentum and fresh ones take their neighbours' mean on the CPU, and the fresh nodes go up by the `scatter` kernel ([`GpuCoupled::round_trips`], [`GpuCoupled::round_trip_nodes`] count them) |
 //! | `fluid` | one FDLB step on the GPU with the walls' face fluxes recorded after each advection (2.122–2.123, [`GpuFluid::record_face_fluxes`]) |
 //! | `momentum_exchange` | the geometry stage's node changes (a short list, on steps where nodes change side) added to the face-flux record on the device; each wall node's momentum handed to the particles within r_e with normalised kernel weights (2.127–2.128) by the gather kernels of [`CouplingKernels::hand_over`] (deterministic, no atomics), the record cleared there; only the particles' forces come back, as their loads, with the exchange's run sums per workgroup |
 //! | `solid` | the solid's sub-steps on the GPU ([`GpuSolid`]) with those loads and the air's added mass (2.129) |
@@ -22,7 +22,7 @@
 //!
 //! What stays on the CPU is the geometry (a per-step layout build over the lattice, O(N)),
 //! measured as the `fluid_geometry` share of the step, and for method 1 the traction's
-//! arithmetic, on the populations of the few nodes it samples ([`Self::traction_nodes`] counts
+//! arithmetic, on the populations of the few nodes it samples ([`GpuCoupled::traction_nodes`] counts
 //! them; a traction kernel on the device would bring back only the particles' loads). For
 //! method 2 the wall momentum per node no longer crosses the bus. The exchange's diagnostics
 //! that the CPU solver sums over the run (momentum to non-body walls, mass to the walls, the

@@ -1,7 +1,8 @@
 //! The backend that advances a solver: the CPU reference, or the GPU with the CPU solver as a
-//! mirror that receives the GPU state after every advance (for outputs and measurements). One
-//! engine per kind of solver, each a [`Solver`], so that the run loop ([`super::driver`]) treats
-//! them alike; the GPU context is picked here, above the physics core.
+//! mirror for outputs and measurements — which receives the GPU state when an output reads it
+//! (fluid, lattice gas, and the coupled solver in [`super::coupled_engine`]) or after every
+//! advance (the solid). One engine per kind of solver, each a [`Solver`], so that the run loop
+//! ([`super::driver`]) treats them alike; the GPU context is picked here, above the physics core.
 
 pub use super::mirror::Readback;
 use super::mirror::{Mirror, device_failure, failed_download};

@@ -31,7 +31,7 @@ struct ProbeParams { step: u32, count: u32, n_nodes: u32, _pad: u32 };
 
 /// The `gather` kernel: the populations of a list of nodes, node after node (`out[k · nv + v]`
 /// = value v of `nodes[k]`), so that a CPU stage reading a few nodes (method 1's traction)
-/// brings back only those ([`super::fdlb::GpuFluid::download_nodes_into`]).
+/// brings back only those ([`crate::gpu::GpuFluid::download_nodes_into`]).
 pub fn gather_populations(eq: &Equilibrium, split: Split) -> String {
     node_list(eq, split, false)
 }
@@ -39,7 +39,7 @@ pub fn gather_populations(eq: &Equilibrium, split: Split) -> String {
 /// The `scatter` kernel, the inverse of [`gather_populations`]: the populations of a list of
 /// nodes, packed node after node (`vals[k · nv + v]` = value v of `nodes[k]`), written into the
 /// state array, so that a CPU stage that changes a few nodes (the nodes a moving body uncovers)
-/// sends up only those ([`super::fdlb::GpuFluid::upload_nodes_from`]).
+/// sends up only those ([`crate::gpu::GpuFluid::upload_nodes_from`]).
 pub fn scatter_populations(eq: &Equilibrium, split: Split) -> String {
     node_list(eq, split, true)
 }
