@@ -1,6 +1,6 @@
 //! The backend that advances a solver: the CPU reference, or the GPU with the CPU solver as a
 //! mirror for outputs and measurements — which receives the GPU state when an output reads it
-//! (fluid, lattice gas, and the coupled solver in [`super::coupled_engine`]) or after every
+//! (fluid, lattice gas, and the coupled solver, [`super::CoupledEngine`]) or after every
 //! advance (the solid). One engine per kind of solver, each a [`Solver`], so that the run loop
 //! ([`super::driver`]) treats them alike; the GPU context is picked here, above the physics core.
 
