@@ -33,7 +33,7 @@
 use super::momentum_exchange::step_with_exchange;
 use super::solver::{CoupledBody, CoupledSolver};
 use crate::fluid::layout::{Layout, NodeKind};
-use crate::fluid::{KernelLevelSet, Macro, Obstacle, Shape};
+use crate::fluid::{KernelLevelSet, LayoutChange, Macro, Obstacle, Shape};
 use crate::step::{Instability, Site};
 use glam::{DVec3, DVec4};
 
@@ -64,13 +64,20 @@ pub struct LevelSetWalls {
     sets: Vec<KernelLevelSet>,
     /// The particles' positions (cells) the walls are built from.
     points: Vec<DVec3>,
+    change: std::cell::OnceCell<LayoutChange>,
 }
 
 impl LevelSetWalls {
+    /// The change of layout installing these walls in a fluid of layout `current` makes (made
+    /// once and kept: the walls are built for the fluid they are installed in).
+    pub fn change(&self, current: &Layout) -> &LayoutChange {
+        self.change.get_or_init(|| LayoutChange::between(current, &self.layout))
+    }
+
     /// Whether installing these walls in a fluid of layout `current` makes nodes enter or leave
     /// the fluid (their populations, and their fluid neighbours', are then read and written).
     pub fn changes_nodes(&self, current: &Layout) -> bool {
-        self.layout.changes_fluid_nodes(current)
+        !self.change(current).nodes.is_empty()
     }
 }
 
@@ -265,7 +272,7 @@ impl CoupledSolver {
         let sets = self.level_sets();
         let mut all = self.obstacles.clone();
         all.extend(sets.iter().cloned().map(|k| Obstacle { shape: Shape::KernelLevelSet(k), velocity: [0.0; 3], temperature: None }));
-        Ok(LevelSetWalls { layout: self.fluid.layout_with(&all), sets, points })
+        Ok(LevelSetWalls { layout: self.fluid.layout_with(&all), sets, points, change: Default::default() })
     }
 
     /// The second half of method 2's fluid_geometry stage: installs `walls` in the fluid
@@ -273,9 +280,10 @@ impl CoupledSolver {
     /// momentum to the walls (covered: the air's momentum to the body; uncovered: the body pays
     /// for the fresh node's).
     pub fn install_level_set_walls(&mut self, walls: LevelSetWalls) {
-        let LevelSetWalls { layout, sets, points } = walls;
+        let plan = walls.change(&self.fluid.layout).clone();
+        let LevelSetWalls { layout, sets, points, .. } = walls;
         let was: Vec<bool> = self.fluid.layout.kind.iter().map(|k| *k == NodeKind::Fluid).collect();
-        let ch = self.fluid.set_layout(layout);
+        let ch = self.fluid.apply_layout(layout, &plan);
         let q = self.fluid.eq.q();
         let unit = self.momentum_unit();
         let ex = self.exchange.as_mut().expect("method 2");

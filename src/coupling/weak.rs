@@ -22,7 +22,7 @@
 use super::solver::CoupledSolver;
 use super::traction::{TractionModel, sampled_nodes, surface_forces};
 use crate::fluid::layout::Layout;
-use crate::fluid::{Obstacle, Polygon, Shape};
+use crate::fluid::{LayoutChange, Obstacle, Polygon, Shape};
 use crate::step::{Instability, Site};
 
 /// Options of the weak coupling.
@@ -45,6 +45,7 @@ impl Default for WeakOptions {
 pub struct PolygonWalls {
     polygons: Vec<Polygon>,
     layout: Layout,
+    change: std::cell::OnceCell<LayoutChange>,
 }
 
 impl PolygonWalls {
@@ -53,10 +54,16 @@ impl PolygonWalls {
         &self.layout
     }
 
+    /// The change of layout installing these walls in a fluid of layout `current` makes (made
+    /// once and kept: the walls are built for the fluid they are installed in).
+    pub fn change(&self, current: &Layout) -> &LayoutChange {
+        self.change.get_or_init(|| LayoutChange::between(current, &self.layout))
+    }
+
     /// Whether installing these walls in a fluid of layout `current` makes nodes enter or leave
     /// the fluid (their populations, and their fluid neighbours', are then read and written).
     pub fn changes_nodes(&self, current: &Layout) -> bool {
-        self.layout.changes_fluid_nodes(current)
+        !self.change(current).nodes.is_empty()
     }
 }
 
@@ -114,14 +121,15 @@ impl CoupledSolver {
         let mut all = self.obstacles.clone();
         all.extend(polys.iter().cloned().map(|p| Obstacle { shape: Shape::Polygon(p), velocity: [0.0; 3], temperature: None }));
         let layout = self.fluid.layout_with(&all);
-        Ok(Some(PolygonWalls { polygons: polys, layout }))
+        Ok(Some(PolygonWalls { polygons: polys, layout, change: Default::default() }))
     }
 
     /// Installs walls from [`Self::next_polygon_walls`]: nodes the bodies uncovered take their
     /// fluid neighbours' populations, covered ones leave with their mass (counted in
     /// [`Self::geometry`]).
     pub fn install_polygon_walls(&mut self, walls: PolygonWalls) {
-        let ch = self.fluid.set_layout(walls.layout);
+        let plan = walls.change(&self.fluid.layout).clone();
+        let ch = self.fluid.apply_layout(walls.layout, &plan);
         self.geometry.uncovered += ch.uncovered;
         self.geometry.covered += ch.covered;
         self.geometry.isolated += ch.isolated;

@@ -133,12 +133,6 @@ pub struct Layout {
 pub const PINCH: f64 = 0.5;
 
 impl Layout {
-    /// Whether some node is fluid in one of this layout and `other` (of the same lattice) and
-    /// not in the other.
-    pub fn changes_fluid_nodes(&self, other: &Layout) -> bool {
-        self.kind.iter().zip(&other.kind).any(|(a, b)| (*a == NodeKind::Fluid) != (*b == NodeKind::Fluid))
-    }
-
     pub fn new(grid: Grid, boundaries: Boundaries, user_obstacles: &[Obstacle]) -> Self {
         Self::build(grid, boundaries, user_obstacles, None)
     }

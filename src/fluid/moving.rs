@@ -119,6 +119,13 @@ impl FluidSolver {
     /// back and sends up those nodes alone.
     pub fn set_layout(&mut self, new: Layout) -> GeometryChange {
         let plan = LayoutChange::between(&self.layout, &new);
+        self.apply_layout(new, &plan)
+    }
+
+    /// [`Self::set_layout`] with its plan already made (`plan` = [`LayoutChange::between`] the
+    /// current layout and `new`), so that a caller who needed the plan first does not scan the
+    /// lattice twice.
+    pub fn apply_layout(&mut self, new: Layout, plan: &LayoutChange) -> GeometryChange {
         self.layout = new;
         let nv = self.pop.nv;
         let q = self.eq.q();

@@ -191,7 +191,7 @@ impl GpuCoupled {
         self.download_particles(true)?;
         let Some(walls) = self.cpu.next_polygon_walls(o)? else { return Ok(()) };
         if walls.changes_nodes(&self.cpu.fluid.layout) {
-            let change = LayoutChange::between(&self.cpu.fluid.layout, walls.layout());
+            let change = walls.change(&self.cpu.fluid.layout).clone();
             self.bring_back(&change)?;
             self.cpu.install_polygon_walls(walls);
             self.send_up(&change);
@@ -258,7 +258,7 @@ impl GpuCoupled {
         self.download_particles(false)?;
         let walls = self.cpu.next_level_set_walls()?;
         if walls.changes_nodes(&self.cpu.fluid.layout) {
-            let change = LayoutChange::between(&self.cpu.fluid.layout, &walls.layout);
+            let change = walls.change(&self.cpu.fluid.layout).clone();
             self.bring_back(&change)?;
             self.cpu.install_level_set_walls(walls);
             self.send_up(&change);

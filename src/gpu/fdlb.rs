@@ -328,6 +328,18 @@ impl GpuFluid {
         self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries })
     }
 
+    /// Submits one dispatch of `p` over `threads` threads on its own, with the buffers `whole`
+    /// and the state array fⁿ bound from binding 10 (the node-list and totals kernels).
+    fn submit_on_state(&self, p: &wgpu::ComputePipeline, whole: &[(u32, &wgpu::Buffer)], threads: u32) {
+        let bg = self.bind(p, whole, &[(10, &self.f[self.cur])]);
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            Self::dispatch(&mut pass, p, &bg, threads);
+        }
+        self.queue.submit([enc.finish()]);
+    }
+
     fn dispatch(pass: &mut wgpu::ComputePass, p: &wgpu::ComputePipeline, bg: &wgpu::BindGroup, threads: u32) {
         if threads == 0 {
             return;

@@ -82,17 +82,6 @@ impl GpuFluid {
         let params = GatherParams { count: count as u32, n_nodes: self.stride as u32, _p0: 0, _p1: 0 };
         self.queue.write_buffer(&g.params, 0, bytemuck::bytes_of(&params));
     }
-
-    /// Records and submits the node-list kernel `k` over `count` nodes on fⁿ.
-    fn run_node_list(&self, k: &NodeListKernel, count: usize) {
-        let bg = self.bind(&k.pipeline, &[(0, &k.params), (1, &k.nodes), (2, &k.values)], &[(10, &self.f[self.cur])]);
-        let mut enc = self.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            Self::dispatch(&mut pass, &k.pipeline, &bg, count as u32);
-        }
-        self.queue.submit([enc.finish()]);
-    }
 }
 
 impl GpuFluid {
@@ -109,7 +98,7 @@ impl GpuFluid {
         let nv = self.nv;
         self.prepare_node_list(Way::Gather, nodes);
         let g = self.gather.as_ref().expect("built by prepare_node_list");
-        self.run_node_list(g, nodes.len());
+        self.submit_on_state(&g.pipeline, &[(0, &g.params), (1, &g.nodes), (2, &g.values)], nodes.len() as u32);
         // only the listed nodes' values (the buffer has room for up to twice as many)
         let Some(raw) = crate::gpu::context::try_read_ranges(&self.device, &self.queue, &g.values, &[(0, 4 * (nodes.len() * nv) as u64)]) else { return false };
         let vals: &[f32] = bytemuck::cast_slice(&raw);
@@ -144,7 +133,7 @@ impl GpuFluid {
         self.prepare_node_list(Way::Scatter, nodes);
         let k = self.scatter.as_ref().expect("built by prepare_node_list");
         self.queue.write_buffer(&k.values, 0, bytemuck::cast_slice(&vals));
-        self.run_node_list(k, nodes.len());
+        self.submit_on_state(&k.pipeline, &[(0, &k.params), (1, &k.nodes), (2, &k.values)], nodes.len() as u32);
     }
 }
 

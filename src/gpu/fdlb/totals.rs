@@ -53,13 +53,7 @@ impl GpuFluid {
             self.totals = Some(TotalsKernel { pipeline, params, out, groups });
         }
         let k = self.totals.as_ref().expect("built above");
-        let bg = self.bind(&k.pipeline, &[(0, &k.params), (1, &self.kind), (2, &k.out)], &[(10, &self.f[self.cur])]);
-        let mut enc = self.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            Self::dispatch(&mut pass, &k.pipeline, &bg, k.groups * WORKGROUP);
-        }
-        self.queue.submit([enc.finish()]);
+        self.submit_on_state(&k.pipeline, &[(0, &k.params), (1, &self.kind), (2, &k.out)], k.groups * WORKGROUP);
         let raw = crate::gpu::context::try_read_buffer(&self.device, &self.queue, &k.out)?;
         let partial: &[f32] = bytemuck::cast_slice(&raw);
         let mut t = [0.0f64; 5];
