@@ -7,12 +7,13 @@
 //!     cargo run --release --example glottis -- --preset glottis_2d_coarse --steps-per-frame 20
 //!     cargo run --release --example glottis -- --preset lattice_gas_wake
 //!     cargo run --release --example glottis -- --preset cylinder_wake --air-on-gpu
+//!     cargo run --release --example glottis -- --air-on-gpu     # the glottis's air and folds on the GPU
 //!     cargo run --release --example glottis -- --frames 30 --screenshot glottis.png
 //!
 //! The simulation runs on the CPU backend (the window's panel says so) and the GPU draws it —
 //! the folds' surface made on the GPU from the particles; with `--air-on-gpu` (or the panel's
-//! checkbox) a fluid preset's air steps on the GPU in the render world, its tracers and slice
-//! made there too.
+//! checkbox) a fluid preset's air, or a coupled preset's air and folds, step on the GPU in the
+//! render world, the tracers and slice made there too.
 
 use bevy::prelude::*;
 use phonation::plugin::{PhonationGpuPlugin, SimulationControl};
@@ -29,7 +30,7 @@ fn main() {
     let preset = arg("--preset").unwrap_or_else(|| "glottis_2d_c".into());
     let steps = arg("--steps-per-frame").and_then(|s| s.parse().ok()).unwrap_or(5);
     let air_on_gpu = std::env::args().any(|a| a == "--air-on-gpu");
-    let backend = if air_on_gpu { "air on the GPU" } else { "CPU backend" };
+    let backend = if air_on_gpu { "stepped on the GPU" } else { "CPU backend" };
     let window = Window { title: format!("phonation — {preset} ({backend})"), resolution: (1280, 800).into(), ..default() };
     let mut app = App::new();
     app.add_plugins(DefaultPlugins.set(WindowPlugin { primary_window: Some(window), ..default() }))

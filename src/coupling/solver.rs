@@ -53,6 +53,7 @@ pub enum CouplingSetupError {
 }
 
 /// Fluid + solid + the coupling between them.
+#[derive(Clone)]
 pub struct CoupledSolver {
     pub fluid: FluidSolver,
     pub solid: SolidSolver,

@@ -28,6 +28,7 @@ pub use super::observe::Totals;
 pub use crate::step::Instability;
 use crate::step::{Part, Site};
 
+#[derive(Clone)]
 pub struct FluidSolver {
     pub eq: Equilibrium,
     pub layout: Layout,

@@ -56,6 +56,13 @@ impl DeviceHealth {
         h
     }
 
+    /// A device whose failures its owner watches (Bevy's render device: Bevy installs its own
+    /// callbacks, which this must not replace). [`Self::failure`] stays `None`; [`Self::settle`]
+    /// still waits for the device.
+    pub fn unwatched(device: &wgpu::Device) -> Self {
+        DeviceHealth { state: Arc::default(), device: device.clone() }
+    }
+
     /// The first failure since the device was opened, a loss first (None: healthy).
     pub fn failure(&self) -> Option<String> {
         let h = self.state.lock().expect("device health");
@@ -119,6 +126,14 @@ impl GpuContext {
         .map_err(|e| GpuError::Device(e.to_string()))?;
         let health = DeviceHealth::watch(&device);
         Ok(GpuContext { device, queue, info, limits, timestamps, health })
+    }
+
+    /// A device opened by someone else (Bevy's render device) with the limits it was opened
+    /// with; its failures are left to its owner ([`DeviceHealth::unwatched`]).
+    pub fn shared(device: wgpu::Device, queue: wgpu::Queue, info: wgpu::AdapterInfo, limits: wgpu::Limits) -> Self {
+        let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let health = DeviceHealth::unwatched(&device);
+        GpuContext { device, queue, info, limits, timestamps, health }
     }
 
     /// Pretends the adapter allows at most `bytes` per storage binding, so that tests can drive

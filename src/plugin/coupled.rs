@@ -1,7 +1,9 @@
 //! The coupled fluid–solid solver in the Bevy schedule: every entity with a
 //! [`CoupledSimulation`] advances by the frame's steps of [`crate::coupling::CoupledSolver::stages`] (method 1 or 2)
 //! on the CPU, in [`super::PhonationSystems::CoupledStep`]. An instability marks the entity
-//! [`CoupledStatus::Unstable`] (with the diagnosis) and stops it; its state is kept.
+//! [`CoupledStatus::Unstable`] (with the diagnosis) and stops it; its state is kept. With
+//! [`super::GpuStepping`] (and [`super::PhonationGpuPlugin`], a render device) the render world
+//! steps it on the GPU instead ([`super::gpu_coupled`]).
 //!
 //! A glottis scene's entity may also carry a [`CoupledGlottis`]: the glottis is then sampled
 //! after every coupled step and the entity gets [`VoiceDiagnostics`] (current flow and area, and
@@ -68,9 +70,9 @@ pub(super) fn build(app: &mut App) {
     app.add_systems(Update, (step_coupled, coupled_diagnostics).chain().in_set(PhonationSystems::CoupledStep));
 }
 
-fn step_coupled(
+pub(super) fn step_coupled(
     steps: Res<StepsThisFrame>,
-    mut sims: Query<(Entity, &mut CoupledSimulation, Option<&mut CoupledGlottis>, Option<&CoupledStatus>)>,
+    mut sims: Query<(Entity, &mut CoupledSimulation, Option<&mut CoupledGlottis>, Option<&CoupledStatus>), super::gpu_coupled::CpuStepped>,
     mut commands: Commands,
 ) {
     if steps.0 == 0 {
@@ -105,8 +107,13 @@ fn step_coupled(
     }
 }
 
-fn coupled_diagnostics(mut sims: Query<(Entity, &CoupledSimulation, Option<&mut CoupledGlottis>)>, mut commands: Commands) {
-    for (entity, sim, glottis) in &mut sims {
+/// The voice measures of the kept flow and the figures of [`CoupledDiagnostics`]; the air's
+/// momentum of a GPU-stepped entity from the totals summed on the device.
+pub(super) fn coupled_diagnostics(
+    mut sims: Query<(Entity, &CoupledSimulation, Option<&mut CoupledGlottis>, Option<&super::GpuCoupledReadback>)>,
+    mut commands: Commands,
+) {
+    for (entity, sim, glottis, gpu) in &mut sims {
         if let Some(mut g) = glottis {
             let dt = sim.solver.dt();
             let opts = VoiceOptions { window_fraction: 1.0, ..VoiceOptions::default() };
@@ -118,7 +125,10 @@ fn coupled_diagnostics(mut sims: Query<(Entity, &CoupledSimulation, Option<&mut 
             commands.entity(entity).insert(VoiceDiagnostics { steps: sim.solver.step_count, time: sim.solver.time, flow, area: g.area, measures, no_voice });
         }
         let s = &sim.solver;
-        let (fluid, solid) = s.momentum();
+        let (fluid, solid) = match gpu {
+            Some(r) => (r.totals.map(|t| s.fluid_momentum(&t)).unwrap_or_default(), s.solid.particles.linear_momentum()),
+            None => s.momentum(),
+        };
         let d = CoupledDiagnostics {
             steps: s.step_count,
             time: s.time,

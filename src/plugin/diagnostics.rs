@@ -36,7 +36,7 @@ fn measure(
     steps: Res<StepsThisFrame>,
     time: Res<Time<Real>>,
     fluids: Query<(Entity, &FluidSimulation, Option<&InitialMass>, Has<super::GpuFluidHandle>)>,
-    coupled: Query<(Entity, &CoupledSimulation, Option<&InitialMass>)>,
+    coupled: Query<(Entity, &CoupledSimulation, Option<&InitialMass>, Option<&super::GpuCoupledReadback>)>,
     solids: Query<&SolidSimulation>,
     mut diagnostics: Diagnostics,
     mut commands: Commands,
@@ -44,39 +44,51 @@ fn measure(
     let dt = time.delta_secs_f64();
     let mut nodes = 0usize;
     let mut particles = 0usize;
-    let (mut mach, mut drift) = (0.0f64, 0.0f64);
-    let mut air = |e: Entity, s: &crate::fluid::FluidSolver, initial: Option<&InitialMass>| {
-        nodes += s.layout.grid.interior_len();
-        mach = mach.max(s.max_mach());
-        let m = s.totals().mass;
-        match initial {
-            Some(m0) => {
-                let d = (m - m0.0) / m0.0;
-                if d.abs() > drift.abs() {
-                    drift = d;
+    let mut mach = 0.0f64;
+    // (entity, mass now, its recorded initial mass or the mass to record)
+    let mut masses: Vec<(Entity, f64, Result<f64, f64>)> = Vec::new();
+    let initial = |m0: Option<&InitialMass>, now: &dyn Fn() -> f64| m0.map(|m| m.0).ok_or_else(now);
+    for (e, sim, m0, on_gpu) in &fluids {
+        nodes += sim.solver.layout.grid.interior_len();
+        if !on_gpu {
+            // (stepped on the device, its CPU solver holds the initial state: no Mach or mass
+            // drift from it)
+            mach = mach.max(sim.solver.max_mach());
+            let m = sim.solver.totals().mass;
+            masses.push((e, m, initial(m0, &|| m)));
+        }
+    }
+    for (e, sim, m0, gpu) in &coupled {
+        let air = &sim.solver.fluid;
+        nodes += air.layout.grid.interior_len();
+        particles += sim.solver.solid.particles.len();
+        match gpu {
+            None => {
+                mach = mach.max(air.max_mach());
+                let m = air.totals().mass;
+                masses.push((e, m, initial(m0, &|| m)));
+            }
+            // stepped on the device: the mass now is the device's sum, the initial one that of
+            // the CPU solver's air (the uploaded state); no Mach
+            Some(r) => {
+                if let Some(t) = r.totals {
+                    masses.push((e, t.mass, initial(m0, &|| air.totals().mass)));
                 }
             }
-            None => {
-                commands.entity(e).insert(InitialMass(m));
-            }
         }
-    };
-    let mut device_nodes = 0usize;
-    for (e, sim, m0, on_gpu) in &fluids {
-        if on_gpu {
-            // stepped on the device: its CPU solver holds the initial state, so only its nodes
-            // count (no Mach or mass drift from it)
-            device_nodes += sim.solver.layout.grid.interior_len();
-        } else {
-            air(e, &sim.solver, m0);
-        }
-    }
-    for (e, sim, m0) in &coupled {
-        air(e, &sim.solver.fluid, m0);
-        particles += sim.solver.solid.particles.len();
     }
     particles += solids.iter().map(|s| s.solver.particles.len()).sum::<usize>();
-    let nodes = nodes + device_nodes;
+    let mut drift = 0.0f64;
+    for (e, m, m0) in masses {
+        let m0 = m0.unwrap_or_else(|m0| {
+            commands.entity(e).insert(InitialMass(m0));
+            m0
+        });
+        let d = (m - m0) / m0;
+        if d.abs() > drift.abs() {
+            drift = d;
+        }
+    }
     if dt > 0.0 {
         diagnostics.add_measurement(&STEPS_PER_SECOND, || steps.0 as f64 / dt);
         diagnostics.add_measurement(&NODE_UPDATES_PER_SECOND, || (steps.0 as f64 * nodes as f64) / dt);

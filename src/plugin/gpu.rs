@@ -9,6 +9,8 @@
 //!
 //! Without a render device (`MinimalPlugins`, no adapter), nothing is uploaded and the entity
 //! keeps being stepped on the CPU by [`super::PhonationPlugin`] with the same ECS-facing API.
+//! The same plugin steps solids ([`super::gpu_solid`]) and coupled simulations
+//! ([`super::gpu_coupled`]) that carry [`GpuStepping`].
 
 use super::{FluidSimulation, PhonationSystems, StepsThisFrame};
 use crate::gpu::GpuFluid;
@@ -21,7 +23,9 @@ use bevy::render::renderer::{RenderContext, RenderDevice, RenderGraph, RenderGra
 use bevy::render::storage::{GpuShaderBuffer, ShaderBuffer};
 use std::sync::{Arc, Mutex};
 
-/// Requests that a [`FluidSimulation`] be stepped on the GPU in the render world.
+/// Requests that the entity's [`FluidSimulation`], [`super::SolidSimulation`] or
+/// [`super::CoupledSimulation`] be stepped on the GPU in the render world (by this module,
+/// [`super::gpu_solid`] and [`super::gpu_coupled`]).
 #[derive(Component, Debug, Default, Clone, Copy)]
 pub struct GpuStepping;
 
@@ -47,6 +51,32 @@ impl GpuFluidHandle {
     }
 }
 
+/// The air on Bevy's render device of a GPU-stepped entity — a fluid's lattice
+/// ([`GpuFluidHandle`]) or a coupled solver's ([`super::GpuCoupledHandle`]) — for the kernels
+/// that read it in place after the frame's steps (tracers, slices). Query it as
+/// `AnyOf<(&GpuFluidHandle, &GpuCoupledHandle)>` and wrap the item.
+pub struct GpuAir<'a>(pub Option<&'a GpuFluidHandle>, pub Option<&'a super::GpuCoupledHandle>);
+
+impl GpuAir<'_> {
+    /// Steps the render world runs this frame.
+    pub fn steps_this_frame(&self) -> u32 {
+        match self {
+            GpuAir(Some(f), _) => f.steps_this_frame,
+            GpuAir(None, Some(c)) => c.steps_this_frame(),
+            GpuAir(None, None) => 0,
+        }
+    }
+
+    /// `f` given the lattice on the device (locked while `f` runs; None without one).
+    pub fn with_fluid<R>(&self, f: impl FnOnce(&GpuFluid) -> R) -> Option<R> {
+        match self {
+            GpuAir(Some(h), _) => Some(f(&h.gpu.lock().expect("GPU lattice lock"))),
+            GpuAir(None, Some(c)) => c.engine().lock().expect("coupled engine lock").gpu_fluid().map(f),
+            GpuAir(None, None) => None,
+        }
+    }
+}
+
 /// Probe values read back from the GPU: the step they belong to and (ρ, u_x, u_y, u_z, θ) per
 /// probe of the scene, in lattice units.
 #[derive(Component, Debug, Default, Clone)]
@@ -67,6 +97,8 @@ impl Plugin for PhonationGpuPlugin {
             // Before `RenderGraphSystems::Render`, where Bevy's camera driver records the views.
             render_app.add_systems(RenderGraph, step_gpu_fluids.before(RenderGraphSystems::Render));
         }
+        super::gpu_coupled::build(app);
+        super::gpu_solid::build(app);
     }
 }
 

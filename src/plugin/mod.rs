@@ -6,8 +6,11 @@
 //! A run that goes unstable stops stepping its entity and records the diagnosis in
 //! [`FluidStatus`]; the state before the failing step is kept for inspection.
 //!
-//! Works with `MinimalPlugins` (headless apps and tests); the GPU backend and rendering come with
-//! later milestones and keep this ECS-facing API.
+//! Works with `MinimalPlugins` (headless apps and tests). With Bevy's renderer, add
+//! [`PhonationGpuPlugin`] and put [`GpuStepping`] on an entity: a fluid ([`gpu`]), a solid
+//! ([`gpu_solid`]) or a coupled simulation ([`gpu_coupled`]) is then stepped on the render
+//! device in the render world, with the same components on the entity; the drawing (feature
+//! `render`) is in `phonation::render`.
 
 use crate::fluid::{FluidSolver, Instability, Totals};
 use crate::scene::FluidScene;
@@ -17,12 +20,16 @@ use bevy::prelude::*;
 pub mod coupled;
 pub mod diagnostics;
 pub mod gpu;
+pub mod gpu_coupled;
+pub mod gpu_solid;
 pub mod lattice_gas;
 pub mod solid;
 pub mod two_mass;
 pub use coupled::{CoupledDiagnostics, CoupledGlottis, CoupledSimulation, CoupledStatus};
 pub use diagnostics::PhonationDiagnosticsPlugin;
-pub use gpu::{GpuFluidHandle, GpuProbes, GpuStepping, PhonationGpuPlugin};
+pub use gpu::{GpuAir, GpuFluidHandle, GpuProbes, GpuStepping, PhonationGpuPlugin};
+pub use gpu_coupled::{GpuCoupledHandle, GpuCoupledReadback};
+pub use gpu_solid::GpuSolidHandle;
 pub use lattice_gas::{LatticeGasDiagnostics, LatticeGasSimulation};
 pub use solid::{SolidDiagnostics, SolidSimulation, SolidStatus};
 pub use two_mass::{TwoMassSimulation, VoiceDiagnostics};

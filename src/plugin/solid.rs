@@ -2,6 +2,8 @@
 //! frame's steps of its solid stage list ([`crate::stages::SOLID_EXPLICIT_STEP`] or
 //! [`crate::stages::SOLID_IMPLICIT_STEP`]) on the CPU, in [`super::PhonationSystems::SolidStep`].
 //! A state that stops being finite marks the entity [`SolidStatus::Unstable`] and stops it.
+//! With [`super::GpuStepping`] (and [`super::PhonationGpuPlugin`], a render device) the render
+//! world steps it on the GPU instead ([`super::gpu_solid`]).
 
 use super::{PhonationSystems, StepsThisFrame};
 use crate::solid::{Energies, SolidSolver};
@@ -37,7 +39,11 @@ pub(super) fn build(app: &mut App) {
     app.add_systems(Update, (step_solids, solid_diagnostics).chain().in_set(PhonationSystems::SolidStep));
 }
 
-fn step_solids(steps: Res<StepsThisFrame>, mut sims: Query<(Entity, &mut SolidSimulation, Option<&SolidStatus>)>, mut commands: Commands) {
+pub(super) fn step_solids(
+    steps: Res<StepsThisFrame>,
+    mut sims: Query<(Entity, &mut SolidSimulation, Option<&SolidStatus>), super::gpu_solid::CpuStepped>,
+    mut commands: Commands,
+) {
     if steps.0 == 0 {
         return;
     }
@@ -56,7 +62,7 @@ fn step_solids(steps: Res<StepsThisFrame>, mut sims: Query<(Entity, &mut SolidSi
     }
 }
 
-fn solid_diagnostics(mut sims: Query<(Entity, &mut SolidSimulation)>, mut commands: Commands) {
+pub(super) fn solid_diagnostics(mut sims: Query<(Entity, &mut SolidSimulation)>, mut commands: Commands) {
     for (entity, mut sim) in &mut sims {
         let s = &mut sim.solver;
         let energies = s.energies();

@@ -1,4 +1,5 @@
-//! The slice of a GPU-stepped fluid ([`crate::plugin::GpuStepping`]) made on the device in the
+//! The slice of a GPU-stepped fluid or coupled simulation ([`crate::plugin::GpuStepping`],
+//! [`crate::plugin::GpuAir`]) made on the device in the
 //! render world after the frame's steps, with no round trip of the field: the plane's moments
 //! from the populations, the values in scene units, the colour scale's range and the pixels
 //! ([`GpuSlice`], shaders/slice.wgsl, the twin of the CPU slice checked in tests/gpu.rs), the
@@ -9,7 +10,7 @@
 use super::DrawSettings;
 use super::slice::{SliceView, unit_of};
 use crate::gpu::slice::GpuSlice;
-use crate::plugin::{FluidSimulation, GpuFluidHandle};
+use crate::plugin::{CoupledSimulation, FluidSimulation, GpuAir, GpuCoupledHandle, GpuFluidHandle};
 use crate::scene::schema::Field;
 use bevy::asset::RenderAssetUsages;
 use bevy::image::Image;
@@ -45,7 +46,10 @@ impl Plugin for GpuSlicePlugin {
         app.add_plugins(ExtractComponentPlugin::<GpuSliceHandle>::default())
             .add_systems(Update, update_gpu_slices.after(super::slice::update_slices).in_set(super::DrawSystems::Slice));
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
-            render_app.add_systems(RenderGraph, make_gpu_slices.after(crate::plugin::gpu::step_gpu_fluids).before(RenderGraphSystems::Render));
+            render_app.add_systems(
+                RenderGraph,
+                make_gpu_slices.after(crate::plugin::gpu::step_gpu_fluids).after(crate::plugin::gpu_coupled::step_gpu_coupled).before(RenderGraphSystems::Render),
+            );
         }
     }
 }
@@ -57,7 +61,7 @@ impl Plugin for GpuSlicePlugin {
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn update_gpu_slices(
     settings: Res<DrawSettings>,
-    sims: Query<(Entity, &FluidSimulation, &GpuFluidHandle, Option<&GpuSliceHandle>)>,
+    sims: Query<(Entity, AnyOf<(&FluidSimulation, &CoupledSimulation)>, AnyOf<(&GpuFluidHandle, &GpuCoupledHandle)>, Option<&GpuSliceHandle>)>,
     mut quads: Query<(Entity, &GpuSliceOf, &mut Visibility)>,
     device: Option<Res<RenderDevice>>,
     mut images: ResMut<Assets<Image>>,
@@ -68,7 +72,8 @@ fn update_gpu_slices(
 ) {
     let mut dropped = Vec::new();
     for (e, sim, handle, current) in &sims {
-        let (Some(field), Some(units), Some(device)) = (settings.slice, sim.units.as_ref(), device.as_deref()) else {
+        let (solver, units) = super::air_of(sim);
+        let (Some(field), Some(units), Some(device)) = (settings.slice, units.as_ref(), device.as_deref()) else {
             if current.is_some() {
                 commands.entity(e).remove::<(GpuSliceHandle, SliceView)>();
                 dropped.push(e);
@@ -81,9 +86,9 @@ fn update_gpu_slices(
         if current.is_some() {
             dropped.push(e);
         }
-        let grid = &sim.solver.layout.grid;
+        let grid = &solver.layout.grid;
         let map = crate::output::fields::plane_map(field, units);
-        let slice = GpuSlice::new(device.wgpu_device(), &handle.fluid().lock().expect("GPU lattice lock"), grid, map);
+        let Some(slice) = GpuAir(handle.0, handle.1).with_fluid(|f| GpuSlice::new(device.wgpu_device(), f, grid, map)) else { continue };
         let (w, h) = slice.size();
         let mut image = Image::new_uninit(
             Extent3d { width: w, height: h, depth_or_array_layers: 1 },
@@ -94,7 +99,7 @@ fn update_gpu_slices(
         image.texture_descriptor.usage |= TextureUsages::COPY_DST;
         let image = images.add(image);
         let range = buffers.add(ShaderBuffer::with_size(16, RenderAssetUsages::RENDER_WORLD));
-        let plane = super::slice::plane_geometry(&sim.solver, units);
+        let plane = super::slice::plane_geometry(solver, units);
         let mat = materials.add(StandardMaterial { base_color_texture: Some(image.clone()), unlit: true, ..default() });
         commands
             .spawn((
@@ -135,22 +140,24 @@ fn read_range(event: On<ReadbackComplete>, quads: Query<&GpuSliceOf>, mut views:
 /// first frames of a slice until its texture exists.
 fn make_gpu_slices(
     mut ctx: RenderContext,
-    sims: Query<(&GpuFluidHandle, &GpuSliceHandle)>,
+    sims: Query<(AnyOf<(&GpuFluidHandle, &GpuCoupledHandle)>, &GpuSliceHandle)>,
     images: Res<RenderAssets<GpuImage>>,
     buffers: Res<RenderAssets<GpuShaderBuffer>>,
     mut made: Local<Vec<AssetId<Image>>>,
 ) {
     let mut seen = Vec::new();
-    for (fluid, s) in &sims {
+    for (air, s) in &sims {
+        let air = GpuAir(air.0, air.1);
         let id = s.image.id();
         seen.push(id);
-        if fluid.steps_this_frame() == 0 && made.contains(&id) {
+        if air.steps_this_frame() == 0 && made.contains(&id) {
             continue;
         }
         let (Some(image), Some(range)) = (images.get(&s.image), buffers.get(&s.range)) else { continue };
-        let gpu = fluid.fluid().lock().expect("GPU lattice lock");
         let enc = ctx.command_encoder();
-        s.slice.record(&gpu, enc);
+        if air.with_fluid(|gpu| s.slice.record(gpu, enc)).is_none() {
+            continue;
+        }
         let (w, h) = s.slice.size();
         enc.copy_buffer_to_texture(
             wgpu::TexelCopyBufferInfo {

@@ -1,4 +1,5 @@
-//! Tracers of a GPU-stepped fluid ([`crate::plugin::GpuStepping`]) advected and drawn on the GPU,
+//! Tracers of a GPU-stepped fluid or coupled simulation ([`crate::plugin::GpuStepping`],
+//! [`crate::plugin::GpuAir`]) advected and drawn on the GPU,
 //! with no round trip through the CPU: the tracer kernel ([`crate::gpu::tracers::GpuTracers`],
 //! RK2 through the GPU fluid's macro buffer, checked against its CPU twin in tests/gpu.rs) runs
 //! in the render world right after the frame's fluid steps, its positions are copied (device to
@@ -9,7 +10,7 @@
 
 use super::DrawSettings;
 use crate::gpu::tracers::GpuTracers;
-use crate::plugin::{FluidSimulation, GpuFluidHandle};
+use crate::plugin::{CoupledSimulation, FluidSimulation, GpuAir, GpuCoupledHandle, GpuFluidHandle};
 use bevy::asset::{RenderAssetUsages, uuid_handle};
 use bevy::camera::visibility::NoFrustumCulling;
 use bevy::mesh::PrimitiveTopology;
@@ -79,7 +80,10 @@ impl Plugin for GpuTracerPlugin {
         app.add_plugins((MaterialPlugin::<TracerLineMaterial>::default(), ExtractComponentPlugin::<GpuTracerHandle>::default()))
             .add_systems(Update, spawn_gpu_tracers.in_set(super::DrawSystems::Tracers));
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
-            render_app.add_systems(RenderGraph, advect_gpu_tracers.after(crate::plugin::gpu::step_gpu_fluids).before(RenderGraphSystems::Render));
+            render_app.add_systems(
+                RenderGraph,
+                advect_gpu_tracers.after(crate::plugin::gpu::step_gpu_fluids).after(crate::plugin::gpu_coupled::step_gpu_coupled).before(RenderGraphSystems::Render),
+            );
         }
     }
 }
@@ -90,7 +94,7 @@ impl Plugin for GpuTracerPlugin {
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn spawn_gpu_tracers(
     settings: Res<DrawSettings>,
-    sims: Query<(Entity, &FluidSimulation, &GpuFluidHandle), Without<GpuTracerHandle>>,
+    sims: Query<(Entity, AnyOf<(&FluidSimulation, &CoupledSimulation)>, AnyOf<(&GpuFluidHandle, &GpuCoupledHandle)>), Without<GpuTracerHandle>>,
     owners: Query<(), With<GpuTracerHandle>>,
     mut lines: Query<(Entity, &GpuTracersOf, &mut Visibility)>,
     device: Option<Res<RenderDevice>>,
@@ -109,9 +113,9 @@ fn spawn_gpu_tracers(
     }
     let Some(device) = device else { return };
     for (e, sim, handle) in &sims {
-        let s = &sim.solver;
+        let (s, units) = super::air_of(sim);
+        let Some(stride) = GpuAir(handle.0, handle.1).with_fluid(|f| f.macro_buffers().2) else { continue };
         let seeded = super::tracers::FlowTracers::at_inlet(s, settings.tracer_count).tracers;
-        let stride = handle.fluid().lock().expect("GPU lattice lock").macro_buffers().2;
         let gpu = GpuTracers::on_device(device.wgpu_device(), &seeded, &s.layout.grid, stride);
         let n = seeded.positions.len();
         let start: Vec<[f32; 4]> = seeded.positions.iter().chain(&seeded.positions).map(|p| [p.x as f32, p.y as f32, p.z as f32, 0.0]).collect();
@@ -121,7 +125,7 @@ fn spawn_gpu_tracers(
         // one line per tracer; a vertex's position is (tracer, end, 0) for the shader
         let mut mesh = Mesh::new(PrimitiveTopology::LineList, RenderAssetUsages::RENDER_WORLD);
         mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, (0..n).flat_map(|k| [[k as f32, 0.0, 0.0], [k as f32, 1.0, 0.0]]).collect::<Vec<[f32; 3]>>());
-        let dx = sim.units.map_or(1.0, |u| u.dx) as f32;
+        let dx = units.map_or(1.0, |u| u.dx) as f32;
         let z = if s.layout.grid.dim == 3 { 0.5 * dx } else { 0.3 * dx };
         let material = materials.add(TracerLineMaterial { tracers: drawn.clone(), scale: Vec4::new(0.25, 0.0, 0.0, 0.0) });
         commands.spawn((
@@ -141,25 +145,27 @@ fn spawn_gpu_tracers(
 /// frame's steps, the positions now — all on the device.
 fn advect_gpu_tracers(
     mut ctx: RenderContext,
-    sims: Query<(&GpuFluidHandle, &GpuTracerHandle)>,
+    sims: Query<(AnyOf<(&GpuFluidHandle, &GpuCoupledHandle)>, &GpuTracerHandle)>,
     buffers: Res<RenderAssets<GpuShaderBuffer>>,
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
 ) {
-    for (fluid, tracers) in &sims {
-        let steps = fluid.steps_this_frame();
+    for (air, tracers) in &sims {
+        let air = GpuAir(air.0, air.1);
+        let steps = air.steps_this_frame();
         let Some(drawn) = buffers.get(&tracers.drawn) else { continue };
         if steps == 0 {
             continue;
         }
-        let fluid = fluid.fluid().lock().expect("GPU lattice lock");
-        let (mac, kind, _) = fluid.macro_buffers();
-        let mut t = tracers.tracers.lock().expect("GPU tracers lock");
-        let bytes = 16 * t.count() as u64;
-        let q: &wgpu::Queue = &queue.0;
-        let enc = ctx.command_encoder();
-        enc.copy_buffer_to_buffer(&t.tracers, 0, &drawn.buffer, bytes, bytes);
-        t.record_on(device.wgpu_device(), q, enc, mac, kind, tracers.dt, steps);
-        enc.copy_buffer_to_buffer(&t.tracers, 0, &drawn.buffer, 0, bytes);
+        air.with_fluid(|fluid| {
+            let (mac, kind, _) = fluid.macro_buffers();
+            let mut t = tracers.tracers.lock().expect("GPU tracers lock");
+            let bytes = 16 * t.count() as u64;
+            let q: &wgpu::Queue = &queue.0;
+            let enc = ctx.command_encoder();
+            enc.copy_buffer_to_buffer(&t.tracers, 0, &drawn.buffer, bytes, bytes);
+            t.record_on(device.wgpu_device(), q, enc, mac, kind, tracers.dt, steps);
+            enc.copy_buffer_to_buffer(&t.tracers, 0, &drawn.buffer, 0, bytes);
+        });
     }
 }

@@ -57,6 +57,18 @@ impl Default for DrawSettings {
     }
 }
 
+/// The air of a fluid or coupled simulation entity (queried as
+/// `AnyOf<(&FluidSimulation, &CoupledSimulation)>`) and its units when it has them.
+pub fn air_of<'a>(
+    sim: (Option<&'a crate::plugin::FluidSimulation>, Option<&'a crate::plugin::CoupledSimulation>),
+) -> (&'a crate::fluid::FluidSolver, Option<crate::units::Units>) {
+    match sim {
+        (Some(f), _) => (&f.solver, f.units),
+        (None, Some(c)) => (&c.solver.fluid, Some(c.solver.units)),
+        (None, None) => unreachable!("AnyOf matches one of the two"),
+    }
+}
+
 /// The drawing systems, after the simulation's sets.
 #[derive(SystemSet, Debug, Clone, PartialEq, Eq, Hash)]
 pub enum DrawSystems {

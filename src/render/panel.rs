@@ -37,10 +37,10 @@ pub struct PanelState {
     /// Factor of the preset's lattice cells (the particles' spacing divided by it; one of
     /// [`super::presets::RESOLUTIONS`] in the panel); `None` keeps the preset's.
     pub resolution: Option<f64>,
-    /// Step a fluid preset's air on the render device ([`crate::plugin::GpuStepping`]; the app
-    /// needs [`crate::plugin::PhonationGpuPlugin`]): its tracers and slice are then made on the
-    /// device too. Refused for the coupled and lattice-gas presets, which the app steps on the
-    /// CPU.
+    /// Step a fluid preset's air, or a coupled preset's air and bodies, on the render device
+    /// ([`crate::plugin::GpuStepping`]; the app needs [`crate::plugin::PhonationGpuPlugin`]):
+    /// the tracers and slice are then made on the device too. Refused for the lattice-gas
+    /// presets, which the app steps on the CPU.
     pub air_on_gpu: bool,
 }
 
@@ -94,7 +94,7 @@ fn panel_ui(
         Option<&CoupledStatus>,
         Option<&PlotHistory>,
         Option<&SliceView>,
-        (Option<&FoldMesh>, Option<&GpuFoldMesh>),
+        (Option<&FoldMesh>, Option<&GpuFoldMesh>, Has<crate::plugin::GpuCoupledHandle>),
     )>,
     fluids: Query<
         (&FluidSimulation, Option<&PanelTarget>, Option<&FluidStatus>, Option<&PlotHistory>, Option<&SliceView>, Option<&GpuProbes>),
@@ -133,15 +133,17 @@ fn panel_ui(
         });
         settings.slice = field;
         let rates = format!("{:.0} frames/s · {:.0} steps/s", 1.0 / time.delta_secs().max(1e-6), smoothed.get(&STEPS_PER_SECOND));
-        for (sim, target, diag, voice, g, status, plots, slice, (cpu_folds, gpu_folds)) in &coupled {
+        for (sim, target, diag, voice, g, status, plots, slice, (cpu_folds, gpu_folds, on_gpu)) in &coupled {
             ui.separator();
             target_error(ui, target);
             if let Some(CoupledStatus::Unstable(why)) = status {
                 ui.colored_label(egui::Color32::LIGHT_RED, format!("stopped: {why}"));
             }
             let s = &sim.solver;
-            ui.label(format!("CPU backend · {} nodes · {} particles", s.fluid.layout.grid.interior_len(), s.solid.particles.len()));
-            ui.label(format!("t = {:.3} ms ({} steps)", s.time * 1e3, s.step_count));
+            let backend = if on_gpu { "GPU backend (render device)" } else { "CPU backend" };
+            ui.label(format!("{backend} · {} nodes · {} particles", s.fluid.layout.grid.interior_len(), s.solid.particles.len()));
+            let read = if on_gpu { " read back" } else { "" };
+            ui.label(format!("t = {:.3} ms ({} steps{read})", s.time * 1e3, s.step_count));
             ui.label(format!("{rates} · {:.2e} nodes/s · max Mach {:.3}", smoothed.get(&NODE_UPDATES_PER_SECOND), smoothed.get(&MAX_MACH)));
             slice_legend(ui, slice, settings.slice);
             if let Some(line) = fold_surface_line(cpu_folds, gpu_folds).filter(|_| settings.folds) {
@@ -288,7 +290,7 @@ fn scene_controls(ui: &mut egui::Ui, state: &mut PanelState) {
         });
     }
     if kind == Some(crate::scene::SceneKind::Fluid) {
-        ui.checkbox(&mut state.air_on_gpu, "air stepped on the GPU (render device)");
+        ui.checkbox(&mut state.air_on_gpu, "stepped on the GPU (render device)");
     }
     if kind != Some(crate::scene::SceneKind::Coupled) {
         return;

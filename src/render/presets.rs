@@ -96,9 +96,9 @@ pub enum PresetSimulation {
 /// The simulation of `state`, or why it is refused (naming the parameter).
 pub fn build_preset(state: &PanelState) -> Result<PresetSimulation, String> {
     let text = crate::scene::builtin(&state.preset).ok_or_else(|| format!("preset: no built-in scene {}", state.preset))?;
-    if state.air_on_gpu && SceneKind::of(text) != SceneKind::Fluid {
+    if state.air_on_gpu && !matches!(SceneKind::of(text), SceneKind::Fluid | SceneKind::Coupled) {
         return Err(format!(
-            "air_on_gpu: preset {} is a {:?} scene, which the app steps on the CPU (the air of a fluid preset steps on the GPU; `phonation run --backend gpu` runs a coupled scene on the GPU)",
+            "air_on_gpu: preset {} is a {:?} scene, which the app steps on the CPU (fluid and coupled presets step on the GPU; `phonation run --backend gpu` runs a lattice-gas scene on the GPU)",
             state.preset,
             SceneKind::of(text)
         ));
@@ -139,6 +139,7 @@ pub fn preset_moduli(preset: &str) -> (f64, f64) {
 fn clear_simulation(ec: &mut EntityCommands) {
     use crate::plugin::*;
     ec.remove::<(CoupledSimulation, CoupledStatus, CoupledGlottis, CoupledDiagnostics, VoiceDiagnostics, diagnostics::InitialMass)>();
+    ec.remove::<(GpuStepping, GpuFluidHandle, GpuProbes, GpuCoupledHandle, GpuCoupledReadback)>();
     ec.remove::<(FluidSimulation, FluidStatus, FluidDiagnostics, LatticeGasSimulation, LatticeGasDiagnostics)>();
     ec.remove::<(super::fold_mesh::FoldMesh, super::gpu_fold_mesh::GpuFoldMesh, super::tracers::FlowTracers, super::slice::SliceView, super::plots::PlotHistory)>();
 }
@@ -175,6 +176,9 @@ pub fn apply_panel(
                         ec.insert(*c);
                         if let Some(g) = g {
                             ec.insert(g);
+                        }
+                        if state.air_on_gpu {
+                            ec.insert(GpuStepping);
                         }
                     }
                     PresetSimulation::Fluid(f) => {

@@ -78,7 +78,7 @@ impl Plugin for TracerPlugin {
 fn advance_tracers(
     settings: Res<DrawSettings>,
     steps: Res<StepsThisFrame>,
-    mut coupled: Query<(Entity, &CoupledSimulation, Option<&mut FlowTracers>)>,
+    mut coupled: Query<(Entity, &CoupledSimulation, Option<&mut FlowTracers>), Without<crate::plugin::GpuCoupledHandle>>,
     mut fluids: Query<(Entity, &FluidSimulation, Option<&mut FlowTracers>), CpuSteppedFluid>,
     mut gizmos: Gizmos,
     mut commands: Commands,

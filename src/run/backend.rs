@@ -267,19 +267,20 @@ impl SolidEngine {
     /// solver's options; the GPU's (f32) takes it too, and refuses one below what f32 reaches
     /// ([`GPU_CG_FLOOR`]); without one the GPU uses [`GPU_CG_DEFAULT`] (the CPU default, 10⁻⁸,
     /// is out of f32's reach).
-    pub fn new(backend: Backend, mut solver: SolidSolver, cg_tolerance: Option<f64>) -> anyhow::Result<Self> {
-        let (ctx, name) = pick_gpu(backend)?;
-        let mut health = None;
-        let gpu = match ctx {
-            Some(ctx) => {
-                let mut g = GpuSolid::from_solver(&ctx, &mut solver)?;
-                health = Some(uploaded(&ctx)?);
-                g.cg_tolerance = gpu_cg_tolerance(cg_tolerance)?;
-                Some(g)
-            }
-            None => None,
-        };
-        Ok(Self { solver, gpu, health, name })
+    pub fn new(backend: Backend, solver: SolidSolver, cg_tolerance: Option<f64>) -> anyhow::Result<Self> {
+        match pick_gpu(backend)? {
+            (Some(ctx), name) => Self::on_device(ctx, name, solver, cg_tolerance),
+            (None, name) => Ok(Self { solver, gpu: None, health: None, name }),
+        }
+    }
+
+    /// `solver` uploaded to the device of `ctx` (one the caller opened, or Bevy's render device
+    /// shared through [`GpuContext::shared`]), `cg_tolerance` as for [`Self::new`].
+    pub fn on_device(ctx: GpuContext, name: String, mut solver: SolidSolver, cg_tolerance: Option<f64>) -> anyhow::Result<Self> {
+        let mut g = GpuSolid::from_solver(&ctx, &mut solver)?;
+        let health = Some(uploaded(&ctx)?);
+        g.cg_tolerance = gpu_cg_tolerance(cg_tolerance)?;
+        Ok(Self { solver, gpu: Some(g), health, name })
     }
 
     /// Iterations and relative residual of the last GPU conjugate-gradient solve (None on the

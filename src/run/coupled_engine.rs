@@ -54,14 +54,23 @@ impl CoupledEngine {
             let name = format!("cpu ({} threads; the GPU backend does not run this scene: {why})", rayon::current_num_threads());
             return Ok(engine(CoupledOn::Cpu(solver), None, name));
         }
+        Self::on_device(ctx, name, solver, cg_tolerance)
+    }
+
+    /// `solver` uploaded to the device of `ctx` (one the caller opened, or Bevy's render device
+    /// shared through [`crate::gpu::GpuContext::shared`]); a scene the GPU backend does not run
+    /// is refused naming the field, as is a `cg_tolerance` its f32 solve cannot reach.
+    pub fn on_device(ctx: crate::gpu::GpuContext, name: String, solver: CoupledSolver, cg_tolerance: Option<f64>) -> anyhow::Result<Self> {
+        GpuCoupled::supports(&solver)?;
         let tolerance = gpu_cg_tolerance(cg_tolerance)?;
+        let step = solver.step_count;
         let health = ctx.health.clone();
         let mut g = GpuCoupled::new(ctx, solver)?;
         g.solid.cg_tolerance = tolerance;
         if let Some(why) = health.settle() {
             return Err(GpuError::Failed(why).into());
         }
-        Ok(engine(CoupledOn::Gpu(Box::new(g)), Some(health), name))
+        Ok(Self { on: CoupledOn::Gpu(Box::new(g)), health: Some(health), name, mirror: Mirror::new(step), solid_at: step })
     }
 
     /// The mirror as it is: on the CPU the solver itself; on the GPU the CPU side of the last
@@ -149,6 +158,15 @@ impl CoupledEngine {
     /// What came back from the device for the outputs (nothing on the CPU).
     pub fn readback(&self) -> Readback {
         self.mirror.readback
+    }
+
+    /// The air on the device (None on the CPU), for kernels that read it in place: the Bevy
+    /// plugin's tracers and slices.
+    pub fn gpu_fluid(&self) -> Option<&crate::gpu::GpuFluid> {
+        match &self.on {
+            CoupledOn::Cpu(_) => None,
+            CoupledOn::Gpu(g) => Some(&g.fluid),
+        }
     }
 
     /// Whether a GPU steps it.

@@ -1,0 +1,283 @@
+//! The coupled solver stepped on the GPU in Bevy's render world (feature `bevy`): put
+//! [`GpuStepping`] on a [`CoupledSimulation`] entity in an app with [`super::PhonationGpuPlugin`]
+//! and a render device, and its air and bodies are uploaded once to Bevy's render device as a
+//! [`CoupledEngine`] (the run layer's GPU backend, [`crate::gpu::coupled::GpuCoupled`], both
+//! coupling methods). A system of the `RenderGraph` schedule, ordered before the camera driver,
+//! advances it by the frame's steps of its stage list ([`crate::stages::COUPLED_WEAK_STEP`] or
+//! [`crate::stages::COUPLED_CONSERVING_STEP`]); what the main world shows comes back small:
+//!
+//! | per | what comes back | used by |
+//! |---|---|---|
+//! | coupled step, with a [`CoupledGlottis`] | the solid and the fluid nodes of the glottis's narrowest section (`CoupledEngine::observe`) | the glottal flow and area, [`super::VoiceDiagnostics`] |
+//! | frame | the solid (positions, velocities, rotations, spins), the air's totals summed on the device (one partial per 1024 nodes), the air's forces on the bodies, the geometry's node counts | the fold mesh, [`CoupledDiagnostics`], the panel |
+//!
+//! The populations never cross the bus whole (the coupling's own stages bring back the nodes a
+//! change of layout reads and, for method 1, the nodes its traction samples). The main world's
+//! [`CoupledSimulation::solver`] keeps the step counter, the time and the solid of the last
+//! frame read back; its air stays as uploaded — the drawing reads the device's instead (the
+//! tracers and slice of `render::gpu_tracers` and `render::gpu_slice` (feature `render`), through
+//! [`super::GpuAir`]).
+//! Readbacks lag a frame or two behind the render world; [`GpuCoupledReadback::step`] says which
+//! step they belong to.
+//!
+//! An implicit solid solves to the GPU backend's default tolerance (`solid.cg_tolerance` 10⁻⁵;
+//! the CPU's default of 10⁻⁸ is below what its f32 solve reaches).
+//!
+//! Without a render device nothing is uploaded and the entity keeps being stepped on the CPU by
+//! [`super::PhonationPlugin`], with the same components.
+
+use super::{CoupledGlottis, CoupledSimulation, CoupledStatus, GpuStepping, PhonationSystems, StepsThisFrame};
+use crate::coupling::glottis::{GlottalSample, Glottis};
+use crate::coupling::traction::SurfaceForces;
+use crate::fluid::{GeometryChange, Totals};
+use crate::gpu::GpuContext;
+use crate::run::CoupledEngine;
+use crate::solid::SolidSolver;
+use crate::step::Solver;
+use bevy::prelude::*;
+use bevy::render::RenderApp;
+use bevy::render::extract_component::{ExtractComponent, ExtractComponentPlugin};
+use bevy::render::renderer::{RenderAdapterInfo, RenderDevice, RenderGraph, RenderGraphSystems, RenderQueue};
+use glam::{DQuat, DVec3};
+use std::sync::{Arc, Mutex};
+
+/// The GPU-resident coupled solver of an entity, shared with the render world, which steps it.
+#[derive(Component, Clone, ExtractComponent)]
+pub struct GpuCoupledHandle {
+    engine: Arc<Mutex<CoupledEngine>>,
+    glottis: Option<Arc<Glottis>>,
+    inbox: Arc<Mutex<CoupledFrame>>,
+    /// Steps the render world runs this frame.
+    steps_this_frame: u32,
+}
+
+impl GpuCoupledHandle {
+    /// The engine the render world steps (locked by it while it steps).
+    pub fn engine(&self) -> &Arc<Mutex<CoupledEngine>> {
+        &self.engine
+    }
+
+    /// Steps the render world runs this frame.
+    pub fn steps_this_frame(&self) -> u32 {
+        self.steps_this_frame
+    }
+}
+
+/// What the render world read back for the main world since it last looked.
+#[derive(Default)]
+struct CoupledFrame {
+    step: u64,
+    time: f64,
+    /// One per coupled step, in order (with a glottis).
+    samples: Vec<GlottalSample>,
+    solid: Option<SolidKinematics>,
+    totals: Option<Totals>,
+    forces: Option<SurfaceForces>,
+    geometry: GeometryChange,
+    /// The diagnosis of the step that failed; the render world steps the entity no more.
+    failure: Option<String>,
+    fresh: bool,
+}
+
+/// A solid's moving state as read back (what the fold mesh, the energies and the momenta read).
+pub(super) struct SolidKinematics {
+    step: u64,
+    time: f64,
+    position: Vec<DVec3>,
+    velocity: Vec<DVec3>,
+    rotation: Vec<DQuat>,
+    spin: Vec<DVec3>,
+}
+
+impl SolidKinematics {
+    pub(super) fn of(s: &SolidSolver) -> Self {
+        let p = &s.particles;
+        SolidKinematics {
+            step: s.step_count,
+            time: s.time,
+            position: p.position.clone(),
+            velocity: p.velocity.clone(),
+            rotation: p.rotation.clone(),
+            spin: p.spin.clone(),
+        }
+    }
+
+    /// Into `s` (the main world's copy of the solver).
+    pub(super) fn apply(self, s: &mut SolidSolver) {
+        let p = &mut s.particles;
+        (p.position, p.velocity, p.rotation, p.spin) = (self.position, self.velocity, self.rotation, self.spin);
+        (s.step_count, s.time) = (self.step, self.time);
+    }
+}
+
+/// The last frame read back from the render world for a GPU-stepped coupled entity.
+#[derive(Component, Debug, Clone, Default)]
+pub struct GpuCoupledReadback {
+    /// The coupled step the figures belong to.
+    pub step: u64,
+    /// The air's totals at that step (lattice units), summed on the device.
+    pub totals: Option<Totals>,
+    /// Readbacks received.
+    pub readbacks: u64,
+}
+
+pub(super) fn build(app: &mut App) {
+    app.add_plugins(ExtractComponentPlugin::<GpuCoupledHandle>::default()).add_systems(
+        Update,
+        (upload_coupled.before(super::coupled::step_coupled), receive_coupled_frames.before(super::coupled::coupled_diagnostics), schedule_coupled_steps)
+            .in_set(PhonationSystems::CoupledStep),
+    );
+    if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
+        render_app.add_systems(RenderGraph, step_gpu_coupled.before(RenderGraphSystems::Render));
+    }
+}
+
+/// Uploads each GPU-stepping coupled entity once (a copy of its solver: the main world keeps
+/// the original as the mirror it shows).
+fn upload_coupled(
+    mut commands: Commands,
+    sims: Query<(Entity, &CoupledSimulation, Option<&CoupledGlottis>), (With<GpuStepping>, Without<GpuCoupledHandle>)>,
+    device: Option<Res<RenderDevice>>,
+    queue: Option<Res<RenderQueue>>,
+    info: Option<Res<RenderAdapterInfo>>,
+) {
+    let (Some(device), Some(queue), Some(info)) = (device, queue, info) else { return };
+    for (entity, sim, glottis) in &sims {
+        let (ctx, name) = shared_context(&device, &queue, &info);
+        let engine = match CoupledEngine::on_device(ctx, name, sim.solver.clone(), None) {
+            Ok(e) => e,
+            Err(e) => {
+                warn!("phonation: coupled simulation on {entity} stays on the CPU: {e:#}");
+                commands.entity(entity).remove::<GpuStepping>();
+                continue;
+            }
+        };
+        let handle = GpuCoupledHandle {
+            engine: Arc::new(Mutex::new(engine)),
+            glottis: glottis.map(|g| Arc::new(g.glottis.clone())),
+            inbox: Arc::default(),
+            steps_this_frame: 0,
+        };
+        commands.entity(entity).insert((handle, GpuCoupledReadback::default()));
+    }
+}
+
+/// Bevy's render device as a [`GpuContext`] (its failures left to Bevy) and its name.
+pub(super) fn shared_context(device: &RenderDevice, queue: &RenderQueue, info: &RenderAdapterInfo) -> (GpuContext, String) {
+    let q: &wgpu::Queue = &queue.0;
+    let adapter: &wgpu::AdapterInfo = &info.0;
+    let ctx = GpuContext::shared(device.wgpu_device().clone(), q.clone(), adapter.clone(), device.limits());
+    let name = format!("gpu: {} (Bevy's render device)", ctx.describe());
+    (ctx, name)
+}
+
+fn schedule_coupled_steps(steps: Res<StepsThisFrame>, mut handles: Query<(&mut GpuCoupledHandle, Option<&CoupledStatus>)>) {
+    for (mut h, status) in &mut handles {
+        h.steps_this_frame = if matches!(status, Some(CoupledStatus::Unstable(_))) { 0 } else { steps.0 };
+    }
+}
+
+/// Render world: the frame's coupled steps (each stage waits on the device, as the run layer's
+/// GPU backend does), the glottis sampled after each, then the frame's small readback.
+pub(crate) fn step_gpu_coupled(handles: Query<&GpuCoupledHandle>) {
+    for h in &handles {
+        if h.steps_this_frame == 0 || h.inbox.lock().expect("coupled inbox").failure.is_some() {
+            continue;
+        }
+        let mut engine = h.engine.lock().expect("coupled engine");
+        let mut samples = Vec::new();
+        let mut failure = None;
+        for _ in 0..h.steps_this_frame {
+            if let Err(e) = engine.step() {
+                failure = Some(e.to_string());
+                break;
+            }
+            if let Some(g) = &h.glottis {
+                let mut section = None;
+                match engine.observe(|c| {
+                    let s = g.section(c);
+                    let nodes = s.nodes.clone();
+                    section = Some(s);
+                    nodes
+                }) {
+                    Ok(c) => samples.push(section.expect("the section of the step").sample(&c.fluid)),
+                    Err(e) => {
+                        failure = Some(e.to_string());
+                        break;
+                    }
+                }
+            }
+        }
+        let totals = if failure.is_none() { engine.totals().map_err(|e| failure = Some(e.to_string())).ok() } else { None };
+        let read = engine.observe(|_| Vec::new());
+        let mut inbox = h.inbox.lock().expect("coupled inbox");
+        if let Ok(c) = read {
+            inbox.solid = Some(SolidKinematics::of(&c.solid));
+            (inbox.step, inbox.time) = (c.step_count, c.time);
+            inbox.forces = Some(c.forces.clone());
+            inbox.geometry = c.geometry;
+        }
+        inbox.samples.append(&mut samples);
+        inbox.totals = totals.or(inbox.totals);
+        if inbox.failure.is_none() {
+            inbox.failure = failure;
+        }
+        inbox.fresh = true;
+    }
+}
+
+/// Main world: what the render world read back goes into the entity's solver (step, time,
+/// solid, forces, geometry counts), its glottis's flow history and [`GpuCoupledReadback`]; a
+/// failure marks it [`CoupledStatus::Unstable`].
+fn receive_coupled_frames(
+    mut sims: Query<(Entity, &GpuCoupledHandle, &mut CoupledSimulation, &mut GpuCoupledReadback, Option<&mut CoupledGlottis>)>,
+    mut commands: Commands,
+) {
+    for (entity, h, mut sim, mut readback, glottis) in &mut sims {
+        let frame = {
+            let mut inbox = h.inbox.lock().expect("coupled inbox");
+            if !inbox.fresh {
+                continue;
+            }
+            inbox.fresh = false;
+            CoupledFrame {
+                step: inbox.step,
+                time: inbox.time,
+                samples: std::mem::take(&mut inbox.samples),
+                solid: inbox.solid.take(),
+                totals: inbox.totals,
+                forces: inbox.forces.take(),
+                geometry: inbox.geometry,
+                failure: inbox.failure.clone(),
+                fresh: true,
+            }
+        };
+        let s = &mut sim.solver;
+        (s.step_count, s.time) = (frame.step, frame.time);
+        if let Some(k) = frame.solid {
+            k.apply(&mut s.solid);
+        }
+        if let Some(f) = frame.forces {
+            s.forces = f;
+        }
+        s.geometry = frame.geometry;
+        if let Some(mut g) = glottis {
+            let keep = (g.history_s / s.dt()).ceil() as usize;
+            for sample in &frame.samples {
+                g.area = sample.area;
+                g.flow.push_back(sample.flow);
+            }
+            while g.flow.len() > keep {
+                g.flow.pop_front();
+            }
+        }
+        *readback = GpuCoupledReadback { step: frame.step, totals: frame.totals, readbacks: readback.readbacks + 1 };
+        if let Some(why) = frame.failure {
+            warn!("phonation: coupled simulation on {entity} stopped on the GPU: {why}");
+            commands.entity(entity).insert(CoupledStatus::Unstable(why));
+        }
+    }
+}
+
+/// Keeps the main world from stepping a GPU-stepped entity on the CPU.
+pub(super) type CpuStepped = Without<GpuCoupledHandle>;
