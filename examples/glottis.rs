@@ -7,18 +7,22 @@
 //!     cargo run --release --example glottis -- --preset glottis_2d_coarse --steps-per-frame 20
 //!     cargo run --release --example glottis -- --preset lattice_gas_wake
 //!     cargo run --release --example glottis -- --preset cylinder_wake --air-on-gpu
-//!     cargo run --release --example glottis -- --air-on-gpu     # the glottis's air and folds on the GPU
+//!     cargo run --release --example glottis -- --air-on-gpu     # on the GPU even if it is lavapipe
+//!     cargo run --release --example glottis -- --cpu            # on the CPU even on a hardware GPU
 //!     cargo run --release --example glottis -- --frames 30 --screenshot glottis.png
 //!
-//! The simulation runs on the CPU backend (the window's panel says so) and the GPU draws it —
-//! the folds' surface made on the GPU from the particles; with `--air-on-gpu` (or the panel's
-//! checkbox) a fluid preset's air, or a coupled preset's air and folds, step on the GPU in the
-//! render world, the tracers and slice made there too.
+//! On a hardware GPU the simulation (a fluid preset's air, a coupled preset's air and folds)
+//! steps on the render device in the render world, its tracers and slice made there too; without
+//! one it runs on the CPU backend, the glottis cases A–D at half the seed's lattice
+//! (`render::presets::choose_backend`). The window's title and the panel say which; the GPU
+//! draws it either way (the folds' surface made on the GPU from the particles).
 
 use bevy::prelude::*;
 use phonation::plugin::{PhonationGpuPlugin, SimulationControl};
 use phonation::render::PhonationPlugins;
+use bevy::render::renderer::RenderAdapterInfo;
 use phonation::render::panel::{PanelState, PanelTarget};
+use phonation::render::presets::choose_backend;
 use phonation::render::view::{CapturePlugin, FrameSimulation};
 
 fn arg(name: &str) -> Option<String> {
@@ -29,20 +33,35 @@ fn arg(name: &str) -> Option<String> {
 fn main() {
     let preset = arg("--preset").unwrap_or_else(|| "glottis_2d_c".into());
     let steps = arg("--steps-per-frame").and_then(|s| s.parse().ok()).unwrap_or(5);
-    let air_on_gpu = std::env::args().any(|a| a == "--air-on-gpu");
-    let backend = if air_on_gpu { "stepped on the GPU" } else { "CPU backend" };
-    let window = Window { title: format!("phonation — {preset} ({backend})"), resolution: (1280, 800).into(), ..default() };
+    let flag = |f: &str| std::env::args().any(|a| a == f);
+    let forced = if flag("--air-on-gpu") { Some(true) } else if flag("--cpu") { Some(false) } else { None };
+    let window = Window { title: format!("phonation — {preset}"), resolution: (1280, 800).into(), ..default() };
     let mut app = App::new();
     app.add_plugins(DefaultPlugins.set(WindowPlugin { primary_window: Some(window), ..default() }))
         .add_plugins((PhonationPlugins, PhonationGpuPlugin))
-        .insert_resource(PanelState { preset, air_on_gpu, ..default() })
+        .insert_resource(PanelState { preset, air_on_gpu: forced == Some(true), ..default() })
         .insert_resource(SimulationControl { steps_per_frame: steps, ..default() })
         .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
-        .add_systems(Startup, setup);
+        .add_systems(Startup, (setup, move |info: Option<Res<RenderAdapterInfo>>, state: ResMut<PanelState>, windows: Query<&mut Window>| {
+            choose(forced, info, state, windows)
+        }));
     if let (Some(frames), Some(path)) = (arg("--frames").and_then(|f| f.parse().ok()), arg("--screenshot")) {
         app.add_plugins(CapturePlugin { frames, path: path.into() });
     }
     app.run();
+}
+
+/// The backend (forced by a flag, or the adapter's choice) in the window's title.
+fn choose(forced: Option<bool>, info: Option<Res<RenderAdapterInfo>>, mut state: ResMut<PanelState>, mut windows: Query<&mut Window>) {
+    let line = match forced {
+        Some(true) => "stepped on the GPU (--air-on-gpu)".to_string(),
+        Some(false) => choose_backend(&mut state, None).replace("no render device", "--cpu"),
+        None => choose_backend(&mut state, info.as_ref().map(|i| (i.0.name.as_str(), i.0.device_type))),
+    };
+    for mut w in &mut windows {
+        w.title = format!("{} ({line})", w.title);
+    }
+    println!("phonation: {} — {line}", state.preset);
 }
 
 fn setup(mut commands: Commands) {

@@ -85,6 +85,39 @@ pub fn scene_of(state: &PanelState) -> Result<CoupledScene, String> {
     Ok(sc)
 }
 
+/// The glottis presets on the seed's lattice (124 × 128 cells), which an app without a hardware
+/// GPU steps at ×0.5 ([`choose_backend`]).
+const SEED_LATTICE_PRESETS: [&str; 4] = ["glottis_2d_a", "glottis_2d_b", "glottis_2d_c", "glottis_2d_d"];
+
+/// Where an app steps `state`'s preset when it was not told (`--backend auto`, as `phonation
+/// run` does): on the render device when `adapter` (its name and type) is a hardware GPU
+/// ([`crate::run::is_hardware_gpu`]) and the preset is a fluid or coupled scene; otherwise on
+/// the CPU backend, the glottis presets on the seed's lattice at ×0.5 resolution (62 × 64
+/// cells) unless a resolution was set. Returns the line that says which (for a window title).
+pub fn choose_backend(state: &mut PanelState, adapter: Option<(&str, wgpu::DeviceType)>) -> String {
+    let steppable = crate::scene::builtin(&state.preset).is_some_and(|t| matches!(SceneKind::of(t), SceneKind::Fluid | SceneKind::Coupled));
+    match adapter {
+        Some((name, kind)) if crate::run::is_hardware_gpu(kind) && steppable => {
+            state.air_on_gpu = true;
+            format!("stepped on the GPU: {name}")
+        }
+        _ => {
+            state.air_on_gpu = false;
+            let why = match adapter {
+                Some((name, _)) if steppable => format!("{name} is not a hardware GPU"),
+                Some(_) => "the app steps this preset on the CPU".to_string(),
+                None => "no render device".to_string(),
+            };
+            if state.resolution.is_none() && SEED_LATTICE_PRESETS.contains(&state.preset.as_str()) {
+                state.resolution = Some(0.5);
+                format!("CPU backend at ×0.5 resolution: {why}")
+            } else {
+                format!("CPU backend: {why}")
+            }
+        }
+    }
+}
+
 /// What a preset builds.
 pub enum PresetSimulation {
     /// Air and bodies (the glottis, the flap), with the glottis's readouts when it has folds.
@@ -208,5 +241,39 @@ pub fn apply_panel(
                 t.error = Some(why);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use wgpu::DeviceType;
+
+    #[test]
+    fn a_hardware_gpu_steps_the_glottis_and_a_software_one_leaves_it_on_the_cpu_at_half_resolution() {
+        let mut s = PanelState::default();
+        assert_eq!(choose_backend(&mut s, Some(("NVIDIA H200", DeviceType::DiscreteGpu))), "stepped on the GPU: NVIDIA H200");
+        assert!(s.air_on_gpu && s.resolution.is_none());
+
+        let mut s = PanelState::default();
+        let line = choose_backend(&mut s, Some(("llvmpipe (LLVM 19.1.7, 256 bits)", DeviceType::Cpu)));
+        assert_eq!(line, "CPU backend at ×0.5 resolution: llvmpipe (LLVM 19.1.7, 256 bits) is not a hardware GPU");
+        assert!(!s.air_on_gpu && s.resolution == Some(0.5));
+        // the half-resolution glottis is a scene the panel builds: 62 × 64 cells
+        let sc = scene_of(&s).unwrap();
+        assert_eq!(sc.build().unwrap().fluid.layout.grid.n[..2], [62, 64]);
+
+        // a resolution the app set is kept; a CPU-sized preset keeps its lattice
+        let mut s = PanelState { resolution: Some(1.5), ..PanelState::default() };
+        choose_backend(&mut s, None);
+        assert_eq!((s.air_on_gpu, s.resolution), (false, Some(1.5)));
+        let mut s = PanelState { preset: "glottis_2d_coarse".into(), ..PanelState::default() };
+        assert_eq!(choose_backend(&mut s, None), "CPU backend: no render device");
+        assert_eq!(s.resolution, None);
+
+        // the lattice gas stays on the CPU even on a hardware GPU
+        let mut s = PanelState { preset: "lattice_gas_wake".into(), air_on_gpu: true, ..PanelState::default() };
+        assert_eq!(choose_backend(&mut s, Some(("NVIDIA H200", DeviceType::DiscreteGpu))), "CPU backend: the app steps this preset on the CPU");
+        assert!(!s.air_on_gpu);
     }
 }

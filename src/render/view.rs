@@ -61,7 +61,9 @@ pub fn frame_simulations(
     }
 }
 
-/// Render `frames` frames, then save the primary window to `path` and exit.
+/// Render `frames` frames, then save the primary window to `path` and exit; before it, print
+/// the frames per second and simulation steps per second of the frames after the first third
+/// (a headless app's speed, on whatever adapter it renders with).
 #[derive(Resource, Debug, Clone)]
 pub struct CapturePlugin {
     pub frames: u32,
@@ -74,9 +76,33 @@ impl Plugin for CapturePlugin {
     }
 }
 
-fn capture(cfg: Res<CapturePlugin>, mut frame: Local<u32>, mut commands: Commands, mut exit: MessageWriter<AppExit>) {
+/// Wall time and simulation steps of the frames after the first third (the first frames
+/// compile pipelines and upload the scene).
+#[derive(Default)]
+struct FrameClock {
+    start: Option<(std::time::Instant, u32)>,
+    steps: u64,
+}
+
+fn capture(
+    cfg: Res<CapturePlugin>,
+    steps: Option<Res<crate::plugin::StepsThisFrame>>,
+    mut frame: Local<u32>,
+    mut clock: Local<FrameClock>,
+    mut commands: Commands,
+    mut exit: MessageWriter<AppExit>,
+) {
     *frame += 1;
+    let warm = (cfg.frames / 3).max(1);
+    if *frame == warm {
+        clock.start = Some((std::time::Instant::now(), warm));
+    } else if *frame > warm && *frame <= cfg.frames {
+        clock.steps += steps.map_or(0, |s| s.0 as u64);
+    }
     if *frame == cfg.frames {
+        if let Some(line) = clock.start.and_then(|(t0, f0)| frame_rates(cfg.frames - f0, clock.steps, t0.elapsed().as_secs_f64())) {
+            println!("phonation: frames {}–{}: {line}", warm + 1, cfg.frames);
+        }
         commands.spawn(Screenshot::primary_window()).observe(save_to_disk(cfg.path.clone()));
     }
     // the capture is read back and written a few frames later
@@ -87,5 +113,31 @@ fn capture(cfg: Res<CapturePlugin>, mut frame: Local<u32>, mut commands: Command
         } else {
             exit.write(AppExit::Success);
         }
+    }
+}
+
+/// "F frames/s, S simulation steps/s (N steps per frame)" for `frames` frames of `steps` steps
+/// in all over `seconds` of wall time (None for no frames or no time).
+pub fn frame_rates(frames: u32, steps: u64, seconds: f64) -> Option<String> {
+    (frames > 0 && seconds > 0.0).then(|| {
+        format!(
+            "{:.2} frames/s, {:.1} simulation steps/s ({:.1} steps per frame; {frames} frames in {seconds:.2} s)",
+            frames as f64 / seconds,
+            steps as f64 / seconds,
+            steps as f64 / frames as f64
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn frame_rates_divide_by_the_wall_time() {
+        assert_eq!(
+            super::frame_rates(20, 100, 4.0).as_deref(),
+            Some("5.00 frames/s, 25.0 simulation steps/s (5.0 steps per frame; 20 frames in 4.00 s)")
+        );
+        assert_eq!(super::frame_rates(0, 0, 1.0), None);
+        assert_eq!(super::frame_rates(3, 0, 0.0), None);
     }
 }

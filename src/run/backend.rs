@@ -30,6 +30,12 @@ pub enum Backend {
     Auto,
 }
 
+/// Whether an adapter of this type is a real GPU (discrete or integrated), which `Auto` takes;
+/// a software rasteriser (lavapipe) or a virtual adapter is not.
+pub fn is_hardware_gpu(device_type: wgpu::DeviceType) -> bool {
+    matches!(device_type, wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::IntegratedGpu)
+}
+
 /// The GPU context a run should use for `backend` (None: run on the CPU), and a line saying
 /// what was chosen. `Auto` takes the GPU only when the adapter is a hardware GPU; `Gpu` fails
 /// when there is no adapter.
@@ -38,8 +44,7 @@ pub fn pick_gpu(backend: Backend) -> Result<(Option<GpuContext>, String), GpuErr
     if backend != Backend::Cpu {
         match GpuContext::new() {
             Ok(ctx) => {
-                let real = matches!(ctx.info.device_type, wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::IntegratedGpu);
-                if backend == Backend::Gpu || real {
+                if backend == Backend::Gpu || is_hardware_gpu(ctx.info.device_type) {
                     let name = format!("gpu: {}", ctx.describe());
                     return Ok((Some(ctx), name));
                 }

@@ -8,7 +8,7 @@ use crate::scene::build::SceneSummary;
 use crate::scene::schema::Field;
 use crate::state::state_hash;
 use crate::step::Solver;
-pub use backend::{Backend, FluidEngine, LatticeGasEngine, Readback, SolidEngine, pick_gpu};
+pub use backend::{Backend, FluidEngine, LatticeGasEngine, Readback, SolidEngine, is_hardware_gpu, pick_gpu};
 pub use coupled_engine::CoupledEngine;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
