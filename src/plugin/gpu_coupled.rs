@@ -9,7 +9,7 @@
 //! | per | what comes back | used by |
 //! |---|---|---|
 //! | coupled step, with a [`CoupledGlottis`] | the solid and the fluid nodes of the glottis's narrowest section (`CoupledEngine::observe`) | the glottal flow and area, [`super::VoiceDiagnostics`] |
-//! | frame | the solid (positions, velocities, rotations, spins), the air's totals summed on the device (one partial per 1024 nodes), the air's forces on the bodies, the geometry's node counts | the fold mesh, [`CoupledDiagnostics`], the panel |
+//! | frame | the solid (positions, velocities, rotations, spins), the air's totals summed on the device (one partial per 1024 nodes), the air's forces on the bodies, the geometry's node counts | the fold mesh, [`super::CoupledDiagnostics`], the panel |
 //!
 //! The populations never cross the bus whole (the coupling's own stages bring back the nodes a
 //! change of layout reads and, for method 1, the nodes its traction samples). The main world's
