@@ -228,7 +228,8 @@ fn plugin_steps_the_solid_exactly_like_the_direct_solver() {
 /// Issue 14 §2: a solid with [`GpuStepping`] is stepped on Bevy's render device in the render
 /// world; the particles that come back each frame are bit for bit those of the run layer's GPU
 /// backend stepped directly on a device of its own (the same kernels, the same steps per
-/// submission), within the f32 parity bound of the CPU's, and the diagnostics read them.
+/// submission), within the f32 parity bound of the CPU's, and the diagnostics read them. Taken
+/// off the device, the solid comes back with the device's particles and steps on on the CPU.
 #[test]
 fn a_solid_stepped_in_the_render_world_matches_the_gpu_backend() {
     use phonation::plugin::{GpuSolidHandle, GpuStepping, SolidDiagnostics, SolidSimulation, SolidStatus};
@@ -271,6 +272,22 @@ fn a_solid_stepped_in_the_render_world_matches_the_gpu_backend() {
     let worst = p.position.iter().zip(&cpu.particles.position).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
     println!("largest CPU displacement {largest:.3e}, the render world's positions within {worst:.2e}");
     assert!(largest > 0.0 && worst <= 1e-3 * largest, "positions off the CPU's by {worst:e} (largest displacement {largest:e})");
+
+    // GpuStepping taken off (paused): the device's particles come back, the direct backend's
+    // bits at that step; unpaused, the CPU steps on from there
+    app.insert_resource(SimulationControl { paused: true, steps_per_frame: 20, single_steps: 0 });
+    app.world_mut().entity_mut(e).remove::<GpuStepping>();
+    app.update();
+    assert!(app.world().get::<GpuSolidHandle>(e).is_none(), "the device's copy is dropped");
+    let back = app.world().get::<SolidSimulation>(e).unwrap().solver.clone();
+    assert!(back.step_count >= step && back.step_count % 20 == 0, "brought back at step {}", back.step_count);
+    direct.advance(back.step_count - step).unwrap();
+    assert_eq!(bits(&back), bits(&direct.solver), "the particles brought back differ from the GPU backend's");
+    app.insert_resource(SimulationControl { paused: false, steps_per_frame: 20, single_steps: 0 });
+    app.update();
+    let now = &app.world().get::<SolidSimulation>(e).unwrap().solver;
+    assert_eq!(now.step_count, back.step_count + 20, "stepped on the CPU from the step brought back");
+    assert!(bits(now) != bits(&back));
 }
 
 #[test]
@@ -343,10 +360,11 @@ fn plugin_samples_the_glottis_of_a_coupled_glottis_scene_every_step() {
 /// world — the glottal flow of every step, the solid, the air's totals — is bit for bit what the
 /// same backend gives stepped directly on a device of its own (the same kernels in the same
 /// order; lavapipe in CI), and follows the CPU reference within the f32 bound. The main world's
-/// air is not stepped on the CPU.
+/// air is not stepped on the CPU. Taken off the device, the entity gets the device's whole
+/// state back, bit for bit, and steps on on the CPU.
 #[test]
 fn a_coupled_glottis_stepped_in_the_render_world_matches_the_gpu_backend() {
-    use phonation::plugin::{CoupledGlottis, CoupledSimulation, CoupledStatus, GpuCoupledReadback, GpuStepping, VoiceDiagnostics};
+    use phonation::plugin::{CoupledGlottis, CoupledSimulation, CoupledStatus, GpuCoupledHandle, GpuCoupledReadback, GpuStepping, VoiceDiagnostics};
     use phonation::run::{Backend, CoupledEngine};
     use phonation::scene::coupled::CoupledScene;
     use phonation::step::Solver;
@@ -435,6 +453,34 @@ fn a_coupled_glottis_stepped_in_the_render_world_matches_the_gpu_backend() {
     assert!(largest > 50.0, "the jet has formed by step {step}: largest flow {largest} cm³/s");
     assert!(worst_jet <= 1e-3 * largest, "flow in the jet off the CPU's by {worst_jet:e} (largest {largest:e})");
     assert!(worst <= 3e-3 * largest, "flow off the CPU's by {worst:e} (largest {largest:e})");
+
+    // GpuStepping taken off (paused, so that the frame steps nowhere): the device's whole state
+    // comes back into the entity's solver, the same bits as the direct backend's at that step;
+    // unpaused, the CPU steps it on from there
+    app.insert_resource(SimulationControl { paused: true, steps_per_frame: 20, single_steps: 0 });
+    app.world_mut().entity_mut(e).remove::<GpuStepping>();
+    app.update();
+    let w = app.world();
+    assert!(w.get::<GpuCoupledHandle>(e).is_none() && w.get::<GpuCoupledReadback>(e).is_none(), "the device's copy is dropped");
+    let back = w.get::<CoupledSimulation>(e).unwrap().solver.clone();
+    let flows_back = w.get::<CoupledGlottis>(e).unwrap().flow.len() as u64;
+    assert!(back.step_count >= step, "brought back at step {} (read back {step})", back.step_count);
+    assert_eq!(flows_back, back.step_count, "the glottis's samples up to the step brought back");
+    for _ in step..back.step_count {
+        direct.step().unwrap();
+    }
+    let d = direct.state().unwrap();
+    let f_bits = |s: &phonation::coupling::CoupledSolver| s.fluid.f.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(d.step_count, back.step_count);
+    assert!(f_bits(d) == f_bits(&back), "the air brought back differs from the GPU backend's at step {}", back.step_count);
+    assert_eq!(pos(d), pos(&back), "the solid brought back differs from the GPU backend's");
+    app.insert_resource(SimulationControl { paused: false, steps_per_frame: 20, single_steps: 0 });
+    app.update();
+    app.update();
+    let now = app.world().get::<CoupledSimulation>(e).unwrap();
+    assert_eq!(now.solver.step_count, back.step_count + 40, "stepped on the CPU from the step brought back");
+    assert!(f_bits(&now.solver) != f_bits(&back));
+    assert_eq!(app.world().get::<CoupledGlottis>(e).unwrap().flow.len() as u64, back.step_count + 40);
 }
 
 #[test]
@@ -1189,7 +1235,9 @@ fn the_plugin_group_has_no_ambiguous_system_order() {
     use phonation::render::panel::{PanelState, PanelTarget, apply_panel};
     use phonation::render::{DrawPlugin, DrawSystems};
     let mut app = app();
-    app.add_plugins((PhonationDiagnosticsPlugin, DrawPlugin))
+    // with the GPU stepping's systems too (they run in the main world whether or not a render
+    // device is there)
+    app.add_plugins((PhonationDiagnosticsPlugin, DrawPlugin, phonation::plugin::PhonationGpuPlugin))
         .insert_resource(PanelState { preset: "glottis_2d_coarse".into(), ..default() })
         .add_systems(Update, apply_panel.in_set(DrawSystems::Panel))
         .edit_schedule(Update, |s| {

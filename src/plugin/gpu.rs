@@ -107,9 +107,10 @@ fn upload_to_gpu(
     sims: Query<(Entity, &FluidSimulation), (With<GpuStepping>, Without<GpuFluidHandle>)>,
     device: Option<Res<RenderDevice>>,
     queue: Option<Res<RenderQueue>>,
-    mut buffers: ResMut<Assets<ShaderBuffer>>,
+    buffers: Option<ResMut<Assets<ShaderBuffer>>>,
 ) {
-    let (Some(device), Some(queue)) = (device, queue) else { return };
+    // (an app without Bevy's renderer has neither a device nor shader buffers)
+    let (Some(device), Some(queue), Some(mut buffers)) = (device, queue, buffers) else { return };
     for (entity, sim) in &sims {
         let q: &wgpu::Queue = &queue.0;
         let gpu = match GpuFluid::from_device(device.wgpu_device().clone(), q.clone(), &device.limits(), &sim.solver) {

@@ -23,6 +23,9 @@
 //! An implicit solid solves to the GPU backend's default tolerance (`solid.cg_tolerance` 10⁻⁵;
 //! the CPU's default of 10⁻⁸ is below what its f32 solve reaches).
 //!
+//! Take [`GpuStepping`] off the entity and the device's whole state comes back into its
+//! [`CoupledSimulation`] once; the CPU steps it on from there.
+//!
 //! Without a render device nothing is uploaded and the entity keeps being stepped on the CPU by
 //! [`super::PhonationPlugin`], with the same components.
 
@@ -124,7 +127,10 @@ pub struct GpuCoupledReadback {
 pub(super) fn build(app: &mut App) {
     app.add_plugins(ExtractComponentPlugin::<GpuCoupledHandle>::default()).add_systems(
         Update,
-        (upload_coupled.before(super::coupled::step_coupled), receive_coupled_frames.before(super::coupled::coupled_diagnostics), schedule_coupled_steps)
+        (upload_coupled, receive_coupled_frames, bring_back_coupled, schedule_coupled_steps)
+            .chain()
+            .before(super::coupled::step_coupled)
+            .before(super::coupled::coupled_diagnostics)
             .in_set(PhonationSystems::CoupledStep),
     );
     if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
@@ -234,36 +240,71 @@ fn receive_coupled_frames(
     mut commands: Commands,
 ) {
     for (entity, h, mut sim, mut readback, glottis) in &mut sims {
-        let frame = {
-            let mut inbox = h.inbox.lock().expect("coupled inbox");
-            if !inbox.fresh {
-                continue;
-            }
-            inbox.fresh = false;
-            CoupledFrame {
-                step: inbox.step,
-                time: inbox.time,
-                samples: std::mem::take(&mut inbox.samples),
-                solid: inbox.solid.take(),
-                totals: inbox.totals,
-                forces: inbox.forces.take(),
-                geometry: inbox.geometry,
-                failure: inbox.failure.clone(),
-                fresh: true,
-            }
-        };
-        let s = &mut sim.solver;
-        (s.step_count, s.time) = (frame.step, frame.time);
-        if let Some(k) = frame.solid {
+        let Some(frame) = h.inbox.lock().expect("coupled inbox").take() else { continue };
+        if let Some(why) = frame.apply(&mut sim.solver, glottis.map(|g| g.into_inner()), &mut readback) {
+            warn!("phonation: coupled simulation on {entity} stopped on the GPU: {why}");
+            commands.entity(entity).insert(CoupledStatus::Unstable(why));
+        }
+    }
+}
+
+/// Main world: an entity whose [`GpuStepping`] was taken off gets the device's whole state
+/// back into its [`CoupledSimulation`] (after the glottis samples the render world had not
+/// handed over yet) and is stepped on the CPU from that step on; the device's copy is dropped.
+fn bring_back_coupled(
+    mut sims: Query<(Entity, &GpuCoupledHandle, &mut CoupledSimulation, &mut GpuCoupledReadback, Option<&mut CoupledGlottis>), Without<GpuStepping>>,
+    mut commands: Commands,
+) {
+    for (entity, h, mut sim, mut readback, glottis) in &mut sims {
+        // the engine first: the render world fills the inbox while it holds the engine
+        let mut engine = h.engine.lock().expect("coupled engine");
+        let frame = h.inbox.lock().expect("coupled inbox").take();
+        let mut glottis = glottis.map(|g| g.into_inner());
+        let failure = frame.and_then(|f| f.apply(&mut sim.solver, glottis.as_deref_mut(), &mut readback));
+        match engine.state() {
+            Ok(c) => sim.solver = c.clone(),
+            Err(e) => warn!("phonation: coupled simulation on {entity}: the device's state could not be read back ({e}); it goes on from the last readback"),
+        }
+        if let Some(why) = failure {
+            commands.entity(entity).insert(CoupledStatus::Unstable(why));
+        }
+        commands.entity(entity).remove::<(GpuCoupledHandle, GpuCoupledReadback)>();
+    }
+}
+
+impl CoupledFrame {
+    /// What is new since the main world last looked (None: nothing).
+    fn take(&mut self) -> Option<CoupledFrame> {
+        if !self.fresh {
+            return None;
+        }
+        self.fresh = false;
+        Some(CoupledFrame {
+            step: self.step,
+            time: self.time,
+            samples: std::mem::take(&mut self.samples),
+            solid: self.solid.take(),
+            totals: self.totals,
+            forces: self.forces.take(),
+            geometry: self.geometry,
+            failure: self.failure.clone(),
+            fresh: true,
+        })
+    }
+
+    /// Into the main world's solver, glottis and readback figures; the failure it carries.
+    fn apply(self, s: &mut crate::coupling::CoupledSolver, glottis: Option<&mut CoupledGlottis>, readback: &mut GpuCoupledReadback) -> Option<String> {
+        (s.step_count, s.time) = (self.step, self.time);
+        if let Some(k) = self.solid {
             k.apply(&mut s.solid);
         }
-        if let Some(f) = frame.forces {
+        if let Some(f) = self.forces {
             s.forces = f;
         }
-        s.geometry = frame.geometry;
-        if let Some(mut g) = glottis {
+        s.geometry = self.geometry;
+        if let Some(g) = glottis {
             let keep = (g.history_s / s.dt()).ceil() as usize;
-            for sample in &frame.samples {
+            for sample in &self.samples {
                 g.area = sample.area;
                 g.flow.push_back(sample.flow);
             }
@@ -271,11 +312,8 @@ fn receive_coupled_frames(
                 g.flow.pop_front();
             }
         }
-        *readback = GpuCoupledReadback { step: frame.step, totals: frame.totals, readbacks: readback.readbacks + 1 };
-        if let Some(why) = frame.failure {
-            warn!("phonation: coupled simulation on {entity} stopped on the GPU: {why}");
-            commands.entity(entity).insert(CoupledStatus::Unstable(why));
-        }
+        *readback = GpuCoupledReadback { step: self.step, totals: self.totals, readbacks: readback.readbacks + 1 };
+        self.failure
     }
 }
 

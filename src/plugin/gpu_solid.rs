@@ -12,7 +12,9 @@
 //!
 //! An implicit solid solves to the GPU backend's default tolerance (10⁻⁵; the CPU's default of
 //! 10⁻⁸ is below what its f32 solve reaches). Without a render device nothing is uploaded and
-//! the entity keeps being stepped on the CPU by [`super::PhonationPlugin`].
+//! the entity keeps being stepped on the CPU by [`super::PhonationPlugin`]. Take [`GpuStepping`]
+//! off the entity and the device's particles come back into its [`SolidSimulation`] once; the
+//! CPU steps it on from there.
 
 use super::gpu_coupled::{SolidKinematics, shared_context};
 use super::{GpuStepping, PhonationSystems, SolidSimulation, SolidStatus, StepsThisFrame};
@@ -53,7 +55,10 @@ struct SolidFrame {
 pub(super) fn build(app: &mut App) {
     app.add_plugins(ExtractComponentPlugin::<GpuSolidHandle>::default()).add_systems(
         Update,
-        (upload_solid.before(super::solid::step_solids), receive_solid_frames.before(super::solid::solid_diagnostics), schedule_solid_steps)
+        (upload_solid, receive_solid_frames, bring_back_solids, schedule_solid_steps)
+            .chain()
+            .before(super::solid::step_solids)
+            .before(super::solid::solid_diagnostics)
             .in_set(PhonationSystems::SolidStep),
     );
     if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
@@ -124,6 +129,21 @@ fn receive_solid_frames(mut sims: Query<(Entity, &GpuSolidHandle, &mut SolidSimu
             warn!("phonation: solid on {entity} stopped on the GPU: {why}");
             commands.entity(entity).insert(SolidStatus::Unstable(why));
         }
+    }
+}
+
+/// Main world: a solid whose [`GpuStepping`] was taken off gets the device's particles back
+/// into its [`SolidSimulation`] (the engine brings them back after every advance) and is
+/// stepped on the CPU from that step on; the device's copy is dropped.
+fn bring_back_solids(mut sims: Query<(Entity, &GpuSolidHandle, &mut SolidSimulation), Without<GpuStepping>>, mut commands: Commands) {
+    for (entity, h, mut sim) in &mut sims {
+        let engine = h.engine.lock().expect("solid engine");
+        let cg = sim.solver.last.cg.clone();
+        sim.solver = engine.solver.clone();
+        // the main world's record of the last GPU solve (the CPU's own is not kept on the device)
+        sim.solver.last.cg = cg;
+        h.inbox.lock().expect("solid inbox").solid = None;
+        commands.entity(entity).remove::<GpuSolidHandle>();
     }
 }
 

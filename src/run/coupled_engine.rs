@@ -59,9 +59,9 @@ impl CoupledEngine {
 
     /// `solver` uploaded to the device of `ctx` (one the caller opened, or Bevy's render device
     /// shared through [`crate::gpu::GpuContext::shared`]); a scene the GPU backend does not run
-    /// is refused naming the field, as is a `cg_tolerance` its f32 solve cannot reach.
+    /// is refused naming the field (by [`GpuCoupled::new`]), as is a `cg_tolerance` its f32
+    /// solve cannot reach.
     pub fn on_device(ctx: crate::gpu::GpuContext, name: String, solver: CoupledSolver, cg_tolerance: Option<f64>) -> anyhow::Result<Self> {
-        GpuCoupled::supports(&solver)?;
         let tolerance = gpu_cg_tolerance(cg_tolerance)?;
         let step = solver.step_count;
         let health = ctx.health.clone();
