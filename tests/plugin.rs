@@ -192,6 +192,29 @@ fn gpu_stepping_in_the_render_world_matches_the_cpu() {
             );
         }
     }
+
+    // GpuStepping taken off (paused): a frame later the device's state comes back into the
+    // entity's solver — its step and probes those of the CPU run to that step within the same
+    // f32 bound — and, unpaused, the CPU steps it on
+    app.insert_resource(SimulationControl { paused: true, steps_per_frame: 8, single_steps: 0 });
+    app.world_mut().entity_mut(e).remove::<GpuStepping>();
+    app.update();
+    assert!(app.world().get::<phonation::plugin::GpuFluidHandle>(e).is_some(), "on its way back: a frame with no steps first");
+    app.update();
+    assert!(app.world().get::<phonation::plugin::GpuFluidHandle>(e).is_none() && app.world().get::<GpuProbes>(e).is_none(), "the device's copy is dropped");
+    let back = app.world().get::<FluidSimulation>(e).unwrap().solver.step_count;
+    assert!(back >= probes.step && back % 8 == 0, "brought back at step {back} (probes of step {})", probes.step);
+    cpu.run(back - probes.step).unwrap();
+    let sim = &app.world().get::<FluidSimulation>(e).unwrap().solver;
+    for (k, (_, x)) in sc.probes.iter().enumerate() {
+        let (m, c) = (sim.macro_at_coords(*x), cpu.macro_at_coords(*x));
+        for (g, w) in [m.rho, m.u[0], m.u[1], m.u[2], m.theta].into_iter().zip([c.rho, c.u[0], c.u[1], c.u[2], c.theta]) {
+            assert!((g - w).abs() < 1e-4 * w.abs().max(0.05), "probe {k} at step {back}: brought back {g}, CPU {w}");
+        }
+    }
+    app.insert_resource(SimulationControl { paused: false, steps_per_frame: 8, single_steps: 0 });
+    app.update();
+    assert_eq!(app.world().get::<FluidSimulation>(e).unwrap().solver.step_count, back + 8, "stepped on the CPU from the step brought back");
 }
 
 #[test]
@@ -1121,6 +1144,19 @@ fn gpu_tracers_are_advected_and_drawn_on_the_device() {
     // the lines and the slice go with their simulation
     let lines = |app: &mut App| app.world_mut().query::<&phonation::render::gpu_tracers::GpuTracersOf>().iter(app.world()).count();
     assert_eq!(lines(&mut app), 1);
+    // taken off the device (GpuStepping removed): the CPU steps the air brought back, its own
+    // tracers and slice take over from the device's
+    app.world_mut().resource_mut::<DrawSettings>().tracers = true;
+    app.world_mut().entity_mut(e).remove::<GpuStepping>();
+    for _ in 0..4 {
+        app.update();
+    }
+    let steps = app.world().get::<FluidSimulation>(e).unwrap().solver.step_count;
+    let cpu_tracers = app.world().get::<phonation::render::tracers::FlowTracers>(e).map_or(0, |t| t.tracers.positions.len());
+    eprintln!("taken off the device: step {steps} on the CPU, {cpu_tracers} CPU tracers");
+    assert!(steps > 0 && app.world().get::<phonation::plugin::GpuFluidHandle>(e).is_none(), "stepped on the CPU (step {steps})");
+    assert!(app.world().get::<GpuTracerHandle>(e).is_none() && lines(&mut app) == 0 && cpu_tracers > 0, "the CPU's tracers instead of the device's");
+    assert_eq!(quads(&mut app), (1, 0), "the CPU's slice instead of the device's");
     app.world_mut().despawn(e);
     app.update();
     app.update();

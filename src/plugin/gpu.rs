@@ -10,7 +10,9 @@
 //! Without a render device (`MinimalPlugins`, no adapter), nothing is uploaded and the entity
 //! keeps being stepped on the CPU by [`super::PhonationPlugin`] with the same ECS-facing API.
 //! The same plugin steps solids ([`super::gpu_solid`]) and coupled simulations
-//! ([`super::gpu_coupled`]) that carry [`GpuStepping`].
+//! ([`super::gpu_coupled`]) that carry [`GpuStepping`]. Take [`GpuStepping`] off and the
+//! device's state comes back into the entity's simulation (a frame later for a fluid, whose
+//! steps go into the frame's commands), which the CPU steps on from there.
 
 use super::{FluidSimulation, PhonationSystems, StepsThisFrame};
 use crate::gpu::GpuFluid;
@@ -92,7 +94,11 @@ pub struct PhonationGpuPlugin;
 impl Plugin for PhonationGpuPlugin {
     fn build(&self, app: &mut App) {
         app.add_plugins(ExtractComponentPlugin::<GpuFluidHandle>::default())
-            .add_systems(Update, (upload_to_gpu.before(super::step_simulations), schedule_gpu_steps.after(super::plan_steps)).in_set(PhonationSystems::Step));
+            .add_systems(
+                Update,
+                (upload_to_gpu.before(super::step_simulations), (bring_back_fluids.before(super::step_simulations), schedule_gpu_steps.after(super::plan_steps)).chain())
+                    .in_set(PhonationSystems::Step),
+            );
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
             // Before `RenderGraphSystems::Render`, where Bevy's camera driver records the views.
             render_app.add_systems(RenderGraph, step_gpu_fluids.before(RenderGraphSystems::Render));
@@ -102,6 +108,7 @@ impl Plugin for PhonationGpuPlugin {
     }
 }
 
+#[allow(clippy::type_complexity)]
 fn upload_to_gpu(
     mut commands: Commands,
     sims: Query<(Entity, &FluidSimulation), (With<GpuStepping>, Without<GpuFluidHandle>)>,
@@ -147,10 +154,37 @@ fn read_probes(event: On<ReadbackComplete>, mut probes: Query<&mut GpuProbes>) {
     p.readbacks += 1;
 }
 
-fn schedule_gpu_steps(steps: Res<StepsThisFrame>, mut handles: Query<&mut GpuFluidHandle>) {
-    for mut h in &mut handles {
-        h.steps_this_frame = steps.0;
+/// The frame's steps for the render world; none for a fluid whose [`GpuStepping`] was taken
+/// off (it is on its way back, [`bring_back_fluids`]).
+fn schedule_gpu_steps(steps: Res<StepsThisFrame>, mut handles: Query<(&mut GpuFluidHandle, Has<GpuStepping>)>) {
+    for (mut h, stepping) in &mut handles {
+        h.steps_this_frame = if stepping { steps.0 } else { 0 };
     }
+}
+
+/// Main world: a fluid whose [`GpuStepping`] was taken off is stepped no more on the device; a
+/// frame later, when the render world has submitted every step it recorded into a frame,
+/// its populations, step and time come back into its [`FluidSimulation`] and the CPU steps it
+/// on from there (the device's copy, probes and their readback are dropped).
+fn bring_back_fluids(
+    mut sims: Query<(Entity, &GpuFluidHandle, &mut FluidSimulation), Without<GpuStepping>>,
+    mut waiting: Local<Vec<Entity>>,
+    mut commands: Commands,
+) {
+    let mut next = Vec::new();
+    for (entity, h, mut sim) in &mut sims {
+        if !waiting.contains(&entity) {
+            // this frame records no steps for it
+            next.push(entity);
+            continue;
+        }
+        let gpu = h.gpu.lock().expect("GPU lattice lock");
+        if !gpu.download_into(&mut sim.solver) {
+            warn!("phonation: {entity}: the device's state could not be read back; it goes on from its initial state on the CPU");
+        }
+        commands.entity(entity).remove::<(GpuFluidHandle, GpuProbes, Readback)>();
+    }
+    *waiting = next;
 }
 
 /// Render world: records this frame's steps and the probe kernel into the frame's encoder.

@@ -140,6 +140,7 @@ pub(super) fn build(app: &mut App) {
 
 /// Uploads each GPU-stepping coupled entity once (a copy of its solver: the main world keeps
 /// the original as the mirror it shows).
+#[allow(clippy::type_complexity)]
 fn upload_coupled(
     mut commands: Commands,
     sims: Query<(Entity, &CoupledSimulation, Option<&CoupledGlottis>), (With<GpuStepping>, Without<GpuCoupledHandle>)>,
@@ -235,6 +236,7 @@ pub(crate) fn step_gpu_coupled(handles: Query<&GpuCoupledHandle>) {
 /// Main world: what the render world read back goes into the entity's solver (step, time,
 /// solid, forces, geometry counts), its glottis's flow history and [`GpuCoupledReadback`]; a
 /// failure marks it [`CoupledStatus::Unstable`].
+#[allow(clippy::type_complexity)]
 fn receive_coupled_frames(
     mut sims: Query<(Entity, &GpuCoupledHandle, &mut CoupledSimulation, &mut GpuCoupledReadback, Option<&mut CoupledGlottis>)>,
     mut commands: Commands,
@@ -251,6 +253,7 @@ fn receive_coupled_frames(
 /// Main world: an entity whose [`GpuStepping`] was taken off gets the device's whole state
 /// back into its [`CoupledSimulation`] (after the glottis samples the render world had not
 /// handed over yet) and is stepped on the CPU from that step on; the device's copy is dropped.
+#[allow(clippy::type_complexity)]
 fn bring_back_coupled(
     mut sims: Query<(Entity, &GpuCoupledHandle, &mut CoupledSimulation, &mut GpuCoupledReadback, Option<&mut CoupledGlottis>), Without<GpuStepping>>,
     mut commands: Commands,
@@ -259,8 +262,7 @@ fn bring_back_coupled(
         // the engine first: the render world fills the inbox while it holds the engine
         let mut engine = h.engine.lock().expect("coupled engine");
         let frame = h.inbox.lock().expect("coupled inbox").take();
-        let mut glottis = glottis.map(|g| g.into_inner());
-        let failure = frame.and_then(|f| f.apply(&mut sim.solver, glottis.as_deref_mut(), &mut readback));
+        let failure = frame.and_then(|f| f.apply(&mut sim.solver, glottis.map(|g| g.into_inner()), &mut readback));
         match engine.state() {
             Ok(c) => sim.solver = c.clone(),
             Err(e) => warn!("phonation: coupled simulation on {entity}: the device's state could not be read back ({e}); it goes on from the last readback"),

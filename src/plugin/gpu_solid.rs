@@ -68,6 +68,7 @@ pub(super) fn build(app: &mut App) {
 
 /// Uploads each GPU-stepping solid entity once (a copy of its solver: the main world keeps the
 /// original, which receives the readbacks).
+#[allow(clippy::type_complexity)]
 fn upload_solid(
     mut commands: Commands,
     sims: Query<(Entity, &SolidSimulation), (With<GpuStepping>, Without<GpuSolidHandle>)>,
@@ -138,7 +139,7 @@ fn receive_solid_frames(mut sims: Query<(Entity, &GpuSolidHandle, &mut SolidSimu
 fn bring_back_solids(mut sims: Query<(Entity, &GpuSolidHandle, &mut SolidSimulation), Without<GpuStepping>>, mut commands: Commands) {
     for (entity, h, mut sim) in &mut sims {
         let engine = h.engine.lock().expect("solid engine");
-        let cg = sim.solver.last.cg.clone();
+        let cg = sim.solver.last.cg;
         sim.solver = engine.solver.clone();
         // the main world's record of the last GPU solve (the CPU's own is not kept on the device)
         sim.solver.last.cg = cg;

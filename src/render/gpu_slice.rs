@@ -44,7 +44,10 @@ pub struct GpuSlicePlugin;
 impl Plugin for GpuSlicePlugin {
     fn build(&self, app: &mut App) {
         app.add_plugins(ExtractComponentPlugin::<GpuSliceHandle>::default())
-            .add_systems(Update, update_gpu_slices.after(super::slice::update_slices).in_set(super::DrawSystems::Slice));
+            .add_systems(
+                Update,
+                (drop_stale_gpu_slices.before(super::slice::update_slices), update_gpu_slices.after(super::slice::update_slices)).in_set(super::DrawSystems::Slice),
+            );
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
             render_app.add_systems(
                 RenderGraph,
@@ -123,6 +126,16 @@ fn update_gpu_slices(
             continue;
         }
         *v = if settings.slice.is_some() { Visibility::Inherited } else { Visibility::Hidden };
+    }
+}
+
+/// The GPU slice of a simulation that is no longer stepped on the device (its
+/// [`crate::plugin::GpuStepping`] taken off) goes (its quad with it, [`update_gpu_slices`]),
+/// before the CPU's slice makes its own view.
+#[allow(clippy::type_complexity)]
+fn drop_stale_gpu_slices(stale: Query<Entity, (With<GpuSliceHandle>, Without<GpuFluidHandle>, Without<GpuCoupledHandle>)>, mut commands: Commands) {
+    for e in &stale {
+        commands.entity(e).remove::<(GpuSliceHandle, SliceView)>();
     }
 }
 

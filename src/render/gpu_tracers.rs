@@ -78,7 +78,7 @@ impl Plugin for GpuTracerPlugin {
             .insert(TRACER_LINES_SHADER.id(), Shader::from_wgsl(include_str!("../../shaders/tracer_lines.wgsl"), "phonation/shaders/tracer_lines.wgsl"))
             .expect("a fixed shader handle");
         app.add_plugins((MaterialPlugin::<TracerLineMaterial>::default(), ExtractComponentPlugin::<GpuTracerHandle>::default()))
-            .add_systems(Update, spawn_gpu_tracers.in_set(super::DrawSystems::Tracers));
+            .add_systems(Update, (drop_stale_gpu_tracers.before(super::tracers::advance_tracers), spawn_gpu_tracers).in_set(super::DrawSystems::Tracers));
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
             render_app.add_systems(
                 RenderGraph,
@@ -138,6 +138,16 @@ fn spawn_gpu_tracers(
             if settings.tracers { Visibility::Inherited } else { Visibility::Hidden },
         ));
         commands.entity(e).insert(GpuTracerHandle { tracers: Arc::new(Mutex::new(gpu)), drawn, dt: s.params.dt });
+    }
+}
+
+/// The GPU tracers of a simulation that is no longer stepped on the device (its
+/// [`crate::plugin::GpuStepping`] taken off): they go (their lines with them, next frame), and
+/// the CPU's tracers take over.
+#[allow(clippy::type_complexity)]
+fn drop_stale_gpu_tracers(stale: Query<Entity, (With<GpuTracerHandle>, Without<GpuFluidHandle>, Without<GpuCoupledHandle>)>, mut commands: Commands) {
+    for e in &stale {
+        commands.entity(e).remove::<GpuTracerHandle>();
     }
 }
 

@@ -105,12 +105,15 @@ pub(super) fn update_slices(
         (Entity, Option<&CoupledSimulation>, Option<&FluidSimulation>, Option<&LatticeGasSimulation>, Option<&mut SliceView>),
         (Or<(With<CoupledSimulation>, With<FluidSimulation>, With<LatticeGasSimulation>)>, Without<crate::plugin::GpuFluidHandle>, Without<crate::plugin::GpuCoupledHandle>),
     >,
-    mut quads: Query<(&SliceOf, &mut Visibility)>,
+    mut quads: Query<(Entity, &SliceOf, &mut Visibility)>,
     mut images: ResMut<Assets<Image>>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
     mut commands: Commands,
 ) {
+    // the simulations that hold a view of their slice as the frame starts: a quad of any other
+    // (gone, stepped on the GPU, or cleared for a rebuild) goes with it
+    let viewed: Vec<Entity> = sims.iter().filter(|(.., v)| v.is_some()).map(|(e, ..)| e).collect();
     let mut shown = Vec::new();
     if let Some(field) = settings.slice {
         for (e, coupled, fluid, gas, view) in &mut sims {
@@ -158,7 +161,11 @@ pub(super) fn update_slices(
             }
         }
     }
-    for (of, mut v) in &mut quads {
+    for (quad, of, mut v) in &mut quads {
+        if !viewed.contains(&of.0) {
+            commands.entity(quad).despawn();
+            continue;
+        }
         *v = if shown.contains(&of.0) { Visibility::Inherited } else { Visibility::Hidden };
     }
 }

@@ -75,7 +75,7 @@ impl Plugin for TracerPlugin {
     }
 }
 
-fn advance_tracers(
+pub(super) fn advance_tracers(
     settings: Res<DrawSettings>,
     steps: Res<StepsThisFrame>,
     mut coupled: Query<(Entity, &CoupledSimulation, Option<&mut FlowTracers>), Without<crate::plugin::GpuCoupledHandle>>,
