@@ -1212,6 +1212,25 @@ fn the_panel_steps_a_fluid_or_coupled_preset_on_the_gpu() {
     assert!(app.world().get::<GpuCoupledHandle>(g).is_some(), "stepped on the render device");
     assert!(readback.readbacks > 0 && readback.step > 0 && sim_steps == readback.step && flows as u64 == readback.step, "{readback:?}, {flows} flows");
     assert!(sliced, "the coupled air's slice made on the device, its range read back");
+    // ticked off alone: the same simulation comes back to the CPU with its state and steps on
+    // there; ticked on again, it goes back to the device from where the CPU left it
+    app.insert_resource(PanelState { preset: "glottis_2d_coarse".into(), air_on_gpu: false, ..default() });
+    for _ in 0..3 {
+        app.update();
+    }
+    let on_cpu = app.world().get::<CoupledSimulation>(g).unwrap().solver.step_count;
+    let flows = app.world().get::<CoupledGlottis>(g).map_or(0, |c| c.flow.len()) as u64;
+    eprintln!("ticked off: step {on_cpu} on the CPU (the device's last readback: step {}), {flows} flow samples", readback.step);
+    assert_eq!(target(&mut app), g, "the same entity");
+    assert!(app.world().get::<GpuCoupledHandle>(g).is_none(), "no longer on the device");
+    assert!(on_cpu > readback.step && flows == on_cpu, "stepped on from the device's state: step {on_cpu}, {flows} flows");
+    app.insert_resource(PanelState { preset: "glottis_2d_coarse".into(), air_on_gpu: true, ..default() });
+    for _ in 0..4 {
+        app.update();
+    }
+    let again = app.world().get::<GpuCoupledReadback>(g).cloned().unwrap_or_default();
+    assert_eq!(target(&mut app), g, "the same entity");
+    assert!(app.world().get::<GpuCoupledHandle>(g).is_some() && again.step > on_cpu, "back on the device from step {on_cpu}: {again:?}");
     // a lattice-gas preset cannot: refused, the coupled one stays
     app.insert_resource(PanelState { preset: "lattice_gas_wake".into(), air_on_gpu: true, ..default() });
     app.update();

@@ -40,7 +40,8 @@ pub struct PanelState {
     /// Step a fluid preset's air, or a coupled preset's air and bodies, on the render device
     /// ([`crate::plugin::GpuStepping`]; the app needs [`crate::plugin::PhonationGpuPlugin`]):
     /// the tracers and slice are then made on the device too. Refused for the lattice-gas
-    /// presets, which the app steps on the CPU.
+    /// presets, which the app steps on the CPU. Changed alone, it moves the running simulation
+    /// (its state with it) instead of rebuilding it.
     pub air_on_gpu: bool,
 }
 

@@ -95,7 +95,7 @@ const SEED_LATTICE_PRESETS: [&str; 4] = ["glottis_2d_a", "glottis_2d_b", "glotti
 /// the CPU backend, the glottis presets on the seed's lattice at ×0.5 resolution (62 × 64
 /// cells) unless a resolution was set. Returns the line that says which (for a window title).
 pub fn choose_backend(state: &mut PanelState, adapter: Option<(&str, wgpu::DeviceType)>) -> String {
-    let steppable = crate::scene::builtin(&state.preset).is_some_and(|t| matches!(SceneKind::of(t), SceneKind::Fluid | SceneKind::Coupled));
+    let steppable = gpu_steppable(&state.preset);
     match adapter {
         Some((name, kind)) if crate::run::is_hardware_gpu(kind) && steppable => {
             state.air_on_gpu = true;
@@ -118,6 +118,12 @@ pub fn choose_backend(state: &mut PanelState, adapter: Option<(&str, wgpu::Devic
     }
 }
 
+/// Whether the app steps `preset` on the render device when asked (a fluid or coupled scene;
+/// not the lattice gas).
+fn gpu_steppable(preset: &str) -> bool {
+    crate::scene::builtin(preset).is_some_and(|t| matches!(SceneKind::of(t), SceneKind::Fluid | SceneKind::Coupled))
+}
+
 /// What a preset builds.
 pub enum PresetSimulation {
     /// Air and bodies (the glottis, the flap), with the glottis's readouts when it has folds.
@@ -129,7 +135,7 @@ pub enum PresetSimulation {
 /// The simulation of `state`, or why it is refused (naming the parameter).
 pub fn build_preset(state: &PanelState) -> Result<PresetSimulation, String> {
     let text = crate::scene::builtin(&state.preset).ok_or_else(|| format!("preset: no built-in scene {}", state.preset))?;
-    if state.air_on_gpu && !matches!(SceneKind::of(text), SceneKind::Fluid | SceneKind::Coupled) {
+    if state.air_on_gpu && !gpu_steppable(&state.preset) {
         return Err(format!(
             "air_on_gpu: preset {} is a {:?} scene, which the app steps on the CPU (fluid and coupled presets step on the GPU; `phonation run --backend gpu` runs a lattice-gas scene on the GPU)",
             state.preset,
@@ -181,7 +187,9 @@ fn clear_simulation(ec: &mut EntityCommands) {
 /// with; the drawings of the old one go with it. A refused state keeps the old simulation and
 /// says why in [`PanelTarget::error`]. A simulation stepped on the GPU (the old one or the new)
 /// is rebuilt on a new entity, so that the device's handles, readbacks and their observers go
-/// with the old entity.
+/// with the old entity. A change of [`PanelState::air_on_gpu`] alone rebuilds nothing: the
+/// running simulation moves between the CPU and the render device with its state
+/// ([`GpuStepping`] put on or taken off; the plugin uploads it or brings it back).
 pub fn apply_panel(
     state: Res<PanelState>,
     mut targets: Query<(Entity, &mut PanelTarget, Has<GpuStepping>)>,
@@ -193,7 +201,18 @@ pub fn apply_panel(
         if t.built.as_ref() == Some(&*state) {
             continue;
         }
+        let moves_only = t.error.is_none()
+            && gpu_steppable(&state.preset)
+            && t.built.as_ref().is_some_and(|b| PanelState { air_on_gpu: state.air_on_gpu, ..b.clone() } == *state);
         t.built = Some(state.clone());
+        if moves_only {
+            if state.air_on_gpu {
+                commands.entity(old).insert(GpuStepping);
+            } else {
+                commands.entity(old).remove::<GpuStepping>();
+            }
+            continue;
+        }
         match build_preset(&state) {
             Ok(sim) => {
                 let e = if on_gpu || state.air_on_gpu {
