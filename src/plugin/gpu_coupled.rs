@@ -144,13 +144,10 @@ pub(super) fn build(app: &mut App) {
 fn upload_coupled(
     mut commands: Commands,
     sims: Query<(Entity, &CoupledSimulation, Option<&CoupledGlottis>), (With<GpuStepping>, Without<GpuCoupledHandle>)>,
-    device: Option<Res<RenderDevice>>,
-    queue: Option<Res<RenderQueue>>,
-    info: Option<Res<RenderAdapterInfo>>,
+    render: RenderDeviceParam,
 ) {
-    let (Some(device), Some(queue), Some(info)) = (device, queue, info) else { return };
     for (entity, sim, glottis) in &sims {
-        let (ctx, name) = shared_context(&device, &queue, &info);
+        let Some((ctx, name)) = render.context() else { return };
         let engine = match CoupledEngine::on_device(ctx, name, sim.solver.clone(), None) {
             Ok(e) => e,
             Err(e) => {
@@ -169,13 +166,25 @@ fn upload_coupled(
     }
 }
 
-/// Bevy's render device as a [`GpuContext`] (its failures left to Bevy) and its name.
-pub(super) fn shared_context(device: &RenderDevice, queue: &RenderQueue, info: &RenderAdapterInfo) -> (GpuContext, String) {
-    let q: &wgpu::Queue = &queue.0;
-    let adapter: &wgpu::AdapterInfo = &info.0;
-    let ctx = GpuContext::shared(device.wgpu_device().clone(), q.clone(), adapter.clone(), device.limits());
-    let name = format!("gpu: {} (Bevy's render device)", ctx.describe());
-    (ctx, name)
+/// Bevy's render device, queue and adapter in the main world (absent without a renderer).
+#[derive(bevy::ecs::system::SystemParam)]
+pub(super) struct RenderDeviceParam<'w> {
+    device: Option<Res<'w, RenderDevice>>,
+    queue: Option<Res<'w, RenderQueue>>,
+    info: Option<Res<'w, RenderAdapterInfo>>,
+}
+
+impl RenderDeviceParam<'_> {
+    /// Bevy's render device as a [`GpuContext`] (its failures left to Bevy) and its name; None
+    /// without a renderer.
+    pub(super) fn context(&self) -> Option<(GpuContext, String)> {
+        let (device, queue, info) = (self.device.as_deref()?, self.queue.as_deref()?, self.info.as_deref()?);
+        let q: &wgpu::Queue = &queue.0;
+        let adapter: &wgpu::AdapterInfo = &info.0;
+        let ctx = GpuContext::shared(device.wgpu_device().clone(), q.clone(), adapter.clone(), device.limits());
+        let name = format!("gpu: {} (Bevy's render device)", ctx.describe());
+        Some((ctx, name))
+    }
 }
 
 fn schedule_coupled_steps(steps: Res<StepsThisFrame>, mut handles: Query<(&mut GpuCoupledHandle, Option<&CoupledStatus>)>) {

@@ -16,14 +16,14 @@
 //! off the entity and the device's particles come back into its [`SolidSimulation`] once; the
 //! CPU steps it on from there.
 
-use super::gpu_coupled::{SolidKinematics, shared_context};
+use super::gpu_coupled::{RenderDeviceParam, SolidKinematics};
 use super::{GpuStepping, PhonationSystems, SolidSimulation, SolidStatus, StepsThisFrame};
 use crate::run::SolidEngine;
 use crate::step::Solver;
 use bevy::prelude::*;
 use bevy::render::RenderApp;
 use bevy::render::extract_component::{ExtractComponent, ExtractComponentPlugin};
-use bevy::render::renderer::{RenderAdapterInfo, RenderDevice, RenderGraph, RenderGraphSystems, RenderQueue};
+use bevy::render::renderer::{RenderGraph, RenderGraphSystems};
 use std::sync::{Arc, Mutex};
 
 /// The GPU-resident solid of an entity, shared with the render world, which steps it.
@@ -72,13 +72,10 @@ pub(super) fn build(app: &mut App) {
 fn upload_solid(
     mut commands: Commands,
     sims: Query<(Entity, &SolidSimulation), (With<GpuStepping>, Without<GpuSolidHandle>)>,
-    device: Option<Res<RenderDevice>>,
-    queue: Option<Res<RenderQueue>>,
-    info: Option<Res<RenderAdapterInfo>>,
+    render: RenderDeviceParam,
 ) {
-    let (Some(device), Some(queue), Some(info)) = (device, queue, info) else { return };
     for (entity, sim) in &sims {
-        let (ctx, name) = shared_context(&device, &queue, &info);
+        let Some((ctx, name)) = render.context() else { return };
         match SolidEngine::on_device(ctx, name, sim.solver.clone(), None) {
             Ok(engine) => {
                 commands.entity(entity).insert(GpuSolidHandle { engine: Arc::new(Mutex::new(engine)), inbox: Arc::default(), steps_this_frame: 0 });

@@ -184,8 +184,9 @@ fn clear_simulation(ec: &mut EntityCommands) {
 }
 
 /// Rebuilds the [`PanelTarget`]'s simulation when [`PanelState`] differs from what it was built
-/// with; the drawings of the old one go with it. A refused state keeps the old simulation and
-/// says why in [`PanelTarget::error`]. A simulation stepped on the GPU (the old one or the new)
+/// with; the drawings of the old one go with it (its fold mesh here, its slice's quad in
+/// [`super::slice`]'s own update, which drops a quad whose simulation holds no view). A refused
+/// state keeps the old simulation and says why in [`PanelTarget::error`]. A simulation stepped on the GPU (the old one or the new)
 /// is rebuilt on a new entity, so that the device's handles, readbacks and their observers go
 /// with the old entity. A change of [`PanelState::air_on_gpu`] alone rebuilds nothing: the
 /// running simulation moves between the CPU and the render device with its state
@@ -194,7 +195,6 @@ pub fn apply_panel(
     state: Res<PanelState>,
     mut targets: Query<(Entity, &mut PanelTarget, Has<GpuStepping>)>,
     drawn: Query<(Entity, &super::fold_mesh::FoldMeshOf)>,
-    slices: Query<(Entity, &super::slice::SliceOf)>,
     mut commands: Commands,
 ) {
     for (old, mut t, on_gpu) in &mut targets {
@@ -245,11 +245,6 @@ pub fn apply_panel(
                 }
                 t.error = None;
                 for (m, of) in &drawn {
-                    if of.0 == old {
-                        commands.entity(m).despawn();
-                    }
-                }
-                for (m, of) in &slices {
                     if of.0 == old {
                         commands.entity(m).despawn();
                     }
