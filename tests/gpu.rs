@@ -306,6 +306,106 @@ fn a_failed_read_leaves_the_mirror_and_stops_the_run() {
     assert!(same(&e.advance(1).expect_err("the next advance reports the failed read")));
 }
 
+/// A real out-of-memory during a run: the device's memory is exhausted between two advances,
+/// so the staging buffer of the next read of the state cannot be allocated. The read fails with
+/// wgpu's own out-of-memory error in the diagnosis, the mirror keeps the last state brought
+/// back, and the next advance stops with the same diagnosis — what the run loop turns into a
+/// stop that keeps the outputs written so far.
+///
+/// lavapipe's device memory is the process's memory (malloc), so the test exhausts it for
+/// real: it runs again in a child process of this test binary, whose address space is limited
+/// (setrlimit) to what it uses after the first read plus 256 MiB, and fills that with buffers
+/// (the filler's own failures caught by an error scope) from 256 MiB down to 1 MiB — below
+/// gpu-allocator's smallest block, so that no block has room left for a staging buffer and no
+/// new one can be made.
+#[test]
+fn an_out_of_memory_read_stops_the_run_with_a_diagnosis() {
+    use phonation::run::{Backend, FluidEngine};
+    use phonation::step::{Part, Solver};
+    const NAME: &str = "an_out_of_memory_read_stops_the_run_with_a_diagnosis";
+    const CHILD: &str = "PHONATION_OUT_OF_MEMORY_CHILD";
+    if std::env::var_os(CHILD).is_none() {
+        if context().is_none() {
+            return;
+        }
+        let out = std::process::Command::new(std::env::current_exe().unwrap())
+            .args([NAME, "--exact", "--nocapture", "--test-threads=1"])
+            .env(CHILD, "1")
+            .output()
+            .unwrap();
+        let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+        eprintln!("child process:\n{text}");
+        assert!(out.status.success(), "the child process failed ({})", out.status);
+        assert!(text.contains("1 passed") && text.contains("out-of-memory read checked"), "the child did not run the test");
+        return;
+    }
+    // A 512² D2Q21 box: a whole state is 22 MB of f32 populations.
+    let kind = VelocitySetKind::D2q21;
+    let eq = Equilibrium::new(VelocitySet::new(kind), GasModel::Monatomic);
+    let params = timestep::choose(0.01, 0.6, eq.set.max_l1_speed(), None, 0.8).unwrap();
+    let solver = FluidSolver::new(eq, Grid::new(2, [512, 512, 1]), Boundaries::periodic(), &[], params, |x| Macro {
+        rho: 1.0 + 0.01 * (0.05 * x[0]).sin(),
+        u: [0.02, 0.01 * (0.03 * x[1]).cos(), 0.0],
+        theta: 0.6,
+    });
+    let mut e = FluidEngine::new(Backend::Gpu, solver).expect("the box fits");
+    e.advance(2).expect("a healthy device steps");
+    let kept = phonation::state::state_hash(e.state().expect("the first read"));
+    let device = e.gpu_device().expect("on the GPU").clone();
+    let _ = device.poll(wgpu::PollType::wait_indefinitely());
+
+    let used = std::fs::read_to_string("/proc/self/status")
+        .unwrap()
+        .lines()
+        .find_map(|l| l.strip_prefix("VmSize:").map(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().unwrap() * 1024))
+        .expect("VmSize");
+    let mut limit = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
+    assert_eq!(unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut limit) }, 0);
+    let unlimited = limit;
+    limit.rlim_cur = used + (256 << 20);
+    assert_eq!(unsafe { libc::setrlimit(libc::RLIMIT_AS, &limit) }, 0);
+
+    let mut filler = Vec::new();
+    let mut size: u64 = 256 << 20;
+    while size >= 1 << 20 {
+        loop {
+            let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+            let b = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("filler"),
+                size,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            if pollster::block_on(scope.pop()).is_some() {
+                break;
+            }
+            filler.push(b);
+        }
+        size /= 2;
+    }
+    let filled: u64 = filler.iter().map(|b: &wgpu::Buffer| b.size()).sum();
+    eprintln!("address space {} MiB used, limit {} MiB: {} MiB of device memory taken in {} buffers", used >> 20, limit.rlim_cur >> 20, filled >> 20, filler.len());
+    // At least the 256 MiB left less one block (64 MiB); more where the allocator kept free
+    // blocks from earlier buffers (here, measured: 354 MiB).
+    assert!(filled >= 192 << 20, "the filler took only {filled} B of the 256 MiB left");
+
+    e.advance(2).expect("stepping allocates no device memory");
+    let err = e.state().map(|_| ()).expect_err("no memory is left for the staging buffer");
+    eprintln!("{err}");
+    assert_eq!(err.part, Part::Device, "{err}");
+    assert!(err.reason.contains("out of GPU memory"), "wgpu's out-of-memory error is the diagnosis: {err}");
+    assert!(err.reason.contains("reading step 4's state back") && err.reason.contains("step 2's"), "{err}");
+    assert_eq!(e.mirrored_step(), 2, "the mirror keeps the last state brought back");
+    let next = e.advance(1).expect_err("the next advance reports the failed read");
+    assert_eq!((next.part, next.step, next.reason.clone()), (err.part, err.step, err.reason.clone()));
+
+    // The host's memory is as full as the device's (the same process): free it before the hash.
+    drop(filler);
+    assert_eq!(unsafe { libc::setrlimit(libc::RLIMIT_AS, &unlimited) }, 0);
+    assert_eq!(phonation::state::state_hash(e.mirror()), kept, "no zeros from the failed read");
+    eprintln!("out-of-memory read checked");
+}
+
 #[test]
 fn headless_run_on_the_gpu_writes_the_same_probes_as_the_cpu() {
     use phonation::run::{Backend, RunOptions, run_scene};

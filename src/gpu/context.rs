@@ -75,6 +75,12 @@ impl DeviceHealth {
         self.device.destroy();
     }
 
+    /// The device watched (tests that exhaust its memory).
+    #[doc(hidden)]
+    pub fn device(&self) -> &wgpu::Device {
+        &self.device
+    }
+
     /// Waits for the work submitted so far, then [`Self::failure`].
     pub fn settle(&self) -> Option<String> {
         let _ = self.device.poll(wgpu::PollType::wait_indefinitely());

@@ -201,6 +201,12 @@ impl FluidEngine {
             h.destroy_device();
         }
     }
+
+    /// The GPU device it runs on (tests that exhaust its memory).
+    #[doc(hidden)]
+    pub fn gpu_device(&self) -> Option<&wgpu::Device> {
+        self.health.as_ref().map(DeviceHealth::device)
+    }
 }
 
 impl Solver for FluidEngine {
