@@ -24,6 +24,7 @@ pub mod solver;
 pub mod state;
 pub mod surface;
 pub mod traction;
+pub mod traction_plan;
 pub mod weak;
 
 pub use conserving::ConservingOptions;

@@ -126,30 +126,30 @@ pub fn surface_forces<'a>(
 }
 
 /// The surface points of `s` in lattice coordinates.
-fn lattice_points(s: &BodySurface, p: &Particles, units: &Units) -> Vec<DVec3> {
+pub(super) fn lattice_points(s: &BodySurface, p: &Particles, units: &Units) -> Vec<DVec3> {
     s.points(p).into_iter().map(|x| DVec3::new(units.position_to_lattice(x.x), units.position_to_lattice(x.y), 0.0)).collect()
 }
 
 /// Where along a piece's outward normal the air is sampled (lattice cells from the wall).
-const SAMPLE_DISTANCES: [f64; 2] = [1.0, 2.0];
+pub(super) const SAMPLE_DISTANCES: [f64; 2] = [1.0, 2.0];
 
 /// A piece of a surface edge (lattice units): the edge runs from surface point `ka` to `kb`
 /// (`edge` = x_kb − x_ka, of `length`), the piece's centre sits at `t` along it.
-struct Piece {
-    ka: usize,
-    kb: usize,
-    t: f64,
-    centre: DVec3,
-    normal: DVec3,
+pub(super) struct Piece {
+    pub(super) ka: usize,
+    pub(super) kb: usize,
+    pub(super) t: f64,
+    pub(super) centre: DVec3,
+    pub(super) normal: DVec3,
     /// The piece's length (its area per unit depth).
-    area: f64,
-    edge: DVec3,
-    length: f64,
+    pub(super) area: f64,
+    pub(super) edge: DVec3,
+    pub(super) length: f64,
 }
 
 /// The pieces of the closed polygon `x` (lattice coordinates, counter-clockwise): each edge
 /// cut into equal pieces no longer than `piece_length`; edges of zero length have none.
-fn edge_pieces(x: &[DVec3], piece_length: f64) -> impl Iterator<Item = Piece> + '_ {
+pub(super) fn edge_pieces(x: &[DVec3], piece_length: f64) -> impl Iterator<Item = Piece> + '_ {
     let n = x.len();
     (0..n).flat_map(move |ka| {
         let kb = (ka + 1) % n;

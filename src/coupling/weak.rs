@@ -20,7 +20,8 @@
 //! map through [`Units::position_to_lattice`] (the same origin).
 
 use super::solver::CoupledSolver;
-use super::traction::{TractionModel, sampled_nodes, surface_forces};
+use super::traction::{SurfaceForces, TractionModel, sampled_nodes, surface_forces};
+use super::traction_plan::TractionPlan;
 use crate::fluid::layout::Layout;
 use crate::fluid::{LayoutChange, Obstacle, Polygon, Shape};
 use crate::step::{Instability, Site};
@@ -141,6 +142,25 @@ impl CoupledSolver {
     /// ([`super::traction::sampled_nodes`]), for a backend that brings back only those.
     pub fn traction_nodes(&self, o: WeakOptions) -> Vec<usize> {
         sampled_nodes(&self.fluid, &self.units, self.bodies.iter().map(|b| &b.surface), &self.solid.particles, o.piece_length)
+    }
+
+    /// Method 1's traction laid out for a backend that holds the populations (the GPU), at the
+    /// particles' current positions ([`TractionPlan`]: the surface_traction stage's arithmetic
+    /// on the solid's side).
+    pub fn traction_plan(&self, o: WeakOptions) -> TractionPlan {
+        TractionPlan::new(&self.fluid, &self.units, self.bodies.iter().map(|b| &b.surface), &self.solid.particles, o.traction, o.piece_length)
+    }
+
+    /// The scene's own loads on the particles (physical units), to which the air's forces add.
+    pub fn base_loads(&self) -> &[glam::DVec3] {
+        &self.base_load
+    }
+
+    /// Takes the air's forces a backend computed for the surface_traction stage (the GPU's
+    /// tractions, brought back for the outputs) as this solver's, with the loads they give.
+    pub fn set_surface_forces(&mut self, forces: SurfaceForces) {
+        self.forces = forces;
+        self.apply_forces();
     }
 
     /// Method 1's surface_traction stage: the air's tractions on the surface pieces, spread to

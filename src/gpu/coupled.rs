@@ -17,14 +17,14 @@
 //! |---|---|
 //! | `fluid_geometry` | the particles come back (with their spins and rotations: the surface points turn with them); the surface polygons' walls are built on the CPU ([`CoupledSolver::next_polygon_walls`]) and their tables uploaded; on a step where nodes change side the nodes the change reads come back and the fresh nodes, filled with their neighbours' mean on the CPU ([`CoupledSolver::install_polygon_walls`]), go up, as for method 2 |
 //! | `fluid` | one FDLB step on the GPU |
-//! | `surface_traction` | the populations of the nodes the traction samples come back ([`CoupledSolver::traction_nodes`], packed by the `gather` kernel, [`GpuFluid::download_nodes_into`]); the traction samples the air at one and two cells along each surface piece's normal (2.110–2.113) on the CPU, and the surface particles' loads go up |
+//! | `surface_traction` | the pieces' plan goes up ([`CoupledSolver::traction_plan`]: normals, wall velocities, the stencils of the samples at one and two cells along each normal, the particles' shares — made on the CPU from the particles it holds); on the device the traction kernels sample the air, make each piece's force (2.110–2.112) and write the surface particles' loads into the solid's load buffer (2.113) ([`GpuFluid::surface_traction`]); nothing comes back — the pieces' forces only when an output reads the solid ([`GpuCoupled::download_solid`]) |
 //! | `solid` | the solid's explicit sub-steps on the GPU |
 //!
 //! What stays on the CPU is the geometry (a per-step layout build over the lattice, O(N)),
-//! measured as the `fluid_geometry` share of the step, and for method 1 the traction's
-//! arithmetic, on the populations of the few nodes it samples ([`GpuCoupled::traction_nodes`] counts
-//! them; a traction kernel on the device would bring back only the particles' loads). For
-//! method 2 the wall momentum per node no longer crosses the bus. The exchange's diagnostics
+//! measured as the `fluid_geometry` share of the step, and for method 1 the traction's plan
+//! (O(surface)). Method 1's traction brings nothing back ([`GpuCoupled::traction_nodes`] counts
+//! the nodes its samples read on the device); for method 2 the wall momentum per node no
+//! longer crosses the bus. The exchange's diagnostics
 //! that the CPU solver sums over the run (momentum to non-body walls, mass to the walls, the
 //! wall-frame momentum) are summed per workgroup by the hand-over's first kernel and over the
 //! workgroups on the CPU (32 B per 64 nodes come back). Bodies with a
@@ -69,9 +69,13 @@ pub struct GpuCoupled {
     pub whole_round_trips: bool,
     /// The particles of the bodies with a prescribed motion (ascending).
     prescribed: Vec<usize>,
-    /// Nodes whose populations method 1's traction stages brought back, summed over the steps
-    /// (of [`GpuFluid::n_nodes`] each step that a whole download would bring).
+    /// Stencil entries (node reads) method 1's traction kernels made on the device, summed over
+    /// the steps; none of them crosses the bus.
     pub traction_nodes: u64,
+    /// Method 1: the plan of the last traction stage, whose pieces' forces the device holds,
+    /// and whether [`Self::cpu`]'s forces are older than them.
+    traction_plan: Option<crate::coupling::traction_plan::TractionPlan>,
+    forces_stale: bool,
 }
 
 impl GpuCoupled {
@@ -103,6 +107,8 @@ impl GpuCoupled {
             whole_round_trips: false,
             prescribed,
             traction_nodes: 0,
+            traction_plan: None,
+            forces_stale: false,
         })
     }
 
@@ -242,15 +248,34 @@ impl GpuCoupled {
         }
     }
 
-    /// Method 1's tractions (2.110–2.113) from the device's populations at the nodes the
-    /// traction samples, as the surface particles' loads.
+    /// Method 1's tractions (2.110–2.113) on the device, from the plan of the particles the
+    /// CPU holds (brought back by this step's geometry stage), as the surface particles' loads
+    /// in the solid's load buffer.
     fn surface_traction(&mut self, o: WeakOptions) -> Result<(), Instability> {
-        let nodes = self.cpu.traction_nodes(o);
-        self.fluid.download_nodes_into(&nodes, &mut self.cpu.fluid);
-        self.traction_nodes += nodes.len() as u64;
-        self.cpu.run_stage(CoupledStageKind::SurfaceTraction)?;
-        self.solid.upload_loads(&self.cpu.solid);
+        let plan = self.cpu.traction_plan(o);
+        self.fluid.surface_traction(&plan, self.cpu.base_loads(), self.solid.load_buffer());
+        self.traction_nodes += plan.stencil.len() as u64;
+        self.traction_plan = Some(plan);
+        self.forces_stale = true;
         Ok(())
+    }
+
+    /// The device's pieces' forces of the last traction stage into [`Self::cpu`]'s forces (and
+    /// the loads they give), when they are newer; false when the read failed.
+    fn refresh_forces(&mut self) -> bool {
+        if !self.forces_stale {
+            return true;
+        }
+        let Some(plan) = &self.traction_plan else { return true };
+        let Some(piece_force) = self.fluid.download_piece_forces() else { return false };
+        self.cpu.set_surface_forces(plan.forces(&piece_force));
+        self.forces_stale = false;
+        true
+    }
+
+    /// Bytes the pieces' forces carry when [`Self::download_solid`] brings them back (method 1).
+    pub fn forces_bytes(&self) -> u64 {
+        if self.forces_stale { self.fluid.piece_forces_bytes() } else { 0 }
     }
 
     /// The walls at the particles' current positions (see the module table).
@@ -320,15 +345,16 @@ impl GpuCoupled {
         Ok(())
     }
 
-    /// Copies the solid's state (particles, rotations, contact anchors) into [`Self::cpu`];
-    /// false when the read failed (the solid left as it was).
+    /// Copies the solid's state (particles, rotations, contact anchors) into [`Self::cpu`], with
+    /// method 1's air forces of the last traction stage (the pieces' forces, 16 B each);
+    /// false when a read failed (the solid, or the forces, left as they were).
     pub fn download_solid(&mut self) -> bool {
-        self.solid.download_into(&mut self.cpu.solid)
+        self.solid.download_into(&mut self.cpu.solid) && self.refresh_forces()
     }
 
     /// Copies the whole GPU state (populations, particles) into [`Self::cpu`] for outputs; false
     /// when a read failed (each part is left as it was when its own read fails).
     pub fn download_into(&mut self) -> bool {
-        self.fluid.download_into(&mut self.cpu.fluid) & self.solid.download_into(&mut self.cpu.solid)
+        self.fluid.download_into(&mut self.cpu.fluid) & self.download_solid()
     }
 }

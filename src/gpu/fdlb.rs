@@ -18,6 +18,7 @@ mod gather;
 mod geometry;
 mod readback;
 mod totals;
+mod traction;
 
 pub use readback::{GpuArray, compare_nodes};
 
@@ -95,6 +96,8 @@ pub struct GpuFluid {
     scatter: Option<gather::NodeListKernel>,
     /// The `totals` kernel of [`Self::totals`], built at its first use.
     totals: Option<totals::TotalsKernel>,
+    /// Method 1's traction kernels of [`Self::surface_traction`], built at their first use.
+    traction: Option<traction::TractionKernel>,
     queue: wgpu::Queue,
     pub nv: usize,
     /// Padded node count of the lattice.
@@ -282,6 +285,7 @@ impl GpuFluid {
             probe: None,
             gather: None,
             scatter: None,
+            traction: None,
             totals: None,
             face_fluxes: None,
             nv,

@@ -67,6 +67,8 @@ pub enum SolidArray {
     DeltaV,
     /// Contact force of the last contact stage.
     ContactForce,
+    /// The particles' loads (scene's and air's; the added mass beside them left out).
+    Load,
 }
 
 pub struct GpuSolid {
@@ -242,6 +244,12 @@ impl GpuSolid {
 
     /// Writes the particles' loads (+ added mass) of a CPU solver: the air's forces of a
     /// coupled step ([`super::coupled::GpuCoupled`]).
+    /// The particles' loads on the device (`[f32; 4]` per particle: load, added mass), which
+    /// a coupling kernel may write in place ([`super::GpuFluid::surface_traction`]).
+    pub fn load_buffer(&self) -> &wgpu::Buffer {
+        &self.buffers[Buf::Load]
+    }
+
     pub fn upload_loads(&self, s: &SolidSolver) {
         let p = &s.particles;
         let loads: Vec<[f32; 4]> = (0..p.len()).map(|i| v4(p.load[i], p.added_mass[i])).collect();
@@ -412,6 +420,7 @@ impl GpuSolid {
             SolidArray::StressTorque => Buf::TorqueG,
             SolidArray::DeltaV => Buf::Cg,
             SolidArray::ContactForce => Buf::ExtraForce,
+            SolidArray::Load => Buf::Load,
             _ => panic!("{which:?} is not a vector array"),
         };
         let raw = self.read_f32(buf);

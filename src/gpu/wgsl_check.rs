@@ -98,6 +98,7 @@ mod tests {
                         ("gather_populations", codegen::gather_populations(&eq, split)),
                         ("scatter_populations", codegen::scatter_populations(&eq, split)),
                         ("totals", codegen::totals(&eq, split)),
+                        ("traction", codegen::traction(&eq, split)),
                     ] {
                         validate(&format!("{name} {kind:?} {gas:?} {split:?}"), &src);
                         // no run-time indexing of const arrays (naga + lavapipe copy them per
@@ -108,7 +109,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(n, 9 + 2 * 2 * 2 * 10);
+        assert_eq!(n, 9 + 2 * 2 * 2 * 11);
     }
 
     /// A mirror that differs from its shader is caught (the check can fail).

@@ -97,13 +97,14 @@ impl CoupledEngine {
         if let CoupledOn::Gpu(g) = &mut self.on
             && self.mirror.behind(g.cpu.step_count)
         {
+            let forces = g.forces_bytes();
             if !g.download_into() {
                 return Err(Self::failed_read(&mut self.mirror, self.health.as_ref(), &g.cpu));
             }
             let step = g.cpu.step_count;
             (self.mirror.whole, self.solid_at) = (step, step);
             self.mirror.readback.whole_states += 1;
-            self.mirror.readback.bytes += 4 * (g.fluid.n_nodes * g.fluid.nv) as u64 + g.solid.state_bytes();
+            self.mirror.readback.bytes += 4 * (g.fluid.n_nodes * g.fluid.nv) as u64 + g.solid.state_bytes() + forces;
         }
         self.mirror.pending(self.solver())
     }
@@ -117,11 +118,12 @@ impl CoupledEngine {
         {
             let step = g.cpu.step_count;
             if self.solid_at != step {
+                let forces = g.forces_bytes();
                 if !g.download_solid() {
                     return Err(Self::failed_read(&mut self.mirror, self.health.as_ref(), &g.cpu));
                 }
                 self.solid_at = step;
-                self.mirror.readback.bytes += g.solid.state_bytes();
+                self.mirror.readback.bytes += g.solid.state_bytes() + forces;
             }
             let list = nodes(&g.cpu);
             if !g.fluid.download_nodes_into(&list, &mut g.cpu.fluid) {

@@ -246,9 +246,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
 
 mod boundaries;
 mod readback;
+mod traction;
 mod walls;
 pub use boundaries::{FaceCode, GHOST_ISOTHERMAL, boundaries, periodic_reach_code};
 pub use readback::{TOTALS_PER_THREAD, gather_populations, probes, scatter_populations, totals};
+pub use traction::{TRACTION_PRESSURE_AND_SHEAR, TRACTION_SEED_PRESSURE, traction};
 pub use walls::{face_fluxes, thin_wall, thin_wall_fluxes};
 
 // Every generated module is validated by naga in `gpu::wgsl_check`.

@@ -1,0 +1,232 @@
+//! Method 1's traction (seed 000 §2.4.1, 2.110–2.113) laid out for a backend that holds the
+//! populations elsewhere (the GPU): everything [`super::traction::surface_forces`] computes
+//! from the solid — the surface pieces, their normals, tangents, lengths and wall velocities,
+//! the interpolation stencils of their two samples along the normal and how each piece's force
+//! is shared between its edge's two particles — so that the device evaluates the air's side
+//! (the moments at the stencil nodes, the samples, the traction, the spread) without bringing
+//! any population back. The arithmetic is the one of `surface_forces`, in the same order.
+
+use super::surface::BodySurface;
+use super::traction::{SAMPLE_DISTANCES, SurfaceForces, TractionModel, edge_pieces, lattice_points};
+use crate::fluid::FluidSolver;
+use crate::solid::Particles;
+use crate::units::Units;
+use glam::DVec3;
+use std::ops::Range;
+
+/// One surface piece of the plan (lattice units; velocities in c units).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlanPiece {
+    /// Outward unit normal N and unit tangent T of the piece's edge.
+    pub normal: DVec3,
+    pub tangent: DVec3,
+    /// The wall's velocity at the piece's centre, v_w (linear along the edge).
+    pub wall_velocity: DVec3,
+    /// The wall's own derivative along the surface, ∂v_w/∂s.
+    pub dvds: DVec3,
+    /// The piece's length (its area per unit depth).
+    pub area: f64,
+    /// `stencil[0]..stencil[1]` and `stencil[1]..stencil[2]` of [`TractionPlan::stencil`]:
+    /// the samples at one and two cells along N (both empty: no fluid within reach, no force).
+    pub stencil: [u32; 3],
+}
+
+/// Method 1's traction for the solid's current configuration.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TractionPlan {
+    pub pieces: Vec<PlanPiece>,
+    /// (fluid node, weight) of every sample's stencil ([`FluidSolver::sample_stencil`]).
+    pub stencil: Vec<(u32, f64)>,
+    /// The particles the pieces load (ascending), each with its range of [`Self::shares`]; the
+    /// others receive no force from the air.
+    pub targets: Vec<(u32, Range<u32>)>,
+    /// (piece, weight): (1 − t) for its edge's first particle, t for the second, in the pieces'
+    /// order.
+    pub shares: Vec<(u32, f64)>,
+    /// Particles of the solid.
+    pub particles: usize,
+    /// The pieces of each surface, in the surfaces' order (their forces sum to its total).
+    pub surfaces: Vec<Range<usize>>,
+    /// Pieces with no fluid within reach (their force is zero).
+    pub pieces_without_fluid: usize,
+    pub model: TractionModel,
+    /// Reference pressure p₀ = ρ₀θ₀ (lattice units): tractions are gauge.
+    pub p0: f64,
+    /// τ − A: the dynamic viscosity is ρθ(τ − A) (lattice units).
+    pub relaxation: f64,
+    /// Lattice dimension D (the viscous stress subtracts (2/D) ∇·u).
+    pub dim: usize,
+    /// Lattice force per unit depth → physical (pressure unit × Δx).
+    pub force_unit: f64,
+}
+
+impl TractionPlan {
+    /// The plan of `surface_forces(fluid, units, surfaces, p, model, piece_length)`.
+    pub fn new<'a>(
+        fluid: &FluidSolver,
+        units: &Units,
+        surfaces: impl IntoIterator<Item = &'a BodySurface>,
+        p: &Particles,
+        model: TractionModel,
+        piece_length: f64,
+    ) -> Self {
+        let mut plan = TractionPlan {
+            model,
+            p0: units.theta0,
+            relaxation: fluid.params.tau - fluid.params.a,
+            dim: fluid.layout.grid.dim,
+            force_unit: units.pressure_unit() * units.dx,
+            ..Default::default()
+        };
+        let mut per_particle: Vec<Vec<(u32, f64)>> = vec![Vec::new(); p.len()];
+        for s in surfaces {
+            let first = plan.pieces.len();
+            let x = lattice_points(s, p, units);
+            let v: Vec<DVec3> = s.velocities(p).into_iter().map(|v| v / units.velocity).collect();
+            for piece in edge_pieces(&x, piece_length) {
+                let k = plan.pieces.len() as u32;
+                let start = plan.stencil.len() as u32;
+                let stencils: Vec<Option<Vec<(usize, f64)>>> =
+                    SAMPLE_DISTANCES.iter().map(|&d| fluid.sample_stencil((piece.centre + d * piece.normal).to_array())).collect();
+                let mut bounds = [start; 3];
+                if let [Some(a), Some(b)] = &stencils[..] {
+                    plan.stencil.extend(a.iter().map(|&(n, w)| (n as u32, w)));
+                    bounds[1] = plan.stencil.len() as u32;
+                    plan.stencil.extend(b.iter().map(|&(n, w)| (n as u32, w)));
+                    bounds[2] = plan.stencil.len() as u32;
+                } else {
+                    plan.pieces_without_fluid += 1;
+                }
+                let (ka, kb, t) = (piece.ka, piece.kb, piece.t);
+                plan.pieces.push(PlanPiece {
+                    normal: piece.normal,
+                    tangent: piece.edge / piece.length,
+                    wall_velocity: v[ka].lerp(v[kb], t),
+                    dvds: (v[kb] - v[ka]) / piece.length,
+                    area: piece.area,
+                    stencil: bounds,
+                });
+                per_particle[s.particles[ka]].push((k, 1.0 - t));
+                per_particle[s.particles[kb]].push((k, t));
+            }
+            plan.surfaces.push(first..plan.pieces.len());
+        }
+        plan.particles = p.len();
+        for (i, list) in per_particle.into_iter().enumerate().filter(|(_, l)| !l.is_empty()) {
+            let from = plan.shares.len() as u32;
+            plan.shares.extend(list);
+            plan.targets.push((i as u32, from..plan.shares.len() as u32));
+        }
+        plan
+    }
+
+    /// The forces on the particles and the surfaces' totals from the pieces' forces (physical
+    /// units; `piece_force[k]` of piece k, e.g. as a device computed them), spread as
+    /// `surface_forces` spreads them.
+    pub fn forces(&self, piece_force: &[DVec3]) -> SurfaceForces {
+        let mut force = vec![DVec3::ZERO; self.particles];
+        for (i, r) in &self.targets {
+            let own = &self.shares[r.start as usize..r.end as usize];
+            force[*i as usize] = own.iter().fold(DVec3::ZERO, |f, &(k, w)| f + w * piece_force[k as usize]);
+        }
+        let total = self.surfaces.iter().map(|r| piece_force[r.clone()].iter().fold(DVec3::ZERO, |a, &f| a + f)).collect();
+        SurfaceForces { force, total, pieces: self.pieces.len(), pieces_without_fluid: self.pieces_without_fluid }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::coupling::surface::ReferenceShape;
+    use crate::coupling::traction::surface_forces;
+    use crate::fluid::*;
+    use crate::solid::particles::sample_ball;
+
+    /// The plan evaluated in f64 from the populations (the arithmetic of `surface_forces`, the
+    /// way a device runs it: moments at the stencil nodes, samples, traction per piece, spread).
+    fn evaluate(plan: &TractionPlan, fluid: &FluidSolver) -> Vec<DVec3> {
+        let sample = |r: Range<u32>| {
+            let mut m = Macro::default();
+            for &(node, w) in &plan.stencil[r.start as usize..r.end as usize] {
+                let mk = fluid.macro_at(node as usize);
+                m.rho += w * mk.rho;
+                m.theta += w * mk.theta;
+                for a in 0..3 {
+                    m.u[a] += w * mk.u[a];
+                }
+            }
+            m
+        };
+        plan.pieces
+            .iter()
+            .map(|pc| {
+                if pc.stencil[0] == pc.stencil[2] {
+                    return DVec3::ZERO;
+                }
+                let (m1, m2) = (sample(pc.stencil[0]..pc.stencil[1]), sample(pc.stencil[1]..pc.stencil[2]));
+                let (n, vw) = (pc.normal, pc.wall_velocity);
+                let pw = 2.0 * m1.pressure() - m2.pressure() - plan.p0;
+                let (u1, u2) = (DVec3::from_array(m1.u), DVec3::from_array(m2.u));
+                let t = match plan.model {
+                    TractionModel::SeedPressure => {
+                        let vn = (u1 - vw).dot(n);
+                        -(pw + 0.5 * m1.rho * vn * vn) * n
+                    }
+                    TractionModel::PressureAndShear => {
+                        let sampled = (4.0 * (u1 - vw) - (u2 - vw)) * 0.5;
+                        let dudn = sampled - sampled.dot(n) * n - pc.dvds.dot(pc.tangent) * n;
+                        let g = glam::DMat3::from_cols(dudn * n.x + pc.dvds * pc.tangent.x, dudn * n.y + pc.dvds * pc.tangent.y, DVec3::ZERO);
+                        let div = g.x_axis.x + g.y_axis.y;
+                        let mu = (2.0 * m1.rho - m2.rho) * (2.0 * m1.theta - m2.theta) * plan.relaxation;
+                        -pw * n + mu * ((g + g.transpose()) * n - (2.0 / plan.dim as f64) * div * n)
+                    }
+                };
+                pc.area * t * plan.force_unit
+            })
+            .collect()
+    }
+
+    /// A moving disc in a sheared, compressed box at rest-frame temperature: the plan,
+    /// evaluated, gives `surface_forces`'s forces and totals (same arithmetic, same order:
+    /// equal to round-off), both models.
+    #[test]
+    fn the_plan_gives_the_forces_of_surface_forces() {
+        let units = Units::new(0.01, 1.0e-3, 3.0e4, 0.6, 2.0);
+        let (c, r, l0) = (DVec3::new(0.20, 0.20, 0.0), 0.08, 0.004);
+        let mut p = Particles::new(2, l0);
+        for x in sample_ball(2, c, r, l0) {
+            p.push(x, 1.0, 0, 0, false);
+        }
+        for i in 0..p.len() {
+            let d = p.position[i] - c;
+            p.velocity[i] = DVec3::new(30.0 - 400.0 * d.y, 10.0 + 400.0 * d.x, 0.0);
+            p.spin[i] = DVec3::new(0.0, 0.0, 400.0);
+        }
+        let surface = BodySurface::build(&p, 0, &ReferenceShape::Disc { centre: c, radius: r }).unwrap();
+        let eq = Equilibrium::new(VelocitySet::new(VelocitySetKind::D2q21), GasModel::Monatomic);
+        let params = timestep::choose(0.05, 0.6, eq.set.max_l1_speed(), None, timestep::DEFAULT_COURANT_SAFETY).unwrap();
+        let x: Vec<[f64; 2]> = surface.points(&p).iter().map(|x| [units.position_to_lattice(x.x), units.position_to_lattice(x.y)]).collect();
+        let n = x.len();
+        let poly = Obstacle { shape: Shape::Polygon(Polygon::new(x, vec![[0.0; 3]; n])), velocity: [0.0; 3], temperature: None };
+        let fluid = FluidSolver::new(eq, Grid::new(2, [40, 40, 1]), Boundaries::periodic(), &[poly], params, |x| Macro {
+            rho: 1.0 + 1e-3 * (x[1] - 20.0) + 5e-4 * (0.3 * x[0]).sin(),
+            u: [0.02 * (0.2 * x[1]).sin(), 0.01 * (0.25 * x[0]).cos(), 0.0],
+            theta: 0.6 + 0.002 * (0.2 * x[0] + 0.1 * x[1]).cos(),
+        });
+        for model in [TractionModel::PressureAndShear, TractionModel::SeedPressure] {
+            let reference = surface_forces(&fluid, &units, std::slice::from_ref(&surface), &p, model, 1.0);
+            let plan = TractionPlan::new(&fluid, &units, std::slice::from_ref(&surface), &p, model, 1.0);
+            assert_eq!((plan.pieces.len(), plan.pieces_without_fluid), (reference.pieces, reference.pieces_without_fluid));
+            assert!(reference.pieces > 100, "{} pieces", reference.pieces);
+            let got = plan.forces(&evaluate(&plan, &fluid));
+            let scale = reference.force.iter().map(|f| f.length()).fold(0.0, f64::max);
+            assert!(scale > 0.0);
+            for (a, b) in got.force.iter().zip(&reference.force) {
+                assert!((*a - *b).length() <= 1e-12 * scale, "{model:?}: {a} vs {b}");
+            }
+            assert!((got.total[0] - reference.total[0]).length() <= 1e-12 * scale * reference.pieces as f64, "{model:?}");
+            // Each particle of the polygon shares two edges' pieces; the others none.
+            assert_eq!(plan.targets.len(), surface.particles.len());
+        }
+    }
+}
