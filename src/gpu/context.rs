@@ -185,7 +185,32 @@ pub fn try_read_buffer(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buf
 /// The byte ranges (offset, length; multiples of 4) of `b`, one after the other, or None when
 /// the read fails: one staging buffer, one copy per range.
 pub fn try_read_ranges(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buffer, ranges: &[(u64, u64)]) -> Option<Vec<u8>> {
-    let size: u64 = ranges.iter().map(|r| r.1).sum();
+    let parts: Vec<(&wgpu::Buffer, u64, u64)> = ranges.iter().map(|&(o, l)| (b, o, l)).collect();
+    try_read_parts(device, queue, &parts)
+}
+
+/// Several whole buffers read in one trip (one staging buffer, one wait on the device instead of
+/// one per buffer), each as its own bytes, or None when the read fails.
+pub fn try_read_buffers(device: &wgpu::Device, queue: &wgpu::Queue, buffers: &[&wgpu::Buffer]) -> Option<Vec<Vec<u8>>> {
+    let parts: Vec<(&wgpu::Buffer, u64, u64)> = buffers.iter().map(|b| (*b, 0, b.size())).collect();
+    let all = try_read_parts(device, queue, &parts)?;
+    let mut at = 0;
+    Some(
+        buffers
+            .iter()
+            .map(|b| {
+                let part = all[at..at + b.size() as usize].to_vec();
+                at += b.size() as usize;
+                part
+            })
+            .collect(),
+    )
+}
+
+/// The byte ranges (buffer, offset, length; multiples of 4), one after the other in one staging
+/// buffer, or None when the read fails.
+fn try_read_parts(device: &wgpu::Device, queue: &wgpu::Queue, parts: &[(&wgpu::Buffer, u64, u64)]) -> Option<Vec<u8>> {
+    let size: u64 = parts.iter().map(|r| r.2).sum();
     if size == 0 {
         return Some(Vec::new());
     }
@@ -197,7 +222,7 @@ pub fn try_read_ranges(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buf
     });
     let mut enc = device.create_command_encoder(&Default::default());
     let mut at = 0;
-    for &(offset, len) in ranges {
+    for &(b, offset, len) in parts {
         enc.copy_buffer_to_buffer(b, offset, &staging, at, len);
         at += len;
     }

@@ -35,7 +35,7 @@
 use super::context::{GpuContext, GpuError};
 use super::coupling::CouplingKernels;
 use super::fdlb::GpuFluid;
-use super::solid::{GpuSolid, SolidArray};
+use super::solid::GpuSolid;
 use crate::coupling::{CoupledSolver, Method, WeakOptions};
 use crate::fluid::LayoutChange;
 use crate::stages::CoupledStageKind;
@@ -173,14 +173,29 @@ impl GpuCoupled {
     /// when `turning`: method 1's surface points sit at offsets that turn with their particle,
     /// [`crate::coupling::surface`]), checked.
     fn download_particles(&mut self, turning: bool) -> Result<(), Instability> {
-        if turning {
+        let read = if turning {
             let (steps, time) = (self.cpu.solid.step_count, self.cpu.solid.time);
-            self.solid.download_into(&mut self.cpu.solid);
+            let ok = self.solid.download_into(&mut self.cpu.solid);
             (self.cpu.solid.step_count, self.cpu.solid.time) = (steps, time);
-        } else {
+            ok
+        } else if let Some((position, velocity)) = self.solid.download_kinematics() {
             let p = &mut self.cpu.solid.particles;
-            p.position = self.solid.download_vectors(SolidArray::Position);
-            p.velocity = self.solid.download_vectors(SolidArray::Velocity);
+            (p.position, p.velocity) = (position, velocity);
+            true
+        } else {
+            false
+        };
+        if !read {
+            return Err(Instability {
+                part: Part::Device,
+                step: self.cpu.step_count,
+                time: self.cpu.time,
+                time_unit: "s",
+                site: Site::Everywhere,
+                quantity: "device state",
+                value: f64::NAN,
+                reason: "reading the particles back for the walls' geometry failed".into(),
+            });
         }
         if let Some(i) = self.cpu.solid.non_finite() {
             let mut e = self.cpu.solid.instability_at(i);

@@ -409,6 +409,17 @@ impl GpuSolid {
         bytemuck::cast_slice(&super::context::read_buffer(&self.device, &self.queue, &self.buffers[buf])).to_vec()
     }
 
+    /// The particles' positions and velocities (f64) in one trip, or None when the read fails.
+    pub fn download_kinematics(&self) -> Option<(Vec<DVec3>, Vec<DVec3>)> {
+        let arrays = super::context::try_read_buffers(&self.device, &self.queue, &[&self.buffers[Buf::Pos], &self.buffers[Buf::Vel]])?;
+        let vectors = |raw: &[u8]| -> Vec<DVec3> {
+            bytemuck::cast_slice::<u8, f32>(raw).chunks(4).take(self.n).map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)).collect()
+        };
+        // the position buffer holds the displacement from the reference position
+        let position = vectors(&arrays[0]).into_iter().zip(&self.reference).map(|(u, x)| *x + u).collect();
+        Some((position, vectors(&arrays[1])))
+    }
+
     /// A per-particle vector array as f64.
     pub fn download_vectors(&self, which: SolidArray) -> Vec<DVec3> {
         let buf = match which {
@@ -461,8 +472,12 @@ impl GpuSolid {
     /// a read fails (a lost device, no memory for a staging buffer) `s` is left as it was and
     /// false comes back.
     pub fn download_into(&self, s: &mut SolidSolver) -> bool {
-        let read = |buf: Buf| super::context::try_read_buffer(&self.device, &self.queue, &self.buffers[buf]);
-        let (Some(pos), Some(vel), Some(spin), Some(quat)) = (read(Buf::Pos), read(Buf::Vel), read(Buf::Spin), read(Buf::Quat)) else { return false };
+        // one trip for the four arrays
+        let b = |buf: Buf| &self.buffers[buf];
+        let Some(arrays) = super::context::try_read_buffers(&self.device, &self.queue, &[b(Buf::Pos), b(Buf::Vel), b(Buf::Spin), b(Buf::Quat)]) else {
+            return false;
+        };
+        let [pos, vel, spin, quat] = <[Vec<u8>; 4]>::try_from(arrays).expect("four arrays");
         let vectors = |raw: &[u8]| -> Vec<DVec3> {
             bytemuck::cast_slice::<u8, f32>(raw).chunks(4).take(self.n).map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)).collect()
         };
