@@ -18,9 +18,9 @@
 //! draws it either way (the folds' surface made on the GPU from the particles).
 
 use bevy::prelude::*;
+use bevy::render::renderer::RenderAdapterInfo;
 use phonation::plugin::{PhonationGpuPlugin, SimulationControl};
 use phonation::render::PhonationPlugins;
-use bevy::render::renderer::RenderAdapterInfo;
 use phonation::render::panel::{PanelState, PanelTarget};
 use phonation::render::presets::choose_backend;
 use phonation::render::view::{CapturePlugin, FrameSimulation};
@@ -34,7 +34,13 @@ fn main() {
     let preset = arg("--preset").unwrap_or_else(|| "glottis_2d_c".into());
     let steps = arg("--steps-per-frame").and_then(|s| s.parse().ok()).unwrap_or(5);
     let flag = |f: &str| std::env::args().any(|a| a == f);
-    let forced = if flag("--air-on-gpu") { Some(true) } else if flag("--cpu") { Some(false) } else { None };
+    let forced = if flag("--air-on-gpu") {
+        Some(true)
+    } else if flag("--cpu") {
+        Some(false)
+    } else {
+        None
+    };
     let window = Window { title: format!("phonation — {preset}"), resolution: (1280, 800).into(), ..default() };
     let mut app = App::new();
     app.add_plugins(DefaultPlugins.set(WindowPlugin { primary_window: Some(window), ..default() }))
@@ -42,9 +48,10 @@ fn main() {
         .insert_resource(PanelState { preset, air_on_gpu: forced == Some(true), ..default() })
         .insert_resource(SimulationControl { steps_per_frame: steps, ..default() })
         .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
-        .add_systems(Startup, (setup, move |info: Option<Res<RenderAdapterInfo>>, state: ResMut<PanelState>, windows: Query<&mut Window>| {
-            choose(forced, info, state, windows)
-        }));
+        .add_systems(
+            Startup,
+            (setup, move |info: Option<Res<RenderAdapterInfo>>, state: ResMut<PanelState>, windows: Query<&mut Window>| choose(forced, info, state, windows)),
+        );
     if let (Some(frames), Some(path)) = (arg("--frames").and_then(|f| f.parse().ok()), arg("--screenshot")) {
         app.add_plugins(CapturePlugin { frames, path: path.into() });
     }

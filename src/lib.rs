@@ -3,7 +3,7 @@
 //! Vocal-fold fluid–structure interaction: a compressible thermal finite-difference lattice
 //! Boltzmann fluid (D2Q21 / D3Q39, seed 000 §2.3), an MPS orthotropic viscoelastic solid
 //! (§2.1–2.2), their two couplings (§2.4: the weak one and the momentum-conserving one), GPU
-//! twins of the fluid, solid and coupling kernels (method 2's coupled step runs on the GPU), an
+//! twins of the fluid, solid and coupling kernels (the coupled step of either method runs on the GPU), an
 //! integer lattice gas (seed 002), the voice measures and a two-mass reference model.
 //! It ships as a headless simulator (`phonation` binary) and a Bevy plugin (feature `bevy`).
 //!
@@ -28,9 +28,14 @@
 //! | [`validation`] | analytic references and validation cases (Taylor–Green, Sod, …) |
 //! | [`bench`] | memory bandwidth and cells/s measurements, cost per update against size |
 //! | [`machine`] | the last-level cache, and when a rate is a fraction of the memory bandwidth |
-//! | [`gpu`] | wgpu compute twins of the core (no Bevy): the generated FDLB kernels, the solid, the lattice gas, method 2's coupling kernels and coupled step ([`gpu::coupled`]), marching cubes, tracers; each kernel checked against its CPU twin (tests/gpu.rs) |
+//! | [`gpu`] | wgpu compute twins of the core (no Bevy): the generated FDLB kernels, the solid, the lattice gas, the coupling kernels (method 1's traction, method 2's level set and hand-over) and the coupled step ([`gpu::coupled`]), marching cubes, tracers; each kernel checked against its CPU twin (tests/gpu.rs) |
 //! | `plugin` | Bevy plugin that steps simulations (feature `bevy`) |
 //! | `render` | drawing in Bevy (feature `render`, on by default): `render::PhonationPlugins`, the fold mesh, tracers, slices, the egui panel |
+
+// Two style lints the physics code departs from on purpose: `!(x > 0.0)` is how a check that
+// must also reject NaN is written (a `partial_cmp` chain would hide that), and loops over axes
+// and velocities index several arrays by the same component (`a`, `i`), as the equations do.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
 pub mod analysis;
 pub mod bench;

@@ -384,7 +384,13 @@ fn an_out_of_memory_read_stops_the_run_with_a_diagnosis() {
         size /= 2;
     }
     let filled: u64 = filler.iter().map(|b: &wgpu::Buffer| b.size()).sum();
-    eprintln!("address space {} MiB used, limit {} MiB: {} MiB of device memory taken in {} buffers", used >> 20, limit.rlim_cur >> 20, filled >> 20, filler.len());
+    eprintln!(
+        "address space {} MiB used, limit {} MiB: {} MiB of device memory taken in {} buffers",
+        used >> 20,
+        limit.rlim_cur >> 20,
+        filled >> 20,
+        filler.len()
+    );
     // At least the 256 MiB left less one block (64 MiB); more where the allocator kept free
     // blocks from earlier buffers (here, measured: 354 MiB).
     assert!(filled >= 192 << 20, "the filler took only {filled} B of the 256 MiB left");

@@ -281,7 +281,9 @@ fn a_solid_stepped_in_the_render_world_matches_the_gpu_backend() {
     for _ in 0..step / 20 {
         direct.advance(20).unwrap();
     }
-    let bits = |s: &phonation::solid::SolidSolver| s.particles.position.iter().chain(&s.particles.velocity).flat_map(|p| p.to_array()).map(f64::to_bits).collect::<Vec<_>>();
+    let bits = |s: &phonation::solid::SolidSolver| {
+        s.particles.position.iter().chain(&s.particles.velocity).flat_map(|p| p.to_array()).map(f64::to_bits).collect::<Vec<_>>()
+    };
     println!("solid in the render world: {} steps, energies {:?}", d.steps, d.energies);
     assert_eq!(bits(&sim.solver), bits(&direct.solver), "positions or velocities differ from the GPU backend's");
     assert_eq!(d.steps, step);
@@ -468,9 +470,8 @@ fn a_coupled_glottis_stepped_in_the_render_world_matches_the_gpu_backend() {
         want.push(g.sample(&cpu).flow);
     }
     let largest = want.iter().fold(0.0f64, |m, w| m.max(w.abs()));
-    let off = |jet_only: bool| {
-        kept.iter().zip(&want).filter(|(_, w)| !jet_only || w.abs() >= 0.25 * largest).map(|(f, w)| (f - w).abs()).fold(0.0f64, f64::max)
-    };
+    let off =
+        |jet_only: bool| kept.iter().zip(&want).filter(|(_, w)| !jet_only || w.abs() >= 0.25 * largest).map(|(f, w)| (f - w).abs()).fold(0.0f64, f64::max);
     let (worst, worst_jet) = (off(false), off(true));
     eprintln!("largest CPU flow {largest:.4} cm³/s; the render world's within {worst:.2e} over every step, {worst_jet:.2e} in the jet");
     assert!(largest > 50.0, "the jet has formed by step {step}: largest flow {largest} cm³/s");

@@ -13,7 +13,7 @@ const COPY: &str = include_str!("../../shaders/copy.wgsl");
 
 /// Best-of-`reps` copy bandwidth (bytes read + written per second) over `bytes`-sized buffers.
 pub fn copy_bandwidth(ctx: &GpuContext, bytes: u64, reps: usize) -> f64 {
-    let bytes = bytes.min(ctx.limits.max_storage_buffer_binding_size as u64) / 16 * 16;
+    let bytes = bytes.min(ctx.limits.max_storage_buffer_binding_size) / 16 * 16;
     let dev = &ctx.device;
     let src = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("copy src"),

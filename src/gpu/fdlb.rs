@@ -178,7 +178,7 @@ impl GpuFluid {
     /// adapter's): checked before anything is allocated, on the CPU or the GPU.
     pub fn fits(limits: &wgpu::Limits, nodes: usize, nv: usize) -> Result<Split, GpuError> {
         let pop_bytes = (nodes.div_ceil(64) * 64 * 4) as u64;
-        let limit = limits.max_storage_buffer_binding_size as u64;
+        let limit = limits.max_storage_buffer_binding_size;
         let per_binding = ((limit / pop_bytes) as usize).min(nv);
         let total = nv as u64 * pop_bytes;
         if per_binding == 0 {

@@ -105,7 +105,7 @@ impl GpuLatticeGas {
         let cells = g.cells();
         let words = (cells / 2) as u32;
         let state_bytes = (Q * cells * 2) as u64;
-        let limit = ctx.limits.max_storage_buffer_binding_size as u64;
+        let limit = ctx.limits.max_storage_buffer_binding_size;
         for (what, bytes) in [("lattice gas state", state_bytes), ("collision table members", 4 * table.members.len() as u64)] {
             if bytes > limit {
                 return Err(GpuError::TooLarge { what, bytes, limit, unit: "bytes", limit_name: "max_storage_buffer_binding_size" });

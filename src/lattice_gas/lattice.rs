@@ -115,7 +115,10 @@ impl LatticeGas {
     /// An empty gas. `dims[0]` must be a positive multiple of 4 (four cells per u64) and the
     /// other dimensions positive (scene validation reports these before allocating).
     pub fn new(dims: [usize; 3], seed: u32, interference: f64) -> Self {
-        assert!(dims[0] > 0 && dims[0] % LANES == 0 && dims[1] > 0 && dims[2] > 0, "lattice gas cells {dims:?}: X must be a positive multiple of {LANES}");
+        assert!(
+            dims[0] > 0 && dims[0].is_multiple_of(LANES) && dims[1] > 0 && dims[2] > 0,
+            "lattice gas cells {dims:?}: X must be a positive multiple of {LANES}"
+        );
         let cells = dims[0] * dims[1] * dims[2];
         Self {
             dims,

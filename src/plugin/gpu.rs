@@ -93,12 +93,14 @@ pub struct PhonationGpuPlugin;
 
 impl Plugin for PhonationGpuPlugin {
     fn build(&self, app: &mut App) {
-        app.add_plugins(ExtractComponentPlugin::<GpuFluidHandle>::default())
-            .add_systems(
-                Update,
-                (upload_to_gpu.before(super::step_simulations), (bring_back_fluids.before(super::step_simulations), schedule_gpu_steps.after(super::plan_steps)).chain())
-                    .in_set(PhonationSystems::Step),
-            );
+        app.add_plugins(ExtractComponentPlugin::<GpuFluidHandle>::default()).add_systems(
+            Update,
+            (
+                upload_to_gpu.before(super::step_simulations),
+                (bring_back_fluids.before(super::step_simulations), schedule_gpu_steps.after(super::plan_steps)).chain(),
+            )
+                .in_set(PhonationSystems::Step),
+        );
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
             // Before `RenderGraphSystems::Render`, where Bevy's camera driver records the views.
             render_app.add_systems(RenderGraph, step_gpu_fluids.before(RenderGraphSystems::Render));

@@ -69,11 +69,7 @@ pub(super) fn build(app: &mut App) {
 /// Uploads each GPU-stepping solid entity once (a copy of its solver: the main world keeps the
 /// original, which receives the readbacks).
 #[allow(clippy::type_complexity)]
-fn upload_solid(
-    mut commands: Commands,
-    sims: Query<(Entity, &SolidSimulation), (With<GpuStepping>, Without<GpuSolidHandle>)>,
-    render: RenderDeviceParam,
-) {
+fn upload_solid(mut commands: Commands, sims: Query<(Entity, &SolidSimulation), (With<GpuStepping>, Without<GpuSolidHandle>)>, render: RenderDeviceParam) {
     for (entity, sim) in &sims {
         let Some((ctx, name)) = render.context() else { return };
         match SolidEngine::on_device(ctx, name, sim.solver.clone(), None) {

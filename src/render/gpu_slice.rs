@@ -43,15 +43,17 @@ pub struct GpuSlicePlugin;
 
 impl Plugin for GpuSlicePlugin {
     fn build(&self, app: &mut App) {
-        app.add_plugins(ExtractComponentPlugin::<GpuSliceHandle>::default())
-            .add_systems(
-                Update,
-                (drop_stale_gpu_slices.before(super::slice::update_slices), update_gpu_slices.after(super::slice::update_slices)).in_set(super::DrawSystems::Slice),
-            );
+        app.add_plugins(ExtractComponentPlugin::<GpuSliceHandle>::default()).add_systems(
+            Update,
+            (drop_stale_gpu_slices.before(super::slice::update_slices), update_gpu_slices.after(super::slice::update_slices)).in_set(super::DrawSystems::Slice),
+        );
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
             render_app.add_systems(
                 RenderGraph,
-                make_gpu_slices.after(crate::plugin::gpu::step_gpu_fluids).after(crate::plugin::gpu_coupled::step_gpu_coupled).before(RenderGraphSystems::Render),
+                make_gpu_slices
+                    .after(crate::plugin::gpu::step_gpu_fluids)
+                    .after(crate::plugin::gpu_coupled::step_gpu_coupled)
+                    .before(RenderGraphSystems::Render),
             );
         }
     }

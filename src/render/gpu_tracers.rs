@@ -82,7 +82,10 @@ impl Plugin for GpuTracerPlugin {
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
             render_app.add_systems(
                 RenderGraph,
-                advect_gpu_tracers.after(crate::plugin::gpu::step_gpu_fluids).after(crate::plugin::gpu_coupled::step_gpu_coupled).before(RenderGraphSystems::Render),
+                advect_gpu_tracers
+                    .after(crate::plugin::gpu::step_gpu_fluids)
+                    .after(crate::plugin::gpu_coupled::step_gpu_coupled)
+                    .before(RenderGraphSystems::Render),
             );
         }
     }

@@ -103,7 +103,11 @@ pub(super) fn update_slices(
     steps: Res<StepsThisFrame>,
     mut sims: Query<
         (Entity, Option<&CoupledSimulation>, Option<&FluidSimulation>, Option<&LatticeGasSimulation>, Option<&mut SliceView>),
-        (Or<(With<CoupledSimulation>, With<FluidSimulation>, With<LatticeGasSimulation>)>, Without<crate::plugin::GpuFluidHandle>, Without<crate::plugin::GpuCoupledHandle>),
+        (
+            Or<(With<CoupledSimulation>, With<FluidSimulation>, With<LatticeGasSimulation>)>,
+            Without<crate::plugin::GpuFluidHandle>,
+            Without<crate::plugin::GpuCoupledHandle>,
+        ),
     >,
     mut quads: Query<(Entity, &SliceOf, &mut Visibility)>,
     mut images: ResMut<Assets<Image>>,

@@ -133,10 +133,7 @@ pub fn frame_rates(frames: u32, steps: u64, seconds: f64) -> Option<String> {
 mod tests {
     #[test]
     fn frame_rates_divide_by_the_wall_time() {
-        assert_eq!(
-            super::frame_rates(20, 100, 4.0).as_deref(),
-            Some("5.00 frames/s, 25.0 simulation steps/s (5.0 steps per frame; 20 frames in 4.00 s)")
-        );
+        assert_eq!(super::frame_rates(20, 100, 4.0).as_deref(), Some("5.00 frames/s, 25.0 simulation steps/s (5.0 steps per frame; 20 frames in 4.00 s)"));
         assert_eq!(super::frame_rates(0, 0, 1.0), None);
         assert_eq!(super::frame_rates(3, 0, 0.0), None);
     }

@@ -231,7 +231,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
     let snaps = fluid_scene.file.output.snapshots;
     let snap_every = if snaps > 0 { (total / snaps).max(1) } else { u64::MAX };
     let probe_every = fluid_scene.file.output.probe_every.max(1);
-    let glottis = sc.glottis(&c);
+    let glottis = sc.glottis(c);
     let glottal_path = dir.join("glottal_flow.csv");
     let mut record_g = match &glottis {
         Some(_) => {
@@ -250,14 +250,14 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
             (checkpoint::from_bits(&r["m0"], "m0")?[0], r["k_snap"].as_u64().unwrap_or(0))
         }
         None => {
-            writeln!(csv, "{}", csv_header(&c, &particle_probes))?;
-            let d = probe_displacements(&c, &particle_probes);
-            writeln!(csv, "{}", csv_row(&c, &d, &c.fluid.totals()))?;
+            writeln!(csv, "{}", csv_header(c, &particle_probes))?;
+            let d = probe_displacements(c, &particle_probes);
+            writeln!(csv, "{}", csv_row(c, &d, &c.fluid.totals()))?;
             probe_samples.push((c.time, d.iter().map(|d| d.y).collect()));
             csv.flush()?;
             probes.sample(&c.fluid, &fluid_scene.units)?;
             if let (Some(g), Some(r)) = (&glottis, &mut record_g) {
-                r.push(g.sample(&c))?;
+                r.push(g.sample(c))?;
             }
             (c.fluid.totals().mass, 0)
         }

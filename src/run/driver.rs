@@ -78,7 +78,7 @@ pub fn drive_until<S: Solver + ?Sized>(
         }
         step = next;
         bar.set_position(step);
-        let tick = Tick { step, hit: periods.iter().map(|&p| live(p) && step % p == 0).collect(), last: step == total };
+        let tick = Tick { step, hit: periods.iter().map(|&p| live(p) && step.is_multiple_of(p)).collect(), last: step == total };
         at(solver, &tick)?;
     }
     bar.finish_and_clear();

@@ -189,10 +189,10 @@ impl LatticeGasScene {
             return err("output", "every and probe_every must be at least 1 step");
         }
         let probe = o.probe.or_else(|| s.cylinder.as_ref().map(|c| [c.center[0] + 4.0 * c.radius, c.center[1]]));
-        if let Some(p) = probe {
-            if !(p[0] >= 0.0 && p[0] <= lx - 1.0 && p[1] >= 0.0 && p[1] <= ly - 1.0) {
-                return err("output.probe", format!("{p:?} ℓ lies outside the domain [0, {}] × [0, {}] ℓ", lx - 1.0, ly - 1.0));
-            }
+        if let Some(p) = probe
+            && !(p[0] >= 0.0 && p[0] <= lx - 1.0 && p[1] >= 0.0 && p[1] <= ly - 1.0)
+        {
+            return err("output.probe", format!("{p:?} ℓ lies outside the domain [0, {}] × [0, {}] ℓ", lx - 1.0, ly - 1.0));
         }
         Ok(Self { file, probe })
     }

@@ -136,13 +136,10 @@ impl SolidSolver {
         }
         let re = options.influence_ratio * particles.spacing;
         for (a, period) in options.periods.iter().enumerate() {
-            if let Some(l) = period {
-                if !(l.is_finite() && *l > 2.0 * re) {
-                    return err(
-                        "solid.periods",
-                        format!("the period {l} along axis {a} must exceed 2 r_e = {:.4} (each bond needs one nearest image)", 2.0 * re),
-                    );
-                }
+            if let Some(l) = period
+                && !(l.is_finite() && *l > 2.0 * re)
+            {
+                return err("solid.periods", format!("the period {l} along axis {a} must exceed 2 r_e = {:.4} (each bond needs one nearest image)", 2.0 * re));
             }
         }
         let mut stiff: Vec<Voigt6> = Vec::new();

@@ -186,7 +186,7 @@ pub fn free_vibration(s: &mut SolidSolver, c: &Cantilever, periods: usize, max_t
             amps.push(0.0);
         }
         prev = d;
-        if s.step_count % energy_every == 0 {
+        if s.step_count.is_multiple_of(energy_every) {
             let e = s.energies().total();
             drift = drift.max((e - e0).abs() / e0.abs());
         }

@@ -74,7 +74,7 @@ pub fn thermal_couette(h: usize) -> ProfileResult {
     let cp = (2.0 + 2.0) / 2.0;
     let predicted = u_wall * u_wall / (8.0 * cp);
     // The discrete nodes straddle mid-gap (h even): correct the sampled maximum of the parabola.
-    let offset = if h % 2 == 0 { 0.5 / hf } else { 0.0 };
+    let offset = if h.is_multiple_of(2) { 0.5 / hf } else { 0.0 };
     let predicted_at_node = predicted * (1.0 - 4.0 * offset * offset);
     ProfileResult { l2_error: (num / den).sqrt(), peak_rise: Some((peak, predicted_at_node)), steps: s.step_count }
 }

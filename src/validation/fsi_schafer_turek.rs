@@ -136,7 +136,7 @@ impl Window {
 /// 4.1 D is a whole number of cells), lattice Mach number `mach` at U_max, started as `start`,
 /// run for `duration` s.
 pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, start: ChannelStart, duration: f64, body: CylinderBody) -> ChannelCylinderResult {
-    assert!(cells_per_diameter % 10 == 0, "the channel height 4.1 D must be a whole number of cells");
+    assert!(cells_per_diameter.is_multiple_of(10), "the channel height 4.1 D must be a whole number of cells");
     let (d_phys, h_phys, l_phys, nu_phys, u_max) = (0.1, 0.41, 2.2, 1.0e-3, 0.3);
     let u_mean = 2.0 / 3.0 * u_max;
     let dx = d_phys / cells_per_diameter as f64;
