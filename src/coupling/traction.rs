@@ -29,10 +29,11 @@
 //! over particles is exactly the sum over pieces.
 
 use super::surface::BodySurface;
+use super::traction_plan::TractionPlan;
 use crate::fluid::FluidSolver;
 use crate::solid::Particles;
 use crate::units::Units;
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 
 /// Which traction the air exerts on a body's surface.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -60,7 +61,9 @@ pub struct SurfaceForces {
 }
 
 /// The tractions of `fluid` on the `surfaces` of the bodies made of `p`; `units` converts the
-/// particle positions (physical, from the domain's origin) to lattice coordinates.
+/// particle positions (physical, from the domain's origin) to lattice coordinates. The pieces
+/// and their samples are laid out by [`TractionPlan::new`] (from the solid) and evaluated by
+/// [`TractionPlan::piece_forces`] (on the air) — the arithmetic the GPU's traction kernels mirror.
 pub fn surface_forces<'a>(
     fluid: &FluidSolver,
     units: &Units,
@@ -69,60 +72,8 @@ pub fn surface_forces<'a>(
     model: TractionModel,
     piece_length: f64,
 ) -> SurfaceForces {
-    let mut out = SurfaceForces { force: vec![DVec3::ZERO; p.len()], ..Default::default() };
-    let p0 = units.theta0;
-    let dim = fluid.layout.grid.dim as f64;
-    let (tau, a) = (fluid.params.tau, fluid.params.a);
-    // Lattice force per unit depth → physical: pressure unit × Δx.
-    let force_unit = units.pressure_unit() * units.dx;
-    for s in surfaces {
-        let x = lattice_points(s, p, units);
-        let v: Vec<DVec3> = s.velocities(p).into_iter().map(|v| v / units.velocity).collect();
-        let mut total = DVec3::ZERO;
-        for piece in edge_pieces(&x, piece_length) {
-            let Piece { ka, kb, t, centre: c, normal, area, edge: e, length: len } = piece;
-            out.pieces += 1;
-            let vw = v[ka].lerp(v[kb], t);
-            let sample = |d: f64| fluid.sample((c + d * normal).to_array());
-            let (Some(m1), Some(m2)) = (sample(SAMPLE_DISTANCES[0]), sample(SAMPLE_DISTANCES[1])) else {
-                out.pieces_without_fluid += 1;
-                continue;
-            };
-            let pw = 2.0 * m1.pressure() - m2.pressure() - p0;
-            let (u1, u2) = (DVec3::from_array(m1.u), DVec3::from_array(m2.u));
-            let traction = match model {
-                TractionModel::SeedPressure => {
-                    let vn = (u1 - vw).dot(normal);
-                    -(pw + 0.5 * m1.rho * vn * vn) * normal
-                }
-                TractionModel::PressureAndShear => {
-                    // ∇u at the wall: along the surface, the wall's own derivative ∂v_w/∂s;
-                    // along the normal, the sampled ∂u/∂n for the tangential part and, for
-                    // the normal part, continuity at the wall (∂u_n/∂n = −∂v_w/∂s·T): the
-                    // one-sided estimate of ∂u_n/∂n is noise where the flow decelerates
-                    // within a cell or two (a stagnation point).
-                    let sampled = (4.0 * (u1 - vw) - (u2 - vw)) * 0.5;
-                    let dvds = (v[kb] - v[ka]) / len;
-                    let tangent = e / len;
-                    let dudn = sampled - sampled.dot(normal) * normal - dvds.dot(tangent) * normal;
-                    let g = DMat3::from_cols(dudn * normal.x + dvds * tangent.x, dudn * normal.y + dvds * tangent.y, DVec3::ZERO);
-                    let div = g.x_axis.x + g.y_axis.y;
-                    let rho_w = 2.0 * m1.rho - m2.rho;
-                    let theta_w = 2.0 * m1.theta - m2.theta;
-                    let mu = rho_w * theta_w * (tau - a);
-                    // σ' = μ (∇u + ∇uᵀ − (2/D) ∇·u I): the BGK gas has no bulk viscosity.
-                    let viscous = mu * ((g + g.transpose()) * normal - (2.0 / dim) * div * normal);
-                    -pw * normal + viscous
-                }
-            };
-            let f = area * traction * force_unit;
-            total += f;
-            out.force[s.particles[ka]] += (1.0 - t) * f;
-            out.force[s.particles[kb]] += t * f;
-        }
-        out.total.push(total);
-    }
-    out
+    let plan = TractionPlan::new(fluid, units, surfaces, p, model, piece_length);
+    plan.forces(&plan.piece_forces(fluid))
 }
 
 /// The surface points of `s` in lattice coordinates.

@@ -186,16 +186,7 @@ impl GpuCoupled {
             false
         };
         if !read {
-            return Err(Instability {
-                part: Part::Device,
-                step: self.cpu.step_count,
-                time: self.cpu.time,
-                time_unit: "s",
-                site: Site::Everywhere,
-                quantity: "device state",
-                value: f64::NAN,
-                reason: "reading the particles back for the walls' geometry failed".into(),
-            });
+            return Err(self.failed_read("reading the particles back for the walls' geometry failed"));
         }
         if let Some(i) = self.cpu.solid.non_finite() {
             let mut e = self.cpu.solid.instability_at(i);
@@ -239,7 +230,12 @@ impl GpuCoupled {
         if ok {
             return Ok(());
         }
-        Err(Instability {
+        Err(self.failed_read("reading back the nodes that change side failed"))
+    }
+
+    /// The diagnosis of a read within a step that failed (the device lost or out of memory).
+    fn failed_read(&self, reason: &str) -> Instability {
+        Instability {
             part: Part::Device,
             step: self.cpu.step_count,
             time: self.cpu.time,
@@ -247,8 +243,8 @@ impl GpuCoupled {
             site: Site::Everywhere,
             quantity: "device state",
             value: f64::NAN,
-            reason: "reading back the nodes that change side failed".into(),
-        })
+            reason: reason.into(),
+        }
     }
 
     /// After a change of layout: the populations it wrote (the fresh nodes, by the `scatter`
