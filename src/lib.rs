@@ -26,7 +26,7 @@
 //! | [`run`] | running a scene on a backend ([`run::backend`]: picking the GPU, one engine per solver) through one run loop ([`run::driver`]) and writing its outputs: fluid, solid, lattice gas, coupled, two-mass; parameter sweeps (parallel or a Slurm job array) |
 //! | [`output`] | probes CSV, PNG colour maps, VTK, summary JSON, voice outputs (voice.json, plots, WAV) |
 //! | [`validation`] | analytic references and validation cases (Taylor–Green, Sod, …) |
-//! | [`bench`] | memory bandwidth and cells/s measurements, cost per update against size |
+//! | [`bench`](mod@bench) | memory bandwidth and cells/s measurements, cost per update against size |
 //! | [`machine`] | the last-level cache, and when a rate is a fraction of the memory bandwidth |
 //! | [`gpu`] | wgpu compute twins of the core (no Bevy): the generated FDLB kernels, the solid, the lattice gas, the coupling kernels (method 1's traction, method 2's level set and hand-over) and the coupled step ([`gpu::coupled`]), marching cubes, tracers; each kernel checked against its CPU twin (tests/gpu.rs) |
 //! | `plugin` | Bevy plugin that steps simulations (feature `bevy`) |

@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
 
-/// The memory bandwidth the triad a[i] = b[i] + s·c[i] reaches (3 × 8 bytes per element, the
+/// The memory bandwidth the triad a\[i\] = b\[i\] + s·c\[i\] reaches (3 × 8 bytes per element, the
 /// STREAM convention), over repetitions: the machines are shared, so the best is the figure the
 /// fractions use and the spread says how much to trust it.
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -64,7 +64,7 @@ pub struct FlopRate {
 /// the ports' throughput.
 const FMA_CHAINS: usize = 64;
 
-/// The peak f64 rate of the roofline: every rayon thread runs [`FMA_CHAINS`] independent chains
+/// The peak f64 rate of the roofline: every rayon thread runs `FMA_CHAINS` independent chains
 /// of `a = a · b + c` (vectorised, FMA where the CPU has it — this build's own instruction
 /// set), `reps` times, in registers (no memory traffic).
 pub fn fma_peak(reps: usize) -> FlopRate {

@@ -318,7 +318,7 @@ impl CoupledSolver {
     /// The particles of every coupled body as one level set (the current walls' points and
     /// velocities, bodies in order; φ = 0) with each point's particle index: the weights of the
     /// momentum exchange (2.127–2.128) normalised over all bodies at once, as
-    /// [`Self::momentum_exchange`] normalises them — for a backend that runs that stage itself.
+    /// the `momentum_exchange` stage normalises them — for a backend that runs that stage itself.
     pub fn exchange_particles(&self) -> (KernelLevelSet, Vec<usize>) {
         let ex = self.exchange.as_ref().expect("method 2");
         let p = &self.solid.particles;

@@ -17,7 +17,7 @@
 //! no state passes through the contact.
 //!
 //! Units: the solid works in the scene's physical units; the fluid in lattice units; positions
-//! map through [`Units::position_to_lattice`] (the same origin).
+//! map through [`crate::units::Units::position_to_lattice`] (the same origin).
 
 use super::solver::CoupledSolver;
 use super::traction::{SurfaceForces, TractionModel, sampled_nodes, surface_forces};

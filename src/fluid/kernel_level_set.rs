@@ -141,7 +141,7 @@ impl KernelLevelSet {
     }
 
     /// Signed distance (cells), positive outside. Outside (L ≤ 0) the first-order estimate
-    /// −L/|∇L| (φ/[`FLAT`], far, where no particle is within r_e), enough for the layout's
+    /// −L/|∇L| (φ/`FLAT`, far, where no particle is within r_e), enough for the layout's
     /// inside/outside and pinch tests. Inside, where ghost nodes need their distance to the
     /// wall and L flattens away from the surface (−L/|∇L| there overestimates the depth several
     /// times, which would put a ghost's image point far out in the flow), the distance to the

@@ -42,7 +42,7 @@ impl Layout {
     /// with them (test `a_local_rebuild_equals_the_full_one`) — recomputing only the nodes near
     /// the obstacles that changed: the moving walls of a coupled step. Where a node's
     /// classification can change (the changed obstacles' old and new boxes of influence,
-    /// [`Shape::influence_box`]) plus [`DEPENDENCY_REACH`] is recomputed; the rest is copied.
+    /// [`super::geometry::Shape::influence_box`]) plus `DEPENDENCY_REACH` is recomputed; the rest is copied.
     /// A full rebuild when an obstacle of unbounded influence changed, when the obstacle count
     /// changed or when the region comes within reach of the domain's faces.
     pub fn rebuilt(&self, user_obstacles: &[Obstacle]) -> Self {

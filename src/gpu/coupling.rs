@@ -67,7 +67,7 @@ const WALL: usize = 7;
 const DIAG_PARTIALS: usize = 12;
 
 /// What one hand-over's wall nodes add to the exchange's run sums (lattice units; CPU twin: the
-/// sums of method 2's `momentum_exchange` stage, [`crate::coupling::Exchange`]).
+/// sums of method 2's `momentum_exchange` stage, [`crate::coupling::conserving::Exchange`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ExchangeDiagnostics {
     /// Momentum of the nodes with no particle within r_e (walls that are no coupled body).
@@ -94,7 +94,7 @@ enum Binding<'a> {
     Resident(&'a wgpu::Buffer),
 }
 
-/// The compiled kernels (one pipeline layout, pipelines indexed by [`Kernel`]); buffers are
+/// The compiled kernels (one pipeline layout, pipelines indexed by `Kernel`); buffers are
 /// made per call, except the per-node scaled momentum, kept between calls.
 pub struct CouplingKernels {
     pipelines: [wgpu::ComputePipeline; 4],
@@ -259,7 +259,7 @@ impl CouplingKernels {
     }
 
     /// Method 2's momentum_exchange stage with the wall momentum on the device: `wall` holds one
-    /// vec4<f32> per node of `grid` (at least; the GPU fluid's face-flux record,
+    /// `vec4<f32>` per node of `grid` (at least; the GPU fluid's face-flux record,
     /// [`super::GpuFluid::face_flux_buffer`]); the geometry stage's node changes `changes`
     /// (node, momentum and mass, lattice units) are added to it, each node's momentum goes to
     /// the particles of `set` within r_e with normalised kernel weights, and `wall` is cleared for

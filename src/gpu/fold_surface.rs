@@ -3,7 +3,7 @@
 //! ([`GpuMarchingCubes`]), every body appending to one set of output buffers with its index as
 //! the triangles' tag — the GPU twin of [`crate::mesh::particle_field::body_surfaces`]. The
 //! particles and their bins ([`KernelLevelSet::bin_lists`], built on the CPU in O(N)) go up;
-//! nothing comes back: the plugin draws the buffers ([`crate::render::gpu_fold_mesh`], feature
+//! nothing comes back: the plugin draws the buffers (`render::gpu_fold_mesh`, feature
 //! `render`).
 
 use super::context::{GpuContext, buffer_layout, compute_pipelines, dispatch_grid, read_buffer};

@@ -20,7 +20,7 @@
 //! | [`mean_field`] | the interference in the Boltzmann approximation: transfer, viscosity shift −p K(d)/48 | §3.4 (issue 5) |
 //! | [`isotropy`] | the gas at rest: equilibrium noise, velocity-family shares over time | §4 (2) (issue 5) |
 //! | [`spectrum`] | dominant frequency of a probe signal (Strouhal number of the wake) | (issue 5) |
-//! | [`bench`] | site updates per second, fraction of bandwidth, projected time of the seed's run | §3.5 |
+//! | [`bench`](mod@bench) | site updates per second, fraction of bandwidth, projected time of the seed's run | §3.5 |
 
 pub mod bench;
 pub mod bits;

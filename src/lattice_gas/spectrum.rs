@@ -19,7 +19,7 @@ pub struct Peak {
 const OVERSAMPLE: usize = 8;
 
 /// Peak of the Hann-windowed spectrum of `samples` taken every `dt`, on a frequency grid
-/// [`OVERSAMPLE`] times finer than the DFT bins; `None` for fewer than 8 samples.
+/// `OVERSAMPLE` times finer than the DFT bins; `None` for fewer than 8 samples.
 pub fn dominant_frequency(samples: &[f64], dt: f64) -> Option<Peak> {
     let n = samples.len();
     if n < 8 {

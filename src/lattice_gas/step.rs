@@ -71,7 +71,7 @@ impl LatticeGas {
         });
     }
 
-    /// The interference operation (seed 002 §3.4, Fig. 2; see [`Interference`]) on every fluid
+    /// The interference operation (seed 002 §3.4, Fig. 2; see `Interference`) on every fluid
     /// cell and velocity.
     pub fn interfere(&mut self) {
         let Some(interference) = Interference::new(self.interference, self.diagonals, self.seed, self.step, &self.solid) else { return };

@@ -48,7 +48,7 @@ pub fn slice(s: &FluidSolver, units: &Units, field: Field) -> Slice {
     Slice { nx, ny, values }
 }
 
-/// What [`slice`] computes for `field`, as the GPU slice kernel takes it
+/// What [`slice()`] computes for `field`, as the GPU slice kernel takes it
 /// ([`crate::gpu::slice::PlaneMap`]): the lattice quantity, its map to scene units, and the
 /// colour map (signed for pressure and vorticity, as the PNG snapshots).
 pub fn plane_map(field: Field, units: &Units) -> crate::gpu::slice::PlaneMap {

@@ -62,7 +62,7 @@ pub struct CoupledReport {
 }
 
 /// Method 2's exchange over the run (scene units; per unit depth in 2D): see
-/// [`crate::coupling::Exchange`].
+/// [`crate::coupling::conserving::Exchange`].
 #[derive(Clone, Debug, Serialize)]
 pub struct ExchangeReport {
     /// Momentum handed to walls that are no coupled body (rigid obstacles, faces).

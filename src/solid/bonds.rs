@@ -20,7 +20,7 @@ pub struct Bonds {
     /// Reference number density n⁰ and κ of a full neighbourhood (2.19, 2.21).
     pub n0: f64,
     pub kappa: f64,
-    /// Bonds of particle i: offset[i]..offset[i+1].
+    /// Bonds of particle i: `offset[i]..offset[i+1]`.
     pub offset: Vec<u32>,
     pub neighbour: Vec<u32>,
     /// r⁰_ij = X_j − X_i (minimum image).

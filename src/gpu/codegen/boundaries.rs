@@ -157,7 +157,7 @@ pub fn periodic_reach_code(reach: HaloReach) -> u32 {
 }
 
 /// The codes of the boundary kernels' entries (`Entry.code`), defined once here and written
-/// into the WGSL by [`face_codes_wgsl`]: a ghost's code says whether its wall is isothermal; a
+/// into the WGSL by `face_codes_wgsl`: a ghost's code says whether its wall is isothermal; a
 /// face halo's says its condition (a slip face adds its axis to [`FaceCode::Slip`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u32)]

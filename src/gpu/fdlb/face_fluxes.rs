@@ -64,7 +64,7 @@ impl GpuFluid {
         self.face_fluxes = Some(FaceFluxes { group, thin: (ff.thin.0, thin_group, thin_count), ..ff });
     }
 
-    /// The face-flux record on the device (one vec4<f32> per node, momentum xyz and mass w,
+    /// The face-flux record on the device (one `vec4<f32>` per node, momentum xyz and mass w,
     /// at least the lattice's node count), for kernels that read it there
     /// ([`crate::gpu::coupling::CouplingKernels::hand_over`], which also clears it); `None`
     /// when the fluxes are not recorded.
