@@ -31,6 +31,12 @@
 //! prescribed motion are moved by the CPU after every solid sub-step, as the CPU solver does,
 //! and only their particles' kinematics are written to the device
 //! ([`GpuSolid::upload_kinematics`]).
+//!
+//! A step waits for the device only where it reads something back: the particles for the
+//! geometry (one trip for all their arrays), the fluid's instability flag, and for method 2 the
+//! hand-over's forces; method 1's traction and the solid's sub-steps are only submitted. One step
+//! in [`GpuCoupled::timing_every`] waits after every stage as well, so that the per-stage times
+//! ([`GpuCoupled::stage_shares`]) are the stages' own.
 
 use super::context::{GpuContext, GpuError};
 use super::coupling::CouplingKernels;
@@ -42,6 +48,9 @@ use crate::stages::CoupledStageKind;
 use crate::step::{Instability, Part, Site};
 use glam::DVec3;
 use std::time::{Duration, Instant};
+
+/// Steps between two steps timed stage by stage ([`GpuCoupled::timing_every`]).
+pub const TIMING_EVERY: u64 = 16;
 
 /// Fluid and solid of a coupled scene on the GPU (either coupling method).
 pub struct GpuCoupled {
@@ -55,9 +64,13 @@ pub struct GpuCoupled {
     pub solid: GpuSolid,
     kernels: CouplingKernels,
     ctx: GpuContext,
-    /// Wall time per stage of the coupling's stage list (each stage ends with a wait on the
-    /// device, so the times are the stages' own).
+    /// Wall time per stage of the coupling's stage list over the timed steps (one in
+    /// [`Self::timing_every`]: on those each stage ends with a wait on the device, so the times
+    /// are the stages' own; the other steps wait only where they read data back).
     pub timings: Vec<Duration>,
+    /// Every this many steps one is timed stage by stage (1: every step, each stage then waits
+    /// for the device — the stage timings of every step at the cost of one wait per stage).
+    pub timing_every: u64,
     /// Steps on which nodes changed side, so that the populations of the nodes the change
     /// reads came back and those of the fresh nodes went up.
     pub round_trips: u64,
@@ -102,6 +115,7 @@ impl GpuCoupled {
             kernels,
             ctx,
             timings,
+            timing_every: TIMING_EVERY,
             round_trips: 0,
             round_trip_nodes: 0,
             whole_round_trips: false,
@@ -125,12 +139,17 @@ impl GpuCoupled {
         self.cpu.step_count
     }
 
-    /// One coupled step, stage by stage.
+    /// One coupled step, stage by stage (timed stage by stage when it is one of the
+    /// [`Self::timing_every`]).
     pub fn step(&mut self) -> Result<(), Instability> {
+        let timed = self.cpu.step_count.is_multiple_of(self.timing_every.max(1));
         for (k, st) in self.cpu.stages().iter().enumerate() {
             let t0 = Instant::now();
             let r = self.run_stage(st.kind);
-            self.timings[k] += t0.elapsed();
+            if timed {
+                let _ = self.ctx.device.poll(wgpu::PollType::wait_indefinitely());
+                self.timings[k] += t0.elapsed();
+            }
             r?;
         }
         self.cpu.step_count += 1;
@@ -352,7 +371,6 @@ impl GpuCoupled {
                 self.solid.upload_kinematics(&self.cpu.solid, &self.prescribed);
             }
         }
-        self.solid.wait();
         Ok(())
     }
 
