@@ -20,7 +20,7 @@
 //! map through [`crate::units::Units::position_to_lattice`] (the same origin).
 
 use super::solver::CoupledSolver;
-use super::traction::{SurfaceForces, TractionModel, sampled_nodes, surface_forces};
+use super::traction::{SurfaceForces, TractionModel, surface_forces};
 use super::traction_plan::TractionPlan;
 use crate::fluid::layout::Layout;
 use crate::fluid::{LayoutChange, Obstacle, Polygon, Shape};
@@ -136,12 +136,6 @@ impl CoupledSolver {
         self.geometry.isolated += ch.isolated;
         self.geometry.mass_change += ch.mass_change;
         self.built = Some(walls.polygons);
-    }
-
-    /// The fluid nodes whose populations the surface_traction stage reads
-    /// ([`super::traction::sampled_nodes`]), for a backend that brings back only those.
-    pub fn traction_nodes(&self, o: WeakOptions) -> Vec<usize> {
-        sampled_nodes(&self.fluid, &self.units, self.bodies.iter().map(|b| &b.surface), &self.solid.particles, o.piece_length)
     }
 
     /// Method 1's traction laid out for a backend that holds the populations (the GPU), at the

@@ -1,11 +1,10 @@
 //! The populations of a few nodes across the bus, either way: the `gather` kernel
 //! ([`codegen::gather_populations`]) packs them node after node on the device, and only they
 //! come back; the `scatter` kernel ([`codegen::scatter_populations`]) writes packed values
-//! into their nodes, and only they go up. Method 1's traction on the GPU reads the air at one
-//! and two cells from each surface piece ([`crate::coupling::traction::sampled_nodes`]): a few
-//! hundred nodes of the lattice's thousands; a moving body's change of layout reads the nodes
-//! that change side and their neighbours and writes the fresh nodes
-//! ([`crate::fluid::LayoutChange`]).
+//! into their nodes, and only they go up: a moving body's change of layout reads the nodes that
+//! change side and their neighbours and writes the fresh nodes ([`crate::fluid::LayoutChange`]),
+//! a probe or glottal sample reads a few nodes. (Method 1's traction read its sampled nodes this
+//! way until it ran on the device, [`super::GpuFluid::surface_traction`].)
 
 use super::{GpuFluid, pipeline_of};
 use crate::fluid::FluidSolver;
