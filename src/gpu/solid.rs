@@ -412,12 +412,18 @@ impl GpuSolid {
     /// The particles' positions and velocities (f64) in one trip, or None when the read fails.
     pub fn download_kinematics(&self) -> Option<(Vec<DVec3>, Vec<DVec3>)> {
         let arrays = super::context::try_read_buffers(&self.device, &self.queue, &[&self.buffers[Buf::Pos], &self.buffers[Buf::Vel]])?;
-        let vectors = |raw: &[u8]| -> Vec<DVec3> {
-            bytemuck::cast_slice::<u8, f32>(raw).chunks(4).take(self.n).map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)).collect()
-        };
-        // the position buffer holds the displacement from the reference position
-        let position = vectors(&arrays[0]).into_iter().zip(&self.reference).map(|(u, x)| *x + u).collect();
-        Some((position, vectors(&arrays[1])))
+        Some((self.positions(&arrays[0]), self.vectors(&arrays[1])))
+    }
+
+    /// The first three of each particle's four f32 of a downloaded array, as f64 vectors.
+    fn vectors(&self, raw: &[u8]) -> Vec<DVec3> {
+        bytemuck::cast_slice::<u8, f32>(raw).chunks(4).take(self.n).map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)).collect()
+    }
+
+    /// The positions from a downloaded position buffer, which holds the displacement from the
+    /// reference position.
+    fn positions(&self, raw: &[u8]) -> Vec<DVec3> {
+        self.vectors(raw).into_iter().zip(&self.reference).map(|(u, x)| *x + u).collect()
     }
 
     /// A per-particle vector array as f64.
@@ -478,13 +484,9 @@ impl GpuSolid {
             return false;
         };
         let [pos, vel, spin, quat] = <[Vec<u8>; 4]>::try_from(arrays).expect("four arrays");
-        let vectors = |raw: &[u8]| -> Vec<DVec3> {
-            bytemuck::cast_slice::<u8, f32>(raw).chunks(4).take(self.n).map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)).collect()
-        };
-        // the position buffer holds the displacement from the reference position
-        s.particles.position = vectors(&pos).into_iter().zip(&self.reference).map(|(u, x)| *x + u).collect();
-        s.particles.velocity = vectors(&vel);
-        s.particles.spin = vectors(&spin);
+        s.particles.position = self.positions(&pos);
+        s.particles.velocity = self.vectors(&vel);
+        s.particles.spin = self.vectors(&spin);
         s.particles.rotation = bytemuck::cast_slice::<u8, f32>(&quat)
             .chunks(4)
             .take(self.n)

@@ -4,7 +4,7 @@
 //! buffer — no population crosses the bus. The pieces' forces stay on the device until an
 //! output reads them ([`GpuFluid::download_piece_forces`]).
 
-use super::GpuFluid;
+use super::{GpuFluid, pipeline_of};
 use crate::coupling::traction::TractionModel;
 use crate::coupling::traction_plan::TractionPlan;
 use crate::gpu::codegen;
@@ -168,18 +168,7 @@ impl GpuFluid {
             Some(k) => (k.pieces_force, k.spread),
             None => {
                 let src = codegen::traction(&self.eq, self.split);
-                let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("traction"), source: wgpu::ShaderSource::Wgsl(src.into()) });
-                let pipeline = |entry| {
-                    dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                        label: Some(entry),
-                        layout: None,
-                        module: &module,
-                        entry_point: Some(entry),
-                        compilation_options: Default::default(),
-                        cache: None,
-                    })
-                };
-                (pipeline("pieces_force"), pipeline("spread"))
+                (pipeline_of(dev, "traction", &src, "pieces_force"), pipeline_of(dev, "traction", &src, "spread"))
             }
         };
         self.traction = Some(TractionKernel {
