@@ -1762,6 +1762,45 @@ fn weak_coupled_steps_on_the_gpu_match_the_cpu() {
     assert!(per_step > 0.0 && per_step < 0.5 * gpu.fluid.n_nodes as f64, "{per_step}");
 }
 
+/// A coupled GPU step reads the fluid's instability flag with the next step's particles (one
+/// trip) instead of after its fluid stage: a fluid made to fail in its first step (one node's
+/// populations negated, a negative density) is still diagnosed as the fluid, at the node and the
+/// step the CPU names — when the next step reads it (`run(3)` stops in its second step, before
+/// the solid's values the bad air made) and when a run ends on the failing step (`run(1)` reads
+/// the last step's flag before it returns). Both methods.
+#[test]
+fn a_coupled_gpu_step_diagnoses_its_fluid_one_read_later_at_the_step_it_failed() {
+    use phonation::gpu::coupled::GpuCoupled;
+    use phonation::scene::coupled::CoupledScene;
+    use phonation::step::{Part, Site};
+    if context().is_none() {
+        return;
+    }
+    for text in [small_flap_weak(), SMALL_FLAP.to_string()] {
+        let sc = CoupledScene::parse(&text).unwrap();
+        let mut cpu = sc.build().unwrap();
+        let grid = cpu.fluid.layout.grid.clone();
+        let node = grid.index([3, 3, 0]);
+        assert_eq!(cpu.fluid.layout.kind[node], phonation::fluid::layout::NodeKind::Fluid);
+        let bad: Vec<f64> = cpu.fluid.node_populations(node).iter().map(|v| -v).collect();
+        cpu.fluid.set_node_populations(node, &bad);
+        let cpu_err = cpu.clone().run(3).expect_err("a negative density fails the CPU's fluid");
+        for n in [3, 1] {
+            let mut gpu = GpuCoupled::new(context().unwrap(), cpu.clone()).unwrap();
+            let e = gpu.run(n).expect_err("a negative density fails the GPU's fluid");
+            eprintln!("{}: run({n}): {e}; CPU: {cpu_err}", sc.fluid.file.name);
+            assert_eq!(e.part, Part::Fluid, "{e}");
+            assert_eq!((e.step, cpu_err.step), (0, 0), "GPU {e} / CPU {cpu_err}");
+            assert_eq!(e.time, 0.0);
+            assert_eq!(e.site, cpu_err.site, "GPU {e} / CPU {cpu_err}");
+            assert!(matches!(e.site, Site::Node(x) if (x[0] - 3).abs() <= 3 && (x[1] - 3).abs() <= 3), "{e}");
+            assert_eq!(cpu_err.part, Part::Fluid, "{cpu_err}");
+            // run(3) found it with step 1's particles (one step done); run(1) at its end
+            assert_eq!(gpu.step_count(), 1, "run({n})");
+        }
+    }
+}
+
 /// The traction kernels (`GpuFluid::surface_traction`: the moments at the samples' stencil
 /// nodes, each piece's force, the spread to the particles' loads) against their CPU twin
 /// `surface_forces`, both models, on the small flap after 40 CPU steps (a developed flow, the flap

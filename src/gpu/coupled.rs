@@ -33,10 +33,13 @@
 //! ([`GpuSolid::upload_kinematics`]).
 //!
 //! A step waits for the device only where it reads something back: the particles for the
-//! geometry (one trip for all their arrays), the fluid's instability flag, and for method 2 the
-//! hand-over's forces; method 1's traction and the solid's sub-steps are only submitted. One step
-//! in [`GpuCoupled::timing_every`] waits after every stage as well, so that the per-stage times
-//! ([`GpuCoupled::stage_shares`]) are the stages' own.
+//! geometry (one trip for all their arrays, with the fluid's instability flag of the step
+//! before), and for method 2 the hand-over's forces; the fluid step, method 1's traction and the
+//! solid's sub-steps are only submitted. The flag stays set once a node leaves its range, so
+//! reading it one step late loses nothing: the diagnosis names the step whose fluid stage failed
+//! ([`GpuCoupled::run`] reads the last step's flag before it returns, so a run never ends on an
+//! unchecked step). One step in [`GpuCoupled::timing_every`] waits after every stage as well,
+//! so that the per-stage times ([`GpuCoupled::stage_shares`]) are the stages' own.
 
 use super::context::{GpuContext, GpuError};
 use super::coupling::CouplingKernels;
@@ -89,6 +92,9 @@ pub struct GpuCoupled {
     /// and whether [`Self::cpu`]'s forces are older than them.
     traction_plan: Option<crate::coupling::traction_plan::TractionPlan>,
     forces_stale: bool,
+    /// The step and time of a fluid stage whose instability flag has not been read yet (read
+    /// with the next step's particles, or by [`Self::check_fluid`]).
+    fluid_unchecked: Option<(u64, f64)>,
 }
 
 impl GpuCoupled {
@@ -123,6 +129,7 @@ impl GpuCoupled {
             traction_nodes: 0,
             traction_plan: None,
             forces_stale: false,
+            fluid_unchecked: None,
         })
     }
 
@@ -157,9 +164,38 @@ impl GpuCoupled {
         Ok(())
     }
 
-    /// Runs `n` coupled steps, stopping at the first instability.
+    /// Runs `n` coupled steps, stopping at the first instability; the last step's fluid is
+    /// checked before it returns ([`Self::check_fluid`]).
     pub fn run(&mut self, n: u64) -> Result<(), Instability> {
-        (0..n).try_for_each(|_| self.step())
+        (0..n).try_for_each(|_| self.step())?;
+        self.check_fluid()
+    }
+
+    /// Reads the fluid's instability flag if a fluid stage since the last read has not been
+    /// checked (a [`Self::step`] leaves its own for the next step's particle read): the
+    /// diagnosis of the step whose fluid left its range, or Ok.
+    pub fn check_fluid(&mut self) -> Result<(), Instability> {
+        let Some(at) = self.fluid_unchecked.take() else { return Ok(()) };
+        match self.fluid.instability() {
+            Some((node, code)) => Err(self.fluid_instability(node, code, at)),
+            None => Ok(()),
+        }
+    }
+
+    /// The diagnosis of the fluid's flag (first node out of range, its code) set by the fluid
+    /// stage of the step and time `at`.
+    fn fluid_instability(&self, node: usize, code: u32, (step, time): (u64, f64)) -> Instability {
+        let quantity = ["", "density", "velocity", "temperature"][code as usize];
+        Instability {
+            part: Part::Fluid,
+            step,
+            time,
+            time_unit: "s",
+            site: Site::Node(self.cpu.fluid.layout.grid.coords(node)),
+            quantity,
+            value: f64::NAN,
+            reason: format!("{quantity} left its admissible range on the GPU"),
+        }
     }
 
     /// Each stage's share of the wall time so far.
@@ -190,22 +226,33 @@ impl GpuCoupled {
 
     /// The particles' positions and velocities from the device (with their spins and rotations
     /// when `turning`: method 1's surface points sit at offsets that turn with their particle,
-    /// [`crate::coupling::surface`]), checked.
+    /// [`crate::coupling::surface`]), checked; the previous step's fluid instability flag comes
+    /// back in the same trip, and a fluid that left its range is the diagnosis (before any
+    /// solid values it made non-finite).
     fn download_particles(&mut self, turning: bool) -> Result<(), Instability> {
+        let unchecked = self.fluid_unchecked.take();
+        let status = self.fluid.status_buffer();
+        let extra: &[&wgpu::Buffer] = if unchecked.is_some() { &[status] } else { &[] };
         let read = if turning {
             let (steps, time) = (self.cpu.solid.step_count, self.cpu.solid.time);
-            let ok = self.solid.download_into(&mut self.cpu.solid);
+            let read = self.solid.download_into_with(&mut self.cpu.solid, extra);
             (self.cpu.solid.step_count, self.cpu.solid.time) = (steps, time);
-            ok
-        } else if let Some((position, velocity)) = self.solid.download_kinematics() {
+            read
+        } else if let Some((position, velocity, rest)) = self.solid.download_kinematics(extra) {
             let p = &mut self.cpu.solid.particles;
             (p.position, p.velocity) = (position, velocity);
-            true
+            Some(rest)
         } else {
-            false
+            None
         };
-        if !read {
+        let Some(rest) = read else {
+            self.fluid_unchecked = unchecked;
             return Err(self.failed_read("reading the particles back for the walls' geometry failed"));
+        };
+        if let (Some(at), Some(raw)) = (unchecked, rest.first())
+            && let Some((node, code)) = GpuFluid::decode_status(raw)
+        {
+            return Err(self.fluid_instability(node, code, at));
         }
         if let Some(i) = self.cpu.solid.non_finite() {
             let mut e = self.cpu.solid.instability_at(i);
@@ -324,21 +371,14 @@ impl GpuCoupled {
         Ok(())
     }
 
-    /// One fluid step with the face fluxes recorded.
+    /// One fluid step (with the face fluxes recorded for method 2), only submitted: its
+    /// instability flag is read with the next step's particles or by [`Self::check_fluid`].
     fn fluid_step(&mut self) -> Result<(), Instability> {
         self.fluid.run(1);
-        let Some((node, code)) = self.fluid.instability() else { return Ok(()) };
-        let quantity = ["", "density", "velocity", "temperature"][code as usize];
-        Err(Instability {
-            part: Part::Fluid,
-            step: self.cpu.step_count,
-            time: self.cpu.time,
-            time_unit: "s",
-            site: Site::Node(self.cpu.fluid.layout.grid.coords(node)),
-            quantity,
-            value: f64::NAN,
-            reason: format!("{quantity} left its admissible range on the GPU"),
-        })
+        if self.fluid_unchecked.is_none() {
+            self.fluid_unchecked = Some((self.cpu.step_count, self.cpu.time));
+        }
+        Ok(())
     }
 
     /// Each wall node's momentum (face fluxes + the geometry stage's node changes) to the

@@ -409,10 +409,15 @@ impl GpuSolid {
         bytemuck::cast_slice(&super::context::read_buffer(&self.device, &self.queue, &self.buffers[buf])).to_vec()
     }
 
-    /// The particles' positions and velocities (f64) in one trip, or None when the read fails.
-    pub fn download_kinematics(&self) -> Option<(Vec<DVec3>, Vec<DVec3>)> {
-        let arrays = super::context::try_read_buffers(&self.device, &self.queue, &[&self.buffers[Buf::Pos], &self.buffers[Buf::Vel]])?;
-        Some((self.positions(&arrays[0]), self.vectors(&arrays[1])))
+    /// The particles' positions and velocities (f64) in one trip, with the whole of each
+    /// buffer of `extra` (another solver's on the same device: the fluid's instability flag)
+    /// in the same trip; None when the read fails.
+    pub fn download_kinematics(&self, extra: &[&wgpu::Buffer]) -> Option<Kinematics> {
+        let mut buffers = vec![&self.buffers[Buf::Pos], &self.buffers[Buf::Vel]];
+        buffers.extend_from_slice(extra);
+        let mut arrays = super::context::try_read_buffers(&self.device, &self.queue, &buffers)?;
+        let rest = arrays.split_off(2);
+        Some((self.positions(&arrays[0]), self.vectors(&arrays[1]), rest))
     }
 
     /// The first three of each particle's four f32 of a downloaded array, as f64 vectors.
@@ -478,11 +483,18 @@ impl GpuSolid {
     /// a read fails (a lost device, no memory for a staging buffer) `s` is left as it was and
     /// false comes back.
     pub fn download_into(&self, s: &mut SolidSolver) -> bool {
-        // one trip for the four arrays
+        self.download_into_with(s, &[]).is_some()
+    }
+
+    /// [`Self::download_into`] with the whole of each buffer of `extra` (on the same device)
+    /// read in the same trip and returned; None (and `s` as it was) when the read fails.
+    pub fn download_into_with(&self, s: &mut SolidSolver, extra: &[&wgpu::Buffer]) -> Option<Vec<Vec<u8>>> {
+        // one trip for the four arrays and the extra buffers
         let b = |buf: Buf| &self.buffers[buf];
-        let Some(arrays) = super::context::try_read_buffers(&self.device, &self.queue, &[b(Buf::Pos), b(Buf::Vel), b(Buf::Spin), b(Buf::Quat)]) else {
-            return false;
-        };
+        let mut buffers = vec![b(Buf::Pos), b(Buf::Vel), b(Buf::Spin), b(Buf::Quat)];
+        buffers.extend_from_slice(extra);
+        let mut arrays = super::context::try_read_buffers(&self.device, &self.queue, &buffers)?;
+        let rest = arrays.split_off(4);
         let [pos, vel, spin, quat] = <[Vec<u8>; 4]>::try_from(arrays).expect("four arrays");
         s.particles.position = self.positions(&pos);
         s.particles.velocity = self.vectors(&vel);
@@ -494,9 +506,13 @@ impl GpuSolid {
             .collect();
         s.step_count = self.step_count;
         s.time = self.step_count as f64 * self.dt;
-        true
+        Some(rest)
     }
 }
+
+/// The particles' positions and velocities (f64) and the bytes of the extra buffers read in
+/// the same trip ([`GpuSolid::download_kinematics`]).
+pub type Kinematics = (Vec<DVec3>, Vec<DVec3>, Vec<Vec<u8>>);
 
 /// Particle updates per second of the GPU solid on the benchmark block of
 /// [`crate::solid::bench::benchmark_block`]; `bandwidth` is the device's copy bandwidth (B/s).

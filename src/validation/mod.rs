@@ -10,6 +10,7 @@ pub mod cylinder;
 pub mod fsi;
 pub mod fsi_flap;
 pub mod fsi_momentum;
+pub mod fsi_plate;
 pub mod fsi_schafer_turek;
 pub mod glottis;
 pub mod riemann;

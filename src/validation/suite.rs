@@ -208,6 +208,12 @@ pub fn cases() -> Vec<Case> {
             out.extend(super::fsi_flap::rows("wall_flap_conserving", "method 2"));
             out
         }),
+        ("fsi_thin_plate", || {
+            // The flap's cross-section as a rigid plate at zero incidence, moved across the node
+            // rows: the spurious lift of a wall 1.2 cells thick (fsi_plate; ~10 runs of 5,400
+            // steps, a few minutes on 2 cores).
+            super::fsi_plate::rows()
+        }),
         ("fsi_flap_time_step", || {
             // The largest stable coupling step of each method on the Wall flap: the lattice
             // Mach number (Δt ∝ Ma at fixed Δx) raised from 0.1 to 0.5, 1000 steps each.

@@ -24,7 +24,18 @@ pub enum GpuArray {
 
 impl GpuFluid {
     pub fn instability(&self) -> Option<(usize, u32)> {
-        let s: Vec<u32> = bytemuck::cast_slice(&self.read_buffer(&self.status)).to_vec();
+        Self::decode_status(&self.read_buffer(&self.status))
+    }
+
+    /// The buffer of the instability flag (first node out of range and its code; it stays set),
+    /// for a read that brings it back with other data in one trip ([`Self::decode_status`]).
+    pub fn status_buffer(&self) -> &wgpu::Buffer {
+        &self.status
+    }
+
+    /// [`Self::instability`] from the bytes of [`Self::status_buffer`].
+    pub fn decode_status(raw: &[u8]) -> Option<(usize, u32)> {
+        let s: &[u32] = bytemuck::cast_slice(raw);
         (s[0] != u32::MAX).then(|| (s[0] as usize, s[1]))
     }
 
