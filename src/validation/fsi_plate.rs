@@ -10,8 +10,9 @@
 //! nearer wall faces, and the other side's fluid nodes read it through the one-sided stencils
 //! of [`crate::fluid::thin_wall`], which carry no wall velocity: on that side the wall holds
 //! back no slip. Both couplings share this fluid wall (method 2's level set is a ghost-node
-//! wall too), so both feel the same spurious lift. Twice as thick (2.4 cells: at least two rows
-//! inside, one ghost row per side) the lift falls by ~7× (measured, see README).
+//! wall too), so both feel a spurious lift of the same size. Twice as thick (2.4 cells: at least
+//! two rows inside, one ghost row per side) it falls 6× (method 1) and 32× (method 2) a quarter
+//! cell off (measured: README, "The lattice's grip on the flap").
 //!
 //! Units: cgs (the flap's air: ρ = 1.18·10⁻³ g/cm³, μ = 1.82·10⁻⁴ g/(cm·s), U = 51.3 cm/s,
 //! Re_L ≈ 1330 on the 4 cm plate), forces per unit depth (dyn/cm).
