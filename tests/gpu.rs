@@ -1790,6 +1790,7 @@ fn a_coupled_gpu_step_diagnoses_its_fluid_one_read_later_at_the_step_it_failed()
             let e = gpu.run(n).expect_err("a negative density fails the GPU's fluid");
             eprintln!("{}: run({n}): {e}; CPU: {cpu_err}", sc.fluid.file.name);
             assert_eq!(e.part, Part::Fluid, "{e}");
+            assert_eq!((e.quantity, cpu_err.quantity), ("density", "density"), "GPU {e} / CPU {cpu_err}");
             assert_eq!((e.step, cpu_err.step), (0, 0), "GPU {e} / CPU {cpu_err}");
             assert_eq!(e.time, 0.0);
             assert_eq!(e.site, cpu_err.site, "GPU {e} / CPU {cpu_err}");

@@ -185,7 +185,7 @@ impl GpuCoupled {
     /// The diagnosis of the fluid's flag (first node out of range, its code) set by the fluid
     /// stage of the step and time `at`.
     fn fluid_instability(&self, node: usize, code: u32, (step, time): (u64, f64)) -> Instability {
-        let quantity = ["", "density", "velocity", "temperature"][code as usize];
+        let quantity = GpuFluid::status_quantity(code);
         Instability {
             part: Part::Fluid,
             step,

@@ -238,7 +238,7 @@ impl Solver for FluidEngine {
         }
         if let Some((node, code)) = g.instability() {
             self.mirror.failed = true;
-            let quantity = ["", "density", "velocity", "temperature"][code as usize];
+            let quantity = GpuFluid::status_quantity(code);
             return Err(Instability {
                 part: Part::Fluid,
                 step: g.step_count,

@@ -39,6 +39,12 @@ impl GpuFluid {
         (s[0] != u32::MAX).then(|| (s[0] as usize, s[1]))
     }
 
+    /// The quantity a status code of [`Self::instability`] names, as the moments kernel sets it
+    /// (`gpu::codegen`: 1 density, 2 velocity, 3 temperature out of its window).
+    pub fn status_quantity(code: u32) -> &'static str {
+        ["", "density", "velocity", "temperature"].get(code as usize).copied().unwrap_or("state")
+    }
+
     /// Blocks until the queue is idle.
     pub fn wait(&self) {
         let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
