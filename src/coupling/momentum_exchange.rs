@@ -27,6 +27,7 @@
 
 use crate::fluid::FluidSolver;
 use crate::fluid::layout::NodeKind;
+use crate::fluid::thin_wall::tap_correction;
 use crate::stages::{Stage, StageKind};
 use glam::DVec4;
 
@@ -95,18 +96,22 @@ pub fn add_face_fluxes(fluid: &FluidSolver, weight: f64, reference: Option<&[f64
     }
     // The one-sided stencils next to thin walls ([`crate::fluid::thin_wall`]) change the
     // fluid's momentum by their correction, which is not a face flux: the wall next to the
-    // reader (its first non-fluid tap) takes the opposite. A correction of a uniform field is
-    // zero (the weights sum to zero), so there is no reference part.
+    // reader (its first non-fluid tap) takes the opposite. A correction of a uniform field at
+    // rest is zero (the weights sum to zero; a side ghost then holds the far node's value), so
+    // there is no reference part.
+    let (side_h, nv) = (fluid.side_ghost_values(), fluid.eq.values_per_node());
+    let mut slot = 0;
     for t in &layout.thin_taps {
         let s = t.sign as isize * grid.stride[t.axis] as isize;
-        let dw = t.correction();
         let taps = [t.node, at(t.node, s), at(t.node, -s), at(t.node, -2 * s)];
         let target = taps[1..].iter().copied().find(|&n| is_wall(kind[n])).unwrap_or(taps[1]);
+        let first_slot = slot;
+        slot += t.sides.len();
         for (i, ci) in c.iter().enumerate().take(q) {
             if ci[t.axis].signum() as i64 != t.sign {
                 continue;
             }
-            let corr: f64 = taps.iter().zip(dw).map(|(&n, w)| w * h[pop.index(n, i)]).sum();
+            let corr = tap_correction(t, i, nv, first_slot, side_h, |m| h[pop.index(at(t.node, m * s), i)]);
             // The fluid node changed by −weight·|c_a|/6·corr.
             wall[target] += weight * (ci[t.axis].unsigned_abs() as f64 / 6.0) * corr * cv(i);
         }

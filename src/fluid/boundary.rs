@@ -22,7 +22,7 @@
 //!   the domain twice as large.
 
 use super::equilibrium::{Equilibrium, MACRO_FIELDS, Macro};
-use super::layout::Layout;
+use super::layout::{Ghost, Layout};
 use super::storage::{RowBlocked, copy_runs_parallel};
 use super::timestep::StepParams;
 
@@ -137,6 +137,8 @@ pub struct StageFields<'a> {
     pub f: &'a mut [f64],
     pub h: &'a mut [f64],
     pub mac: &'a mut [f64],
+    /// h of the thin walls' side ghosts ([`super::thin_wall`]), `values_per_node` per slot.
+    pub side_h: &'a mut Vec<f64>,
     pub pop: RowBlocked,
     pub mac_layout: RowBlocked,
 }
@@ -153,29 +155,18 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
 
     // Ghost nodes inside walls and obstacles.
     for g in &layout.ghosts {
-        let mut m = [0.0; MACRO_FIELDS];
-        neq.iter_mut().for_each(|v| *v = 0.0);
-        for &(k, wk) in &g.image {
-            let mk = read_macro(fields, k);
-            for (v, x) in m.iter_mut().zip([mk.rho, mk.u[0], mk.u[1], mk.u[2], mk.theta]) {
-                *v += wk * x;
-            }
-            eq.feq_into(&mk, &mut w, &mut fe);
-            fields.pop.gather(fields.f, k, &mut fk);
-            for i in 0..nv {
-                neq[i] += wk * (fk[i] - fe[i]);
-            }
-        }
-        let r = g.ratio;
-        let uw = g.wall_velocity;
-        let u = [uw[0] + r * (m[1] - uw[0]), uw[1] + r * (m[2] - uw[1]), uw[2] + r * (m[3] - uw[2])];
-        let theta = match g.wall_temperature {
-            Some(tw) => tw + r * (m[4] - tw),
-            None => m[4],
-        };
-        // Zero normal pressure gradient: the ghost keeps the image pressure at its own temperature.
-        let mg = Macro { rho: m[0] * m[4] / theta, u, theta };
+        let mg = ghost_state(eq, fields, g, &mut w, &mut fe, &mut fk, &mut neq);
         set_node(eq, fields, g.node, &mg, &neq, k_eq, &mut w, &mut fe);
+    }
+    // The thin walls' side ghosts: h only (the advection is all that reads them).
+    let sides = layout.thin_taps.iter().flat_map(|t| &t.sides);
+    fields.side_h.resize(super::thin_wall::side_ghost_count(&layout.thin_taps) * nv, 0.0);
+    for (slot, sg) in sides.enumerate() {
+        let mg = ghost_state(eq, fields, &sg.ghost, &mut w, &mut fe, &mut fk, &mut neq);
+        eq.feq_into(&mg, &mut w, &mut fe);
+        for (v, (e, n)) in fields.side_h[slot * nv..(slot + 1) * nv].iter_mut().zip(fe.iter().zip(&neq)) {
+            *v = e + (1.0 - k_eq) * n;
+        }
     }
 
     // Inlet and outlet halos.
@@ -211,6 +202,36 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
     // macroscopic fields are read at fluid nodes only (the moments pass, the ghosts' images, the
     // face halos' sources, every observation), so their periodic halos are not copied.
     copy_runs_parallel(fields.pop, fields.h, &layout.periodic, |r| eq.values_read_at(r.reach));
+}
+
+/// The state of ghost `g` (the macroscopic values; its non-equilibrium part into `neq`): the
+/// image point's, interpolated from fluid nodes, with the wall velocity (and an isothermal wall's
+/// temperature) extrapolated through the wall and the image pressure kept. `w`, `fe`, `fk`:
+/// scratch.
+fn ghost_state(eq: &Equilibrium, fields: &StageFields, g: &Ghost, w: &mut [f64], fe: &mut [f64], fk: &mut [f64], neq: &mut [f64]) -> Macro {
+    let nv = neq.len();
+    let mut m = [0.0; MACRO_FIELDS];
+    neq.iter_mut().for_each(|v| *v = 0.0);
+    for &(k, wk) in &g.image {
+        let mk = read_macro(fields, k);
+        for (v, x) in m.iter_mut().zip([mk.rho, mk.u[0], mk.u[1], mk.u[2], mk.theta]) {
+            *v += wk * x;
+        }
+        eq.feq_into(&mk, w, fe);
+        fields.pop.gather(fields.f, k, fk);
+        for i in 0..nv {
+            neq[i] += wk * (fk[i] - fe[i]);
+        }
+    }
+    let r = g.ratio;
+    let uw = g.wall_velocity;
+    let u = [uw[0] + r * (m[1] - uw[0]), uw[1] + r * (m[2] - uw[1]), uw[2] + r * (m[3] - uw[2])];
+    let theta = match g.wall_temperature {
+        Some(tw) => tw + r * (m[4] - tw),
+        None => m[4],
+    };
+    // Zero normal pressure gradient: the ghost keeps the image pressure at its own temperature.
+    Macro { rho: m[0] * m[4] / theta, u, theta }
 }
 
 fn read_macro(fields: &StageFields, node: usize) -> Macro {

@@ -6,7 +6,7 @@ use super::boundary::{Boundaries, Face, FaceCondition};
 use super::geometry::{Obstacle, Shape, dot};
 use super::grid::{Grid, HALO};
 use super::rebuild::Region;
-use super::thin_wall::{ThinTap, thin_taps};
+use super::thin_wall::{ThinTap, WallGeometry, thin_taps};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
@@ -123,8 +123,8 @@ pub struct Layout {
     /// Periodic copies as runs of consecutive nodes along x that the same stencils read.
     pub periodic: Vec<PeriodicRun>,
     pub fluid_count: usize,
-    /// One-sided advection stencils of the fluid nodes next to walls thinner than the upwind
-    /// stencil ([`super::thin_wall`]); empty for geometries without such walls.
+    /// The stencils of the fluid nodes next to walls thinner than the upwind stencil, with
+    /// their side ghosts ([`super::thin_wall`]); empty for geometries without such walls.
     pub thin_taps: Vec<ThinTap>,
 }
 
@@ -376,11 +376,12 @@ impl Layout {
         }
         let periodic = runs;
         let fluid_count = kind.iter().filter(|k| **k == NodeKind::Fluid).count();
+        let geo = WallGeometry { grid: &grid, kind: &kind, ghosts: &ghosts, obstacles: &obstacles, periodic: &periodic_axis };
         let thin_taps = match previous {
-            None => thin_taps(&grid, &kind, &ghosts, &periodic_axis, None),
+            None => thin_taps(&geo, None),
             Some((p, r)) => {
                 let mut taps: Vec<ThinTap> = p.thin_taps.iter().filter(|t| !r.contains(grid.coords(t.node))).cloned().collect();
-                taps.extend(thin_taps(&grid, &kind, &ghosts, &periodic_axis, Some(&todo)));
+                taps.extend(thin_taps(&geo, Some(&todo)));
                 // stable: a node's taps keep their order
                 taps.sort_by_key(|t| t.node);
                 taps
@@ -433,7 +434,7 @@ pub(crate) fn multilinear_corners(dim: usize, p: [f64; 3]) -> Vec<([i64; 3], f64
 
 /// Multilinear interpolation weights at `p` over fluid nodes only (renormalised). Falls back to
 /// the nearest fluid node within two cells when the cell around `p` holds no fluid node.
-fn interpolation_stencil(grid: &Grid, p: [f64; 3], fluid_at: &dyn Fn([i64; 3]) -> Option<usize>) -> Vec<(usize, f64)> {
+pub(super) fn interpolation_stencil(grid: &Grid, p: [f64; 3], fluid_at: &dyn Fn([i64; 3]) -> Option<usize>) -> Vec<(usize, f64)> {
     let dim = grid.dim;
     let base: [i64; 3] = std::array::from_fn(|a| if a < dim { p[a].floor() as i64 } else { p[a].round() as i64 });
     let mut out: Vec<(usize, f64)> = Vec::new();

@@ -46,6 +46,8 @@ pub struct FluidSolver {
     h: Vec<f64>,
     /// Macro fields ρ, u_x, u_y, u_z, θ of the current stage, row-blocked.
     mac: Vec<f64>,
+    /// h of the thin walls' side ghosts in the current stage ([`super::thin_wall`]).
+    side_h: Vec<f64>,
     /// Layout of populations and of macro fields.
     pub pop: RowBlocked,
     pub macro_layout: RowBlocked,
@@ -85,6 +87,7 @@ impl FluidSolver {
             f1: vec![0.0; n * nv],
             f2: vec![0.0; n * nv],
             h: vec![0.0; n * nv],
+            side_h: Vec::new(),
             mac: vec![0.0; n * MACRO_FIELDS],
             pop,
             macro_layout,
@@ -150,6 +153,12 @@ impl FluidSolver {
     /// the GPU backend.
     pub fn stage_arrays(&self) -> (&[f64], &[f64], &[f64], &[f64]) {
         (&self.f1, &self.f2, &self.h, &self.mac)
+    }
+
+    /// h of the thin walls' side ghosts in the current stage, slot by slot
+    /// ([`super::thin_wall::side_ghost_count`]).
+    pub fn side_ghost_values(&self) -> &[f64] {
+        &self.side_h
     }
 
     /// Reduced-temperature window in which every equilibrium weight is positive.
@@ -233,12 +242,12 @@ impl FluidSolver {
                     RkStage::First => &mut self.f,
                     RkStage::Second => &mut self.f1,
                 };
-                let mut fields = StageFields { f, h: &mut self.h, mac: &mut self.mac, pop: self.pop, mac_layout: self.macro_layout };
+                let mut fields = StageFields { f, h: &mut self.h, mac: &mut self.mac, side_h: &mut self.side_h, pop: self.pop, mac_layout: self.macro_layout };
                 fill_boundaries(&self.layout, &self.eq, &mut fields, self.params);
             }
             StageKind::Advect => match stage.rk {
-                RkStage::First => ctx.advect(&self.h, &mut self.f1, 1.0),
-                RkStage::Second => ctx.advect(&self.h, &mut self.f2, 0.5),
+                RkStage::First => ctx.advect(&self.h, &self.side_h, &mut self.f1, 1.0),
+                RkStage::Second => ctx.advect(&self.h, &self.side_h, &mut self.f2, 0.5),
             },
         }
         Ok(())
@@ -421,7 +430,7 @@ impl Kernels<'_> {
     }
 
     /// Advection: `out −= factor · Δt · c·∇h` at fluid nodes (3rd-order upwind, [`super::upwind`]).
-    fn advect(&self, h: &[f64], out: &mut [f64], factor: f64) {
+    fn advect(&self, h: &[f64], side_h: &[f64], out: &mut [f64], factor: f64) {
         let eq = self.eq;
         let nv = eq.values_per_node();
         let q = eq.q();
@@ -455,7 +464,7 @@ impl Kernels<'_> {
             }
         });
         let py = self.layout.grid.padded[1];
-        advect_thin_taps(&self.layout.thin_taps, eq, self.pop, py, k, h, out);
+        advect_thin_taps(&self.layout.thin_taps, eq, self.pop, py, k, h, side_h, out);
     }
 }
 

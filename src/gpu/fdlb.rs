@@ -3,8 +3,9 @@
 //! buffers, set up from a CPU solver (geometry tables, initial state) so that the two can be
 //! compared stage by stage.
 //!
-//! Node arrays use a stride N' = N rounded up to a multiple of 64, so that population ranges
-//! bound separately ([`codegen::Split`], when an array exceeds the adapter's binding limit) start
+//! Node arrays use a stride N' = N plus room for the thin walls' side ghosts
+//! ([`geometry::side_ghost_room`], nodes past the lattice), rounded up to a multiple of 64, so
+//! that population ranges bound separately ([`codegen::Split`], when an array exceeds the adapter's binding limit) start
 //! on 256-byte boundaries.
 //!
 //! Memory per node: 4 population arrays (fⁿ, f¹, fⁿ⁺¹, h) of NV f32 plus 5 macro fields and a
@@ -177,7 +178,8 @@ impl GpuFluid {
     /// bindings on a device with `limits`, or why they do not fit (the figure needed and the
     /// adapter's): checked before anything is allocated, on the CPU or the GPU.
     pub fn fits(limits: &wgpu::Limits, nodes: usize, nv: usize) -> Result<Split, GpuError> {
-        let pop_bytes = (nodes.div_ceil(64) * 64 * 4) as u64;
+        // the lattice's nodes and the least room for side ghosts ([`geometry::side_ghost_room`])
+        let pop_bytes = ((nodes + (nodes / 32).max(256)).div_ceil(64) * 64 * 4) as u64;
         let limit = limits.max_storage_buffer_binding_size;
         let per_binding = ((limit / pop_bytes) as usize).min(nv);
         let total = nv as u64 * pop_bytes;
@@ -213,7 +215,8 @@ impl GpuFluid {
         let nv = eq.values_per_node();
         let g = &s.layout.grid;
         let n = g.len();
-        let stride = n.div_ceil(64) * 64;
+        // the lattice's nodes, then room for the thin walls' side ghosts ([`geometry::Tables::of`])
+        let stride = (n + geometry::side_ghost_room(s)).div_ceil(64) * 64;
         let split = Self::fits(limits, n, nv)?;
         let f0 = geometry::state_array(s, stride);
         let fb = bytemuck::cast_slice(&f0);

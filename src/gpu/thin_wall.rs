@@ -6,7 +6,7 @@ use bytemuck::{Pod, Zeroable};
 
 /// A one-sided stencil as the kernel's `ThinTap` struct.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable, Default)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub(super) struct ThinTapEntry {
     node: u32,
     axis: u32,
@@ -15,13 +15,27 @@ pub(super) struct ThinTapEntry {
     step: i32,
     /// w − w_full on (0, +s, −s, −2s).
     w: [f32; 4],
+    /// The nodes holding the side ghosts of the taps +s, −s, −2s ([`NO_SIDE`] where the tap has
+    /// none), each weighted by the full stencil's weight of its tap (2, −6, 1); w is unused.
+    side: [u32; 4],
+}
+
+/// A tap without a side ghost.
+pub(super) const NO_SIDE: u32 = u32::MAX;
+
+impl Default for ThinTapEntry {
+    fn default() -> Self {
+        ThinTapEntry { node: 0, axis: 0, sign: 0, step: 0, w: [0.0; 4], side: [NO_SIDE; 4] }
+    }
 }
 
 /// The taps of `layout` and, per node that has any, (first tap, count): one kernel thread per
-/// node walks its taps, so no two threads write the same value. Never empty (a zero entry,
-/// never read, stands in for none, so that the binding holds one).
+/// node walks its taps, so no two threads write the same value. The side ghost in slot k sits
+/// at node n + k past the lattice's n nodes ([`super::fdlb`]'s geometry tables). Never empty (a
+/// zero entry, never read, stands in for none, so that the binding holds one).
 pub(super) fn entries(layout: &Layout) -> (Vec<ThinTapEntry>, Vec<[u32; 2]>) {
     let g = &layout.grid;
+    let mut slot = g.len();
     let mut taps: Vec<ThinTapEntry> = Vec::with_capacity(layout.thin_taps.len().max(1));
     let mut ranges: Vec<[u32; 2]> = Vec::new();
     for t in &layout.thin_taps {
@@ -32,7 +46,12 @@ pub(super) fn entries(layout: &Layout) -> (Vec<ThinTapEntry>, Vec<[u32; 2]>) {
         }
         ranges.last_mut().expect("pushed above")[1] += 1;
         let w = t.correction().map(|x| x as f32);
-        taps.push(ThinTapEntry { node: t.node as u32, axis: t.axis as u32, sign: t.sign as i32, step: (t.sign * unit) as i32, w });
+        let mut side = [NO_SIDE; 4];
+        for sg in &t.sides {
+            side[sg.tap - 1] = slot as u32;
+            slot += 1;
+        }
+        taps.push(ThinTapEntry { node: t.node as u32, axis: t.axis as u32, sign: t.sign as i32, step: (t.sign * unit) as i32, w, side });
     }
     if taps.is_empty() {
         taps.push(ThinTapEntry::default());
@@ -85,6 +104,6 @@ mod mirror_tests {
     fn tap_entries_match_the_shader_layout() {
         let eq = Equilibrium::new(VelocitySet::new(VelocitySetKind::D2q21), GasModel::Monatomic);
         let src = thin_wall(&eq, Split::whole(eq.values_per_node()));
-        check_mirror("thin_wall", &src, "ThinTap", mirror!(ThinTapEntry { node, axis, sign, step, w }));
+        check_mirror("thin_wall", &src, "ThinTap", mirror!(ThinTapEntry { node, axis, sign, step, w, side }));
     }
 }

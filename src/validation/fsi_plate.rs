@@ -7,12 +7,17 @@
 //! Placed symmetrically between the node rows (centre on y = 3 cm, half-way between two rows,
 //! in a channel symmetric about it) the plate feels no lift to round-off. A quarter cell off,
 //! a 1.2-cell plate holds a single row of nodes; that row is a ghost serving the side its
-//! nearer wall faces, and the other side's fluid nodes read it through the one-sided stencils
-//! of [`crate::fluid::thin_wall`], which carry no wall velocity: on that side the wall holds
-//! back no slip. Both couplings share this fluid wall (method 2's level set is a ghost-node
-//! wall too), so both feel a spurious lift of the same size. Twice as thick (2.4 cells: at least
-//! two rows inside, one ghost row per side) it falls 6× (method 1) and 32× (method 2) a quarter
-//! cell off (measured: README, "The lattice's grip on the flap").
+//! nearer wall faces, and the other side's fluid nodes read the side ghosts of
+//! [`crate::fluid::thin_wall`] in its place. Both couplings share this fluid wall (method 2's
+//! level set is a ghost-node wall too). With the one-sided stencils that came before the side
+//! ghosts, which carry no wall velocity (no no-slip on the far side), the air lifted the plate
+//! by L/D = 1.51 (method 1) and 12.8 (method 2) a quarter cell off; with side ghosts, 0.019 and
+//! 0.005 (README, "The lattice's grip on the flap").
+//!
+//! Twice as thick (2.4 cells) and a quarter cell off, method 1's plate keeps a lift (L/D 0.59,
+//! method 2's 0.055) that the thin wall does not make: it depends on where the plate's blunt
+//! ends lie between the node columns (moved 0.3 and 0.5 cells downstream: L/D +0.48 and −0.14),
+//! the sub-cell error of the ghost walls at the ends' corners.
 //!
 //! Units: cgs (the flap's air: ρ = 1.18·10⁻³ g/cm³, μ = 1.82·10⁻⁴ g/(cm·s), U = 51.3 cm/s,
 //! Re_L ≈ 1330 on the 4 cm plate), forces per unit depth (dyn/cm).
@@ -134,9 +139,13 @@ pub fn cases() -> Vec<PlateCase> {
     out
 }
 
-/// The suite's rows: the symmetric placements feel no lift (|L| ≤ 10⁻⁶ |D|); off it, the lift
-/// of the 2.4-cell plate is smaller than the 1.2-cell plate's at the same offset (the error
-/// falls with resolution). A 4 cm plate in a 12 × 6 cm channel for 0.1 s (5,400 steps each).
+/// The suite's rows (a 4 cm plate in a 12 × 6 cm channel for 0.1 s, 5,400 steps each):
+/// - the symmetric placements feel no lift (|L/D| ≤ 10⁻⁶, mirror symmetry);
+/// - the flap's 1.2 cells off the symmetric position, and 2.4 cells half a cell off:
+///   |L/D| ≤ 0.05, the thin wall held on both sides (measured ≤ 0.019; 1.2–12.8 with the
+///   one-sided stencils);
+/// - 2.4 cells a quarter cell off: |L/D| ≤ 1, the blunt ends' sub-cell error (module docs;
+///   measured 0.59 and 0.055), a row that watches it rather than a claim that it is small.
 pub fn rows() -> Vec<(String, f64, String, bool)> {
     let mut runs = Vec::new();
     for case in cases() {
@@ -167,14 +176,10 @@ pub fn rows() -> Vec<(String, f64, String, bool)> {
         let ratio = f.lift / f.drag;
         if case.offset_cells == 0.0 {
             out.push((label, ratio, "|L/D| ≤ 1e-6 (mirror symmetry)".into(), ratio.abs() <= 1e-6));
-        } else if case.thickness_cells > 1.2 {
-            let thin = runs.iter().find_map(|(c, r)| {
-                (c.method == case.method && c.thickness_cells == 1.2 && c.offset_cells == case.offset_cells).then(|| r.as_ref().ok()).flatten()
-            });
-            let thin_ratio = thin.map_or(f64::NAN, |t| t.lift / t.drag);
-            out.push((label, ratio, format!("|L/D| < the 1.2-cell plate's {:.3}", thin_ratio.abs()), ratio.abs() < thin_ratio.abs()));
+        } else if case.thickness_cells > 1.2 && case.offset_cells == 0.25 {
+            out.push((label, ratio, "|L/D| ≤ 1 (the blunt ends' sub-cell error)".into(), ratio.abs() <= 1.0));
         } else {
-            out.push((label, ratio, "measured (0 if the walls were exact)".into(), ratio.is_finite()));
+            out.push((label, ratio, "|L/D| ≤ 0.05 (the thin wall held on both sides)".into(), ratio.abs() <= 0.05));
         }
     }
     out

@@ -210,8 +210,8 @@ pub fn cases() -> Vec<Case> {
         }),
         ("fsi_thin_plate", || {
             // The flap's cross-section as a rigid plate at zero incidence, moved across the node
-            // rows: the spurious lift of a wall 1.2 cells thick (fsi_plate; 10 runs of 5,400
-            // steps, 520 s on 2 cores here).
+            // rows: the lift a wall 1.2 cells thick would feel were its far side not held by
+            // side ghosts (fsi_plate; 10 runs of 5,400 steps, 563 s on 2 cores here).
             super::fsi_plate::rows()
         }),
         ("fsi_flap_time_step", || {

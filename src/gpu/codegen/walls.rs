@@ -15,18 +15,29 @@ fn thin_tap_factor(c: [i32; 3]) -> Option<String> {
     (!terms.is_empty()).then(|| terms.join(" + "))
 }
 
-/// The one-sided stencils next to thin walls ([`crate::fluid::thin_wall`]), applied after the
+/// The side ghosts' part of a thin tap's correction (`tp`), FULL[tap] · h(side node) for the
+/// taps +s, −s, −2s that have one: `h(idx)` indexes value v's array at node `idx`. The index is
+/// clamped into the array where a tap has none (the select discards that read).
+fn side_terms(h: impl Fn(&str) -> String) -> String {
+    [("x", "2.0"), ("y", "-6.0"), ("z", "1.0")]
+        .iter()
+        .map(|(c, w)| format!(" + select(0.0, {w} * {}, tp.side.{c} != 0xffffffffu)", h(&format!("min(tp.side.{c}, N - 1u)"))))
+        .collect()
+}
+
+/// The stencils next to thin walls ([`crate::fluid::thin_wall`]), applied after the
 /// advection: one thread per fluid node that has any, walking its taps (so no two threads write
-/// the same value). Each tap carries the correction weights w − w_full on (0, +s, −s, −2s) and
-/// the step to the +s neighbour; value v is corrected when its velocity component along the
-/// tap's axis has the tap's sign: dst −= k·|c_a|/6·Σ w·h.
+/// the same value). Each tap carries the correction weights w − w_full on (0, +s, −s, −2s), the
+/// step to the +s neighbour and the nodes of its side ghosts (past the lattice); value v is
+/// corrected when its velocity component along the tap's axis has the tap's sign:
+/// dst −= k·|c_a|/6·(Σ w·h + Σ w_full·h_side).
 pub fn thin_wall(eq: &Equilibrium, split: Split) -> String {
     let g = split.groups() as u32;
     let nv = eq.values_per_node();
     let q = eq.q();
     let mut s = format!("const WG: u32 = {WORKGROUP}u;\n{PARAMS}\n");
     s += r#"
-struct ThinTap { node: u32, axis: u32, sign: i32, step: i32, w: vec4<f32>, };
+struct ThinTap { node: u32, axis: u32, sign: i32, step: i32, w: vec4<f32>, side: vec4<u32>, };
 @group(0) @binding(1) var<storage, read> taps: array<ThinTap>;
 @group(0) @binding(2) var<storage, read> ranges: array<vec2<u32>>;
 "#;
@@ -49,9 +60,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         let c = eq.set.c[i];
         let (grp, r) = (v / split.per_binding, v % split.per_binding);
         let Some(m) = thin_tap_factor(c) else { continue };
+        let sides = side_terms(|idx| format!("h{grp}[{r}u * N + {idx}]"));
         let _ = writeln!(
             s,
-            "        {{ let m = {m}; if (m != 0.0) {{ let c = i32({r}u * N + tp.node); let corr = tp.w.x * h{grp}[c] + tp.w.y * h{grp}[c + st] + tp.w.z * h{grp}[c - st] + tp.w.w * h{grp}[c - 2 * st]; dst{grp}[c] = dst{grp}[c] - k * m * corr; }} }}"
+            "        {{ let m = {m}; if (m != 0.0) {{ let c = i32({r}u * N + tp.node); let corr = tp.w.x * h{grp}[c] + tp.w.y * h{grp}[c + st] + tp.w.z * h{grp}[c - st] + tp.w.w * h{grp}[c - 2 * st]{sides}; dst{grp}[c] = dst{grp}[c] - k * m * corr; }} }}"
         );
     }
     s += "    }\n}\n";
@@ -86,8 +98,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     let i = thread_index(gid, nwg);
     if (i >= P.n_nodes) { return; }
     let k = kind[i];
-    // fluid nodes and periodic copies are no wall (the stencils read copies as fluid)
-    if (k == 0u || k == 3u) { return; }
+    // fluid nodes and periodic copies are no wall (the stencils read copies as fluid); the
+    // side ghosts past the lattice are none either
+    if (k == 0u || k == 3u || i >= P.px * P.py * P.pz) { return; }
     let N = P.n_nodes;
     let n = i32(i);
     let sy = i32(P.px);
@@ -130,7 +143,7 @@ pub fn thin_wall_fluxes(eq: &Equilibrium, split: Split) -> String {
     let q = eq.q();
     let mut s = format!("const WG: u32 = {WORKGROUP}u;\n{PARAMS}\n");
     s += r#"
-struct ThinTap { node: u32, axis: u32, sign: i32, step: i32, w: vec4<f32>, };
+struct ThinTap { node: u32, axis: u32, sign: i32, step: i32, w: vec4<f32>, side: vec4<u32>, };
 @group(0) @binding(1) var<storage, read> taps: array<ThinTap>;
 @group(0) @binding(2) var<storage, read> order: array<u32>;
 @group(0) @binding(3) var<storage, read> targets: array<vec4<u32>>;
@@ -156,9 +169,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         let (grp, r) = (v / split.per_binding, v % split.per_binding);
         let Some(m) = thin_tap_factor(c) else { continue };
         let h = |off: &str| format!("h{grp}[{r}u * N + u32(c0{off})]");
+        let sides = side_terms(|idx| format!("h{grp}[{r}u * N + {idx}]"));
         let _ = writeln!(
             s,
-            "        {{ let m = {m}; if (m != 0.0) {{ let corr = tp.w.x * {} + tp.w.y * {} + tp.w.z * {} + tp.w.w * {}; acc += (w * m * corr) * vec4<f32>({}.0, {}.0, {}.0, 1.0); }} }}",
+            "        {{ let m = {m}; if (m != 0.0) {{ let corr = tp.w.x * {} + tp.w.y * {} + tp.w.z * {} + tp.w.w * {}{sides}; acc += (w * m * corr) * vec4<f32>({}.0, {}.0, {}.0, 1.0); }} }}",
             h(""),
             h(" + st"),
             h(" - st"),

@@ -5,6 +5,7 @@
 
 use super::{Entry, GpuFluid, Params, storage};
 use crate::fluid::layout::{HaloReach, NodeKind};
+use crate::fluid::thin_wall::side_ghost_count;
 use crate::fluid::{FaceCondition, FluidSolver};
 use crate::gpu::codegen::{FaceCode, GHOST_ISOTHERMAL, periodic_reach_code};
 use crate::gpu::thin_wall::{self, ThinTapEntry};
@@ -26,17 +27,29 @@ pub(super) struct Tables {
 }
 
 impl Tables {
-    /// The tables of solver `s`'s layout for arrays of node stride `stride`.
+    /// The tables of solver `s`'s layout for arrays of node stride `stride`. The thin walls'
+    /// side ghosts ([`crate::fluid::thin_wall`]) are ghosts at the extra nodes past the lattice
+    /// (slot k at node n + k, n = the lattice's padded node count; inactive, so no other kernel
+    /// touches them), filled by the same kernel; refused, saying so, when they outgrow the room
+    /// the arrays were made with ([`side_ghost_room`]).
     pub fn of(s: &FluidSolver, stride: usize) -> Self {
         let g = &s.layout.grid;
+        let n = g.len();
         let mut kind: Vec<u32> = s.layout.kind.iter().map(|k| *k as u32).collect();
         kind.resize(stride, NodeKind::Inactive as u32);
+        let sides = side_ghost_count(&s.layout.thin_taps);
+        assert!(
+            n + sides <= stride,
+            "the thin walls need {sides} side ghosts, more than the {} extra nodes the GPU fluid's arrays were made with: make the fluid on the GPU anew",
+            stride - n
+        );
+        let side_ghosts = s.layout.thin_taps.iter().flat_map(|t| &t.sides).enumerate().map(|(k, sg)| (n + k, &sg.ghost));
         let mut ghosts = Vec::new();
         let mut images: Vec<[u32; 2]> = Vec::new();
-        for gh in &s.layout.ghosts {
+        for (node, gh) in s.layout.ghosts.iter().map(|gh| (gh.node, gh)).chain(side_ghosts) {
             assert!(gh.image.len() <= 8);
             ghosts.push(Entry {
-                node: gh.node as u32,
+                node: node as u32,
                 code: if gh.wall_temperature.is_some() { GHOST_ISOTHERMAL } else { 0 },
                 n_img: gh.image.len() as u32,
                 theta: gh.wall_temperature.unwrap_or(0.0) as f32,
@@ -84,7 +97,7 @@ impl Tables {
         Tables { kind, ghosts, images, faces, periodic, thin_taps, thin_ranges }
     }
 
-    /// Threads of the ghost, face and periodic fills.
+    /// Threads of the ghost (with the side ghosts), face and periodic fills.
     pub fn counts(&self) -> [u32; 3] {
         [self.ghosts.len() as u32, self.faces.len() as u32, self.periodic.len() as u32]
     }
@@ -174,4 +187,11 @@ pub(super) fn state_array(s: &FluidSolver, stride: usize) -> Vec<f32> {
         }
     }
     f
+}
+
+/// The extra nodes past the lattice the GPU arrays hold for the thin walls' side ghosts, whose
+/// number changes as bodies move: twice what `s` needs now, and at least a 32nd of the lattice
+/// (a closed 2D glottis at 128² needs a few hundred) or 256.
+pub(super) fn side_ghost_room(s: &FluidSolver) -> usize {
+    (2 * side_ghost_count(&s.layout.thin_taps)).max(s.layout.grid.len() / 32).max(256)
 }
