@@ -2057,3 +2057,36 @@ fn every_scene_key_changes_the_gpu_state_or_is_refused() {
     assert!(checked > 40);
     assert!(ignored.is_empty(), "keys with no effect on the GPU state after two steps and not refused: {ignored:#?}");
 }
+
+/// The GPU fluid's arrays hold the thin walls' side ghosts past the lattice, sized when the
+/// fluid goes up (twice what its walls need then, at least a 32nd of the lattice or 256 nodes).
+/// Walls that need more later are refused with both figures, and the fluid is left as it was.
+#[test]
+fn walls_that_outgrow_the_side_ghosts_room_are_refused_with_the_figures() {
+    let Some(ctx) = context() else { return };
+    let eq = Equilibrium::new(VelocitySet::new(VelocitySetKind::D2q21), GasModel::Monatomic);
+    let params = timestep::choose(0.05, 0.6, eq.set.max_l1_speed(), None, timestep::DEFAULT_COURANT_SAFETY).unwrap();
+    let mut b = Boundaries::periodic();
+    b.faces[2] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
+    b.faces[3] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
+    let at_rest = |_: [f64; 3]| Macro { rho: 1.0, u: [0.0; 3], theta: 0.6 };
+    let grid = Grid::new(2, [400, 16, 1]);
+    let open = FluidSolver::new(eq.clone(), grid.clone(), b.clone(), &[], params, at_rest);
+    // a plate one row thick, a quarter cell off the mid-line, across the whole channel
+    let plate = Obstacle { shape: Shape::Cuboid { min: [-4.0, 7.15, -1.0], max: [404.0, 8.35, 1.0] }, velocity: [0.0; 3], temperature: None };
+    let split = FluidSolver::new(eq, grid, b, &[plate], params, at_rest);
+    let needed = phonation::fluid::thin_wall::side_ghost_count(&split.layout.thin_taps);
+    let mut gpu = GpuFluid::from_solver(&ctx, &open).unwrap();
+    let e = gpu.set_geometry(&split).unwrap_err();
+    eprintln!("{e}");
+    assert_eq!(e.needed, needed);
+    assert!(e.room >= 256 && e.room < needed, "{e:?}");
+    assert!(e.to_string().contains(&needed.to_string()) && e.to_string().contains(&e.room.to_string()), "{e}");
+    // refused before anything changed: the open channel still steps as the CPU's
+    let mut cpu = open;
+    gpu.run(5);
+    cpu.run(5).unwrap();
+    assert!(gpu.max_relative_difference(&cpu) < 1e-5);
+    // made with those walls, the arrays have the room
+    assert!(GpuFluid::from_solver(&ctx, &split).unwrap().set_geometry(&split).is_ok());
+}

@@ -276,7 +276,7 @@ impl GpuCoupled {
         } else {
             self.cpu.install_polygon_walls(walls);
         }
-        self.fluid.set_geometry(&self.cpu.fluid);
+        self.fluid.set_geometry(&self.cpu.fluid).map_err(|e| self.side_ghosts_outgrown(e))?;
         Ok(())
     }
 
@@ -297,6 +297,21 @@ impl GpuCoupled {
             return Ok(());
         }
         Err(self.failed_read("reading back the nodes that change side failed"))
+    }
+
+    /// The diagnosis of walls that need more side ghosts than the device's arrays hold: the run
+    /// stops at this step with its outputs (the device state is that of the step before).
+    fn side_ghosts_outgrown(&self, e: crate::gpu::fdlb::SideGhostRoom) -> Instability {
+        Instability {
+            part: Part::Device,
+            step: self.cpu.step_count,
+            time: self.cpu.time,
+            time_unit: "s",
+            site: Site::Everywhere,
+            quantity: "side ghosts",
+            value: e.needed as f64,
+            reason: format!("{e}: run it on the CPU backend, or on a device with the walls' thin parts present at the start"),
+        }
     }
 
     /// The diagnosis of a read within a step that failed (the device lost or out of memory).
@@ -367,7 +382,7 @@ impl GpuCoupled {
         } else {
             self.cpu.install_level_set_walls(walls);
         }
-        self.fluid.set_geometry(&self.cpu.fluid);
+        self.fluid.set_geometry(&self.cpu.fluid).map_err(|e| self.side_ghosts_outgrown(e))?;
         Ok(())
     }
 

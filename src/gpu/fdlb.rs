@@ -21,6 +21,7 @@ mod readback;
 mod totals;
 mod traction;
 
+pub use geometry::SideGhostRoom;
 pub use readback::{GpuArray, compare_nodes};
 
 use super::codegen::{self, Split, WORKGROUP};
@@ -224,7 +225,7 @@ impl GpuFluid {
         let h = storage(&device, "h", fb);
         let mac = storage(&device, "mac", bytemuck::cast_slice(&vec![0f32; 5 * stride]));
         let status = storage(&device, "status", bytemuck::cast_slice(&[u32::MAX, 0u32]));
-        let t = geometry::Tables::of(s, stride);
+        let t = geometry::Tables::of(s, stride).expect("the room is made for twice the side ghosts of s");
         let kind = storage(&device, "kind", bytemuck::cast_slice(&t.kind));
         let window = s.temperature_window();
         let base = Params {

@@ -30,19 +30,17 @@ impl Tables {
     /// The tables of solver `s`'s layout for arrays of node stride `stride`. The thin walls'
     /// side ghosts ([`crate::fluid::thin_wall`]) are ghosts at the extra nodes past the lattice
     /// (slot k at node n + k, n = the lattice's padded node count; inactive, so no other kernel
-    /// touches them), filled by the same kernel; refused, saying so, when they outgrow the room
-    /// the arrays were made with ([`side_ghost_room`]).
-    pub fn of(s: &FluidSolver, stride: usize) -> Self {
+    /// touches them), filled by the same kernel; refused, with the figures, when they outgrow
+    /// the room the arrays were made with ([`side_ghost_room`]).
+    pub fn of(s: &FluidSolver, stride: usize) -> Result<Self, SideGhostRoom> {
         let g = &s.layout.grid;
         let n = g.len();
         let mut kind: Vec<u32> = s.layout.kind.iter().map(|k| *k as u32).collect();
         kind.resize(stride, NodeKind::Inactive as u32);
         let sides = side_ghost_count(&s.layout.thin_taps);
-        assert!(
-            n + sides <= stride,
-            "the thin walls need {sides} side ghosts, more than the {} extra nodes the GPU fluid's arrays were made with: make the fluid on the GPU anew",
-            stride - n
-        );
+        if n + sides > stride {
+            return Err(SideGhostRoom { needed: sides, room: stride - n });
+        }
         let side_ghosts = s.layout.thin_taps.iter().flat_map(|t| &t.sides).enumerate().map(|(k, sg)| (n + k, &sg.ghost));
         let mut ghosts = Vec::new();
         let mut images: Vec<[u32; 2]> = Vec::new();
@@ -94,7 +92,7 @@ impl Tables {
             .flat_map(|r| (0..r.len).map(move |k| [(r.dst + k) as u32, (r.src + k) as u32, periodic_reach_code(r.reach), 0]))
             .collect();
         let (thin_taps, thin_ranges) = thin_wall::entries(&s.layout);
-        Tables { kind, ghosts, images, faces, periodic, thin_taps, thin_ranges }
+        Ok(Tables { kind, ghosts, images, faces, periodic, thin_taps, thin_ranges })
     }
 
     /// Threads of the ghost (with the side ghosts), face and periodic fills.
@@ -112,9 +110,11 @@ impl GpuFluid {
     /// tables (ghost depths and wall velocities change every step) are rewritten in place when
     /// their sizes are unchanged, else new buffers and bind groups are made
     /// ([`Self::geometry_rebinds`]). The populations are untouched.
-    pub fn set_geometry(&mut self, s: &FluidSolver) {
+    /// Refused, changing nothing, when the new walls need more side ghosts than the arrays have
+    /// room for ([`SideGhostRoom`]).
+    pub fn set_geometry(&mut self, s: &FluidSolver) -> Result<(), SideGhostRoom> {
         assert_eq!(s.layout.grid.len(), self.n_nodes, "a layout of the same lattice");
-        let t = Tables::of(s, self.stride);
+        let t = Tables::of(s, self.stride)?;
         let changed = t.kind.iter().zip(&self.kind_host).position(|(a, b)| a != b);
         if let Some(first) = changed {
             let last = t.kind.iter().zip(&self.kind_host).rposition(|(a, b)| a != b).expect("a first one, so a last one");
@@ -142,7 +142,7 @@ impl GpuFluid {
             }
             // the same buffers: only the face-flux record's thin-tap targets follow the new taps
             self.rebind_face_fluxes(s, false);
-            return;
+            return Ok(());
         }
         self.geometry_rebinds += 1;
         let device = &self.device;
@@ -166,6 +166,7 @@ impl GpuFluid {
         );
         self.groups = self.stage_groups();
         self.rebind_face_fluxes(s, true);
+        Ok(())
     }
 
     /// Writes the populations of `s` (a solver of the same lattice) as the state fⁿ.
@@ -187,6 +188,24 @@ pub(super) fn state_array(s: &FluidSolver, stride: usize) -> Vec<f32> {
         }
     }
     f
+}
+
+/// The thin walls of a new geometry need more side ghosts than the GPU fluid's arrays hold nodes
+/// for past the lattice (they were sized when the fluid went up, [`side_ghost_room`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SideGhostRoom {
+    pub needed: usize,
+    pub room: usize,
+}
+
+impl std::fmt::Display for SideGhostRoom {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the thin walls need {} side ghosts, more than the {} nodes the GPU fluid's arrays hold past the lattice (sized when the fluid went up)",
+            self.needed, self.room
+        )
+    }
 }
 
 /// The extra nodes past the lattice the GPU arrays hold for the thin walls' side ghosts, whose
