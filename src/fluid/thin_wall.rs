@@ -196,17 +196,46 @@ impl WallGeometry<'_> {
     fn side_ghost(&self, far: [i64; 3], a: [i64; 3], b: [i64; 3]) -> Option<Ghost> {
         let pos = |x: [i64; 3]| x.map(|c| c as f64);
         let (pa, pb, pf) = (pos(a), pos(b), pos(far));
-        let o = self.obstacles.iter().map(|o| (o, o.shape.sdf(pb))).filter(|(_, d)| *d < 0.0).min_by(|x, y| x.1.total_cmp(&y.1)).map(|(o, _)| o)?;
-        if !(o.shape.sdf(pa) > 0.0) {
+        // the obstacle that contains b, the deepest where several do (a level set's depth
+        // takes Newton steps, so only then)
+        let inside: Vec<&Obstacle> = self.obstacles.iter().filter(|o| o.shape.outside_distance(pb).is_none()).collect();
+        let o = match inside.as_slice() {
+            [] => return None,
+            [o] => *o,
+            several => several.iter().map(|o| (*o, o.shape.sdf(pb))).min_by(|x, y| x.1.total_cmp(&y.1)).map(|(o, _)| o)?,
+        };
+        let level = |p: [f64; 3]| o.shape.signed_level(p);
+        let (mut ta, mut fa) = (0.0f64, level(pa));
+        let (mut tb, mut fb) = (1.0f64, level(pb));
+        if !(fa > 0.0 && fb < 0.0) {
             return None;
         }
-        let (mut lo, mut hi) = (0.0f64, 1.0f64);
+        // The crossing of the segment a → b, by regula falsi with the Illinois rule on a
+        // function with the wall's sign and zero contour ([`Shape::signed_level`]; nearly
+        // linear along a line, so a few evaluations reach 10⁻¹⁰ cells).
         let at = |t: f64| std::array::from_fn::<f64, 3, _>(|k| pa[k] + t * (pb[k] - pa[k]));
-        for _ in 0..40 {
-            let mid = 0.5 * (lo + hi);
-            if o.shape.sdf(at(mid)) > 0.0 { lo = mid } else { hi = mid }
+        let mut last = 0;
+        for _ in 0..60 {
+            let t = (ta * fb - tb * fa) / (fb - fa);
+            let ft = level(at(t));
+            if ft > 0.0 {
+                (ta, fa) = (t, ft);
+                if last == 1 {
+                    fb *= 0.5;
+                }
+                last = 1;
+            } else {
+                (tb, fb) = (t, ft);
+                if last == -1 {
+                    fa *= 0.5;
+                }
+                last = -1;
+            }
+            if ft.abs() < 1e-10 || tb - ta < 1e-10 {
+                break;
+            }
         }
-        let wall = at(0.5 * (lo + hi));
+        let wall = at((ta * fb - tb * fa) / (fb - fa));
         let nrm = o.shape.normal(wall);
         let back = [pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]];
         if !(dot(nrm, back) > 0.0) {

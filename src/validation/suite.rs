@@ -211,7 +211,7 @@ pub fn cases() -> Vec<Case> {
         ("fsi_thin_plate", || {
             // The flap's cross-section as a rigid plate at zero incidence, moved across the node
             // rows: the lift a wall 1.2 cells thick would feel were its far side not held by
-            // side ghosts (fsi_plate; 10 runs of 5,400 steps, 563 s on 2 cores here).
+            // side ghosts (fsi_plate; 10 runs of 5,400 steps, 563–624 s on 2 cores here).
             super::fsi_plate::rows()
         }),
         ("fsi_flap_time_step", || {
