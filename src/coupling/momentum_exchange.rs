@@ -19,8 +19,9 @@
 //! over a step the fluid's momentum changes by minus the sum of what the wall nodes received
 //! (to round-off) — checked by the test below in a periodic box with a fixed obstacle.
 //!
-//! Where two walls close on each other the fluid uses one-sided stencils (`fluid::thin_wall`)
-//! that are not in flux form; what their corrections change in the fluid's momentum is booked
+//! Where a wall is thinner than the stencil (two walls that close on each other, a thin plate)
+//! the fluid's stencils take side ghosts or one-sided weights (`fluid::thin_wall`), not in flux
+//! form; what their corrections change in the fluid's momentum is booked
 //! to the thin wall next to the reader, so the balance stays exact.
 //!
 //! Units: lattice units (momentum Σ c_i f_i per cell).
@@ -94,8 +95,8 @@ pub fn add_face_fluxes(fluid: &FluidSolver, weight: f64, reference: Option<&[f64
             }
         }
     }
-    // The one-sided stencils next to thin walls ([`crate::fluid::thin_wall`]) change the
-    // fluid's momentum by their correction, which is not a face flux: the wall next to the
+    // The stencils next to thin walls ([`crate::fluid::thin_wall`]: side ghosts, or one-sided)
+    // change the fluid's momentum by their correction, which is not a face flux: the wall next to the
     // reader (its first non-fluid tap) takes the opposite. A correction of a uniform field at
     // rest is zero (the weights sum to zero; a side ghost then holds the far node's value), so
     // there is no reference part.

@@ -13,8 +13,9 @@
 //! surface polygon. No per-speed sub-division is needed: the ghost state serves every
 //! velocity of the stencil. The moving body must not cross more than one cell per step. Where
 //! two bodies close on each other the wall between two fluid regions becomes thinner than the
-//! stencil; the fluid nodes there take one-sided stencils ([`crate::fluid::thin_wall`]) so that
-//! no state passes through the contact.
+//! stencil; the fluid nodes there read side ghosts of their own side, or one-sided stencils
+//! where none can be built ([`crate::fluid::thin_wall`]), so that no state passes through the
+//! contact.
 //!
 //! Units: the solid works in the scene's physical units; the fluid in lattice units; positions
 //! map through [`crate::units::Units::position_to_lattice`] (the same origin).

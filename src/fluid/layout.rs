@@ -1,5 +1,5 @@
 //! Classification of every padded node (fluid, ghost, inlet/outlet halo, periodic halo,
-//! inactive), the tables the boundary fill walks through and the one-sided stencils next to
+//! inactive), the tables the boundary fill walks through and the stencils (with side ghosts) next to
 //! thin walls. Built once per scene, and once per step when bodies move ([`super::moving`]).
 
 use super::boundary::{Boundaries, Face, FaceCondition};

@@ -86,7 +86,7 @@ pub const FULL: [f64; 4] = [3.0, 2.0, -6.0, 1.0];
 
 impl ThinTap {
     /// What the stencil adds to the full one on the nodes (0, +s, −s, −2s): w − w_full (the
-    /// side ghosts add FULL[tap] times their values on top).
+    /// side ghosts add `FULL[tap]` times their values on top).
     pub fn correction(&self) -> [f64; 4] {
         std::array::from_fn(|j| self.weights[j] - FULL[j])
     }
@@ -98,7 +98,7 @@ pub fn side_ghost_count(taps: &[ThinTap]) -> usize {
     taps.iter().map(|t| t.sides.len()).sum()
 }
 
-/// The correction Σ (w − w_full)·h + Σ FULL[tap]·h_side of value `v` of tap `t`, whose side
+/// The correction Σ (w − w_full)·h + Σ `FULL[tap]`·h_side of value `v` of tap `t`, whose side
 /// ghosts start at slot `slot` of `side_h` (`nv` values per slot); `hv(m)`: h at m·s from the
 /// reader. One arithmetic for the advection and the momentum exchange's record of it.
 pub fn tap_correction(t: &ThinTap, v: usize, nv: usize, slot: usize, side_h: &[f64], hv: impl Fn(isize) -> f64) -> f64 {

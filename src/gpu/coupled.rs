@@ -302,30 +302,18 @@ impl GpuCoupled {
     /// The diagnosis of walls that need more side ghosts than the device's arrays hold: the run
     /// stops at this step with its outputs (the device state is that of the step before).
     fn side_ghosts_outgrown(&self, e: crate::gpu::fdlb::SideGhostRoom) -> Instability {
-        Instability {
-            part: Part::Device,
-            step: self.cpu.step_count,
-            time: self.cpu.time,
-            time_unit: "s",
-            site: Site::Everywhere,
-            quantity: "side ghosts",
-            value: e.needed as f64,
-            reason: format!("{e}: run it on the CPU backend, or on a device with the walls' thin parts present at the start"),
-        }
+        let reason = format!("{e}: run it on the CPU backend, or on a device with the walls' thin parts present at the start");
+        self.device_stop("side ghosts", e.needed as f64, reason)
     }
 
     /// The diagnosis of a read within a step that failed (the device lost or out of memory).
     fn failed_read(&self, reason: &str) -> Instability {
-        Instability {
-            part: Part::Device,
-            step: self.cpu.step_count,
-            time: self.cpu.time,
-            time_unit: "s",
-            site: Site::Everywhere,
-            quantity: "device state",
-            value: f64::NAN,
-            reason: reason.into(),
-        }
+        self.device_stop("device state", f64::NAN, reason.into())
+    }
+
+    /// A stop of this step for the device's sake (not the physics'), naming what and why.
+    fn device_stop(&self, quantity: &'static str, value: f64, reason: String) -> Instability {
+        Instability { part: Part::Device, step: self.cpu.step_count, time: self.cpu.time, time_unit: "s", site: Site::Everywhere, quantity, value, reason }
     }
 
     /// After a change of layout: the populations it wrote (the fresh nodes, by the `scatter`

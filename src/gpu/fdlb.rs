@@ -4,7 +4,7 @@
 //! compared stage by stage.
 //!
 //! Node arrays use a stride N' = N plus room for the thin walls' side ghosts
-//! ([`geometry::side_ghost_room`], nodes past the lattice), rounded up to a multiple of 64, so
+//! (`side_ghost_room`: at least a 32nd of the lattice, nodes past it), rounded up to a multiple of 64, so
 //! that population ranges bound separately ([`codegen::Split`], when an array exceeds the adapter's binding limit) start
 //! on 256-byte boundaries.
 //!

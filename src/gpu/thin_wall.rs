@@ -1,10 +1,10 @@
-//! The thin-wall one-sided stencils ([`crate::fluid::thin_wall`]) as the `thin_wall` kernel
+//! The thin-wall stencils and their side ghosts ([`crate::fluid::thin_wall`]) as the `thin_wall` kernel
 //! ([`super::codegen::thin_wall`]) reads them: one entry per tap, grouped by node.
 
 use crate::fluid::layout::Layout;
 use bytemuck::{Pod, Zeroable};
 
-/// A one-sided stencil as the kernel's `ThinTap` struct.
+/// A thin-wall stencil as the kernel's `ThinTap` struct.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub(super) struct ThinTapEntry {

@@ -1,4 +1,4 @@
-//! The thin-wall kernels: the one-sided stencils next to thin walls (`thin_wall`) and the
+//! The thin-wall kernels: the stencils next to thin walls with their side ghosts (`thin_wall`) and the
 //! face-flux record of the momentum exchange (`face_fluxes`, `thin_wall_fluxes`).
 
 use super::{PARAMS, Split, WORKGROUP, f};
@@ -136,7 +136,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
 }
 
 /// `thin_wall_fluxes`: the thin-wall part of the face-flux record (after `face_fluxes`, same
-/// stage). A one-sided stencil changes a fluid node by −½Δt·|c_a|/6·Σ w·h, which is no face flux;
+/// stage). A thin-wall stencil changes a fluid node by −½Δt·|c_a|/6·(Σ w·h + Σ w_full·h_side), which is no face flux;
 /// the wall next to it takes the opposite, as in the CPU twin. One thread per such wall node
 /// (`targets`: node, first, count), walking its taps (`order` into `taps`), so no atomics.
 pub fn thin_wall_fluxes(eq: &Equilibrium, split: Split) -> String {

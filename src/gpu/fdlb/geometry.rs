@@ -191,7 +191,8 @@ pub(super) fn state_array(s: &FluidSolver, stride: usize) -> Vec<f32> {
 }
 
 /// The thin walls of a new geometry need more side ghosts than the GPU fluid's arrays hold nodes
-/// for past the lattice (they were sized when the fluid went up, [`side_ghost_room`]).
+/// for past the lattice (sized when the fluid went up: twice what its walls needed then, at
+/// least a 32nd of the lattice or 256 nodes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SideGhostRoom {
     pub needed: usize,
