@@ -284,14 +284,7 @@ impl Layout {
             }
             y
         };
-        let fluid_at = |x: [i64; 3]| -> Option<usize> {
-            let y = wrap(x);
-            if !grid.contains(y) {
-                return None;
-            }
-            let i = grid.index(y);
-            (kind[i] == NodeKind::Fluid).then_some(i)
-        };
+        let fluid_at = |x: [i64; 3]| fluid_node(&grid, &kind, &periodic_axis, x);
 
         let mut ghosts = Vec::new();
         let mut face_halos = Vec::new();
@@ -316,12 +309,7 @@ impl Layout {
                         // within two cells along an axis by the definition of a ghost.
                         image = interpolation_stencil(&grid, p, &fluid_at);
                     }
-                    // Wall velocity: tangential part only for face walls (a lid), full for obstacles.
-                    let mut v = o.velocity_at(wall);
-                    if let Shape::HalfSpace { normal, .. } = &o.shape {
-                        let vn = dot(v, *normal);
-                        v = [v[0] - vn * normal[0], v[1] - vn * normal[1], v[2] - vn * normal[2]];
-                    }
+                    let v = ghost_wall_velocity(o, wall);
                     ghosts.push(Ghost { node: idx, image, ratio: d / d_img, wall_velocity: v, wall_temperature: o.temperature });
                 }
                 NodeKind::FaceHalo => {
@@ -395,18 +383,37 @@ impl Layout {
     /// The padded index of the fluid node at interior coordinates `x`, through periodic
     /// images; `None` when that node is not fluid or lies outside the padded grid.
     pub fn fluid_node_at(&self, x: [i64; 3]) -> Option<usize> {
-        let grid = &self.grid;
-        let mut y = x;
-        for a in 0..grid.dim {
-            if matches!(self.boundaries.faces[2 * a], FaceCondition::Periodic) {
-                y[a] = y[a].rem_euclid(grid.n[a] as i64);
-            }
+        let periodic: [bool; 3] = std::array::from_fn(|a| a < self.grid.dim && matches!(self.boundaries.faces[2 * a], FaceCondition::Periodic));
+        fluid_node(&self.grid, &self.kind, &periodic, x)
+    }
+}
+
+/// The padded index of the fluid node at interior coordinates `x` (through the periodic images
+/// along the axes marked in `periodic`), `None` when that node is not fluid or lies outside.
+pub(super) fn fluid_node(grid: &Grid, kind: &[NodeKind], periodic: &[bool; 3], x: [i64; 3]) -> Option<usize> {
+    let mut y = x;
+    for a in 0..3 {
+        if periodic[a] {
+            y[a] = y[a].rem_euclid(grid.n[a] as i64);
         }
-        if !grid.contains(y) {
-            return None;
+    }
+    if !grid.contains(y) {
+        return None;
+    }
+    let i = grid.index(y);
+    (kind[i] == NodeKind::Fluid).then_some(i)
+}
+
+/// The wall velocity a ghost extrapolates through the wall point `wall` of obstacle `o`: the
+/// tangential part only for a face wall (a lid), the whole velocity for an obstacle.
+pub(super) fn ghost_wall_velocity(o: &Obstacle, wall: [f64; 3]) -> [f64; 3] {
+    let v = o.velocity_at(wall);
+    match &o.shape {
+        Shape::HalfSpace { normal, .. } => {
+            let vn = dot(v, *normal);
+            [v[0] - vn * normal[0], v[1] - vn * normal[1], v[2] - vn * normal[2]]
         }
-        let i = grid.index(y);
-        (self.kind[i] == NodeKind::Fluid).then_some(i)
+        _ => v,
     }
 }
 

@@ -50,9 +50,9 @@
 //! after each advection.
 
 use super::equilibrium::Equilibrium;
-use super::geometry::{Obstacle, Shape, dot};
+use super::geometry::{Obstacle, dot};
 use super::grid::Grid;
-use super::layout::{Ghost, NodeKind, interpolation_stencil};
+use super::layout::{Ghost, NodeKind, fluid_node, ghost_wall_velocity, interpolation_stencil};
 use super::storage::RowBlocked;
 
 /// The value a far tap takes from the reader's side ([`crate::fluid::thin_wall`], side ghosts).
@@ -174,17 +174,7 @@ pub struct WallGeometry<'a> {
 impl WallGeometry<'_> {
     /// The fluid node at interior coordinates `x`, through periodic images.
     fn fluid_at(&self, x: [i64; 3]) -> Option<usize> {
-        let mut y = x;
-        for a in 0..3 {
-            if self.periodic[a] {
-                y[a] = y[a].rem_euclid(self.grid.n[a] as i64);
-            }
-        }
-        if !self.grid.contains(y) {
-            return None;
-        }
-        let i = self.grid.index(y);
-        (self.kind[i] == NodeKind::Fluid).then_some(i)
+        fluid_node(self.grid, self.kind, self.periodic, x)
     }
 
     /// The side ghost at the far node `far` for the reader at `reader`, the wall lying between
@@ -211,7 +201,7 @@ impl WallGeometry<'_> {
             return None;
         }
         // The crossing of the segment a → b, by regula falsi with the Illinois rule on a
-        // function with the wall's sign and zero contour ([`Shape::signed_level`]; nearly
+        // function with the wall's sign and zero contour ([`super::geometry::Shape::signed_level`]; nearly
         // linear along a line, so a few evaluations reach 10⁻¹⁰ cells).
         let at = |t: f64| std::array::from_fn::<f64, 3, _>(|k| pa[k] + t * (pb[k] - pa[k]));
         let mut last = 0;
@@ -259,11 +249,7 @@ impl WallGeometry<'_> {
             return None;
         }
         image.iter_mut().for_each(|(_, w)| *w /= total);
-        let mut v = o.velocity_at(foot);
-        if let Shape::HalfSpace { normal, .. } = &o.shape {
-            let vn = dot(v, *normal);
-            v = [v[0] - vn * normal[0], v[1] - vn * normal[1], v[2] - vn * normal[2]];
-        }
+        let v = ghost_wall_velocity(o, foot);
         Some(Ghost { node: self.grid.index(far), image, ratio: d / d_img, wall_velocity: v, wall_temperature: o.temperature })
     }
 }
