@@ -5,6 +5,7 @@
 
 pub mod scaling;
 
+use crate::fluid::storage::Storage;
 use crate::fluid::{Boundaries, Equilibrium, FluidSolver, GasModel, Grid, Macro, VelocitySet, VelocitySetKind, timestep};
 use crate::validation::taylor_green::{TaylorGreenCase, TaylorGreenResult};
 use rayon::prelude::*;
@@ -150,6 +151,11 @@ pub fn best_of(repetitions: usize, f: &mut dyn FnMut()) -> f64 {
 
 /// The benchmark problem: a periodic box of `n` nodes with a smooth shear flow, A > 0.
 pub fn benchmark_solver(set: VelocitySetKind, n: [usize; 3]) -> FluidSolver {
+    benchmark_solver_stored(set, n)
+}
+
+/// [`benchmark_solver`] with the populations stored as `S`.
+pub fn benchmark_solver_stored<S: Storage>(set: VelocitySetKind, n: [usize; 3]) -> FluidSolver<S> {
     let vs = VelocitySet::new(set);
     let dim = vs.dim;
     let l1 = vs.max_l1_speed();
@@ -157,31 +163,36 @@ pub fn benchmark_solver(set: VelocitySetKind, n: [usize; 3]) -> FluidSolver {
     let params = timestep::choose(0.05, 0.6, l1, None, timestep::DEFAULT_COURANT_SAFETY).unwrap();
     let k = 2.0 * std::f64::consts::PI / n[0] as f64;
     let init = move |x: [f64; 3]| Macro { rho: 1.0, u: [0.05 * (k * x[1]).sin(), 0.05 * (k * x[0]).sin(), 0.0], theta: 0.6 };
-    FluidSolver::new(eq, Grid::new(dim, n), Boundaries::periodic(), &[], params, init)
+    FluidSolver::with_storage(eq, Grid::new(dim, n), Boundaries::periodic(), &[], params, init)
 }
 
-/// Bytes of a CPU fluid's arrays that a step sweeps: f, f¹, fⁿ⁺¹, h and the macroscopic fields.
-pub fn fluid_footprint(s: &FluidSolver) -> usize {
-    s.layout.grid.len() * (4 * s.eq.values_per_node() + crate::fluid::equilibrium::MACRO_FIELDS) * 8
+/// Bytes of a CPU fluid's arrays that a step sweeps: f, f¹, fⁿ⁺¹, h (of `S`) and the
+/// macroscopic fields (f64).
+pub fn fluid_footprint<S: Storage>(s: &FluidSolver<S>) -> usize {
+    s.layout.grid.len() * (4 * s.eq.values_per_node() * std::mem::size_of::<S>() + crate::fluid::equilibrium::MACRO_FIELDS * 8)
 }
 
-/// CPU node updates per second of the benchmark problem: `repetitions` blocks of `steps` steps,
-/// the best, median and worst block (as the triad: [`triad`]).
-pub fn lattice_speed(set: VelocitySetKind, n: [usize; 3], steps: u64, repetitions: usize, bandwidth: f64) -> LatticeSpeed {
-    let mut s = benchmark_solver(set, n);
+/// Node updates per second of one timed block of `steps` steps.
+fn timed_block<S: Storage>(s: &mut FluidSolver<S>, steps: u64) -> f64 {
+    let t = Instant::now();
+    s.run(steps).expect("stable");
+    steps as f64 * s.layout.fluid_count as f64 / t.elapsed().as_secs_f64()
+}
+
+/// A solver made ready for timing: two untimed steps, timings cleared.
+fn warmed<S: Storage>(set: VelocitySetKind, n: [usize; 3]) -> FluidSolver<S> {
+    let mut s = benchmark_solver_stored::<S>(set, n);
     s.run(2).expect("stable");
     s.timings = Default::default();
-    let mut rates: Vec<f64> = (0..repetitions.max(1))
-        .map(|_| {
-            let t = Instant::now();
-            s.run(steps).expect("stable");
-            steps as f64 * s.layout.fluid_count as f64 / t.elapsed().as_secs_f64()
-        })
-        .collect();
+    s
+}
+
+/// The row of `s` from its blocks' rates (best, median, worst).
+fn speed_row<S: Storage>(s: &FluidSolver<S>, set: VelocitySetKind, steps: u64, mut rates: Vec<f64>, bandwidth: f64) -> LatticeSpeed {
     rates.sort_by(|a, b| b.total_cmp(a));
     let ups = rates[0];
     let bytes = s.bytes_per_node_update();
-    let footprint = fluid_footprint(&s);
+    let footprint = fluid_footprint(s);
     LatticeSpeed {
         lattice: format!("{set:?}"),
         nodes: s.layout.grid.n,
@@ -198,6 +209,76 @@ pub fn lattice_speed(set: VelocitySetKind, n: [usize; 3], steps: u64, repetition
     }
 }
 
+/// CPU node updates per second of the benchmark problem: `repetitions` blocks of `steps` steps,
+/// the best, median and worst block (as the triad: [`triad`]).
+pub fn lattice_speed(set: VelocitySetKind, n: [usize; 3], steps: u64, repetitions: usize, bandwidth: f64) -> LatticeSpeed {
+    let mut s = warmed::<f64>(set, n);
+    let rates = (0..repetitions.max(1)).map(|_| timed_block(&mut s, steps)).collect();
+    speed_row(&s, set, steps, rates, bandwidth)
+}
+
+/// The f32 storage option against f64 on one lattice, blocks interleaved in one process.
+#[derive(Clone, Debug, Serialize)]
+pub struct StorageSpeed {
+    pub f64: LatticeSpeed,
+    pub f32: LatticeSpeed,
+    /// f32's best rate ÷ f64's best, and the same of the medians.
+    pub speedup: f64,
+    pub median_speedup: f64,
+}
+
+/// [`lattice_speed`] of the f64 and the f32 solver, their blocks alternating (f64, f32, f64,
+/// …) so that a disturbance of the shared machine falls on both.
+pub fn storage_speed(set: VelocitySetKind, n: [usize; 3], steps: u64, repetitions: usize, bandwidth: f64) -> StorageSpeed {
+    let (mut a, mut b) = (warmed::<f64>(set, n), warmed::<f32>(set, n));
+    let (mut ra, mut rb) = (Vec::new(), Vec::new());
+    for _ in 0..repetitions.max(1) {
+        ra.push(timed_block(&mut a, steps));
+        rb.push(timed_block(&mut b, steps));
+    }
+    let (f64_row, f32_row) = (speed_row(&a, set, steps, ra, bandwidth), speed_row(&b, set, steps, rb, bandwidth));
+    StorageSpeed {
+        speedup: f32_row.node_updates_per_s / f64_row.node_updates_per_s,
+        median_speedup: f32_row.median_node_updates_per_s / f64_row.median_node_updates_per_s,
+        f64: f64_row,
+        f32: f32_row,
+    }
+}
+
+/// What f32 storage costs in accuracy on a validation case: the distance from the exact
+/// answer with each storage, and f32's distance from f64.
+#[derive(Clone, Debug, Serialize)]
+pub struct StorageError {
+    pub case: String,
+    /// The figure's relative error against the exact answer, f64 and f32 storage.
+    pub f64_error: f64,
+    pub f32_error: f64,
+    /// |f32 − f64| ÷ |exact| (the largest over the case's figures).
+    pub f32_minus_f64: f64,
+}
+
+/// The error rows: the Taylor–Green decay rate (D2Q21, n = 64) and the Sod plateaus (D2Q21,
+/// monatomic, the largest of the four) with f64 and f32 storage.
+pub fn storage_errors() -> Vec<StorageError> {
+    use crate::validation::sod::SodCase;
+    let tg = TaylorGreenCase::new(VelocitySetKind::D2q21, 64);
+    let (a, b) = (tg.run_stored::<f64>(), tg.run_stored::<f32>());
+    let mut sod = SodCase::new(VelocitySetKind::D2q21, GasModel::Monatomic);
+    sod.scale = 0.7;
+    let (sa, sb) = (sod.run_stored::<f64>(), sod.run_stored::<f32>());
+    let worst = |r: &crate::validation::sod::SodResult| r.plateaus.iter().map(|p| p.3.abs()).fold(0.0, f64::max);
+    let diff = sa.plateaus.iter().zip(&sb.plateaus).map(|(x, y)| (x.1 - y.1).abs() / x.2.abs()).fold(0.0, f64::max);
+    vec![
+        StorageError {
+            case: "Taylor–Green decay rate (D2Q21, 64²)".into(),
+            f64_error: a.relative_error.abs(),
+            f32_error: b.relative_error.abs(),
+            f32_minus_f64: (b.measured_rate - a.measured_rate).abs() / a.predicted_rate,
+        },
+        StorageError { case: "Sod plateaus (D2Q21, 800 cells, largest of 4)".into(), f64_error: worst(&sa), f32_error: worst(&sb), f32_minus_f64: diff },
+    ]
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct BenchReport {
     pub threads: usize,
@@ -211,6 +292,10 @@ pub struct BenchReport {
     pub last_level_cache_bytes: usize,
     pub lattices: Vec<LatticeSpeed>,
     pub speed_vs_error: Vec<TaylorGreenResult>,
+    /// The f32 storage option against f64 (`--only storage`): speed, and its error on
+    /// Taylor–Green and Sod.
+    pub storage: Vec<StorageSpeed>,
+    pub storage_errors: Vec<StorageError>,
     /// MPS solid, explicit and implicit, at 10⁵ (and 10⁶ unless quick) particles.
     pub solid: Vec<crate::solid::bench::SolidSpeed>,
     /// FCHC lattice gas (periodic box, fill 0.2, p = 0.1).
@@ -360,7 +445,7 @@ fn coupled_rows(method: &'static str, body: crate::validation::fsi::CylinderBody
 }
 
 /// Parts of the benchmark, for `bench --only`.
-pub const SUITES: [&str; 8] = ["fdlb", "solid", "lattice_gas", "coupled", "two_mass", "glottis", "drawing", "scaling"];
+pub const SUITES: [&str; 9] = ["fdlb", "storage", "solid", "lattice_gas", "coupled", "two_mass", "glottis", "drawing", "scaling"];
 
 /// The CPU benchmark (every suite of [`SUITES`], or only `only`). `quick` shrinks grids for a
 /// smoke run.
@@ -416,7 +501,17 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
         glottis_speed(&["glottis_2d_coarse", "glottis_2d_c"], 300)
     };
     let scaling = if only == Some("scaling") { scaling::scaling_table(quick) } else { Vec::new() };
+    let (storage, storage_errors) = if wants("storage") {
+        (
+            vec![storage_speed(VelocitySetKind::D2q21, [n2, n2, 1], st, 5, bw), storage_speed(VelocitySetKind::D3q39, [n3, n3, n3], st.min(5), 5, bw)],
+            storage_errors(),
+        )
+    } else {
+        (Vec::new(), Vec::new())
+    };
     BenchReport {
+        storage,
+        storage_errors,
         scaling,
         threads: rayon::current_num_threads(),
         triad_bandwidth_gb_s: bw / 1e9,

@@ -22,7 +22,7 @@ pub struct BenchArgs {
     /// Also write the report as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Only one suite: fdlb, solid, lattice_gas, coupled, two_mass, glottis, drawing or scaling
+    /// Only one suite: fdlb, storage (f32 against f64 populations), solid, lattice_gas, coupled, two_mass, glottis, drawing or scaling
     /// (cost per update against size: only when asked for, it takes minutes).
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(phonation::bench::SUITES))]
     pub only: Option<String>,
@@ -124,6 +124,33 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         }
         for t in &r.speed_vs_error {
             println!("{:>6} {:>14.3e} {:>15.3}%", t.n, t.wall_per_time_unit, 100.0 * t.relative_error);
+        }
+        if !r.storage.is_empty() {
+            println!("FDLB population storage, f64 against f32 (blocks interleaved; arithmetic f64 in both):");
+            println!(
+                "{:8} {:>16} {:>8} {:>14} {:>14} {:>10} {:>10} {:>9}",
+                "lattice", "nodes", "storage", "updates/s", "median", "B/update", "of b/w", "speed-up"
+            );
+        }
+        for v in &r.storage {
+            for (l, up) in [(&v.f64, String::new()), (&v.f32, format!("{:.2}× ({:.2}× median)", v.speedup, v.median_speedup))] {
+                println!(
+                    "{:8} {:>16} {:>8} {:>14.3e} {:>14.3e} {:>10.0} {:>10} {up}",
+                    l.lattice,
+                    format!("{:?}", l.nodes),
+                    if up.is_empty() { "f64" } else { "f32" },
+                    l.node_updates_per_s,
+                    l.median_node_updates_per_s,
+                    l.bytes_per_node_update,
+                    percent(l.bandwidth_fraction)
+                );
+            }
+        }
+        if !r.storage_errors.is_empty() {
+            println!("{:46} {:>12} {:>12} {:>14}", "what f32 storage costs", "f64 error", "f32 error", "|f32 − f64|");
+        }
+        for e in &r.storage_errors {
+            println!("{:46} {:>11.3e} {:>12.3e} {:>14.3e}", e.case, e.f64_error, e.f32_error, e.f32_minus_f64);
         }
         if !r.solid.is_empty() {
             println!("MPS solid (3D, r_e = 2.1 l0):");

@@ -23,7 +23,7 @@
 
 use super::equilibrium::{Equilibrium, MACRO_FIELDS, Macro};
 use super::layout::{Ghost, Layout};
-use super::storage::{RowBlocked, copy_runs_parallel};
+use super::storage::{RowBlocked, Storage, copy_runs_parallel};
 use super::timestep::StepParams;
 
 /// One of the 2·D faces of the domain.
@@ -133,9 +133,9 @@ impl Boundaries {
 
 /// Node state arrays of one Runge–Kutta stage: populations f, the advected field
 /// h = (1 − A/τ) f + (A/τ) f⁰, and the macroscopic fields.
-pub struct StageFields<'a> {
-    pub f: &'a mut [f64],
-    pub h: &'a mut [f64],
+pub struct StageFields<'a, S: Storage = f64> {
+    pub f: &'a mut [S],
+    pub h: &'a mut [S],
     pub mac: &'a mut [f64],
     /// h of the thin walls' side ghosts ([`super::thin_wall`]), `values_per_node` per slot.
     pub side_h: &'a mut Vec<f64>,
@@ -145,7 +145,7 @@ pub struct StageFields<'a> {
 
 /// Fills ghost, inlet/outlet and periodic halo nodes of `fields` (seed §2.3 boundaries; see the
 /// module docs). Fluid nodes must already hold their moments and equilibria.
-pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFields, p: StepParams) {
+pub fn fill_boundaries<S: Storage>(layout: &Layout, eq: &Equilibrium, fields: &mut StageFields<S>, p: StepParams) {
     let k_eq = p.a / p.tau;
     let nv = eq.values_per_node();
     let mut w = vec![0.0; eq.set.shells.len()];
@@ -208,7 +208,7 @@ pub fn fill_boundaries(layout: &Layout, eq: &Equilibrium, fields: &mut StageFiel
 /// image point's, interpolated from fluid nodes, with the wall velocity (and an isothermal wall's
 /// temperature) extrapolated through the wall and the image pressure kept. `w`, `fe`, `fk`:
 /// scratch.
-fn ghost_state(eq: &Equilibrium, fields: &StageFields, g: &Ghost, w: &mut [f64], fe: &mut [f64], fk: &mut [f64], neq: &mut [f64]) -> Macro {
+fn ghost_state<S: Storage>(eq: &Equilibrium, fields: &StageFields<S>, g: &Ghost, w: &mut [f64], fe: &mut [f64], fk: &mut [f64], neq: &mut [f64]) -> Macro {
     let nv = neq.len();
     let mut m = [0.0; MACRO_FIELDS];
     neq.iter_mut().for_each(|v| *v = 0.0);
@@ -234,14 +234,14 @@ fn ghost_state(eq: &Equilibrium, fields: &StageFields, g: &Ghost, w: &mut [f64],
     Macro { rho: m[0] * m[4] / theta, u, theta }
 }
 
-fn read_macro(fields: &StageFields, node: usize) -> Macro {
+fn read_macro<S: Storage>(fields: &StageFields<S>, node: usize) -> Macro {
     let mut m = [0.0; MACRO_FIELDS];
     fields.mac_layout.gather(fields.mac, node, &mut m);
     Macro { rho: m[0], u: [m[1], m[2], m[3]], theta: m[4] }
 }
 
 /// f − f⁰ of `node` into `neq`.
-fn non_equilibrium(eq: &Equilibrium, fields: &StageFields, node: usize, w: &mut [f64], fe: &mut [f64], neq: &mut [f64]) {
+fn non_equilibrium<S: Storage>(eq: &Equilibrium, fields: &StageFields<S>, node: usize, w: &mut [f64], fe: &mut [f64], neq: &mut [f64]) {
     eq.feq_into(&read_macro(fields, node), w, fe);
     fields.pop.gather(fields.f, node, neq);
     for (n, e) in neq.iter_mut().zip(fe.iter()) {
@@ -249,7 +249,7 @@ fn non_equilibrium(eq: &Equilibrium, fields: &StageFields, node: usize, w: &mut 
     }
 }
 
-fn copy_node(fields: &mut StageFields, src: usize, dst: usize) {
+fn copy_node<S: Storage>(fields: &mut StageFields<S>, src: usize, dst: usize) {
     fields.pop.copy_node(fields.f, src, dst);
     fields.pop.copy_node(fields.h, src, dst);
     fields.mac_layout.copy_node(fields.mac, src, dst);
@@ -258,7 +258,7 @@ fn copy_node(fields: &mut StageFields, src: usize, dst: usize) {
 /// Writes the mirror image of node `src` across a plane normal to `axis` into `dst`:
 /// values permuted by `perm` ([`Equilibrium::mirror_permutation`]), u[axis] negated.
 /// `scratch` and `out` hold a node's values.
-fn mirror_node(fields: &mut StageFields, src: usize, dst: usize, axis: usize, perm: &[usize], scratch: &mut [f64], out: &mut [f64]) {
+fn mirror_node<S: Storage>(fields: &mut StageFields<S>, src: usize, dst: usize, axis: usize, perm: &[usize], scratch: &mut [f64], out: &mut [f64]) {
     for a in [&mut *fields.f, &mut *fields.h] {
         fields.pop.gather(a, src, scratch);
         for (o, &p) in out.iter_mut().zip(perm) {
@@ -274,7 +274,7 @@ fn mirror_node(fields: &mut StageFields, src: usize, dst: usize, axis: usize, pe
 
 /// Writes macro `m`, f = f⁰ + neq and h = f + (A/τ)(f⁰ − f) = f⁰ + (1 − A/τ) neq into `node`.
 #[allow(clippy::too_many_arguments)]
-fn set_node(eq: &Equilibrium, fields: &mut StageFields, node: usize, m: &Macro, neq: &[f64], k_eq: f64, w: &mut [f64], fe: &mut [f64]) {
+fn set_node<S: Storage>(eq: &Equilibrium, fields: &mut StageFields<S>, node: usize, m: &Macro, neq: &[f64], k_eq: f64, w: &mut [f64], fe: &mut [f64]) {
     eq.feq_into(m, w, fe);
     let f: Vec<f64> = fe.iter().zip(neq).map(|(e, n)| e + n).collect();
     let h: Vec<f64> = fe.iter().zip(neq).map(|(e, n)| e + (1.0 - k_eq) * n).collect();

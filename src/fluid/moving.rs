@@ -14,6 +14,7 @@ use super::equilibrium::Macro;
 use super::geometry::Obstacle;
 use super::layout::{Layout, NodeKind, multilinear_corners};
 use super::solver::FluidSolver;
+use super::storage::Storage;
 
 /// The nodes a change of layout touches (padded indices, ascending): those that leave the
 /// fluid, and those that join it with the neighbours they take their populations from.
@@ -97,7 +98,7 @@ pub struct GeometryChange {
     pub isolated: usize,
 }
 
-impl FluidSolver {
+impl<S: Storage> FluidSolver<S> {
     /// Rebuilds the geometry with `obstacles` (the scene's user obstacles and the moving
     /// bodies' walls; face walls are added by the layout) and initialises uncovered nodes.
     pub fn set_obstacles(&mut self, obstacles: &[Obstacle]) -> GeometryChange {
@@ -182,7 +183,7 @@ impl FluidSolver {
     }
 }
 
-impl FluidSolver {
+impl<S: Storage> FluidSolver<S> {
     /// The fluid nodes [`Self::sample`] reads at `p`, with their weights (`None` where it finds
     /// too few).
     pub fn sample_stencil(&self, p: [f64; 3]) -> Option<Vec<(usize, f64)>> {

@@ -4,6 +4,7 @@
 use super::equilibrium::Macro;
 use super::layout::NodeKind;
 use super::solver::FluidSolver;
+use super::storage::Storage;
 use rayon::prelude::*;
 
 /// Totals over fluid nodes (lattice units).
@@ -14,7 +15,7 @@ pub struct Totals {
     pub energy: f64,
 }
 
-impl FluidSolver {
+impl<S: Storage> FluidSolver<S> {
     /// Macroscopic state of a padded node of fⁿ.
     pub fn macro_at(&self, node: usize) -> Macro {
         self.eq.moments(&self.node_populations(node))

@@ -12,6 +12,7 @@
 
 use super::equilibrium::Equilibrium;
 use super::layout::NodeKind;
+use super::storage::Storage;
 
 /// Nodes per block of the moment sums: 5 accumulators × 8 lanes stay in registers.
 const SUM_BLOCK: usize = 8;
@@ -61,29 +62,29 @@ impl RowScratch {
 
     /// ρ = Σ f, j = Σ c f, E = Σ ½c² f + Σ G on x ∈ [x0, x1) of one row (`f_row`: value v of
     /// node x at v·px + x). Each node's sums run over the values in order.
-    pub fn moment_sums(&mut self, eq: &Equilibrium, f_row: &[f64], px: usize, x0: usize, x1: usize) {
+    pub fn moment_sums<S: Storage>(&mut self, eq: &Equilibrium, f_row: &[S], px: usize, x0: usize, x1: usize) {
         let mut x = x0;
         while x + SUM_BLOCK <= x1 {
-            self.sum_block::<SUM_BLOCK>(eq, f_row, px, x);
+            self.sum_block::<SUM_BLOCK, S>(eq, f_row, px, x);
             x += SUM_BLOCK;
         }
         while x < x1 {
-            self.sum_block::<1>(eq, f_row, px, x);
+            self.sum_block::<1, S>(eq, f_row, px, x);
             x += 1;
         }
     }
 
     #[inline(always)]
-    fn sum_block<const B: usize>(&mut self, eq: &Equilibrium, f_row: &[f64], px: usize, x: usize) {
+    fn sum_block<const B: usize, S: Storage>(&mut self, eq: &Equilibrium, f_row: &[S], px: usize, x: usize) {
         let q = eq.q();
         let nv = eq.values_per_node();
         let (mut rho, mut j0, mut j1, mut j2, mut en) = ([0.0; B], [0.0; B], [0.0; B], [0.0; B], [0.0; B]);
         for v in 0..q {
-            let fv: &[f64; B] = f_row[v * px + x..v * px + x + B].try_into().unwrap();
+            let fv: &[S; B] = f_row[v * px + x..v * px + x + B].try_into().unwrap();
             let c = eq.cf[v];
             let hc = eq.half_c2[v];
             for k in 0..B {
-                let fx = fv[k];
+                let fx = fv[k].load();
                 rho[k] += fx;
                 j0[k] += c[0] * fx;
                 j1[k] += c[1] * fx;
@@ -92,9 +93,9 @@ impl RowScratch {
             }
         }
         for v in q..nv {
-            let gv: &[f64; B] = f_row[v * px + x..v * px + x + B].try_into().unwrap();
+            let gv: &[S; B] = f_row[v * px + x..v * px + x + B].try_into().unwrap();
             for k in 0..B {
-                en[k] += gv[k];
+                en[k] += gv[k].load();
             }
         }
         self.rho[x..x + B].copy_from_slice(&rho);
@@ -172,7 +173,7 @@ pub(super) struct CollideConstants {
 }
 
 /// One value's rows (x ∈ [x0, x1) of one row of nodes) and its velocity.
-pub(super) struct CollideRows<'a> {
+pub(super) struct CollideRows<'a, S> {
     /// Velocity c_i and g·c_i.
     pub c: [f64; 3],
     pub gc: f64,
@@ -184,8 +185,8 @@ pub(super) struct CollideRows<'a> {
     pub rot_theta: &'a [f64],
     pub gu: &'a [f64],
     /// The stage input, and fⁿ in the second stage (empty in the first).
-    pub f: &'a [f64],
-    pub f_n: &'a [f64],
+    pub f: &'a [S],
+    pub f_n: &'a [S],
     /// The row's runs of fluid and non-fluid nodes ([`runs`]), relative to x0.
     pub runs: &'a [Run],
 }
@@ -216,29 +217,29 @@ pub(super) fn runs(kind: &[NodeKind]) -> impl Iterator<Item = Run> + '_ {
 /// RK stage, `out = f − Δt/τ (f − f⁰) + Δt F` (first stage) or
 /// `out = ½ (fⁿ + f − Δt/τ (f − f⁰) + Δt F)` (second stage), written at fluid nodes only.
 #[inline(always)]
-pub(super) fn collide_value<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool>(
-    r: &CollideRows,
+pub(super) fn collide_value<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool, S: Storage>(
+    r: &CollideRows<S>,
     k: CollideConstants,
-    h: &mut [f64],
-    out: &mut [f64],
+    h: &mut [S],
+    out: &mut [S],
 ) {
     for &(a, b, fluid) in r.runs {
         if fluid {
-            collide_run::<FORCE, SECOND, ROTATIONAL, true>(r, k, a, b, h, out);
+            collide_run::<FORCE, SECOND, ROTATIONAL, true, S>(r, k, a, b, h, out);
         } else {
-            collide_run::<FORCE, SECOND, ROTATIONAL, false>(r, k, a, b, h, out);
+            collide_run::<FORCE, SECOND, ROTATIONAL, false, S>(r, k, a, b, h, out);
         }
     }
 }
 
 #[inline(always)]
-fn collide_run<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool, const FLUID: bool>(
-    r: &CollideRows,
+fn collide_run<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool, const FLUID: bool, S: Storage>(
+    r: &CollideRows<S>,
     k: CollideConstants,
     a: usize,
     b: usize,
-    h: &mut [f64],
-    out: &mut [f64],
+    h: &mut [S],
+    out: &mut [S],
 ) {
     let (wr, u0, u1, u2, inv, base, rot, gu, f) =
         (&r.wr[a..b], &r.u[0][a..b], &r.u[1][a..b], &r.u[2][a..b], &r.inv_theta[a..b], &r.base[a..b], &r.rot_theta[a..b], &r.gu[a..b], &r.f[a..b]);
@@ -254,11 +255,11 @@ fn collide_run<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool, co
         if ROTATIONAL {
             fe *= rot[x];
         }
-        let fx = f[x];
-        h[x] = k.k_f * fx + k.k_eq * fe;
+        let fx = f[x].load();
+        h[x] = S::store(k.k_f * fx + k.k_eq * fe);
         if FLUID {
             let src = if FORCE { k.dt * fe * (r.gc - gu[x]) * inv[x] } else { 0.0 };
-            out[x] = if SECOND { 0.5 * (f_n[x] + fx - k.dt_tau * (fx - fe) + src) } else { fx - k.dt_tau * (fx - fe) + src };
+            out[x] = S::store(if SECOND { 0.5 * (f_n[x].load() + fx - k.dt_tau * (fx - fe) + src) } else { fx - k.dt_tau * (fx - fe) + src });
         }
     }
 }
@@ -267,7 +268,7 @@ fn collide_run<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool, co
 /// value with its `T` taps ([`super::upwind::stencils`]: 3 per axis the velocity moves along),
 /// summed in the stencil's order.
 #[inline(always)]
-pub(super) fn advect_value<const T: usize>(centre: f64, h: &[f64], taps: [(&[f64], f64); T], k: f64, runs: &[Run], out: &mut [f64]) {
+pub(super) fn advect_value<const T: usize, S: Storage>(centre: f64, h: &[S], taps: [(&[S], f64); T], k: f64, runs: &[Run], out: &mut [S]) {
     for &(a, b, fluid) in runs {
         if !fluid {
             continue;
@@ -275,11 +276,11 @@ pub(super) fn advect_value<const T: usize>(centre: f64, h: &[f64], taps: [(&[f64
         let (h, out) = (&h[a..b], &mut out[a..b]);
         let taps = taps.map(|(t, c)| (&t[a..b], c));
         for x in 0..b - a {
-            let mut s = centre * h[x];
+            let mut s = centre * h[x].load();
             for (t, c) in &taps {
-                s += c * t[x];
+                s += c * t[x].load();
             }
-            out[x] -= k * s;
+            out[x] = S::store(out[x].load() - k * s);
         }
     }
 }

@@ -6,6 +6,45 @@
 
 use super::layout::PeriodicRun;
 
+/// The number type the populations (fⁿ, f¹, fⁿ⁺¹ and the advected h) are stored in between the
+/// passes of a step: `f64`, the reference, or `f32`, half the bytes per node for scenes that
+/// tolerate its rounding (`[numerics] storage = "f32"`). Every pass loads its inputs into f64,
+/// computes in f64 and rounds once on the store; the macroscopic fields, the boundaries' scratch
+/// and the side ghosts stay f64. The errors it costs are measured on Taylor–Green and Sod
+/// (`phonation bench --only storage`, the tests of [`super::solver`]).
+pub trait Storage: Copy + Default + PartialEq + Send + Sync + std::fmt::Debug + 'static {
+    /// "f64" or "f32" (what the bench and the summaries print).
+    const NAME: &'static str;
+    /// The value as f64 (exact).
+    fn load(self) -> f64;
+    /// `x` rounded to the storage type (to nearest; exact for f64).
+    fn store(x: f64) -> Self;
+}
+
+impl Storage for f64 {
+    const NAME: &'static str = "f64";
+    #[inline(always)]
+    fn load(self) -> f64 {
+        self
+    }
+    #[inline(always)]
+    fn store(x: f64) -> Self {
+        x
+    }
+}
+
+impl Storage for f32 {
+    const NAME: &'static str = "f32";
+    #[inline(always)]
+    fn load(self) -> f64 {
+        self as f64
+    }
+    #[inline(always)]
+    fn store(x: f64) -> Self {
+        x as f32
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RowBlocked {
     /// Padded row length p_x.
@@ -30,25 +69,25 @@ impl RowBlocked {
 
     /// Copies the values of `node` into `out` (length nv).
     #[inline]
-    pub fn gather(&self, a: &[f64], node: usize, out: &mut [f64]) {
+    pub fn gather<S: Storage>(&self, a: &[S], node: usize, out: &mut [f64]) {
         let base = self.index(node, 0);
         for (v, o) in out.iter_mut().enumerate() {
-            *o = a[base + v * self.px];
+            *o = a[base + v * self.px].load();
         }
     }
 
     /// Writes `vals` (length nv) into `node`.
     #[inline]
-    pub fn scatter(&self, a: &mut [f64], node: usize, vals: &[f64]) {
+    pub fn scatter<S: Storage>(&self, a: &mut [S], node: usize, vals: &[f64]) {
         let base = self.index(node, 0);
         for (v, x) in vals.iter().enumerate() {
-            a[base + v * self.px] = *x;
+            a[base + v * self.px] = S::store(*x);
         }
     }
 
     /// Copies every value of node `src` onto node `dst`.
     #[inline]
-    pub fn copy_node(&self, a: &mut [f64], src: usize, dst: usize) {
+    pub fn copy_node<T: Copy>(&self, a: &mut [T], src: usize, dst: usize) {
         let (bs, bd) = (self.index(src, 0), self.index(dst, 0));
         for v in 0..self.nv {
             a[bd + v * self.px] = a[bs + v * self.px];
@@ -67,13 +106,13 @@ impl RowBlocked {
 /// source nodes onto its destination nodes, runs in parallel. The destinations of the runs must
 /// be disjoint from each other and from every source (true of periodic halo copies, whose
 /// sources are interior nodes and whose destinations are halo nodes).
-pub fn copy_runs_parallel<'v>(layout: RowBlocked, a: &mut [f64], runs: &[PeriodicRun], values: impl Fn(&PeriodicRun) -> &'v [usize] + Sync) {
+pub fn copy_runs_parallel<'v, T: Copy + Send>(layout: RowBlocked, a: &mut [T], runs: &[PeriodicRun], values: impl Fn(&PeriodicRun) -> &'v [usize] + Sync) {
     use rayon::prelude::*;
-    struct Ptr(*mut f64);
+    struct Ptr<T>(*mut T);
     // SAFETY: every task writes only its own run's destination values and reads only sources,
     // which no task writes (the caller's contract above).
-    unsafe impl Sync for Ptr {}
-    unsafe impl Send for Ptr {}
+    unsafe impl<T: Send> Sync for Ptr<T> {}
+    unsafe impl<T: Send> Send for Ptr<T> {}
     let len = a.len();
     let p = Ptr(a.as_mut_ptr());
     runs.par_iter().with_min_len(64).for_each(|run| {

@@ -73,6 +73,9 @@ fn uploaded(ctx: &GpuContext) -> Result<DeviceHealth, GpuError> {
 pub struct FluidEngine {
     solver: FluidSolver,
     gpu: Option<Box<GpuFluid>>,
+    /// CPU with the populations stored in f32 ([`Self::with_f32_storage`]): the solver that
+    /// steps; `solver` is then the f64 mirror the outputs read, refreshed when read.
+    stored: Option<Box<FluidSolver<f32>>>,
     health: Option<DeviceHealth>,
     /// What runs it ("cpu (2 threads)", "gpu: …").
     pub name: String,
@@ -112,7 +115,28 @@ impl FluidEngine {
 
     fn engine(solver: FluidSolver, gpu: Option<Box<GpuFluid>>, health: Option<DeviceHealth>, name: String) -> Self {
         let mirror = Mirror::new(solver.step_count);
-        Self { solver, gpu, health, name, mirror }
+        Self { solver, gpu, health, name, mirror, stored: None }
+    }
+
+    /// On the CPU: step a copy of the state whose populations are stored in f32
+    /// (`[numerics] storage = "f32"`; the outputs read the f64 mirror, refreshed from it when
+    /// read). On the GPU nothing changes: the device stores f32 always.
+    pub fn with_f32_storage(mut self) -> Self {
+        if self.gpu.is_none() && self.stored.is_none() {
+            self.stored = Some(Box::new(self.solver.converted()));
+            self.name.push_str(", populations stored in f32");
+        }
+        self
+    }
+
+    /// The f32-stored solver's state copied into the mirror when the mirror is behind.
+    fn refresh_from_f32(&mut self) {
+        if let Some(st) = self.stored.as_deref()
+            && self.mirror.whole != st.step_count
+        {
+            st.copy_state_into(&mut self.solver);
+            self.mirror.whole = st.step_count;
+        }
     }
 
     /// The whole state of the step reached. On the GPU it is brought back now unless the
@@ -121,6 +145,7 @@ impl FluidEngine {
     /// returns too; after a device failure or an instability the mirror keeps the last state
     /// brought back ([`Self::mirror`], [`Self::mirrored_step`]).
     pub fn state(&mut self) -> Result<&FluidSolver, Instability> {
+        self.refresh_from_f32();
         if let Some(g) = self.gpu.as_ref()
             && self.mirror.behind(g.step_count)
         {
@@ -140,6 +165,7 @@ impl FluidEngine {
     /// ([`crate::output::probes::ProbeWriter::nodes`]), bit for bit what [`Self::state`] would
     /// give at them. A failed read as in [`Self::state`].
     pub fn state_at(&mut self, nodes: &[usize]) -> Result<&FluidSolver, Instability> {
+        self.refresh_from_f32();
         if let Some(g) = self.gpu.as_mut()
             && self.mirror.behind(g.step_count)
         {
@@ -181,9 +207,9 @@ impl FluidEngine {
     /// The step whose whole state the solver holds: the step reached on the CPU; on the GPU
     /// the last one [`Self::state`] brought back (the uploaded one before any).
     pub fn mirrored_step(&self) -> u64 {
-        match &self.gpu {
-            None => self.solver.step_count,
-            Some(_) => self.mirror.whole,
+        match (&self.gpu, &self.stored) {
+            (None, None) => self.solver.step_count,
+            _ => self.mirror.whole,
         }
     }
 
@@ -215,9 +241,10 @@ impl Solver for FluidEngine {
     }
 
     fn step_count(&self) -> u64 {
-        match &self.gpu {
-            None => self.solver.step_count,
-            Some(g) => g.step_count,
+        match (&self.gpu, &self.stored) {
+            (Some(g), _) => g.step_count,
+            (None, Some(st)) => st.step_count,
+            (None, None) => self.solver.step_count,
         }
     }
 
@@ -227,6 +254,9 @@ impl Solver for FluidEngine {
     fn advance(&mut self, n: u64) -> Result<(), Instability> {
         if let Some(e) = self.mirror.read_failure.take() {
             return Err(e);
+        }
+        if let Some(st) = self.stored.as_deref_mut() {
+            return st.run(n);
         }
         let Some(g) = self.gpu.as_mut() else { return self.solver.run(n) };
         let s = &self.solver;
@@ -256,9 +286,10 @@ impl Solver for FluidEngine {
     }
 
     fn stage_shares(&self) -> Vec<(&'static str, f64)> {
-        match self.gpu {
-            None => self.solver.stage_shares(),
-            Some(_) => Vec::new(),
+        match (&self.gpu, &self.stored) {
+            (Some(_), _) => Vec::new(),
+            (None, Some(st)) => st.stage_shares(),
+            (None, None) => self.solver.stage_shares(),
         }
     }
 }

@@ -116,6 +116,9 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
         record = ck.restore(&mut solver, dir)?.cloned();
         Ok(solver)
     })?;
+    if scene.file.numerics.storage == Some(crate::scene::schema::PopulationStorage::F32) {
+        engine = engine.with_f32_storage();
+    }
     let resumed = record.is_some();
     let resumed_from_step = resumed.then_some(ck.resume.as_ref().map_or(0, |c| c.step));
     let mut files = vec![dir.join("probes.csv")];

@@ -75,6 +75,33 @@ fn a_fluid_run_resumed_from_its_checkpoint_is_bit_identical() {
     let _ = std::fs::remove_dir_all(path.parent().unwrap());
 }
 
+/// `[numerics] storage = "f32"`: the run steps f32 populations (its state hash differs from the
+/// f64 run's, the summary says so) and resumes from its checkpoint bit for bit (f32 → f64 → f32
+/// is exact). How far it lies from the f64 run: `fluid::solver::tests`.
+#[test]
+fn a_fluid_run_with_f32_storage_resumes_bit_identical() {
+    let text = FLUID.replace("[numerics]\n", "[numerics]\nstorage = \"f32\"\n");
+    assert_ne!(text, FLUID);
+    let (_, path) = interrupted_equals_whole("fluid-f32", &text, 200, &["probes.csv"]);
+    let cut = path.parent().unwrap().to_path_buf();
+    let reference = tmp("fluid-f64");
+    let h64 = run(FLUID, &reference, &opts(FLUID, 200, None, None, None));
+    let summary = std::fs::read_to_string(cut.join("summary.json")).unwrap();
+    assert!(summary.contains("populations stored in f32"), "the summary names the storage: {summary}");
+    assert!(!summary.contains(&h64), "the f32 run's state hash is the f64 run's: f32 storage did not run");
+    for d in [cut, reference] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+#[test]
+fn f32_storage_is_refused_for_a_coupled_scene_naming_the_field() {
+    let text = CONSERVING.replace("[numerics]\n", "[numerics]\nstorage = \"f32\"\n");
+    assert_ne!(text, CONSERVING);
+    let e = Scene::read(&text).expect_err("refused").to_string();
+    assert!(e.contains("numerics.storage") && e.contains("fluid-only"), "{e}");
+}
+
 /// The implicit step's preconditioner (block Jacobi and the coarse space) is built from the
 /// scene alone, not from the state where a run starts, so a resumed run solves as the whole run.
 #[test]

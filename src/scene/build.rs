@@ -374,7 +374,12 @@ impl FluidScene {
         let nv = eq.values_per_node() as f64;
         // f, the first stage's output, the second stage's output and the advected field: four
         // population arrays (FluidSolver), the macro fields and the node kinds
-        let estimated_bytes = grid.len() as f64 * (8.0 * (4.0 * nv + MACRO_FIELDS as f64) + 1.0);
+        // (f32 storage: the four arrays in f32 for the steps, and the f64 solver the outputs read)
+        let pop_bytes = match nm.storage.unwrap_or_default() {
+            PopulationStorage::F64 => 8.0 * 4.0 * nv,
+            PopulationStorage::F32 => 4.0 * 4.0 * nv + 8.0 * 4.0 * nv,
+        };
+        let estimated_bytes = grid.len() as f64 * (pop_bytes + 8.0 * MACRO_FIELDS as f64 + 1.0);
         let limit = nm.max_memory_bytes.unwrap_or(0.75 * available_memory());
         if estimated_bytes > limit {
             return err(

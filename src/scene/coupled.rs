@@ -18,7 +18,7 @@
 //! origin. Everything is checked before anything large is allocated.
 
 use super::build::{FluidScene, SceneError};
-use super::schema::SceneFile;
+use super::schema::{PopulationStorage, SceneFile};
 use super::solid::{BodySpec, SolidRun, SolidScene, SolidSceneFile, SolidSpec, vec3};
 use crate::coupling::{BodySurface, ConservingOptions, CoupledBody, CoupledSolver, Method, Motion, ReferenceShape, TractionModel, WeakOptions};
 use glam::DVec3;
@@ -118,6 +118,9 @@ impl CoupledScene {
             run: SolidRun { duration: file.run.duration, output_every: None, snapshots: None },
             probes: Vec::new(),
         };
+        if file.numerics.storage == Some(PopulationStorage::F32) {
+            return err("numerics.storage", "\"f32\" is for fluid-only scenes: the coupling reads the air's stage arrays in f64 (leave it out, or \"f64\")");
+        }
         let mut fluid = FluidScene::new(file)?;
         let solid = SolidScene::new(solid_file)?;
         let s = &solid.file.solid;

@@ -20,3 +20,34 @@ pub mod sound;
 pub mod suite;
 pub mod taylor_green;
 pub mod waves;
+
+use crate::fluid::FluidSolver;
+use crate::fluid::storage::Storage;
+use crate::run::FluidEngine;
+use crate::step::{Instability, Solver};
+
+/// A fluid run that a validation case steps and reads: the engine (populations in f64, on
+/// either backend) or a CPU solver whose populations are stored as `S` (the f32 storage option).
+pub(crate) trait FluidRun<S: Storage> {
+    fn advance(&mut self, n: u64) -> Result<(), Instability>;
+    /// The whole state of the step reached.
+    fn state(&mut self) -> &FluidSolver<S>;
+}
+
+impl FluidRun<f64> for FluidEngine {
+    fn advance(&mut self, n: u64) -> Result<(), Instability> {
+        Solver::advance(self, n)
+    }
+    fn state(&mut self) -> &FluidSolver {
+        FluidEngine::state(self).expect("the state comes back from the backend")
+    }
+}
+
+impl<S: Storage> FluidRun<S> for FluidSolver<S> {
+    fn advance(&mut self, n: u64) -> Result<(), Instability> {
+        self.run(n)
+    }
+    fn state(&mut self) -> &FluidSolver<S> {
+        self
+    }
+}

@@ -2,11 +2,12 @@
 //! Left (ρ, p) = (1, 1)·s, right (0.125, 0.1)·s in lattice units, with s scaling the
 //! temperature into the positivity window of the velocity set; zero-gradient ends.
 
+use super::FluidRun;
 use super::riemann::{Solution, State};
+use crate::fluid::storage::Storage;
 use crate::fluid::{Boundaries, Equilibrium, FaceCondition, FluidSolver, GasModel, Grid, Macro, StepParams, VelocitySet, VelocitySetKind, timestep};
 use crate::gpu::GpuError;
 use crate::run::{Backend, FluidEngine};
-use crate::step::Solver;
 
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct SodResult {
@@ -40,6 +41,19 @@ impl SodCase {
 
     /// Runs on the given backend.
     pub fn run_on(&self, backend: Backend) -> Result<SodResult, GpuError> {
+        let (solver, exact) = self.solver::<f64>();
+        Ok(self.measure(FluidEngine::new(backend, solver)?, exact))
+    }
+
+    /// Runs on the CPU with the populations stored as `S` ([`Storage`]: f32 for the storage
+    /// option's error).
+    pub fn run_stored<S: Storage>(&self) -> SodResult {
+        let (solver, exact) = self.solver::<S>();
+        self.measure(solver, exact)
+    }
+
+    /// The smoothed jump and the exact solution it is compared with.
+    fn solver<S: Storage>(&self) -> (FluidSolver<S>, Solution) {
         let vs = VelocitySet::new(self.set);
         let dim = vs.dim;
         let l1 = vs.max_l1_speed();
@@ -62,12 +76,20 @@ impl SodCase {
         let mut b = Boundaries::periodic();
         b.faces[0] = FaceCondition::Outlet;
         b.faces[1] = FaceCondition::Outlet;
-        let solver = FluidSolver::new(eq, Grid::new(dim, [n, 1, 1]), b, &[], params, init);
+        (FluidSolver::with_storage(eq, Grid::new(dim, [n, 1, 1]), b, &[], params, init), exact)
+    }
+
+    /// Steps `run` to the comparison time and reads the plateaus and fronts.
+    fn measure<S: Storage>(&self, mut run: impl FluidRun<S>, exact: Solution) -> SodResult {
+        let (left, right) = (exact.left, exact.right);
+        let gamma = exact.gamma;
+        let (n, s) = (self.n, self.scale);
+        let x0 = n as f64 / 2.0 - 0.5;
+        let dt = run.state().params.dt;
         let t_end = self.time_fraction * n as f64 / (gamma * s).sqrt();
-        let steps = ((t_end / params.dt) - 0.5).ceil().max(0.0) as u64;
-        let mut engine = FluidEngine::new(backend, solver)?;
-        engine.advance(steps).expect("Sod shock tube stays stable");
-        let solver = engine.state().expect("the state comes back");
+        let steps = ((t_end / dt) - 0.5).ceil().max(0.0) as u64;
+        run.advance(steps).expect("Sod shock tube stays stable");
+        let solver = run.state();
         let t = solver.time;
         let field: Vec<Macro> = (0..n).map(|x| solver.macro_at_coords([x as i64, 0, 0])).collect();
         let xi = |x: f64| (x - x0) / t;
@@ -104,6 +126,6 @@ impl SodCase {
             crossing(contact + 0.5 * (shock - contact), (shock + 0.5 * (n as f64 - shock)).min(n as f64 - 1.0), 0.5 * (exact.rho_star_right + right.rho));
         let contact_measured = crossing(tail + 0.5 * (contact - tail), contact + 0.5 * (shock - contact), 0.5 * (exact.rho_star_left + exact.rho_star_right));
         let _ = xi;
-        Ok(SodResult { gamma, plateaus, shock_position: (shock_measured, shock), contact_position: (contact_measured, contact), steps: solver.step_count })
+        SodResult { gamma, plateaus, shock_position: (shock_measured, shock), contact_position: (contact_measured, contact), steps: solver.step_count }
     }
 }

@@ -6,11 +6,12 @@
 //! exp(−3νk²t) in the linear (low Reynolds number) regime.
 //! Density uniform, temperature θ₀ uniform, plus the pressure field of the 2D vortex.
 
+use super::FluidRun;
+use crate::fluid::storage::Storage;
 use crate::fluid::timestep;
 use crate::fluid::{Boundaries, Equilibrium, FluidSolver, GasModel, Grid, Macro, StepParams, VelocitySet, VelocitySetKind};
 use crate::gpu::GpuError;
 use crate::run::{Backend, FluidEngine};
-use crate::step::Solver;
 use std::f64::consts::PI;
 use std::time::Instant;
 
@@ -55,6 +56,19 @@ impl TaylorGreenCase {
 
     /// Runs on the given backend (the GPU results are read back into the CPU mirror).
     pub fn run_on(&self, backend: Backend) -> Result<TaylorGreenResult, GpuError> {
+        let (s, params) = self.solver::<f64>();
+        Ok(self.measure(FluidEngine::new(backend, s)?, params))
+    }
+
+    /// Runs on the CPU with the populations stored as `S` ([`Storage`]: f32 for the storage
+    /// option's error).
+    pub fn run_stored<S: Storage>(&self) -> TaylorGreenResult {
+        let (s, params) = self.solver::<S>();
+        self.measure(s, params)
+    }
+
+    /// The initial state: the vortex with its pressure field, and the step parameters.
+    fn solver<S: Storage>(&self) -> (FluidSolver<S>, StepParams) {
         let vs = VelocitySet::new(self.set);
         let dim = vs.dim;
         let l1 = vs.max_l1_speed();
@@ -77,10 +91,16 @@ impl TaylorGreenCase {
                 Macro { rho: 1.0, u: [u0 * kx.sin() * ky.cos() * kz.cos(), -u0 * kx.cos() * ky.sin() * kz.cos(), 0.0], theta: th0 }
             }
         };
-        let s = FluidSolver::new(eq, grid, Boundaries::periodic(), &[], params, init);
+        (FluidSolver::with_storage(eq, grid, Boundaries::periodic(), &[], params, init), params)
+    }
+
+    /// Steps `run` and fits the decay rate of the vortex's amplitude.
+    fn measure<S: Storage>(&self, mut run: impl FluidRun<S>, params: StepParams) -> TaylorGreenResult {
+        let (n, dim) = (self.n, run.state().layout.grid.dim);
+        let k = 2.0 * PI / n as f64;
         let predicted = if dim == 2 { 2.0 } else { 3.0 } * self.nu * k * k;
-        let m0 = s.totals().mass;
-        let amplitude = |s: &FluidSolver| -> f64 {
+        let m0 = run.state().totals().mass;
+        let amplitude = |s: &FluidSolver<S>| -> f64 {
             let mut num = 0.0;
             let mut den = 0.0;
             for (idx, m) in s.interior_macros().iter().enumerate() {
@@ -101,24 +121,23 @@ impl TaylorGreenCase {
         let every = (steps / samples).max(1);
         let mut ts = Vec::new();
         let mut ls = Vec::new();
-        let mut engine = FluidEngine::new(backend, s)?;
         let t0 = Instant::now();
         let mut step = 0;
         while step < steps {
             let n = every.min(steps - step);
-            engine.advance(n).expect("Taylor–Green run stays stable");
+            run.advance(n).expect("Taylor–Green run stays stable");
             step += n;
             if step >= steps / 2 {
-                let s = engine.state().expect("the state comes back");
+                let s = run.state();
                 ts.push(s.time);
                 ls.push(amplitude(s).ln());
             }
         }
-        let s = engine.into_solver();
         let wall = t0.elapsed().as_secs_f64();
+        let s = run.state();
         let measured = -slope(&ts, &ls);
         let m1 = s.totals().mass;
-        Ok(TaylorGreenResult {
+        TaylorGreenResult {
             n,
             params,
             steps,
@@ -127,7 +146,7 @@ impl TaylorGreenCase {
             relative_error: (measured - predicted) / predicted,
             wall_per_time_unit: wall / s.time,
             mass_drift: (m1 - m0) / m0,
-        })
+        }
     }
 }
 
