@@ -139,6 +139,9 @@ pub struct StageFields<'a, S: Storage = f64> {
     pub mac: &'a mut [f64],
     /// h of the thin walls' side ghosts ([`super::thin_wall`]), `values_per_node` per slot.
     pub side_h: &'a mut Vec<f64>,
+    /// The storage shift of each population value (empty when unshifted:
+    /// [`super::storage::Storage`]).
+    pub shift: &'a [f64],
     pub pop: RowBlocked,
     pub mac_layout: RowBlocked,
 }
@@ -218,7 +221,7 @@ fn ghost_state<S: Storage>(eq: &Equilibrium, fields: &StageFields<S>, g: &Ghost,
             *v += wk * x;
         }
         eq.feq_into(&mk, w, fe);
-        fields.pop.gather(fields.f, k, fk);
+        fields.pop.gather_populations(fields.f, k, fields.shift, fk);
         for i in 0..nv {
             neq[i] += wk * (fk[i] - fe[i]);
         }
@@ -243,7 +246,7 @@ fn read_macro<S: Storage>(fields: &StageFields<S>, node: usize) -> Macro {
 /// f − f⁰ of `node` into `neq`.
 fn non_equilibrium<S: Storage>(eq: &Equilibrium, fields: &StageFields<S>, node: usize, w: &mut [f64], fe: &mut [f64], neq: &mut [f64]) {
     eq.feq_into(&read_macro(fields, node), w, fe);
-    fields.pop.gather(fields.f, node, neq);
+    fields.pop.gather_populations(fields.f, node, fields.shift, neq);
     for (n, e) in neq.iter_mut().zip(fe.iter()) {
         *n -= e;
     }
@@ -278,8 +281,8 @@ fn set_node<S: Storage>(eq: &Equilibrium, fields: &mut StageFields<S>, node: usi
     eq.feq_into(m, w, fe);
     let f: Vec<f64> = fe.iter().zip(neq).map(|(e, n)| e + n).collect();
     let h: Vec<f64> = fe.iter().zip(neq).map(|(e, n)| e + (1.0 - k_eq) * n).collect();
-    fields.pop.scatter(fields.f, node, &f);
-    fields.pop.scatter(fields.h, node, &h);
+    fields.pop.scatter_populations(fields.f, node, fields.shift, &f);
+    fields.pop.scatter_populations(fields.h, node, fields.shift, &h);
     fields.mac_layout.scatter(fields.mac, node, &[m.rho, m.u[0], m.u[1], m.u[2], m.theta]);
 }
 

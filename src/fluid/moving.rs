@@ -137,7 +137,7 @@ impl<S: Storage> FluidSolver<S> {
             match c {
                 NodeChange::Covered => {
                     change.covered += 1;
-                    self.pop.gather(&self.f, *node, &mut fk);
+                    self.pop.gather_populations(&self.f, *node, &self.shift, &mut fk);
                     change.mass_change -= fk[..q].iter().sum::<f64>();
                 }
                 NodeChange::Uncovered(neighbours) => {
@@ -148,7 +148,7 @@ impl<S: Storage> FluidSolver<S> {
                     }
                     let mut sum = vec![0.0; nv];
                     for &k in neighbours {
-                        self.pop.gather(&self.f, k, &mut fk);
+                        self.pop.gather_populations(&self.f, k, &self.shift, &mut fk);
                         sum.iter_mut().zip(&fk).for_each(|(s, v)| *s += v);
                     }
                     let vals: Vec<f64> = sum.iter().map(|s| s / neighbours.len() as f64).collect();
@@ -158,7 +158,7 @@ impl<S: Storage> FluidSolver<S> {
             }
         }
         for (node, vals) in fresh {
-            self.pop.scatter(&mut self.f, node, &vals);
+            self.pop.scatter_populations(&mut self.f, node, &self.shift, &vals);
         }
         change
     }

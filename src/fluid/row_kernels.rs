@@ -61,8 +61,9 @@ impl RowScratch {
     }
 
     /// ρ = Σ f, j = Σ c f, E = Σ ½c² f + Σ G on x ∈ [x0, x1) of one row (`f_row`: value v of
-    /// node x at v·px + x). Each node's sums run over the values in order.
-    pub fn moment_sums<S: Storage>(&mut self, eq: &Equilibrium, f_row: &[S], px: usize, x0: usize, x1: usize) {
+    /// node x at v·px + x). Each node's sums run over the values in order. A shifted storage
+    /// sums the stored departures and adds the shifts' moments once per node.
+    pub fn moment_sums<S: Storage>(&mut self, eq: &Equilibrium, f_row: &[S], shift: &[f64], px: usize, x0: usize, x1: usize) {
         let mut x = x0;
         while x + SUM_BLOCK <= x1 {
             self.sum_block::<SUM_BLOCK, S>(eq, f_row, px, x);
@@ -71,6 +72,26 @@ impl RowScratch {
         while x < x1 {
             self.sum_block::<1, S>(eq, f_row, px, x);
             x += 1;
+        }
+        if S::SHIFTED {
+            let q = eq.q();
+            let mut m = [0.0; 5];
+            for (v, &sv) in shift.iter().enumerate() {
+                if v < q {
+                    let c = eq.cf[v];
+                    m[0] += sv;
+                    m[1] += c[0] * sv;
+                    m[2] += c[1] * sv;
+                    m[3] += c[2] * sv;
+                    m[4] += eq.half_c2[v] * sv;
+                } else {
+                    m[4] += sv;
+                }
+            }
+            let [j0, j1, j2] = &mut self.j;
+            for (a, add) in [&mut self.rho, j0, j1, j2, &mut self.en].into_iter().zip(m) {
+                a[x0..x1].iter_mut().for_each(|a| *a += add);
+            }
         }
     }
 
@@ -189,6 +210,8 @@ pub(super) struct CollideRows<'a, S> {
     pub f_n: &'a [S],
     /// The row's runs of fluid and non-fluid nodes ([`runs`]), relative to x0.
     pub runs: &'a [Run],
+    /// The value's storage shift (0 when unshifted: [`Storage`]).
+    pub shift: f64,
 }
 
 /// A run of nodes along x: (start, end, fluid).
@@ -246,7 +269,7 @@ fn collide_run<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool, co
     let n = b - a;
     let f_n = if SECOND { &r.f_n[a..b] } else { &r.f_n[..0] };
     let (h, out) = (&mut h[a..b], if FLUID { &mut out[a..b] } else { &mut out[..0] });
-    let c = r.c;
+    let (c, sv) = (r.c, r.shift);
     for x in 0..n {
         let xi = (c[0] * u0[x] + c[1] * u1[x] + c[2] * u2[x]) * inv[x];
         let bx = base[x];
@@ -255,20 +278,21 @@ fn collide_run<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool, co
         if ROTATIONAL {
             fe *= rot[x];
         }
-        let fx = f[x].load();
-        h[x] = S::store(k.k_f * fx + k.k_eq * fe);
+        let fx = f[x].decode(sv);
+        h[x] = S::encode(k.k_f * fx + k.k_eq * fe, sv);
         if FLUID {
             let src = if FORCE { k.dt * fe * (r.gc - gu[x]) * inv[x] } else { 0.0 };
-            out[x] = S::store(if SECOND { 0.5 * (f_n[x].load() + fx - k.dt_tau * (fx - fe) + src) } else { fx - k.dt_tau * (fx - fe) + src });
+            out[x] = S::encode(if SECOND { 0.5 * (f_n[x].decode(sv) + fx - k.dt_tau * (fx - fe) + src) } else { fx - k.dt_tau * (fx - fe) + src }, sv);
         }
     }
 }
 
 /// `out −= k · (centre h + Σ_t c_t h_t)` at fluid nodes along a row: the upwind derivative of one
 /// value with its `T` taps ([`super::upwind::stencils`]: 3 per axis the velocity moves along),
-/// summed in the stencil's order.
+/// summed in the stencil's order. A shifted storage (shift `sv`) works on the stored departures
+/// throughout: the stencil's coefficients sum to zero, so the shift drops out of the derivative.
 #[inline(always)]
-pub(super) fn advect_value<const T: usize, S: Storage>(centre: f64, h: &[S], taps: [(&[S], f64); T], k: f64, runs: &[Run], out: &mut [S]) {
+pub(super) fn advect_value<const T: usize, S: Storage>(centre: f64, h: &[S], taps: [(&[S], f64); T], k: f64, sv: f64, runs: &[Run], out: &mut [S]) {
     for &(a, b, fluid) in runs {
         if !fluid {
             continue;
@@ -280,7 +304,7 @@ pub(super) fn advect_value<const T: usize, S: Storage>(centre: f64, h: &[S], tap
             for (t, c) in &taps {
                 s += c * t[x].load();
             }
-            out[x] = S::store(out[x].load() - k * s);
+            out[x] = S::store_departure(out[x].load() - k * s, sv);
         }
     }
 }

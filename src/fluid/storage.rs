@@ -11,18 +11,52 @@ use super::layout::PeriodicRun;
 /// tolerate its rounding (`[numerics] storage = "f32"`). Every pass loads its inputs into f64,
 /// computes in f64 and rounds once on the store; the macroscopic fields, the boundaries' scratch
 /// and the side ghosts stay f64. The errors it costs are measured on Taylor–Green and Sod
-/// (`phonation bench --only storage`, the tests of [`super::solver`]).
+/// (`phonation bench --only storage`, `tests/fluid.rs`).
+///
+/// A shifted storage (f32) holds each population as its departure from a constant per velocity,
+/// f − s_i, with s_i the equilibrium at rest of the initial state's mean density and temperature
+/// rounded to f32 ([`FluidSolver::storage_shift`](super::FluidSolver::storage_shift)): the
+/// viscosity lives in the small non-equilibrium part, and f32's 24 bits then resolve it rather
+/// than the rest state (the idea of "DDF shifting", Lehmann et al. 2022). Departures below
+/// 2⁻²⁸ |s_i| are stored as 0, so that with s_i an f32 number f32 + s_i is exact in f64 and an f64
+/// copy of the state converts back to the same f32 bits (checkpoints resume bit for bit).
 pub trait Storage: Copy + Default + PartialEq + Send + Sync + std::fmt::Debug + 'static {
     /// "f64" or "f32" (what the bench and the summaries print).
     const NAME: &'static str;
-    /// The value as f64 (exact).
+    /// Whether the populations are stored shifted (above).
+    const SHIFTED: bool;
+    /// The stored value as f64 (exact).
     fn load(self) -> f64;
     /// `x` rounded to the storage type (to nearest; exact for f64).
     fn store(x: f64) -> Self;
+
+    /// The population whose stored value this is, given its velocity's shift `s`.
+    #[inline(always)]
+    fn decode(self, s: f64) -> f64 {
+        if Self::SHIFTED { self.load() + s } else { self.load() }
+    }
+
+    /// The stored value of population `x` of a velocity whose shift is `s`.
+    #[inline(always)]
+    fn encode(x: f64, s: f64) -> Self {
+        if Self::SHIFTED { Self::store_departure(x - s, s) } else { Self::store(x) }
+    }
+
+    /// A departure `d` = f − s already formed (unshifted storage: the population itself),
+    /// stored: below 2⁻²⁸ |s| as 0 when shifted.
+    #[inline(always)]
+    fn store_departure(d: f64, s: f64) -> Self {
+        if Self::SHIFTED && d.abs() < s.abs() * DEPARTURE_FLOOR { Self::store(0.0) } else { Self::store(d) }
+    }
 }
+
+/// Departures below this fraction of their shift are stored as 0 ([`Storage`]): with the
+/// departure's exponent at most 28 below the shift's, f32 + shift fits f64's 53 bits.
+pub const DEPARTURE_FLOOR: f64 = 1.0 / (1u64 << 28) as f64;
 
 impl Storage for f64 {
     const NAME: &'static str = "f64";
+    const SHIFTED: bool = false;
     #[inline(always)]
     fn load(self) -> f64 {
         self
@@ -35,6 +69,7 @@ impl Storage for f64 {
 
 impl Storage for f32 {
     const NAME: &'static str = "f32";
+    const SHIFTED: bool = true;
     #[inline(always)]
     fn load(self) -> f64 {
         self as f64
@@ -85,6 +120,25 @@ impl RowBlocked {
         }
     }
 
+    /// The populations of `node` (stored as `S` with the per-value shifts `shift`, empty when
+    /// `S` is not shifted) into `out` (length nv).
+    #[inline]
+    pub fn gather_populations<S: Storage>(&self, a: &[S], node: usize, shift: &[f64], out: &mut [f64]) {
+        let base = self.index(node, 0);
+        for (v, o) in out.iter_mut().enumerate() {
+            *o = a[base + v * self.px].decode(shift_of(shift, v));
+        }
+    }
+
+    /// Writes the populations `vals` (length nv) into `node` (as [`Self::gather_populations`]).
+    #[inline]
+    pub fn scatter_populations<S: Storage>(&self, a: &mut [S], node: usize, shift: &[f64], vals: &[f64]) {
+        let base = self.index(node, 0);
+        for (v, x) in vals.iter().enumerate() {
+            a[base + v * self.px] = S::encode(*x, shift_of(shift, v));
+        }
+    }
+
     /// Copies every value of node `src` onto node `dst`.
     #[inline]
     pub fn copy_node<T: Copy>(&self, a: &mut [T], src: usize, dst: usize) {
@@ -100,6 +154,12 @@ impl RowBlocked {
     pub fn neighbour_offset(&self, d: [i64; 3], py: usize) -> isize {
         (d[0] + (d[1] + d[2] * py as i64) * (self.nv * self.px) as i64) as isize
     }
+}
+
+/// Value `v`'s shift (0 where there are none: unshifted storage).
+#[inline(always)]
+pub fn shift_of(shift: &[f64], v: usize) -> f64 {
+    shift.get(v).copied().unwrap_or(0.0)
 }
 
 /// Copies, for every periodic run, the values `values(run)` (indices below `layout.nv`) of its
@@ -136,4 +196,43 @@ pub fn copy_runs_parallel<'v, T: Copy + Send>(layout: RowBlocked, a: &mut [T], r
             };
         }
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The claim checkpoints rest on: a departure stored in f32 (through `store_departure`,
+    /// which floors the tiny ones) decodes to an f64 that encodes back to the same f32 bits,
+    /// for shifts over the range of the lattices' weights and departures of every size and sign
+    /// (populations from 10⁻⁹ to 10³ times their shift).
+    #[test]
+    fn an_f32_departure_round_trips_through_f64_bit_for_bit() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut uniform = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut floored, mut kept) = (0, 0);
+        for _ in 0..200_000 {
+            let s = (10f64.powf(-6.0 + 6.0 * uniform()) as f32) as f64;
+            let sign = if uniform() < 0.5 { -1.0 } else { 1.0 };
+            let d = sign * s * 10f64.powf(-12.0 + 15.0 * uniform());
+            let x = f32::store_departure(d, s);
+            if x == 0.0 {
+                floored += 1;
+                assert!(d.abs() < s * DEPARTURE_FLOOR, "{d:e} of shift {s:e} was floored");
+            } else {
+                kept += 1;
+            }
+            let back = f32::encode(x.decode(s), s);
+            assert_eq!(back.to_bits(), x.to_bits(), "shift {s:e}, departure {d:e}: {x:e} came back as {back:e}");
+        }
+        assert!(floored > 10_000 && kept > 100_000, "floored {floored}, kept {kept}");
+        // f64 is stored as it is
+        assert_eq!(f64::encode(0.125, 3.0), 0.125);
+        assert_eq!(f64::store_departure(1e-300, 1.0), 1e-300);
+    }
 }

@@ -53,7 +53,7 @@ use super::equilibrium::Equilibrium;
 use super::geometry::{Obstacle, dot};
 use super::grid::Grid;
 use super::layout::{Ghost, NodeKind, fluid_node, ghost_wall_velocity, interpolation_stencil};
-use super::storage::{RowBlocked, Storage};
+use super::storage::{RowBlocked, Storage, shift_of};
 
 /// The value a far tap takes from the reader's side ([`crate::fluid::thin_wall`], side ghosts).
 #[derive(Clone, Debug, PartialEq)]
@@ -116,7 +116,18 @@ pub fn tap_correction(t: &ThinTap, v: usize, nv: usize, slot: usize, side_h: &[f
 /// `out`; `py`: padded rows per z-plane; `side_h`: the side ghosts' h, filled with the ghosts.
 /// The GPU twin is [`crate::gpu::codegen::thin_wall`].
 #[allow(clippy::too_many_arguments)]
-pub fn advect_thin_taps<S: Storage>(taps: &[ThinTap], eq: &Equilibrium, pop: RowBlocked, py: usize, k: f64, h: &[S], side_h: &[f64], out: &mut [S]) {
+#[allow(clippy::too_many_arguments)]
+pub fn advect_thin_taps<S: Storage>(
+    taps: &[ThinTap],
+    eq: &Equilibrium,
+    pop: RowBlocked,
+    shift: &[f64],
+    py: usize,
+    k: f64,
+    h: &[S],
+    side_h: &[f64],
+    out: &mut [S],
+) {
     let (nv, q) = (eq.values_per_node(), eq.q());
     let mut slot = 0;
     for t in taps {
@@ -129,9 +140,11 @@ pub fn advect_thin_taps<S: Storage>(taps: &[ThinTap], eq: &Equilibrium, pop: Row
                 continue;
             }
             let i0 = pop.index(t.node, v) as isize;
-            let corr = tap_correction(t, v, nv, slot, side_h, |m| h[(i0 + m * step) as usize].load());
+            // h decoded: the side ghosts' values are the populations themselves
+            let sv = shift_of(shift, v);
+            let corr = tap_correction(t, v, nv, slot, side_h, |m| h[(i0 + m * step) as usize].decode(sv));
             let o = &mut out[i0 as usize];
-            *o = S::store(o.load() - k * (c.unsigned_abs() as f64 / 6.0) * corr);
+            *o = S::store_departure(o.load() - k * (c.unsigned_abs() as f64 / 6.0) * corr, sv);
         }
         slot += t.sides.len();
     }

@@ -78,8 +78,8 @@ pub struct Numerics {
     /// Refuse grids whose state would need more than this many bytes (default: 3/4 of RAM).
     pub max_memory_bytes: Option<f64>,
     /// The number type of the populations on the CPU (default f64). "f32" halves the bytes a
-    /// step moves (1.26–1.37× faster here) at a measured cost: the Taylor–Green decay rate moves
-    /// by 2·10⁻⁴ of itself, the Sod plateaus by 3·10⁻⁷ (`phonation bench --only storage`).
+    /// step moves (1.2–1.3× faster here) at a measured cost: the Taylor–Green decay rate moves
+    /// by 7·10⁻⁸ of itself, the Sod plateaus by 8·10⁻⁷ (`phonation bench --only storage`).
     /// Fluid-only scenes; the GPU stores f32 whatever this says.
     pub storage: Option<PopulationStorage>,
 }
