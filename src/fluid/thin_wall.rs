@@ -116,7 +116,6 @@ pub fn tap_correction(t: &ThinTap, v: usize, nv: usize, slot: usize, side_h: &[f
 /// `out`; `py`: padded rows per z-plane; `side_h`: the side ghosts' h, filled with the ghosts.
 /// The GPU twin is [`crate::gpu::codegen::thin_wall`].
 #[allow(clippy::too_many_arguments)]
-#[allow(clippy::too_many_arguments)]
 pub fn advect_thin_taps<S: Storage>(
     taps: &[ThinTap],
     eq: &Equilibrium,
