@@ -167,10 +167,17 @@ impl<S: Storage> FluidSolver<S> {
     }
 
     /// The population array `a` (of this solver's layout and shifts) stored as `T` with the
-    /// shifts `to`: value v of a row is the chunk of `px` values number (row · nv + v).
+    /// shifts `to`.
     fn recoded<T: Storage>(&self, a: &[S], to: &[f64]) -> Vec<T> {
-        let (px, nv) = (self.pop.px, self.pop.nv);
         let mut out = vec![T::default(); a.len()];
+        self.recode_into(a, to, &mut out);
+        out
+    }
+
+    /// [`Self::recoded`] into `out`: value v of a row is the chunk of `px` values number
+    /// (row · nv + v).
+    fn recode_into<T: Storage>(&self, a: &[S], to: &[f64], out: &mut [T]) {
+        let (px, nv) = (self.pop.px, self.pop.nv);
         out.par_chunks_mut(px).zip(a.par_chunks(px)).enumerate().with_min_len(64).for_each(|(c, (o, x))| {
             let v = c % nv;
             let (from, to) = (shift_of(&self.shift, v), shift_of(to, v));
@@ -178,7 +185,6 @@ impl<S: Storage> FluidSolver<S> {
                 *o = T::encode(x.decode(from), to);
             }
         });
-        out
     }
 
     /// Copies the state a step starts from — the populations fⁿ, the step counter, the time —
@@ -186,7 +192,7 @@ impl<S: Storage> FluidSolver<S> {
     /// every observation reads: [`super::observe`]).
     pub fn copy_state_into<T: Storage>(&self, other: &mut FluidSolver<T>) {
         assert_eq!(self.f.len(), other.f.len(), "copy_state_into: not the same lattice");
-        other.f = self.recoded(&self.f, &other.shift);
+        self.recode_into(&self.f, &other.shift, &mut other.f);
         other.step_count = self.step_count;
         other.time = self.time;
     }
@@ -204,16 +210,16 @@ impl<S: Storage> FluidSolver<S> {
         let mut fe = vec![0.0; nv];
         let n = self.layout.grid.len();
         let grid = &self.layout.grid;
-        let state: Vec<Macro> = (0..n)
-            .map(|node| {
-                let x = grid.coords(node);
-                init([x[0] as f64, x[1] as f64, x[2] as f64])
-            })
-            .collect();
-        let mean = |q: fn(&Macro) -> f64| state.iter().map(q).sum::<f64>() / n.max(1) as f64;
-        self.rest = Macro { rho: mean(|m| m.rho), u: [0.0; 3], theta: mean(|m| m.theta) };
+        let at = |node: usize| {
+            let x = grid.coords(node);
+            init([x[0] as f64, x[1] as f64, x[2] as f64])
+        };
+        // two passes over `init` (cheap, analytic), so that no per-node state is held
+        let (rho, theta) = (0..n).map(&at).fold((0.0, 0.0), |(r, t), m| (r + m.rho, t + m.theta));
+        self.rest = Macro { rho: rho / n.max(1) as f64, u: [0.0; 3], theta: theta / n.max(1) as f64 };
         self.shift = storage_shift::<S>(&self.eq, &self.rest);
-        for (node, m) in state.iter().enumerate() {
+        for node in 0..n {
+            let m = &at(node);
             self.eq.feq_into(m, &mut w, &mut fe);
             self.pop.scatter_populations(&mut self.f, node, &self.shift, &fe);
             self.macro_layout.scatter(&mut self.mac, node, &[m.rho, m.u[0], m.u[1], m.u[2], m.theta]);

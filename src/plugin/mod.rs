@@ -85,7 +85,9 @@ impl FluidSimulation {
         FluidSimulation { solver, units: None, probes: Vec::new() }
     }
 
-    /// Allocates the solver of a validated scene.
+    /// Allocates the solver of a validated scene. The plugin steps the populations in f64: a
+    /// scene's `numerics.storage = "f32"` applies to the headless run (`phonation run`), whose
+    /// engine keeps an f64 mirror for its outputs, not to this component.
     pub fn from_scene(scene: &FluidScene) -> Self {
         let solver = scene.build_solver();
         let probes = scene.probes.iter().map(|(n, x)| (n.clone(), solver.layout.grid.index(*x))).collect();

@@ -80,7 +80,8 @@ pub struct Numerics {
     /// The number type of the populations on the CPU (default f64). "f32" halves the bytes a
     /// step moves (1.2–1.3× faster here) at a measured cost: the Taylor–Green decay rate moves
     /// by 7·10⁻⁸ of itself, the Sod plateaus by 8·10⁻⁷ (`phonation bench --only storage`).
-    /// Fluid-only scenes; the GPU stores f32 whatever this says.
+    /// Fluid-only scenes, headless runs (the Bevy plugin steps f64); the GPU stores f32
+    /// whatever this says.
     pub storage: Option<PopulationStorage>,
 }
 
