@@ -21,13 +21,15 @@ pub struct Outcome {
 
 impl fmt::Display for Outcome {
     fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        // small figures (differences, offsets) in scientific notation, so that none reads 0.00000
+        let m = self.measured;
+        let measured = if m != 0.0 && m.abs() < 1e-3 { format!("{m:>12.3e}") } else { format!("{m:>12.5}") };
         write!(
             f,
-            "[{}] {:28} {:34} = {:>12.5}  (reference {}; {:.1} s)",
+            "[{}] {:28} {:34} = {measured}  (reference {}; {:.1} s)",
             if self.pass { "pass" } else { "FAIL" },
             self.case,
             self.figure,
-            self.measured,
             self.reference,
             self.wall_s
         )
@@ -80,6 +82,31 @@ pub fn cases() -> Vec<Case> {
                 let dc = r.contact_position.0 - r.contact_position.1;
                 out.push((format!("γ = {:.1}: shock offset (cells)", r.gamma), ds, "|Δ| ≤ 3".into(), ds.abs() <= 3.0));
                 out.push((format!("γ = {:.1}: contact offset (cells)", r.gamma), dc, "|Δ| ≤ 3".into(), dc.abs() <= 3.0));
+            }
+            out
+        }),
+        ("f32_storage", || {
+            // the CPU's f32 population storage (`[numerics] storage = "f32"`) on the cases above,
+            // with their bounds, and its distance from the f64 run
+            let mut out = Vec::new();
+            let mut tg3 = TaylorGreenCase::new(VelocitySetKind::D3q39, 24);
+            tg3.nu = 0.25;
+            for (label, c) in [("2D 64²", TaylorGreenCase::new(VelocitySetKind::D2q21, 64)), ("3D 24³", tg3)] {
+                let (a, b) = (c.run_stored::<f64>(), c.run_stored::<f32>());
+                out.push((format!("TG {label} f32: decay-rate error"), b.relative_error, "|err| ≤ 0.02".into(), b.relative_error.abs() <= 0.02));
+                let moved = ((b.measured_rate - a.measured_rate) / a.measured_rate).abs();
+                let bound = 1e-4 * a.relative_error.abs();
+                out.push((format!("TG {label} f32: |rate − f64 rate| / rate"), moved, format!("≤ 10⁻⁴ × f64 error = {bound:.2e}"), moved <= bound));
+            }
+            for gas in [GasModel::Monatomic, GasModel::Diatomic] {
+                let mut c = sod::SodCase::new(VelocitySetKind::D2q21, gas);
+                c.scale = 0.7;
+                let r = c.run_stored::<f32>();
+                for (name, m, e, rel) in &r.plateaus {
+                    out.push((format!("Sod f32 γ = {:.1}: {name}", r.gamma), *m, format!("{e:.5} ± 2%"), rel.abs() <= 0.02));
+                }
+                let ds = r.shock_position.0 - r.shock_position.1;
+                out.push((format!("Sod f32 γ = {:.1}: shock offset (cells)", r.gamma), ds, "|Δ| ≤ 3".into(), ds.abs() <= 3.0));
             }
             out
         }),
