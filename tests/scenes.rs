@@ -129,8 +129,13 @@ fn a_slurm_sweep_collects_to_the_table_of_the_local_sweep() {
         assert!(o.status.success(), "task {id}: {}", String::from_utf8_lossy(&o.stderr));
     }
     run(&["sweep", "--collect", cluster.to_str().unwrap()]);
-    let table = |d: &std::path::Path| std::fs::read_to_string(d.join("sweep.csv")).unwrap();
+    // the same table but for the timing columns (wall_s, simulated_s, wall_s_per_simulated_ms:
+    // the last three), which differ between any two runs of a job
+    let table = |d: &std::path::Path| -> Vec<String> {
+        std::fs::read_to_string(d.join("sweep.csv")).unwrap().lines().map(|l| l.split(',').collect::<Vec<_>>()).map(|c| c[..c.len() - 3].join(",")).collect()
+    };
     assert_eq!(table(&local), table(&cluster));
+    assert!(std::fs::read_to_string(local.join("sweep.csv")).unwrap().lines().next().unwrap().ends_with("wall_s,simulated_s,wall_s_per_simulated_ms"));
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(cluster.join("sweep.json")).unwrap()).unwrap();
     assert_eq!(json["phonation_threshold"]["below"], 1500.0);
     assert_eq!(json["phonation_threshold"]["at_or_above"], 2500.0);
@@ -163,6 +168,71 @@ fn collecting_an_unfinished_sweep_says_which_jobs_are_missing() {
     assert!(err.contains("two_mass.duration"), "{err}");
     assert!(!dir.join("bad/jobs").exists());
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A glottis swept over `resolution` (a convergence study): each job is the scene with ×value
+/// the lattice's cells and 1/value the particles' spacing, the time step follows Δx (Mach
+/// scaling: Δt ∝ Δx), and the table carries each job's cost (wall s per simulated ms) and f0
+/// against the finest job's. A scene without voice measures, a two-mass scene over resolution
+/// and a bad Slurm time are refused before any job is written.
+#[test]
+fn a_glottis_sweeps_over_resolution_with_its_cost_in_the_table() {
+    let exe = env!("CARGO_BIN_EXE_phonation");
+    let root = std::env::temp_dir().join(format!("phonation-sweep-resolution-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    // the CPU-sized glottis, 0.2 ms (627 coupled steps at ×1): long enough to cost, too short for f0
+    let scene = root.join("short_glottis.toml");
+    let text = scene::builtin("glottis_2d_coarse").unwrap().replace("duration = 0.04", "duration = 0.0002");
+    assert!(text.contains("duration = 0.0002"));
+    std::fs::write(&scene, text).unwrap();
+    let out = root.join("sweep");
+    let o = std::process::Command::new(exe)
+        .args(["sweep", scene.to_str().unwrap(), "--key", "resolution", "--values", "1,1.5", "--out", out.to_str().unwrap()])
+        .env("RAYON_NUM_THREADS", "2")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let job = std::fs::read_to_string(out.join("jobs/job_001.toml")).unwrap();
+    assert!(job.contains("cells = [93, 96]"), "{job}");
+    let summary = |id: usize| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(out.join(format!("jobs/job_{id:03}/summary.json"))).unwrap()).unwrap()
+    };
+    let (s0, s1) = (summary(0), summary(1));
+    assert_eq!(s1["nodes"][0], 93);
+    let dt_ratio = s1["dt"].as_f64().unwrap() / s0["dt"].as_f64().unwrap();
+    assert!((dt_ratio - 1.0 / 1.5).abs() < 1e-9, "Δt ratio {dt_ratio}");
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("sweep.json")).unwrap()).unwrap();
+    for (k, r) in json["rows"].as_array().unwrap().iter().enumerate() {
+        assert_eq!(r["done"], true);
+        let cost = r["wall_s_per_simulated_ms"].as_f64().unwrap();
+        let simulated = r["simulated_s"].as_f64().unwrap();
+        assert!((simulated - 2e-4).abs() < 2e-7, "row {k}: simulated {simulated} s");
+        assert!(cost > 0.0 && cost.is_finite(), "row {k}: {cost}");
+    }
+    let printed = String::from_utf8_lossy(&o.stdout);
+    assert!(printed.contains("wall s / ms") && printed.contains("f0 vs finest"), "{printed}");
+    assert!(out.join("sweep.svg").exists());
+    let refused = |args: &[&str], why: &str| {
+        let o = std::process::Command::new(exe).args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(why), "{args:?}: {err}");
+    };
+    let bad = root.join("bad");
+    let bad = bad.to_str().unwrap();
+    refused(&["sweep", "wall_flap", "--key", "resolution", "--values", "1", "--out", bad], "writes no voice measures");
+    refused(&["sweep", "two_mass", "--key", "resolution", "--values", "1", "--out", bad], "a two-mass scene has no lattice");
+    refused(&["sweep", scene.to_str().unwrap(), "--key", "resolution", "--values", "1,0.3", "--out", bad], "resolution");
+    refused(&["sweep", "two_mass", "--values", "8000", "--emit", "slurm", "--time", "1h", "--out", bad], "--time");
+    assert!(!root.join("bad/jobs/job_001.toml").exists());
+    // a cluster sweep's tasks get the time limit asked for
+    let o = std::process::Command::new(exe)
+        .args(["sweep", "two_mass", "--values", "8000", "--emit", "slurm", "--time", "2-00:00:00", "--out", bad])
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    assert!(std::fs::read_to_string(root.join("bad/sweep.slurm")).unwrap().contains("#SBATCH --time=2-00:00:00"));
+    std::fs::remove_dir_all(&root).ok();
 }
 
 /// `phonation analyze` re-measures a run's glottal_flow.csv and, given the lung pressure, puts

@@ -117,7 +117,9 @@ pub struct SweepArgs {
     /// Scene file or built-in name (not with --collect).
     #[arg(required_unless_present = "collect")]
     pub scene: Option<String>,
-    /// The dotted scene key to sweep, e.g. two_mass.lung_pressure.
+    /// The dotted scene key to sweep, e.g. two_mass.lung_pressure or (a glottis)
+    /// boundaries.y_min.pressure; `resolution` scales the lattice's cells by each value and
+    /// divides the particles' spacing by it (a convergence study: f0 against the finest run).
     #[arg(long, default_value = "two_mass.lung_pressure")]
     pub key: String,
     /// Values of the key (in the key's own units).
@@ -132,6 +134,10 @@ pub struct SweepArgs {
     /// Write the jobs for a cluster instead of running them here.
     #[arg(long, value_enum)]
     pub emit: Option<Emit>,
+    /// With --emit slurm: each task's wall-time limit (Slurm's --time, e.g. 01:00:00 or
+    /// 2-00:00:00; a glottis on the seed's lattice takes hours on one core).
+    #[arg(long, default_value = "01:00:00")]
+    pub time: String,
     /// Merge the results the jobs of this sweep directory wrote.
     #[arg(long, conflicts_with_all = ["scene", "emit"])]
     pub collect: Option<PathBuf>,
@@ -140,7 +146,7 @@ pub struct SweepArgs {
 pub fn sweep(a: SweepArgs) -> anyhow::Result<()> {
     if let Some(dir) = &a.collect {
         let (rows, t) = sweep::collect(dir)?;
-        return print_sweep(dir, &rows, t);
+        return print_sweep(dir, &sweep::manifest(dir)?.key, &rows, t);
     }
     let name = a.scene.expect("clap requires a scene without --collect");
     let values = match &a.range {
@@ -163,7 +169,7 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<()> {
     let m = sweep::prepare(&dir, &text, &stem, &a.key, &values)?;
     match a.emit {
         Some(Emit::Slurm) => {
-            let script = sweep::emit_slurm(&dir, &m)?;
+            let script = sweep::emit_slurm(&dir, &m, &a.time)?;
             println!("{} jobs written under {}", m.jobs.len(), dir.join("jobs").display());
             println!("submit: sbatch {}", script.display());
             println!("then:   phonation sweep --collect {}", dir.display());
@@ -173,14 +179,25 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<()> {
             let start = std::time::Instant::now();
             let (rows, t) = sweep::run_local(&dir, &m)?;
             println!("{} jobs in {:.2} s on {} threads", rows.len(), start.elapsed().as_secs_f64(), rayon::current_num_threads());
-            print_sweep(&dir, &rows, t)
+            print_sweep(&dir, &m.key, &rows, t)
         }
     }
 }
 
-fn print_sweep(dir: &std::path::Path, rows: &[sweep::Row], t: Option<sweep::Threshold>) -> anyhow::Result<()> {
+fn print_sweep(dir: &std::path::Path, key: &str, rows: &[sweep::Row], t: Option<sweep::Threshold>) -> anyhow::Result<()> {
     let f = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
-    println!("{:>14} {:>6} {:>10} {:>12} {:>12} {:>8}", "value", "osc.", "f0 (Hz)", "peak cm³/s", "mean cm³/s", "OQ");
+    let resolution = key == phonation::scene::resolution::KEY;
+    println!(
+        "{:>14} {:>6} {:>10} {:>12} {:>12} {:>8} {:>14}{}",
+        "value",
+        "osc.",
+        "f0 (Hz)",
+        "peak cm³/s",
+        "mean cm³/s",
+        "OQ",
+        "wall s / ms",
+        if resolution { "  f0 vs finest" } else { "" }
+    );
     for r in rows {
         let state = if !r.done {
             "n/a"
@@ -189,7 +206,17 @@ fn print_sweep(dir: &std::path::Path, rows: &[sweep::Row], t: Option<sweep::Thre
         } else {
             "no"
         };
-        println!("{:>14.6} {:>6} {:>10} {:>12} {:>12} {:>8}", r.value, state, f(r.f0_hz, 2), f(r.peak_flow, 1), f(r.mean_flow, 1), f(r.open_quotient, 3));
+        let vs = if resolution { format!("  {:>+12}", r.f0_vs_finest.map_or("-".into(), |v| format!("{:+.2} %", 100.0 * v))) } else { String::new() };
+        println!(
+            "{:>14.6} {:>6} {:>10} {:>12} {:>12} {:>8} {:>14}{vs}",
+            r.value,
+            state,
+            f(r.f0_hz, 2),
+            f(r.peak_flow, 1),
+            f(r.mean_flow, 1),
+            f(r.open_quotient, 3),
+            f(r.wall_s_per_simulated_ms, 4)
+        );
     }
     match t {
         Some(sweep::Threshold { below: Some(b), at_or_above }) => println!("phonation threshold between {b} and {at_or_above}"),

@@ -20,33 +20,14 @@ pub const PRESETS: [&str; 8] =
 /// spacing, divided by the factor).
 pub const RESOLUTIONS: [f64; 4] = [0.5, 1.0, 1.5, 2.0];
 
-/// The preset's scene text as a TOML table, at `state`'s resolution: `domain.cells` times the
-/// factor (each a whole number, or refused naming `resolution`) and `solid.spacing` divided by
-/// it, so that the lattice spacing Δx and the particle spacing l₀ keep their ratio and the
-/// domain, the bodies and every physical parameter stay as they are.
+/// The preset's scene text as a TOML table, at `state`'s resolution
+/// ([`crate::scene::resolution::at_resolution`]: `domain.cells` times the factor, each a whole
+/// number or refused naming `resolution`, and `solid.spacing` divided by it).
 fn preset_table(state: &PanelState) -> Result<toml::Table, String> {
     let text = crate::scene::builtin(&state.preset).ok_or_else(|| format!("preset: no built-in scene {}", state.preset))?;
     let mut doc: toml::Table = text.parse().map_err(|e| format!("preset {}: {e}", state.preset))?;
     let Some(s) = state.resolution else { return Ok(doc) };
-    if !(s.is_finite() && s > 0.0) {
-        return Err(format!("resolution: {s} must be a positive factor of the preset's lattice"));
-    }
-    let cells = doc
-        .get_mut("domain")
-        .and_then(|d| d.get_mut("cells"))
-        .and_then(|c| c.as_array_mut())
-        .ok_or_else(|| format!("resolution: preset {} has no [domain] cells (a lattice gas's lengths are in lattice units)", state.preset))?;
-    for c in cells.iter_mut() {
-        let n = c.as_integer().ok_or_else(|| format!("resolution: preset {}'s domain.cells are not integers", state.preset))? as f64 * s;
-        if (n - n.round()).abs() > 1e-9 || n < 1.0 {
-            return Err(format!("resolution: ×{s} gives {n} cells along an axis of preset {}, not a whole number", state.preset));
-        }
-        *c = toml::Value::Integer(n.round() as i64);
-    }
-    if let Some(l0) = doc.get_mut("solid").and_then(|t| t.get_mut("spacing")) {
-        let v = l0.as_float().ok_or_else(|| format!("resolution: preset {}'s solid.spacing is not a number", state.preset))?;
-        *l0 = toml::Value::Float(v / s);
-    }
+    crate::scene::resolution::at_resolution(&mut doc, s).map_err(|e| format!("resolution: preset {}: {}", state.preset, e.reason))?;
     Ok(doc)
 }
 

@@ -1,5 +1,10 @@
-//! Parameter sweeps: one scene, one numeric key (e.g. `two_mass.lung_pressure`) set to each of
-//! a list of values, one independent job per value. Locally the jobs run in parallel (rayon);
+//! Parameter sweeps: one scene, one numeric key (e.g. `two_mass.lung_pressure`, or
+//! `boundaries.y_min.pressure` of a glottis) set to each of a list of values, one independent
+//! job per value; or the pseudo-key `resolution` ([`crate::scene::resolution`]: the lattice's
+//! cells times the value, the particles' spacing divided by it), whose table is a convergence
+//! study — each row's f0 against the finest row's and the wall time per simulated millisecond,
+//! speed against error. Scenes that write voice measures can be swept: two-mass scenes and
+//! coupled scenes with two vocal folds. Locally the jobs run in parallel (rayon);
 //! with `--emit slurm` the same jobs become a Slurm job array (one scene file per task and a
 //! script that runs `phonation run` on the task's file), and `--collect` merges whatever the
 //! tasks wrote into the same table (`sweep.csv`, `sweep.json`, `sweep.svg`) and the phonation
@@ -16,6 +21,8 @@
 
 use crate::scene::SceneError;
 use crate::scene::SceneKind;
+use crate::scene::coupled::CoupledScene;
+use crate::scene::resolution;
 use crate::scene::two_mass::TwoMassScene;
 use anyhow::{Context, bail};
 use plotters::prelude::*;
@@ -53,6 +60,15 @@ pub struct Row {
     pub mean_flow: Option<f64>,
     pub open_quotient: Option<f64>,
     pub mfdr: Option<f64>,
+    /// The job's wall time and simulated time (s), from its summary.json: timings, which differ
+    /// between runs of the same job.
+    pub wall_s: Option<f64>,
+    pub simulated_s: Option<f64>,
+    /// Wall seconds per simulated millisecond: the job's cost.
+    pub wall_s_per_simulated_ms: Option<f64>,
+    /// A resolution sweep: f0 / f0 of the finest finished row − 1 (the error against the finest
+    /// run, as a convergence study reads it).
+    pub f0_vs_finest: Option<f64>,
 }
 
 /// The lowest swept value at which the folds oscillate, with every lower value silent.
@@ -64,8 +80,11 @@ pub struct Threshold {
 }
 
 /// Set the numeric value at a dotted `key` of a scene text (the key must exist: a sweep does not
-/// invent settings).
+/// invent settings); `resolution` rescales the lattice and the particles instead.
 pub fn set_key(text: &str, key: &str, value: f64) -> Result<String, SceneError> {
+    if key == resolution::KEY {
+        return resolution::text_at_resolution(text, value);
+    }
     let mut table: toml::Table = toml::from_str(text).map_err(|e| SceneError::from_toml("scene", &e, text))?;
     let parts: Vec<&str> = key.split('.').collect();
     let mut t = &mut table;
@@ -88,13 +107,23 @@ pub fn prepare(dir: &Path, scene_text: &str, scene_name: &str, key: &str, values
     if values.is_empty() {
         bail!("--values: no values to sweep");
     }
-    if SceneKind::of(scene_text) != SceneKind::TwoMass {
-        bail!("sweep: only two-mass scenes write voice measures so far (the glottis scenes will follow); `{scene_name}` is another kind");
+    let kind = SceneKind::of(scene_text);
+    match kind {
+        SceneKind::TwoMass => {}
+        SceneKind::Coupled if CoupledScene::parse(scene_text)?.has_glottis() => {}
+        _ => bail!("sweep: `{scene_name}` writes no voice measures (two-mass scenes and coupled scenes with a left and a right vocal fold do)"),
+    }
+    if kind == SceneKind::TwoMass && key == resolution::KEY {
+        bail!("--key resolution: a two-mass scene has no lattice");
     }
     let mut texts = Vec::new();
     for &v in values {
         let text = set_key(scene_text, key, v)?;
-        TwoMassScene::parse(&text).with_context(|| format!("the job with {key} = {v}"))?;
+        let checked = match kind {
+            SceneKind::TwoMass => TwoMassScene::parse(&text).map(|_| ()),
+            _ => CoupledScene::parse(&text).map(|_| ()),
+        };
+        checked.with_context(|| format!("the job with {key} = {v}"))?;
         texts.push(text);
     }
     std::fs::create_dir_all(dir.join("jobs"))?;
@@ -112,8 +141,15 @@ pub fn prepare(dir: &Path, scene_text: &str, scene_name: &str, key: &str, values
 /// Run one job of a prepared sweep in this process.
 pub fn run_job(dir: &Path, job: &Job) -> anyhow::Result<()> {
     let text = std::fs::read_to_string(dir.join(&job.scene_file))?;
-    let sc = TwoMassScene::parse(&text)?;
-    crate::run::two_mass::run_two_mass_scene(&sc, &dir.join(&job.out))?;
+    let out = dir.join(&job.out);
+    if SceneKind::of(&text) == SceneKind::TwoMass {
+        crate::run::two_mass::run_two_mass_scene(&TwoMassScene::parse(&text)?, &out)?;
+    } else {
+        let report = crate::run::coupled::run_coupled_scene(&CoupledScene::parse(&text)?, &out, &crate::run::RunOptions::default())?;
+        if let Some(why) = report.instability {
+            bail!("unstable: {why} (outputs so far kept in {})", out.display());
+        }
+    }
     Ok(())
 }
 
@@ -123,9 +159,13 @@ pub fn run_local(dir: &Path, m: &Manifest) -> anyhow::Result<(Vec<Row>, Option<T
     collect(dir)
 }
 
-/// Write the Slurm job-array script: task i runs `phonation run jobs/job_i.toml`.
+/// Write the Slurm job-array script: task i runs `phonation run jobs/job_i.toml`, each with the
+/// wall-time limit `time` (Slurm's `--time`: `MM`, `HH:MM:SS`, `D-HH:MM:SS`, …).
 /// `phonation` is this executable unless `PHONATION` names another at run time.
-pub fn emit_slurm(dir: &Path, m: &Manifest) -> anyhow::Result<PathBuf> {
+pub fn emit_slurm(dir: &Path, m: &Manifest, time: &str) -> anyhow::Result<PathBuf> {
+    if time.is_empty() || !time.chars().all(|c| c.is_ascii_digit() || c == ':' || c == '-') {
+        bail!("--time: {time:?} is not a Slurm time limit (digits, ':' and '-', e.g. 01:00:00 or 2-00:00:00)");
+    }
     let abs = std::fs::canonicalize(dir)?;
     let exe = std::env::current_exe().map(|p| p.display().to_string()).unwrap_or_else(|_| "phonation".into());
     std::fs::create_dir_all(dir.join("logs"))?;
@@ -138,7 +178,7 @@ pub fn emit_slurm(dir: &Path, m: &Manifest) -> anyhow::Result<PathBuf> {
 #SBATCH --array=0-{last}
 #SBATCH --ntasks=1
 #SBATCH --cpus-per-task=1
-#SBATCH --time=01:00:00
+#SBATCH --time={time}
 #SBATCH --output={abs}/logs/%A_%a.out
 set -euo pipefail
 cd "${{SWEEP_DIR:-{abs}}}"
@@ -153,22 +193,30 @@ ID=$(printf '%03d' "$SLURM_ARRAY_TASK_ID")
         abs = abs.display(),
         name = m.scene,
         last = m.jobs.len() - 1,
+        time = time,
     );
     let path = dir.join("sweep.slurm");
     std::fs::write(&path, script)?;
     Ok(path)
 }
 
+/// The manifest of the sweep directory `dir`.
+pub fn manifest(dir: &Path) -> anyhow::Result<Manifest> {
+    let text = std::fs::read_to_string(dir.join("sweep_manifest.json")).with_context(|| format!("{} is not a sweep directory", dir.display()))?;
+    Ok(serde_json::from_str(&text)?)
+}
+
 /// Merge the jobs' results into `sweep.csv`, `sweep.json` and `sweep.svg`; jobs that have not
 /// written their voice.json are listed as not done.
 pub fn collect(dir: &Path) -> anyhow::Result<(Vec<Row>, Option<Threshold>)> {
-    let m: Manifest = serde_json::from_str(
-        &std::fs::read_to_string(dir.join("sweep_manifest.json")).with_context(|| format!("{} is not a sweep directory", dir.display()))?,
-    )?;
+    let m = manifest(dir)?;
     let mut rows = Vec::new();
     for j in &m.jobs {
         let voice = std::fs::read_to_string(dir.join(&j.out).join("voice.json")).ok().and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
         let get = |k: &str| voice.as_ref().and_then(|v| v["measures"][k].as_f64());
+        let summary = std::fs::read_to_string(dir.join(&j.out).join("summary.json")).ok().and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
+        let timing = |k: &str| summary.as_ref().and_then(|v| v[k].as_f64());
+        let (wall_s, simulated_s) = (timing("wall_s"), timing("simulated_s"));
         rows.push(Row {
             id: j.id,
             value: j.value,
@@ -179,15 +227,25 @@ pub fn collect(dir: &Path) -> anyhow::Result<(Vec<Row>, Option<Threshold>)> {
             mean_flow: get("mean_flow"),
             open_quotient: get("open_quotient"),
             mfdr: get("mfdr"),
+            wall_s,
+            simulated_s,
+            wall_s_per_simulated_ms: wall_s.zip(simulated_s).filter(|&(_, t)| t > 0.0).map(|(w, t)| w / (1e3 * t)),
+            f0_vs_finest: None,
         });
     }
     rows.sort_by(|a, b| a.value.total_cmp(&b.value));
+    if m.key == resolution::KEY {
+        set_f0_vs_finest(&mut rows);
+    }
     let threshold = threshold(&rows);
     let fmt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6e}"));
-    let mut csv = format!("{},done,oscillating,f0_hz,peak_flow_cm3_s,mean_flow_cm3_s,open_quotient,mfdr_cm3_s2\n", m.key);
+    let mut csv = format!(
+        "{},done,oscillating,f0_hz,peak_flow_cm3_s,mean_flow_cm3_s,open_quotient,mfdr_cm3_s2,f0_vs_finest,wall_s,simulated_s,wall_s_per_simulated_ms\n",
+        m.key
+    );
     for r in &rows {
         csv += &format!(
-            "{:.6e},{},{},{},{},{},{},{}\n",
+            "{:.6e},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.value,
             r.done,
             r.oscillating,
@@ -195,7 +253,11 @@ pub fn collect(dir: &Path) -> anyhow::Result<(Vec<Row>, Option<Threshold>)> {
             fmt(r.peak_flow),
             fmt(r.mean_flow),
             fmt(r.open_quotient),
-            fmt(r.mfdr)
+            fmt(r.mfdr),
+            fmt(r.f0_vs_finest),
+            fmt(r.wall_s),
+            fmt(r.simulated_s),
+            fmt(r.wall_s_per_simulated_ms)
         );
     }
     std::fs::write(dir.join("sweep.csv"), csv)?;
@@ -210,19 +272,33 @@ pub fn collect(dir: &Path) -> anyhow::Result<(Vec<Row>, Option<Threshold>)> {
     Ok((rows, threshold))
 }
 
+/// A resolution sweep's error column: each f0 against that of the finest (largest factor) row
+/// that has one.
+fn set_f0_vs_finest(rows: &mut [Row]) {
+    let finest = rows.iter().rev().find_map(|r| r.f0_hz);
+    for r in rows.iter_mut() {
+        r.f0_vs_finest = r.f0_hz.zip(finest).map(|(f, f_ref)| f / f_ref - 1.0);
+    }
+}
+
 /// The lowest oscillating value above which (in the sweep's order) nothing lower oscillates.
 pub fn threshold(rows: &[Row]) -> Option<Threshold> {
     let first = rows.iter().position(|r| r.oscillating)?;
     Some(Threshold { below: first.checked_sub(1).map(|i| rows[i].value), at_or_above: rows[first].value })
 }
 
+/// f0, peak flow and the wall time per simulated ms against the swept value (three panels;
+/// open red circles: finished jobs whose folds did not oscillate).
 fn plot(path: &Path, key: &str, rows: &[Row]) -> anyhow::Result<()> {
-    let root = SVGBackend::new(path, (800, 640)).into_drawing_area();
+    let root = SVGBackend::new(path, (800, 900)).into_drawing_area();
     root.fill(&WHITE)?;
-    let (top, bottom) = root.split_vertically(320);
+    let panels = root.split_evenly((3, 1));
     let x0 = rows.first().map_or(0.0, |r| r.value);
     let x1 = rows.last().map_or(1.0, |r| r.value).max(x0 + 1e-9);
-    for (area, label, pick) in [(&top, "f0 (Hz)", (|r: &Row| r.f0_hz) as fn(&Row) -> Option<f64>), (&bottom, "peak flow (cm³/s)", |r: &Row| r.peak_flow)] {
+    type Pick = fn(&Row) -> Option<f64>;
+    let picks: [(&str, Pick); 3] =
+        [("f0 (Hz)", |r| r.f0_hz), ("peak flow (cm³/s)", |r| r.peak_flow), ("wall s per simulated ms", |r| r.wall_s_per_simulated_ms)];
+    for (area, (label, pick)) in panels.iter().zip(picks) {
         let pts: Vec<(f64, f64)> = rows.iter().filter_map(|r| pick(r).map(|v| (r.value, v))).collect();
         let hi = pts.iter().fold(0.0f64, |m, p| m.max(p.1)).max(1e-9) * 1.1;
         let mut chart = ChartBuilder::on(area)
@@ -266,9 +342,21 @@ mod tests {
             mean_flow: None,
             open_quotient: None,
             mfdr: None,
+            wall_s: None,
+            simulated_s: None,
+            wall_s_per_simulated_ms: None,
+            f0_vs_finest: None,
         };
         assert_eq!(threshold(&[row(1.0, false), row(2.0, false), row(3.0, true), row(4.0, true)]), Some(Threshold { below: Some(2.0), at_or_above: 3.0 }));
         assert_eq!(threshold(&[row(1.0, false)]), None);
+        // a resolution sweep's error column: f0 against the finest row that has one
+        let mut rows = [row(0.5, true), row(0.75, true), row(1.0, true), row(1.5, false)];
+        for (r, f) in rows.iter_mut().zip([Some(360.0), Some(200.0), Some(150.0), None]) {
+            r.f0_hz = f;
+        }
+        set_f0_vs_finest(&mut rows);
+        let vs: Vec<Option<f64>> = rows.iter().map(|r| r.f0_vs_finest).collect();
+        assert_eq!(vs, [Some(360.0 / 150.0 - 1.0), Some(200.0 / 150.0 - 1.0), Some(0.0), None]);
         assert_eq!(threshold(&[row(1.0, true)]), Some(Threshold { below: None, at_or_above: 1.0 }));
     }
 }

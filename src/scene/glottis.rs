@@ -8,19 +8,29 @@ use crate::coupling::CoupledSolver;
 use crate::coupling::glottis::Glottis;
 
 impl CoupledScene {
+    /// The indices of the left and the right fold body and the right fold's spec, when the
+    /// solid has exactly one left and one right fold about the same mid-line.
+    fn fold_pair(&self) -> Option<(usize, usize, &FoldBodySpec)> {
+        let folds: Vec<(usize, &FoldBodySpec)> = self.solid.file.solid.bodies.iter().enumerate().filter_map(|(k, b)| b.fold.as_ref().map(|f| (k, f))).collect();
+        let [(a, fa), (b, fb)] = folds[..] else { return None };
+        let (l, (r, fr)) = match (fa.side, fb.side) {
+            (FoldSide::Left, FoldSide::Right) => (a, (b, fb)),
+            (FoldSide::Right, FoldSide::Left) => (b, (a, fa)),
+            _ => return None,
+        };
+        (fa.origin[0] == fb.origin[0]).then_some((l, r, fr))
+    }
+
+    /// Whether the scene is a glottis (one left and one right fold about the same mid-line):
+    /// its runs write the glottal flow and the voice measures.
+    pub fn has_glottis(&self) -> bool {
+        self.fold_pair().is_some()
+    }
+
     /// The glottis when the solid has exactly one left and one right fold about the same
     /// mid-line: glottal gap, flow and margins are then sampled during a run.
     pub fn glottis(&self, c: &CoupledSolver) -> Option<Glottis> {
-        let folds: Vec<(usize, &FoldBodySpec)> = self.solid.file.solid.bodies.iter().enumerate().filter_map(|(k, b)| b.fold.as_ref().map(|f| (k, f))).collect();
-        let [(a, fa), (b, fb)] = folds[..] else { return None };
-        let ((l, _), (r, fr)) = match (fa.side, fb.side) {
-            (FoldSide::Left, FoldSide::Right) => ((a, fa), (b, fb)),
-            (FoldSide::Right, FoldSide::Left) => ((b, fb), (a, fa)),
-            _ => return None,
-        };
-        if fa.origin[0] != fb.origin[0] {
-            return None;
-        }
+        let (l, r, fr) = self.fold_pair()?;
         let sec = &fr.section;
         let m = 0.5 * sec.gap;
         // the margins of the medial surface (in 3D at mid-length)

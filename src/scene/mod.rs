@@ -7,6 +7,7 @@ pub mod fold;
 pub mod glottis;
 pub mod kind;
 pub mod lattice_gas;
+pub mod resolution;
 pub mod schema;
 pub mod solid;
 pub mod two_mass;

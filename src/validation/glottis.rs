@@ -55,3 +55,202 @@ pub fn rows() -> Vec<(String, f64, String, bool)> {
     out.push(("f0 ordering A < C < B < D (1 = yes)".into(), ordered as u8 as f64, "seed: 110 < 145 < 180 < 190 Hz".into(), ordered));
     out
 }
+
+/// The resolutions of the speed-against-error study: factors of the seed's 124 × 128 lattice.
+pub const STUDY_RESOLUTIONS: [f64; 3] = [0.5, 0.75, 1.0];
+
+/// The Mach scaling of the study's second sweep (that of `glottis_2d_coarse`: the Bernoulli jet
+/// √(2·8000/ρ) = 3676 cm/s at lattice Mach 0.3, a time step 2.8× the real air's).
+pub const STUDY_MACH: f64 = 0.3;
+
+/// `glottis_2d_c` (case C) with the air's sound speed scaled so that the jet runs at `mach`
+/// (`None`: real air, the scene as it is).
+pub fn case_c_scene(mach: Option<f64>) -> String {
+    let text = crate::scene::builtin("glottis_2d_c").expect("built in");
+    let Some(mach) = mach else { return text.to_string() };
+    let mut t: toml::Table = text.parse().expect("a built-in scene parses");
+    let mut scaling = toml::Table::new();
+    scaling.insert("reference_velocity".into(), toml::Value::Float(3676.0));
+    scaling.insert("mach".into(), toml::Value::Float(mach));
+    t.get_mut("numerics").and_then(|n| n.as_table_mut()).expect("glottis_2d_c has [numerics]").insert("mach_scaling".into(), toml::Value::Table(scaling));
+    toml::to_string(&t).expect("a table serialises")
+}
+
+/// One point of the study.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct StudyPoint {
+    pub air: String,
+    pub resolution: f64,
+    pub f0_hz: Option<f64>,
+    pub wall_s_per_simulated_ms: Option<f64>,
+    pub f0_vs_finest: Option<f64>,
+}
+
+/// Case C's f0 against the lattice resolution and the Mach scaling, with each run's cost: two
+/// sweeps (`phonation sweep --key resolution`) over [`STUDY_RESOLUTIONS`] of `glottis_2d_c`,
+/// real air and Mach-scaled ([`STUDY_MACH`]), 40 ms each from rest, in
+/// `out/validate/glottis_speed_error/{real_air,mach_0.3}/`, and the speed-against-error table
+/// and plot (`speed_error.csv`, `speed_error.svg`) beside them. Hours on a CPU: the real air at
+/// the seed's lattice is ≈ 4.3 h on 2 cores.
+pub fn speed_error_study(root: &std::path::Path) -> anyhow::Result<Vec<StudyPoint>> {
+    use crate::run::sweep;
+    let mut points = Vec::new();
+    for (air, mach) in [("real_air", None), ("mach_0.3", Some(STUDY_MACH))] {
+        let dir = root.join(air);
+        let m = sweep::prepare(&dir, &case_c_scene(mach), "glottis_2d_c", crate::scene::resolution::KEY, &STUDY_RESOLUTIONS)?;
+        // a job that fails (unstable) leaves its row not done; the others are still collected
+        for j in &m.jobs {
+            if let Err(e) = sweep::run_job(&dir, j) {
+                eprintln!("glottis_speed_error: {air} ×{}: {e:#}", j.value);
+            }
+        }
+        let (rows, _) = sweep::collect(&dir)?;
+        points.extend(rows.iter().map(|r| StudyPoint {
+            air: air.into(),
+            resolution: r.value,
+            f0_hz: r.f0_hz,
+            wall_s_per_simulated_ms: r.wall_s_per_simulated_ms,
+            f0_vs_finest: r.f0_vs_finest,
+        }));
+    }
+    write_study(root, &points)?;
+    Ok(points)
+}
+
+/// `speed_error.csv` and `speed_error.svg`: f0 against the wall time per simulated ms, one line
+/// per air model, the seed's 145 Hz ± 20 % as a band.
+pub fn write_study(root: &std::path::Path, points: &[StudyPoint]) -> anyhow::Result<()> {
+    use plotters::prelude::*;
+    let fmt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6e}"));
+    let mut csv = String::from("air,resolution,f0_hz,f0_vs_finest,wall_s_per_simulated_ms\n");
+    for p in points {
+        csv += &format!("{},{},{},{},{}\n", p.air, p.resolution, fmt(p.f0_hz), fmt(p.f0_vs_finest), fmt(p.wall_s_per_simulated_ms));
+    }
+    std::fs::create_dir_all(root)?;
+    std::fs::write(root.join("speed_error.csv"), csv)?;
+    let pts = |air: &str| -> Vec<(f64, f64, f64)> {
+        points.iter().filter(|p| p.air == air).filter_map(|p| Some((p.wall_s_per_simulated_ms?, p.f0_hz?, p.resolution))).collect()
+    };
+    let all: Vec<(f64, f64, f64)> = points.iter().filter_map(|p| Some((p.wall_s_per_simulated_ms?, p.f0_hz?, p.resolution))).collect();
+    let (x0, x1) = all.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (x0, x1) = if all.is_empty() { (0.1, 1000.0) } else { (x0 / 2.0, (x1 * 2.0).max(x0)) };
+    let hi = all.iter().fold(200.0f64, |m, p| m.max(p.1)) * 1.1;
+    let seed = BodyCoverCase::C.seed_f0();
+    let path = root.join("speed_error.svg");
+    let area = SVGBackend::new(&path, (800, 520)).into_drawing_area();
+    area.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&area)
+        .caption("glottis_2d_c: f0 against cost (resolution ×0.5, ×0.75, ×1 of the seed's lattice)", ("sans-serif", 16))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((x0..x1).log_scale(), 0.0..hi)?;
+    chart.configure_mesh().x_desc("wall s per simulated ms (this machine)").y_desc("f0 (Hz)").draw()?;
+    chart
+        .draw_series(std::iter::once(Rectangle::new([(x0, 0.8 * seed), (x1, 1.2 * seed)], RGBColor(200, 230, 200).filled())))?
+        .label(format!("seed {seed} Hz ± 20 %"));
+    for (air, colour) in [("real_air", BLUE), ("mach_0.3", RED)] {
+        let p = pts(air);
+        chart
+            .draw_series(LineSeries::new(p.iter().map(|q| (q.0, q.1)), colour.stroke_width(2)))?
+            .label(air)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], colour));
+        chart.draw_series(p.iter().map(|q| Circle::new((q.0, q.1), 4, colour.filled())))?;
+        chart.draw_series(p.iter().map(|q| Text::new(format!("×{}", q.2), (q.0, q.1 + 0.03 * hi), ("sans-serif", 13))))?;
+    }
+    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+    area.present()?;
+    Ok(())
+}
+
+/// The suite's rows of the study: each run's f0 and cost, the finest real-air f0 against the
+/// seed (±20 %), f0 converging with resolution (the ×0.75 run closer to the finest than the ×0.5
+/// one) for each air model, and the Mach scaling's f0 change at the seed's lattice (≤ 10 %:
+/// what makes the scaled air usable for case C; stated as the acceptance, not measured yet).
+pub fn speed_error_rows() -> Vec<(String, f64, String, bool)> {
+    let root = PathBuf::from("out/validate/glottis_speed_error");
+    let points = match speed_error_study(&root) {
+        Ok(p) => p,
+        Err(e) => return vec![(format!("glottis_speed_error: {e:#}"), f64::NAN, "runs".into(), false)],
+    };
+    study_rows(&points)
+}
+
+/// [`speed_error_rows`] from the study's points.
+pub fn study_rows(points: &[StudyPoint]) -> Vec<(String, f64, String, bool)> {
+    let mut out = Vec::new();
+    let get = |air: &str, r: f64| points.iter().find(|p| p.air == air && p.resolution == r);
+    let f0 = |air: &str, r: f64| get(air, r).and_then(|p| p.f0_hz).unwrap_or(f64::NAN);
+    for p in points {
+        let cost = p.wall_s_per_simulated_ms.unwrap_or(f64::NAN);
+        out.push((format!("{} ×{}: wall s per simulated ms", p.air, p.resolution), cost, "finished (summary.json)".into(), cost.is_finite()));
+        let hz = p.f0_hz.unwrap_or(f64::NAN);
+        out.push((format!("{} ×{}: f0 (Hz)", p.air, p.resolution), hz, "an f0 (the folds vibrate)".into(), hz.is_finite()));
+    }
+    let seed = BodyCoverCase::C.seed_f0();
+    let finest = f0("real_air", 1.0);
+    out.push(("real air ×1: f0 (Hz) against the seed".into(), finest, format!("seed {seed} ± 20 %"), (finest / seed - 1.0).abs() <= 0.2));
+    for air in ["real_air", "mach_0.3"] {
+        let (a, b, c) = (f0(air, 0.5), f0(air, 0.75), f0(air, 1.0));
+        let closer = (b - c).abs() < (a - c).abs();
+        out.push((format!("{air}: |f0(×0.75) − f0(×1)| / |f0(×0.5) − f0(×1)|"), (b - c).abs() / (a - c).abs(), "< 1 (converging)".into(), closer));
+    }
+    let change = f0("mach_0.3", 1.0) / finest - 1.0;
+    out.push(("Mach 0.3 scaling: f0 change at ×1".into(), change, "|·| ≤ 0.1".into(), change.abs() <= 0.1));
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The study's Mach-scaled scene is case C with the coarse scene's scaling: the time step
+    /// 2.8× the real air's at the same lattice (the real jet runs at lattice Mach 0.107).
+    #[test]
+    fn the_mach_scaled_case_c_takes_longer_steps_on_the_same_lattice() {
+        let real = CoupledScene::parse(&case_c_scene(None)).unwrap();
+        let scaled = CoupledScene::parse(&case_c_scene(Some(STUDY_MACH))).unwrap();
+        assert_eq!(real.fluid.grid.n, scaled.fluid.grid.n);
+        let dt = |sc: &CoupledScene| sc.fluid.units.time_to_physical(sc.fluid.params.dt);
+        let ratio = dt(&scaled) / dt(&real);
+        assert!((ratio - 2.8).abs() < 0.05, "Δt ratio {ratio}");
+    }
+
+    #[test]
+    fn the_study_rows_read_convergence_and_the_seed_from_the_points() {
+        let p = |air: &str, resolution: f64, f0: f64| StudyPoint {
+            air: air.into(),
+            resolution,
+            f0_hz: Some(f0),
+            wall_s_per_simulated_ms: Some(10.0 * resolution.powi(3)),
+            f0_vs_finest: None,
+        };
+        let points = [
+            p("real_air", 0.5, 360.0),
+            p("real_air", 0.75, 200.0),
+            p("real_air", 1.0, 150.0),
+            p("mach_0.3", 0.5, 360.0),
+            p("mach_0.3", 0.75, 120.0),
+            p("mach_0.3", 1.0, 160.0),
+        ];
+        let rows = study_rows(&points);
+        let row = |name: &str| rows.iter().find(|r| r.0.starts_with(name)).unwrap_or_else(|| panic!("{name}: {rows:?}"));
+        assert!(row("real air ×1: f0 (Hz) against the seed").3);
+        let conv = row("real_air: |f0(×0.75)");
+        assert!(conv.3 && (conv.1 - 50.0 / 210.0).abs() < 1e-12);
+        assert!(row("mach_0.3: |f0(×0.75)").3, "40 < 200");
+        let mach = row("Mach 0.3 scaling");
+        assert!((mach.1 - (160.0 / 150.0 - 1.0)).abs() < 1e-12 && mach.3);
+        // a point without an f0 fails its row and the rows that need it
+        let mut missing = points.clone();
+        missing[2].f0_hz = None;
+        let rows = study_rows(&missing);
+        assert!(rows.iter().filter(|r| !r.3).count() >= 4, "{rows:?}");
+        let dir = std::env::temp_dir().join(format!("phonation-study-{}", std::process::id()));
+        write_study(&dir, &points).unwrap();
+        let csv = std::fs::read_to_string(dir.join("speed_error.csv")).unwrap();
+        assert_eq!(csv.lines().count(), 7);
+        assert!(std::fs::read_to_string(dir.join("speed_error.svg")).unwrap().contains("<svg"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

@@ -281,6 +281,13 @@ pub fn cases() -> Vec<Case> {
             // ~20 min per case on 2 cores.
             super::glottis::rows()
         }),
+        ("glottis_speed_error", || {
+            // Case C's f0 against resolution (×0.5, ×0.75, ×1 of the seed's lattice) and Mach
+            // scaling (real air, Mach 0.3), 40 ms each, with each run's wall time per simulated
+            // ms: hours (the real air at ×1 is ≈ 4.3 h on 2 cores); the sweeps' directories keep
+            // every job, so `phonation sweep --collect` re-reads a study cut short.
+            super::glottis::speed_error_rows()
+        }),
         ("fsi_schafer_turek_2d1", || {
             // D = 20 cells, Mach 0.1 at U_max, 6 s, means over the last 1.5 s. Acoustic waves
             // ring between the inlet and the constant-pressure outlet (a lossless resonator): the
