@@ -205,6 +205,7 @@ fn a_glottis_sweeps_over_resolution_with_its_cost_in_the_table() {
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("sweep.json")).unwrap()).unwrap();
     for (k, r) in json["rows"].as_array().unwrap().iter().enumerate() {
         assert_eq!(r["done"], true);
+        assert_eq!(r["stable"], true, "row {k}");
         let cost = r["wall_s_per_simulated_ms"].as_f64().unwrap();
         let simulated = r["simulated_s"].as_f64().unwrap();
         assert!((simulated - 2e-4).abs() < 2e-7, "row {k}: simulated {simulated} s");

@@ -69,6 +69,10 @@ pub struct Row {
     /// A resolution sweep: f0 / f0 of the finest finished row − 1 (the error against the finest
     /// run, as a convergence study reads it).
     pub f0_vs_finest: Option<f64>,
+    /// The run finished without an instability (its summary.json names none); a row that is
+    /// not stable has measures of the part before it stopped, which a study must not read as a
+    /// result.
+    pub stable: bool,
 }
 
 /// The lowest swept value at which the folds oscillate, with every lower value silent.
@@ -154,8 +158,14 @@ pub fn run_job(dir: &Path, job: &Job) -> anyhow::Result<()> {
 }
 
 /// Run every job in parallel (rayon), then collect.
+/// A job that fails (a coupled run that goes unstable) is reported on stderr and left in the
+/// table as it ended (`stable` false, or not done): the other jobs' rows are kept.
 pub fn run_local(dir: &Path, m: &Manifest) -> anyhow::Result<(Vec<Row>, Option<Threshold>)> {
-    m.jobs.par_iter().map(|j| run_job(dir, j).with_context(|| format!("job {} ({} = {})", j.id, m.key, j.value))).collect::<anyhow::Result<Vec<()>>>()?;
+    let failed: Vec<String> =
+        m.jobs.par_iter().filter_map(|j| run_job(dir, j).err().map(|e| format!("job {} ({} = {}): {e:#}", j.id, m.key, j.value))).collect();
+    for f in &failed {
+        eprintln!("sweep: {f}");
+    }
     collect(dir)
 }
 
@@ -231,6 +241,7 @@ pub fn collect(dir: &Path) -> anyhow::Result<(Vec<Row>, Option<Threshold>)> {
             simulated_s,
             wall_s_per_simulated_ms: wall_s.zip(simulated_s).filter(|&(_, t)| t > 0.0).map(|(w, t)| w / (1e3 * t)),
             f0_vs_finest: None,
+            stable: summary.as_ref().is_some_and(|v| v["instability"].is_null() && v["status"] != "unstable"),
         });
     }
     rows.sort_by(|a, b| a.value.total_cmp(&b.value));
@@ -240,12 +251,12 @@ pub fn collect(dir: &Path) -> anyhow::Result<(Vec<Row>, Option<Threshold>)> {
     let threshold = threshold(&rows);
     let fmt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6e}"));
     let mut csv = format!(
-        "{},done,oscillating,f0_hz,peak_flow_cm3_s,mean_flow_cm3_s,open_quotient,mfdr_cm3_s2,f0_vs_finest,wall_s,simulated_s,wall_s_per_simulated_ms\n",
+        "{},done,oscillating,f0_hz,peak_flow_cm3_s,mean_flow_cm3_s,open_quotient,mfdr_cm3_s2,f0_vs_finest,stable,wall_s,simulated_s,wall_s_per_simulated_ms\n",
         m.key
     );
     for r in &rows {
         csv += &format!(
-            "{:.6e},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{:.6e},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.value,
             r.done,
             r.oscillating,
@@ -255,6 +266,7 @@ pub fn collect(dir: &Path) -> anyhow::Result<(Vec<Row>, Option<Threshold>)> {
             fmt(r.open_quotient),
             fmt(r.mfdr),
             fmt(r.f0_vs_finest),
+            r.stable,
             fmt(r.wall_s),
             fmt(r.simulated_s),
             fmt(r.wall_s_per_simulated_ms)
@@ -275,7 +287,7 @@ pub fn collect(dir: &Path) -> anyhow::Result<(Vec<Row>, Option<Threshold>)> {
 /// A resolution sweep's error column: each f0 against that of the finest (largest factor) row
 /// that has one.
 fn set_f0_vs_finest(rows: &mut [Row]) {
-    let finest = rows.iter().rev().find_map(|r| r.f0_hz);
+    let finest = rows.iter().rev().filter(|r| r.stable).find_map(|r| r.f0_hz);
     for r in rows.iter_mut() {
         r.f0_vs_finest = r.f0_hz.zip(finest).map(|(f, f_ref)| f / f_ref - 1.0);
     }
@@ -346,17 +358,46 @@ mod tests {
             simulated_s: None,
             wall_s_per_simulated_ms: None,
             f0_vs_finest: None,
+            stable: true,
         };
         assert_eq!(threshold(&[row(1.0, false), row(2.0, false), row(3.0, true), row(4.0, true)]), Some(Threshold { below: Some(2.0), at_or_above: 3.0 }));
         assert_eq!(threshold(&[row(1.0, false)]), None);
         // a resolution sweep's error column: f0 against the finest row that has one
-        let mut rows = [row(0.5, true), row(0.75, true), row(1.0, true), row(1.5, false)];
-        for (r, f) in rows.iter_mut().zip([Some(360.0), Some(200.0), Some(150.0), None]) {
+        // (the finest row with an f0 that is stable: an unstable run's f0 is no reference)
+        let mut rows = [row(0.5, true), row(0.75, true), row(1.0, true), row(1.5, false), row(2.0, true)];
+        for (r, f) in rows.iter_mut().zip([Some(360.0), Some(200.0), Some(150.0), None, Some(90.0)]) {
             r.f0_hz = f;
         }
+        rows[4].stable = false;
         set_f0_vs_finest(&mut rows);
         let vs: Vec<Option<f64>> = rows.iter().map(|r| r.f0_vs_finest).collect();
-        assert_eq!(vs, [Some(360.0 / 150.0 - 1.0), Some(200.0 / 150.0 - 1.0), Some(0.0), None]);
+        assert_eq!(vs, [Some(360.0 / 150.0 - 1.0), Some(200.0 / 150.0 - 1.0), Some(0.0), None, Some(90.0 / 150.0 - 1.0)]);
         assert_eq!(threshold(&[row(1.0, true)]), Some(Threshold { below: None, at_or_above: 1.0 }));
+    }
+
+    /// `collect` reads a job that went unstable as not stable (from its summary.json), keeps
+    /// its measures, and does not take its f0 as the finest reference of a resolution sweep.
+    #[test]
+    fn an_unstable_job_is_collected_as_not_stable() {
+        let dir = std::env::temp_dir().join(format!("phonation-sweep-unstable-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let jobs = (0..2).map(|id| Job { id, value: [0.5, 1.0][id], scene_file: format!("jobs/job_{id:03}.toml"), out: format!("jobs/job_{id:03}") }).collect();
+        let m = Manifest { scene: "s".into(), key: resolution::KEY.into(), jobs };
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("sweep_manifest.json"), serde_json::to_string(&m).unwrap()).unwrap();
+        for (id, f0, instability) in [(0, 360.0, serde_json::Value::Null), (1, 90.0, "fluid unstable at step 7".into())] {
+            let out = dir.join(format!("jobs/job_{id:03}"));
+            std::fs::create_dir_all(&out).unwrap();
+            std::fs::write(out.join("voice.json"), serde_json::json!({"oscillating": true, "measures": {"f0_autocorrelation_hz": f0}}).to_string()).unwrap();
+            std::fs::write(out.join("summary.json"), serde_json::json!({"instability": instability, "wall_s": 2.0, "simulated_s": 1e-3}).to_string()).unwrap();
+        }
+        let (rows, _) = collect(&dir).unwrap();
+        assert_eq!(rows.iter().map(|r| r.stable).collect::<Vec<_>>(), [true, false]);
+        assert_eq!(rows[1].f0_hz, Some(90.0));
+        assert_eq!(rows[0].f0_vs_finest, Some(0.0), "the stable row is its own finest");
+        assert_eq!(rows[0].wall_s_per_simulated_ms, Some(2.0));
+        let csv = std::fs::read_to_string(dir.join("sweep.csv")).unwrap();
+        assert!(csv.lines().nth(2).unwrap().contains(",false,2.000000e0,"), "{csv}");
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -98,7 +98,7 @@ pub fn speed_error_study(root: &std::path::Path) -> anyhow::Result<Vec<StudyPoin
     for (air, mach) in [("real_air", None), ("mach_0.3", Some(STUDY_MACH))] {
         let dir = root.join(air);
         let m = sweep::prepare(&dir, &case_c_scene(mach), "glottis_2d_c", crate::scene::resolution::KEY, &STUDY_RESOLUTIONS)?;
-        // a job that fails (unstable) leaves its row not done; the others are still collected
+        // a job that goes unstable keeps its outputs; its point has no f0 and no cost
         for j in &m.jobs {
             if let Err(e) = sweep::run_job(&dir, j) {
                 eprintln!("glottis_speed_error: {air} ×{}: {e:#}", j.value);
@@ -108,9 +108,9 @@ pub fn speed_error_study(root: &std::path::Path) -> anyhow::Result<Vec<StudyPoin
         points.extend(rows.iter().map(|r| StudyPoint {
             air: air.into(),
             resolution: r.value,
-            f0_hz: r.f0_hz,
-            wall_s_per_simulated_ms: r.wall_s_per_simulated_ms,
-            f0_vs_finest: r.f0_vs_finest,
+            f0_hz: r.f0_hz.filter(|_| r.stable),
+            wall_s_per_simulated_ms: r.wall_s_per_simulated_ms.filter(|_| r.stable),
+            f0_vs_finest: r.f0_vs_finest.filter(|_| r.stable),
         }));
     }
     write_study(root, &points)?;
