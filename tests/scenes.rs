@@ -213,6 +213,8 @@ fn a_glottis_sweeps_over_resolution_with_its_cost_in_the_table() {
     }
     let printed = String::from_utf8_lossy(&o.stdout);
     assert!(printed.contains("wall s / ms") && printed.contains("f0 vs finest"), "{printed}");
+    assert!(!printed.contains("threshold") && !printed.contains("no oscillation at any value"), "a resolution has no phonation threshold: {printed}");
+    assert!(json["phonation_threshold"].is_null());
     assert!(out.join("sweep.svg").exists());
     let refused = |args: &[&str], why: &str| {
         let o = std::process::Command::new(exe).args(args).output().unwrap();

@@ -219,6 +219,7 @@ fn print_sweep(dir: &std::path::Path, key: &str, rows: &[sweep::Row], t: Option<
         );
     }
     match t {
+        _ if resolution => {}
         Some(sweep::Threshold { below: Some(b), at_or_above }) => println!("phonation threshold between {b} and {at_or_above}"),
         Some(sweep::Threshold { below: None, at_or_above }) => println!("oscillates already at the lowest value, {at_or_above}"),
         None => println!("no oscillation at any value swept"),

@@ -248,7 +248,8 @@ pub fn collect(dir: &Path) -> anyhow::Result<(Vec<Row>, Option<Threshold>)> {
     if m.key == resolution::KEY {
         set_f0_vs_finest(&mut rows);
     }
-    let threshold = threshold(&rows);
+    // a phonation threshold belongs to a physical parameter, not to the lattice's resolution
+    let threshold = if m.key == resolution::KEY { None } else { threshold(&rows) };
     let fmt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6e}"));
     let mut csv = format!(
         "{},done,oscillating,f0_hz,peak_flow_cm3_s,mean_flow_cm3_s,open_quotient,mfdr_cm3_s2,f0_vs_finest,stable,wall_s,simulated_s,wall_s_per_simulated_ms\n",
@@ -293,10 +294,12 @@ fn set_f0_vs_finest(rows: &mut [Row]) {
     }
 }
 
-/// The lowest oscillating value above which (in the sweep's order) nothing lower oscillates.
+/// The lowest oscillating value above which (in the sweep's order) nothing lower oscillates,
+/// among the finished jobs (a job not yet done is no evidence of silence).
 pub fn threshold(rows: &[Row]) -> Option<Threshold> {
-    let first = rows.iter().position(|r| r.oscillating)?;
-    Some(Threshold { below: first.checked_sub(1).map(|i| rows[i].value), at_or_above: rows[first].value })
+    let done: Vec<&Row> = rows.iter().filter(|r| r.done).collect();
+    let first = done.iter().position(|r| r.oscillating)?;
+    Some(Threshold { below: first.checked_sub(1).map(|i| done[i].value), at_or_above: done[first].value })
 }
 
 /// f0, peak flow and the wall time per simulated ms against the swept value (three panels;
@@ -373,6 +376,10 @@ mod tests {
         let vs: Vec<Option<f64>> = rows.iter().map(|r| r.f0_vs_finest).collect();
         assert_eq!(vs, [Some(360.0 / 150.0 - 1.0), Some(200.0 / 150.0 - 1.0), Some(0.0), None, Some(90.0 / 150.0 - 1.0)]);
         assert_eq!(threshold(&[row(1.0, true)]), Some(Threshold { below: None, at_or_above: 1.0 }));
+        // a job not yet done is skipped, not read as silent
+        let mut pending = [row(1.0, false), row(2.0, false), row(3.0, true)];
+        pending[1].done = false;
+        assert_eq!(threshold(&pending), Some(Threshold { below: Some(1.0), at_or_above: 3.0 }));
     }
 
     /// `collect` reads a job that went unstable as not stable (from its summary.json), keeps
