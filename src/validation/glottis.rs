@@ -100,6 +100,7 @@ pub fn speed_error_study(root: &std::path::Path) -> anyhow::Result<Vec<StudyPoin
         let m = sweep::prepare(&dir, &case_c_scene(mach), "glottis_2d_c", crate::scene::resolution::KEY, &STUDY_RESOLUTIONS)?;
         // a job that goes unstable keeps its outputs; its point has no f0 and no cost
         for j in &m.jobs {
+            eprintln!("glottis_speed_error: {air} ×{} → {}", j.value, dir.join(&j.out).display());
             if let Err(e) = sweep::run_job(&dir, j) {
                 eprintln!("glottis_speed_error: {air} ×{}: {e:#}", j.value);
             }
