@@ -241,7 +241,7 @@ pub fn collect(dir: &Path) -> anyhow::Result<(Vec<Row>, Option<Threshold>)> {
             simulated_s,
             wall_s_per_simulated_ms: wall_s.zip(simulated_s).filter(|&(_, t)| t > 0.0).map(|(w, t)| w / (1e3 * t)),
             f0_vs_finest: None,
-            stable: summary.as_ref().is_some_and(|v| v["instability"].is_null() && v["status"] != "unstable"),
+            stable: summary.as_ref().is_some_and(|v| v["instability"].is_null()),
         });
     }
     rows.sort_by(|a, b| a.value.total_cmp(&b.value));

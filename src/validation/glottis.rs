@@ -63,15 +63,16 @@ pub const STUDY_RESOLUTIONS: [f64; 3] = [0.5, 0.75, 1.0];
 /// √(2·8000/ρ) = 3676 cm/s at lattice Mach 0.3, a time step 2.8× the real air's).
 pub const STUDY_MACH: f64 = 0.3;
 
-/// `glottis_2d_c` (case C) with the air's sound speed scaled so that the jet runs at `mach`
+/// `glottis_2d_c` (case C) with the air's sound speed scaled as `glottis_2d_coarse` scales it
+/// (its `numerics.mach_scaling`: the jet's reference velocity) but with the jet at `mach`
 /// (`None`: real air, the scene as it is).
 pub fn case_c_scene(mach: Option<f64>) -> String {
     let text = crate::scene::builtin("glottis_2d_c").expect("built in");
     let Some(mach) = mach else { return text.to_string() };
-    let mut t: toml::Table = text.parse().expect("a built-in scene parses");
-    let mut scaling = toml::Table::new();
-    scaling.insert("reference_velocity".into(), toml::Value::Float(3676.0));
+    let parse = |name: &str| -> toml::Table { crate::scene::builtin(name).expect("built in").parse().expect("a built-in scene parses") };
+    let mut scaling = parse("glottis_2d_coarse")["numerics"]["mach_scaling"].as_table().expect("glottis_2d_coarse is Mach-scaled").clone();
     scaling.insert("mach".into(), toml::Value::Float(mach));
+    let mut t = parse("glottis_2d_c");
     t.get_mut("numerics").and_then(|n| n.as_table_mut()).expect("glottis_2d_c has [numerics]").insert("mach_scaling".into(), toml::Value::Table(scaling));
     toml::to_string(&t).expect("a table serialises")
 }
@@ -98,7 +99,8 @@ pub fn speed_error_study(root: &std::path::Path) -> anyhow::Result<Vec<StudyPoin
     for (air, mach) in [("real_air", None), ("mach_0.3", Some(STUDY_MACH))] {
         let dir = root.join(air);
         let m = sweep::prepare(&dir, &case_c_scene(mach), "glottis_2d_c", crate::scene::resolution::KEY, &STUDY_RESOLUTIONS)?;
-        // a job that goes unstable keeps its outputs; its point has no f0 and no cost
+        // one job at a time (not `sweep::run_local`'s parallel jobs), so that each run's wall
+        // time is its own cost; a job that goes unstable keeps its outputs, its point has no f0
         for j in &m.jobs {
             eprintln!("glottis_speed_error: {air} ×{} → {}", j.value, dir.join(&j.out).display());
             if let Err(e) = sweep::run_job(&dir, j) {
