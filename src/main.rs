@@ -64,7 +64,7 @@ enum Command {
     Isotropy(cli::lattice_gas::IsotropyArgs),
     /// Run the validation cases against their references; exits non-zero if any fails.
     Validate {
-        /// Only cases whose name contains this.
+        /// Only this case (an exact name), or every case whose name contains this.
         #[arg(long)]
         case: Option<String>,
         /// Also write the outcomes as JSON here.
@@ -102,6 +102,10 @@ fn main() -> anyhow::Result<()> {
         Command::Bench(a) => cli::bench::bench(a)?,
         Command::Validate { case, json } => {
             let outcomes = phonation::validation::suite::run(case.as_deref());
+            if let (Some(c), true) = (&case, outcomes.is_empty()) {
+                let names: Vec<&str> = phonation::validation::suite::cases().iter().map(|(n, _)| *n).collect();
+                bail!("--case: '{c}' names no validation case (a case's name or part of it: {})", names.join(", "));
+            }
             let mut failed = 0;
             for o in &outcomes {
                 println!("{}", o);

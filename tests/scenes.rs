@@ -167,6 +167,17 @@ fn collecting_an_unfinished_sweep_says_which_jobs_are_missing() {
     let err = String::from_utf8_lossy(&bad.stderr);
     assert!(err.contains("two_mass.duration"), "{err}");
     assert!(!dir.join("bad/jobs").exists());
+    // a negative value first is a value, not an option: the scene refuses it, not the parser
+    for values in [["--values", "-1,0.1"], ["--range", "-1,1,3"]] {
+        let bad = std::process::Command::new(exe)
+            .args(["sweep", "two_mass", "--key", "two_mass.duration", values[0], values[1], "--out", dir.join("bad").to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(!bad.status.success());
+        let err = String::from_utf8_lossy(&bad.stderr);
+        assert!(err.contains("two_mass.duration") && !err.contains("unexpected argument"), "{values:?}: {err}");
+        assert!(!dir.join("bad/jobs").exists());
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 

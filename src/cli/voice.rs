@@ -122,11 +122,11 @@ pub struct SweepArgs {
     /// divides the particles' spacing by it (a convergence study: f0 against the finest run).
     #[arg(long, default_value = "two_mass.lung_pressure")]
     pub key: String,
-    /// Values of the key (in the key's own units).
-    #[arg(long, value_delimiter = ',', conflicts_with = "range")]
+    /// Values of the key (in the key's own units); negative ones too (`--values -5,5`).
+    #[arg(long, value_delimiter = ',', conflicts_with = "range", allow_hyphen_values = true)]
     pub values: Vec<f64>,
-    /// START,STOP,COUNT: COUNT evenly spaced values from START to STOP.
-    #[arg(long, value_delimiter = ',', num_args = 1)]
+    /// START,STOP,COUNT: COUNT evenly spaced values from START to STOP (START may be negative).
+    #[arg(long, value_delimiter = ',', num_args = 1, allow_hyphen_values = true)]
     pub range: Option<Vec<f64>>,
     /// Sweep directory (default out/sweep_<scene>).
     #[arg(long)]

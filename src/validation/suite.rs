@@ -337,11 +337,23 @@ fn methods() -> [(&'static str, crate::coupling::Method); 2] {
     [("method 1", Method::Weak(WeakOptions::default())), ("method 2", Method::Conserving(ConservingOptions::default()))]
 }
 
-/// Runs every case whose name contains `filter`.
+/// Which cases `filter` names: the one case called exactly that, else every case whose name
+/// contains it (`glottis_2d` is one case, `glottis` all of them; none: every case).
+pub fn selects(names: &[&str], filter: Option<&str>, name: &str) -> bool {
+    match filter {
+        None => true,
+        Some(p) if names.contains(&p) => name == p,
+        Some(p) => name.contains(p),
+    }
+}
+
+/// Runs the cases `filter` selects ([`selects`]).
 pub fn run(filter: Option<&str>) -> Vec<Outcome> {
     let mut out = Vec::new();
-    for (name, f) in cases() {
-        if filter.is_some_and(|p| !name.contains(p)) {
+    let all = cases();
+    let names: Vec<&str> = all.iter().map(|(n, _)| *n).collect();
+    for (name, f) in all {
+        if !selects(&names, filter, name) {
             continue;
         }
         let t = Instant::now();
@@ -352,4 +364,24 @@ pub fn run(filter: Option<&str>) -> Vec<Outcome> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A case's exact name runs that case alone (`glottis_2d` is not also
+    /// `glottis_speed_error`, hours apart); part of a name runs every case that contains it.
+    #[test]
+    fn a_case_named_exactly_runs_alone_and_a_part_selects_all_that_contain_it() {
+        let all = cases();
+        let names: Vec<&str> = all.iter().map(|(n, _)| *n).collect();
+        let picked = |f: Option<&str>| -> Vec<&str> { names.iter().copied().filter(|n| selects(&names, f, n)).collect() };
+        assert_eq!(picked(Some("glottis_2d")), ["glottis_2d"]);
+        assert_eq!(picked(Some("glottis")), ["glottis_2d", "glottis_speed_error"]);
+        assert_eq!(picked(Some("taylor_green")), ["taylor_green_2d", "taylor_green_3d"]);
+        assert!(picked(Some("fsi_")).len() >= 8);
+        assert_eq!(picked(None).len(), names.len());
+        assert!(picked(Some("no_such_case")).is_empty());
+    }
 }
