@@ -1733,6 +1733,39 @@ fn a_change_of_layout_moves_only_the_nodes_it_reads_and_writes() {
     }
 }
 
+/// Bodies' walls held isothermal (`coupling.wall_temperature_ratio`) on the GPU: the ghost
+/// tables carry the wall temperature to the device's ghost fill, so the coupled step matches
+/// the CPU's within method 2's bound — and the bound means something, because the walls at
+/// 1.05 T₀ move the air far more than that from the adiabatic run's.
+#[test]
+fn isothermal_body_walls_on_the_gpu_match_the_cpu() {
+    use phonation::gpu::coupled::GpuCoupled;
+    use phonation::scene::coupled::CoupledScene;
+    let Some(ctx) = context() else { return };
+    let warm = SMALL_FLAP.replace("kernel_radius = 1.0\n", "kernel_radius = 1.0\nwall_temperature_ratio = 1.05\n");
+    let sc = CoupledScene::parse(&warm).unwrap();
+    let steps = 200;
+    let mut cpu = sc.build().unwrap();
+    let mut gpu = GpuCoupled::new(ctx, sc.build().unwrap()).expect("method 2 runs on the GPU");
+    let mut adiabatic = CoupledScene::parse(SMALL_FLAP).unwrap().build().unwrap();
+    let x0 = cpu.solid.particles.position.clone();
+    cpu.run(steps).unwrap();
+    adiabatic.run(steps).unwrap();
+    gpu.run(steps).unwrap();
+    gpu.download_into();
+    let p = CoupledParity::of(&cpu, &gpu, &x0);
+    // the largest temperature difference from the adiabatic run, at nodes fluid in both, / θ₀
+    let fluid = |c: &phonation::coupling::CoupledSolver, n: usize| c.fluid.layout.kind[n] == NodeKind::Fluid;
+    let effect = (0..cpu.fluid.layout.grid.len())
+        .filter(|&n| fluid(&cpu, n) && fluid(&adiabatic, n))
+        .map(|n| (cpu.fluid.macro_at(n).theta - adiabatic.fluid.macro_at(n).theta).abs())
+        .fold(0.0, f64::max)
+        / cpu.units.theta0;
+    eprintln!("isothermal walls, {steps} steps: {}; the walls' effect on θ/θ₀ {effect:.2e}", p.summary());
+    p.assert_within(1e-4);
+    assert!(effect > 100.0 * 1e-4, "the isothermal walls' effect {effect:e} must dwarf the parity bound");
+}
+
 /// The small flap with the weak coupling (method 1).
 fn small_flap_weak() -> String {
     SMALL_FLAP.replace("momentum_conserving", "weak").replace("kernel_radius = 1.0\n", "")

@@ -33,7 +33,7 @@
 use super::momentum_exchange::step_with_exchange;
 use super::solver::{CoupledBody, CoupledSolver};
 use crate::fluid::layout::{Layout, NodeKind};
-use crate::fluid::{KernelLevelSet, LayoutChange, Macro, Obstacle, Shape};
+use crate::fluid::{KernelLevelSet, LayoutChange, Macro, Shape};
 use crate::step::{Instability, Site};
 use glam::{DVec3, DVec4};
 
@@ -271,7 +271,7 @@ impl CoupledSolver {
         }
         let sets = self.level_sets();
         let mut all = self.obstacles.clone();
-        all.extend(sets.iter().cloned().map(|k| Obstacle { shape: Shape::KernelLevelSet(k), velocity: [0.0; 3], temperature: None }));
+        all.extend(sets.iter().cloned().map(|k| self.body_wall(Shape::KernelLevelSet(k))));
         Ok(LevelSetWalls { layout: self.fluid.layout_with(&all), sets, points, change: Default::default() })
     }
 

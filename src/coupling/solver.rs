@@ -12,7 +12,7 @@ use super::motion::Motion;
 use super::surface::{BodySurface, SurfaceError};
 use super::traction::SurfaceForces;
 use super::weak::WeakOptions;
-use crate::fluid::{FluidSolver, GeometryChange, Obstacle, Polygon, Totals};
+use crate::fluid::{FluidSolver, GeometryChange, Obstacle, Polygon, Shape, Totals};
 use crate::solid::{Integrator, SolidSolver};
 use crate::stages::{COUPLED_CONSERVING_STEP, COUPLED_WEAK_STEP, CoupledStage, CoupledStageKind};
 use crate::step::{Instability, Part, Site};
@@ -79,6 +79,9 @@ pub struct CoupledSolver {
     pub(super) built: Option<Vec<Polygon>>,
     /// Method 2: the level sets' calibration and the momentum on its way to the particles.
     pub(super) exchange: Option<Exchange>,
+    /// The bodies' walls: isothermal at this reduced temperature θ (lattice units), or
+    /// adiabatic (`None`, zero normal temperature gradient). See [`Self::with_wall_temperature`].
+    pub wall_temperature: Option<f64>,
 }
 
 impl CoupledSolver {
@@ -135,6 +138,7 @@ impl CoupledSolver {
             base_load,
             built: None,
             exchange: None,
+            wall_temperature: None,
         };
         if let Method::Conserving(o) = method {
             c.exchange = Some(Exchange::new(&c, o));
@@ -153,6 +157,32 @@ impl CoupledSolver {
             c.solid.set_added_mass(m);
         }
         Ok(c)
+    }
+
+    /// The bodies' surfaces as isothermal walls at reduced temperature `theta` (lattice units;
+    /// `None`: adiabatic). The ghost nodes behind a wall then take the wall temperature
+    /// extrapolated through it ([`crate::fluid::boundary`]), as the domain's isothermal walls
+    /// do. Vocal-fold tissue is wet and at body temperature, with a heat capacity per volume
+    /// ~3000× the air's: an isothermal wall is the closer model, and it is what keeps a
+    /// closing glottis's dead-end pockets from heating without bound (README, "The coupled
+    /// glottis"). The walls are rebuilt at once; nothing else of the state changes.
+    pub fn with_wall_temperature(mut self, theta: Option<f64>) -> Self {
+        self.wall_temperature = theta;
+        if theta.is_some() {
+            self.built = None;
+            self.run_stage(CoupledStageKind::FluidGeometry).expect("the same walls as the first geometry's");
+            self.geometry = GeometryChange::default();
+            if let Some(e) = &mut self.exchange {
+                e.clear();
+            }
+        }
+        self
+    }
+
+    /// A body's wall in the fluid: `shape`, at rest until the geometry stage sets its
+    /// velocities, with the bodies' wall temperature.
+    pub(super) fn body_wall(&self, shape: Shape) -> Obstacle {
+        Obstacle { shape, velocity: [0.0; 3], temperature: self.wall_temperature }
     }
 
     fn stages_of(method: &Method) -> &'static [CoupledStage] {

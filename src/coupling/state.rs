@@ -8,7 +8,7 @@
 use super::CoupledSolver;
 use super::solver::Method;
 use super::traction::SurfaceForces;
-use crate::fluid::{Obstacle, Polygon, Shape};
+use crate::fluid::{Polygon, Shape};
 use crate::state::{SaveState, StateError, StateReader, StateWriter};
 use glam::DVec3;
 
@@ -81,14 +81,14 @@ impl SaveState for CoupledSolver {
             // The level sets at the positions of the last build (the wall velocities are set
             // again by the next step's geometry stage, before the air sees them).
             for set in self.level_sets_at(&pts) {
-                all.push(Obstacle { shape: Shape::KernelLevelSet(set), velocity: [0.0; 3], temperature: None });
+                all.push(self.body_wall(Shape::KernelLevelSet(set)));
             }
             let ex = self.exchange.as_mut().expect("method 2 has its exchange state");
             ex.built = Some(pts);
             ex.walls = DVec3::new(wx, wy, wz);
             ex.clear();
         }
-        all.extend(polys.iter().cloned().map(|p| Obstacle { shape: Shape::Polygon(p), velocity: [0.0; 3], temperature: None }));
+        all.extend(polys.iter().cloned().map(|p| self.body_wall(Shape::Polygon(p))));
         self.fluid.set_obstacles(&all);
         if let Method::Weak(_) = self.method {
             self.built = Some(polys);

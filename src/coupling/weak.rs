@@ -24,7 +24,7 @@ use super::solver::CoupledSolver;
 use super::traction::{SurfaceForces, TractionModel, surface_forces};
 use super::traction_plan::TractionPlan;
 use crate::fluid::layout::Layout;
-use crate::fluid::{LayoutChange, Obstacle, Polygon, Shape};
+use crate::fluid::{LayoutChange, Polygon, Shape};
 use crate::step::{Instability, Site};
 
 /// Options of the weak coupling.
@@ -121,7 +121,7 @@ impl CoupledSolver {
             }
         }
         let mut all = self.obstacles.clone();
-        all.extend(polys.iter().cloned().map(|p| Obstacle { shape: Shape::Polygon(p), velocity: [0.0; 3], temperature: None }));
+        all.extend(polys.iter().cloned().map(|p| self.body_wall(Shape::Polygon(p))));
         let layout = self.fluid.layout_with(&all);
         Ok(Some(PolygonWalls { polygons: polys, layout, change: Default::default() }))
     }

@@ -77,6 +77,48 @@ pub fn case_c_scene(mach: Option<f64>) -> String {
     toml::to_string(&t).expect("a table serialises")
 }
 
+/// Case C in real air on the coarse lattice (×0.5 of the seed's, 62 × 64 cells), with the
+/// folds' walls isothermal at T₀ (`coupling.wall_temperature_ratio = 1.0`): 4 ms from rest,
+/// through the first closure (≈ 2.2 ms) and the reopening (≈ 3.6 ms), in
+/// `out/validate/glottis_real_air_closure/`. With adiabatic walls the same run stops at the
+/// closure (step 18,944, 2.16 ms): the dead-end pockets the contact leaves heat and cool until
+/// θ leaves the positivity window (README). 5.6–9 min on 2 cores.
+pub fn real_air_closure_rows() -> Vec<(String, f64, String, bool)> {
+    let report = (|| -> anyhow::Result<CoupledReport> {
+        let text = crate::scene::resolution::text_at_resolution(&case_c_scene(None), 0.5)?;
+        let mut t: toml::Table = text.parse()?;
+        let mut set = |table: &str, key: &str, v: f64| -> anyhow::Result<()> {
+            let tbl = t.get_mut(table).and_then(|x| x.as_table_mut()).ok_or_else(|| anyhow::anyhow!("glottis_2d_c has no [{table}]"))?;
+            tbl.insert(key.into(), toml::Value::Float(v));
+            Ok(())
+        };
+        set("coupling", "wall_temperature_ratio", 1.0)?;
+        set("run", "duration", 0.004)?;
+        let sc = CoupledScene::parse(&toml::to_string(&t)?)?;
+        let dir = PathBuf::from("out/validate/glottis_real_air_closure");
+        run_coupled_scene(&sc, &dir, &crate::run::RunOptions { show_progress: true, ..Default::default() })
+    })();
+    let r = match report {
+        Ok(r) => r,
+        Err(e) => return vec![(format!("real air, isothermal folds: {e}"), f64::NAN, "runs".into(), false)],
+    };
+    let g = r.glottis.clone().expect("a glottis scene");
+    let last_flow = std::fs::read_to_string("out/validate/glottis_real_air_closure/glottal_flow.csv")
+        .ok()
+        .and_then(|csv| csv.lines().last().and_then(|l| l.split(',').nth(1)).and_then(|v| v.parse::<f64>().ok()))
+        .unwrap_or(f64::NAN);
+    vec![
+        (
+            "case C, real air, ×0.5, isothermal folds: simulated s, stable".into(),
+            r.simulated_s,
+            r.instability.clone().unwrap_or_else(|| "≥ 0.004 s, finite".into()),
+            r.instability.is_none() && r.simulated_s >= 0.004 * (1.0 - 1e-9),
+        ),
+        ("  no air through the glottis (fraction of samples)".into(), g.no_flow_fraction, "≥ 0.2 (it closed)".into(), g.no_flow_fraction >= 0.2),
+        ("  flow at 4 ms (cm³/s)".into(), last_flow, "> 1 (it opened again)".into(), last_flow > 1.0),
+    ]
+}
+
 /// One point of the study.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct StudyPoint {

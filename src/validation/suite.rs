@@ -281,6 +281,7 @@ pub fn cases() -> Vec<Case> {
             // ~20 min per case on 2 cores.
             super::glottis::rows()
         }),
+        ("glottis_real_air_closure", super::glottis::real_air_closure_rows),
         ("glottis_speed_error", || {
             // Case C's f0 against resolution (×0.5, ×0.75, ×1 of the seed's lattice) and Mach
             // scaling (real air, Mach 0.3), 40 ms each, with each run's wall time per simulated
@@ -378,7 +379,7 @@ mod tests {
         let names: Vec<&str> = all.iter().map(|(n, _)| *n).collect();
         let picked = |f: Option<&str>| -> Vec<&str> { names.iter().copied().filter(|n| selects(&names, f, n)).collect() };
         assert_eq!(picked(Some("glottis_2d")), ["glottis_2d"]);
-        assert_eq!(picked(Some("glottis")), ["glottis_2d", "glottis_speed_error"]);
+        assert_eq!(picked(Some("glottis")), ["glottis_2d", "glottis_real_air_closure", "glottis_speed_error"]);
         assert_eq!(picked(Some("taylor_green")), ["taylor_green_2d", "taylor_green_3d"]);
         assert!(picked(Some("fsi_")).len() >= 8);
         assert_eq!(picked(None).len(), names.len());
