@@ -9,6 +9,7 @@
 //!     cargo run --release --example glottis -- --preset cylinder_wake --air-on-gpu
 //!     cargo run --release --example glottis -- --air-on-gpu     # on the GPU even if it is lavapipe
 //!     cargo run --release --example glottis -- --cpu            # on the CPU even on a hardware GPU
+//!     cargo run --release --example glottis -- --isothermal-walls   # the folds' walls at T₀
 //!     cargo run --release --example glottis -- --frames 30 --screenshot glottis.png
 //!
 //! On a hardware GPU the simulation (a fluid preset's air, a coupled preset's air and folds)
@@ -45,7 +46,7 @@ fn main() {
     let mut app = App::new();
     app.add_plugins(DefaultPlugins.set(WindowPlugin { primary_window: Some(window), ..default() }))
         .add_plugins((PhonationPlugins, PhonationGpuPlugin))
-        .insert_resource(PanelState { preset, air_on_gpu: forced == Some(true), ..default() })
+        .insert_resource(PanelState { preset, air_on_gpu: forced == Some(true), isothermal_walls: flag("--isothermal-walls"), ..default() })
         .insert_resource(SimulationControl { steps_per_frame: steps, ..default() })
         .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
         .add_systems(

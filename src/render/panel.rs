@@ -37,6 +37,10 @@ pub struct PanelState {
     /// Factor of the preset's lattice cells (the particles' spacing divided by it; one of
     /// [`super::presets::RESOLUTIONS`] in the panel); `None` keeps the preset's.
     pub resolution: Option<f64>,
+    /// The bodies' walls isothermal at T₀ (`coupling.wall_temperature_ratio = 1.0`); `false`
+    /// keeps the preset's (adiabatic). The real air at the glottis presets' ×0.5 lattice needs
+    /// it to pass a closure (README, "The coupled glottis").
+    pub isothermal_walls: bool,
     /// Step a fluid preset's air, or a coupled preset's air and bodies, on the render device
     /// ([`crate::plugin::GpuStepping`]; the app needs [`crate::plugin::PhonationGpuPlugin`]):
     /// the tracers and slice are then made on the device too. Refused for the lattice-gas
@@ -47,7 +51,7 @@ pub struct PanelState {
 
 impl Default for PanelState {
     fn default() -> Self {
-        PanelState { preset: "glottis_2d_c".into(), lung_pressure: None, fold_moduli: None, method: None, resolution: None, air_on_gpu: false }
+        PanelState { preset: "glottis_2d_c".into(), lung_pressure: None, fold_moduli: None, method: None, resolution: None, isothermal_walls: false, air_on_gpu: false }
     }
 }
 
@@ -296,6 +300,7 @@ fn scene_controls(ui: &mut egui::Ui, state: &mut PanelState) {
     if kind != Some(crate::scene::SceneKind::Coupled) {
         return;
     }
+    ui.checkbox(&mut state.isothermal_walls, "walls isothermal at T₀ (else the preset's)");
     let mut method = state.method.clone().unwrap_or_default();
     ui.horizontal(|ui| {
         ui.label(if state.method.is_none() { "coupling (the preset's)" } else { "coupling" });

@@ -31,8 +31,8 @@ fn preset_table(state: &PanelState) -> Result<toml::Table, String> {
     Ok(doc)
 }
 
-/// The scene of `state`: the preset with its resolution, lung pressure, fold moduli and method
-/// replaced.
+/// The scene of `state`: the preset with its resolution, lung pressure, fold moduli, method and
+/// wall temperature replaced.
 pub fn scene_of(state: &PanelState) -> Result<CoupledScene, String> {
     let mut doc = preset_table(state)?;
     if let Some(p) = state.lung_pressure {
@@ -54,6 +54,14 @@ pub fn scene_of(state: &PanelState) -> Result<CoupledScene, String> {
                 c.insert("method".into(), toml::Value::String(m.clone()));
             }
             None => return Err(format!("method: preset {} has no coupling", state.preset)),
+        }
+    }
+    if state.isothermal_walls {
+        match doc.get_mut("coupling").and_then(|c| c.as_table_mut()) {
+            Some(c) => {
+                c.insert("wall_temperature_ratio".into(), toml::Value::Float(1.0));
+            }
+            None => return Err(format!("isothermal_walls: preset {} has no coupling", state.preset)),
         }
     }
     let mut sc = CoupledScene::parse(&toml::to_string(&doc).map_err(|e| e.to_string())?).map_err(|e| e.to_string())?;
@@ -243,6 +251,17 @@ pub fn apply_panel(
 mod tests {
     use super::*;
     use wgpu::DeviceType;
+
+    /// The panel's "walls isothermal at T₀" puts `wall_temperature_ratio = 1.0` in the scene it
+    /// builds; unticked, the preset's walls (adiabatic) are kept.
+    #[test]
+    fn the_panel_makes_the_walls_isothermal_or_keeps_the_presets() {
+        let walls = |preset: &str, isothermal_walls| scene_of(&PanelState { preset: preset.into(), resolution: Some(0.5), isothermal_walls, ..PanelState::default() });
+        assert_eq!(walls("glottis_2d_c", true).unwrap().coupling.wall_temperature_ratio, Some(1.0));
+        assert_eq!(walls("glottis_2d_c", false).unwrap().coupling.wall_temperature_ratio, None);
+        let c = walls("glottis_2d_c", true).unwrap().build().unwrap();
+        assert!(c.fluid.layout.ghosts.iter().any(|g| g.wall_temperature == Some(c.units.theta0)), "the folds' ghosts are isothermal");
+    }
 
     #[test]
     fn a_hardware_gpu_steps_the_glottis_and_a_software_one_leaves_it_on_the_cpu_at_half_resolution() {
