@@ -271,7 +271,7 @@ impl CoupledSolver {
         }
         let sets = self.level_sets();
         let mut all = self.obstacles.clone();
-        all.extend(sets.iter().cloned().map(|k| self.body_wall(Shape::KernelLevelSet(k))));
+        all.extend(self.body_walls(sets.iter().cloned().map(Shape::KernelLevelSet)));
         Ok(LevelSetWalls { layout: self.fluid.layout_with(&all), sets, points, change: Default::default() })
     }
 

@@ -21,11 +21,27 @@ use glam::DVec3;
 use std::time::{Duration, Instant};
 
 /// A body of the solid that the air sees: its surface (the polygon of method 1; the reference
-/// surface that calibrates method 2's level set) and, optionally, a prescribed motion.
+/// surface that calibrates method 2's level set), optionally a prescribed motion, and how its
+/// wall exchanges heat with the air.
 #[derive(Clone, Debug)]
 pub struct CoupledBody {
     pub surface: BodySurface,
     pub motion: Option<Motion>,
+    /// The body's wall isothermal at this reduced temperature θ (lattice units), or adiabatic
+    /// (`None`: zero normal temperature gradient). The ghost nodes behind an isothermal wall
+    /// take the wall temperature extrapolated through it ([`crate::fluid::boundary`]), as the
+    /// domain's isothermal walls do. Vocal-fold tissue is wet and at body temperature, with a
+    /// heat capacity per volume ~3000× the air's: an isothermal wall is the closer model, and
+    /// it is what keeps a closing glottis's dead-end pockets from heating without bound
+    /// (README, "The coupled glottis").
+    pub wall_temperature: Option<f64>,
+}
+
+impl CoupledBody {
+    /// A body with an adiabatic wall.
+    pub fn adiabatic(surface: BodySurface, motion: Option<Motion>) -> Self {
+        CoupledBody { surface, motion, wall_temperature: None }
+    }
 }
 
 /// Which coupling, with its options.
@@ -79,9 +95,6 @@ pub struct CoupledSolver {
     pub(super) built: Option<Vec<Polygon>>,
     /// Method 2: the level sets' calibration and the momentum on its way to the particles.
     pub(super) exchange: Option<Exchange>,
-    /// The bodies' walls: isothermal at this reduced temperature θ (lattice units), or
-    /// adiabatic (`None`, zero normal temperature gradient). See [`Self::with_wall_temperature`].
-    pub wall_temperature: Option<f64>,
 }
 
 impl CoupledSolver {
@@ -138,7 +151,6 @@ impl CoupledSolver {
             base_load,
             built: None,
             exchange: None,
-            wall_temperature: None,
         };
         if let Method::Conserving(o) = method {
             c.exchange = Some(Exchange::new(&c, o));
@@ -159,30 +171,10 @@ impl CoupledSolver {
         Ok(c)
     }
 
-    /// The bodies' surfaces as isothermal walls at reduced temperature `theta` (lattice units;
-    /// `None`: adiabatic). The ghost nodes behind a wall then take the wall temperature
-    /// extrapolated through it ([`crate::fluid::boundary`]), as the domain's isothermal walls
-    /// do. Vocal-fold tissue is wet and at body temperature, with a heat capacity per volume
-    /// ~3000× the air's: an isothermal wall is the closer model, and it is what keeps a
-    /// closing glottis's dead-end pockets from heating without bound (README, "The coupled
-    /// glottis"). The walls are rebuilt at once; nothing else of the state changes.
-    pub fn with_wall_temperature(mut self, theta: Option<f64>) -> Self {
-        self.wall_temperature = theta;
-        if theta.is_some() {
-            self.built = None;
-            self.run_stage(CoupledStageKind::FluidGeometry).expect("the same walls as the first geometry's");
-            self.geometry = GeometryChange::default();
-            if let Some(e) = &mut self.exchange {
-                e.clear();
-            }
-        }
-        self
-    }
-
-    /// A body's wall in the fluid: `shape`, at rest until the geometry stage sets its
-    /// velocities, with the bodies' wall temperature.
-    pub(super) fn body_wall(&self, shape: Shape) -> Obstacle {
-        Obstacle { shape, velocity: [0.0; 3], temperature: self.wall_temperature }
+    /// The bodies' walls in the fluid: `shapes[k]` is body k's (its polygon or level set), at
+    /// rest until the geometry stage sets its velocities, with body k's wall temperature.
+    pub(super) fn body_walls(&self, shapes: impl IntoIterator<Item = Shape>) -> impl Iterator<Item = Obstacle> {
+        shapes.into_iter().zip(&self.bodies).map(|(shape, b)| Obstacle { shape, velocity: [0.0; 3], temperature: b.wall_temperature })
     }
 
     fn stages_of(method: &Method) -> &'static [CoupledStage] {

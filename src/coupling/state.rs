@@ -80,15 +80,13 @@ impl SaveState for CoupledSolver {
             };
             // The level sets at the positions of the last build (the wall velocities are set
             // again by the next step's geometry stage, before the air sees them).
-            for set in self.level_sets_at(&pts) {
-                all.push(self.body_wall(Shape::KernelLevelSet(set)));
-            }
+            all.extend(self.body_walls(self.level_sets_at(&pts).into_iter().map(Shape::KernelLevelSet)));
             let ex = self.exchange.as_mut().expect("method 2 has its exchange state");
             ex.built = Some(pts);
             ex.walls = DVec3::new(wx, wy, wz);
             ex.clear();
         }
-        all.extend(polys.iter().cloned().map(|p| self.body_wall(Shape::Polygon(p))));
+        all.extend(self.body_walls(polys.iter().cloned().map(Shape::Polygon)));
         self.fluid.set_obstacles(&all);
         if let Method::Weak(_) = self.method {
             self.built = Some(polys);

@@ -121,7 +121,7 @@ impl CoupledSolver {
             }
         }
         let mut all = self.obstacles.clone();
-        all.extend(polys.iter().cloned().map(|p| self.body_wall(Shape::Polygon(p))));
+        all.extend(self.body_walls(polys.iter().cloned().map(Shape::Polygon)));
         let layout = self.fluid.layout_with(&all);
         Ok(Some(PolygonWalls { polygons: polys, layout, change: Default::default() }))
     }

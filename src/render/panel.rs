@@ -51,7 +51,15 @@ pub struct PanelState {
 
 impl Default for PanelState {
     fn default() -> Self {
-        PanelState { preset: "glottis_2d_c".into(), lung_pressure: None, fold_moduli: None, method: None, resolution: None, isothermal_walls: false, air_on_gpu: false }
+        PanelState {
+            preset: "glottis_2d_c".into(),
+            lung_pressure: None,
+            fold_moduli: None,
+            method: None,
+            resolution: None,
+            isothermal_walls: false,
+            air_on_gpu: false,
+        }
     }
 }
 

@@ -256,7 +256,8 @@ mod tests {
     /// builds; unticked, the preset's walls (adiabatic) are kept.
     #[test]
     fn the_panel_makes_the_walls_isothermal_or_keeps_the_presets() {
-        let walls = |preset: &str, isothermal_walls| scene_of(&PanelState { preset: preset.into(), resolution: Some(0.5), isothermal_walls, ..PanelState::default() });
+        let walls =
+            |preset: &str, isothermal_walls| scene_of(&PanelState { preset: preset.into(), resolution: Some(0.5), isothermal_walls, ..PanelState::default() });
         assert_eq!(walls("glottis_2d_c", true).unwrap().coupling.wall_temperature_ratio, Some(1.0));
         assert_eq!(walls("glottis_2d_c", false).unwrap().coupling.wall_temperature_ratio, None);
         let c = walls("glottis_2d_c", true).unwrap().build().unwrap();

@@ -13,6 +13,17 @@ fn err<T>(field: impl Into<String>, reason: impl Into<String>) -> Result<T, Scen
     Err(SceneError { field: field.into(), reason: reason.into() })
 }
 
+/// A wall's reduced temperature `theta` must lie inside `set`'s positivity window (every
+/// weight of the equilibrium positive, [`VelocitySet::positivity_window`]): the one check of
+/// the domain's isothermal faces and inlets and of the coupled bodies' isothermal walls.
+pub(crate) fn wall_theta_in_window(set: &VelocitySet, theta: f64, field: impl Into<String>) -> Result<(), SceneError> {
+    let window = set.positivity_window();
+    if theta > window.0 && theta < window.1 {
+        return Ok(());
+    }
+    err(field, format!("θ = {theta:.4} leaves the positivity window ({:.3}, {:.3})", window.0, window.1))
+}
+
 /// A validated scene in lattice units, ready to allocate.
 #[derive(Clone, Debug)]
 pub struct FluidScene {
@@ -262,12 +273,8 @@ impl FluidScene {
             if let FaceCondition::Wall { temperature: Some(t), .. }
             | FaceCondition::PressureInlet { theta: t, .. }
             | FaceCondition::VelocityInlet { theta: t, .. } = c
-                && !(*t > window.0 && *t < window.1)
             {
-                return err(
-                    format!("boundaries.{}.temperature_ratio", faces[k].0),
-                    format!("θ = {t:.4} leaves the positivity window ({:.3}, {:.3})", window.0, window.1),
-                );
+                wall_theta_in_window(&set, *t, format!("boundaries.{}.temperature_ratio", faces[k].0))?;
             }
         }
         let boundaries = Boundaries { faces: conds.try_into().expect("six faces") };

@@ -200,17 +200,10 @@ impl CoupledScene {
             return err("coupling.output_every", "must be at least 1");
         }
         if let Some(r) = coupling.wall_temperature_ratio {
-            let window = fluid.set.positivity_window();
-            let theta = r * fluid.units.theta0;
-            if !(r.is_finite() && r > 0.0 && theta > window.0 && theta < window.1) {
-                return err(
-                    "coupling.wall_temperature_ratio",
-                    format!(
-                        "must be a positive multiple of T₀ whose θ = ratio × {} lies in the positivity window ({:.3}, {:.3}), got {r}",
-                        fluid.units.theta0, window.0, window.1
-                    ),
-                );
+            if !(r.is_finite() && r > 0.0) {
+                return err("coupling.wall_temperature_ratio", format!("must be a positive multiple of T₀, got {r}"));
             }
+            super::build::wall_theta_in_window(&fluid.set, r * fluid.units.theta0, "coupling.wall_temperature_ratio")?;
         }
         // The weak coupling hands the air's force to the solid one step late: with air denser
         // than the body its added mass makes that explicit exchange unstable. Measured: a free
@@ -335,7 +328,9 @@ impl CoupledScene {
             let surface = BodySurface::build(p, k as u16, &reference_shape(b, p.dim))
                 .map_err(|e| SceneError { field: format!("solid.bodies[{k}]"), reason: e.to_string() })?;
             let motion = self.coupling.motions.iter().find(|m| m.body == k).map(|m| m.motion.clone());
-            bodies.push(CoupledBody { surface, motion });
+            // every body's wall at the same temperature (or adiabatic)
+            let wall_temperature = self.coupling.wall_temperature_ratio.map(|r| r * units.theta0);
+            bodies.push(CoupledBody { surface, motion, wall_temperature });
         }
         let fluid = self.fluid.build_solver();
         let c = &self.coupling;
@@ -348,9 +343,7 @@ impl CoupledScene {
                 Method::Conserving(ConservingOptions { kernel_radius: c.kernel_radius.unwrap_or(d.kernel_radius), ..d })
             }
         };
-        let wall_temperature = c.wall_temperature_ratio.map(|r| r * units.theta0);
         CoupledSolver::new(fluid, solid, units, bodies, self.fluid.obstacles.clone(), method)
-            .map(|s| s.with_wall_temperature(wall_temperature))
             .map_err(|e| SceneError { field: "coupling".into(), reason: e.to_string() })
     }
 }

@@ -93,7 +93,7 @@ pub fn towed_cylinder_at(method: Method, cells_per_diameter: usize, mach: f64, r
         });
         let solid = SolidSolver::new(particles.clone(), vec![material.clone()], SolidOptions::default()).expect("valid disc");
         let motion = towed.then_some(crate::coupling::Motion::Translation { velocity: [-units.velocity_to_physical(u), 0.0, 0.0] });
-        let bodies = vec![CoupledBody { surface: surface.clone(), motion }];
+        let bodies = vec![CoupledBody::adiabatic(surface.clone(), motion)];
         let mut c = CoupledSolver::new(fluid, solid, units, bodies, Vec::new(), method).expect("valid coupling");
         let m0 = c.fluid.totals().mass;
         let mut sum = 0.0;
@@ -166,7 +166,7 @@ pub fn oscillating_cylinder(method: Method, cells_per_diameter: usize, mach: f64
     let solid = SolidSolver::new(particles, vec![material], SolidOptions::default()).expect("valid disc");
     // Amplitude d, peak speed u: frequency u / (2π d).
     let motion = crate::coupling::Motion::Harmonic { amplitude: [d, 0.0, 0.0], frequency: u / (std::f64::consts::TAU * d) };
-    let bodies = vec![CoupledBody { surface, motion: Some(motion) }];
+    let bodies = vec![CoupledBody::adiabatic(surface, Some(motion))];
     let mut c = CoupledSolver::new(fluid, solid, units, bodies, Vec::new(), method).expect("valid coupling");
     let m0 = c.fluid.totals().mass;
     let t0 = Instant::now();
@@ -307,7 +307,7 @@ pub fn disc_in_shear(cells_per_diameter: usize, height_d: usize, reynolds: f64, 
     let fluid =
         FluidSolver::new(eq, Grid::new(2, [nx, ny, 1]), b, &[], params, move |x| Macro { rho: 1.0, u: [shear * (x[1] - y_mid), 0.0, 0.0], theta: theta0 });
     let solid = SolidSolver::new(particles, vec![material], SolidOptions::default()).expect("valid disc");
-    let bodies = vec![CoupledBody { surface, motion: None }];
+    let bodies = vec![CoupledBody::adiabatic(surface, None)];
     let mut c = CoupledSolver::new(fluid, solid, units, bodies, Vec::new(), Method::Weak(WeakOptions::default())).expect("valid coupling");
     let spin = |c: &CoupledSolver| {
         let p = &c.solid.particles;

@@ -87,7 +87,7 @@ pub fn pulse_on_a_free_body(
         Macro { rho: 1.0 + amplitude * (-r2 / (0.25 * d * d)).exp(), u: [0.0; 3], theta: theta0 }
     });
     let solid = SolidSolver::new(particles, vec![material], SolidOptions::default()).expect("valid disc");
-    let bodies = vec![CoupledBody { surface, motion: None }];
+    let bodies = vec![CoupledBody::adiabatic(surface, None)];
     let mut c = CoupledSolver::new(fluid, solid, units, bodies, Vec::new(), method).expect("valid coupling");
     let (f0, s0) = c.momentum();
     let total0 = f0 + s0 + c.added_mass_momentum();

@@ -260,7 +260,7 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, start: ChannelSta
             };
             let f = FluidSolver::new(eq, grid, b, &[], params, init);
             let solid = SolidSolver::new(particles.clone(), vec![material], SolidOptions::default()).expect("valid disc");
-            let bodies = vec![CoupledBody { surface: surface.clone(), motion: None }];
+            let bodies = vec![CoupledBody::adiabatic(surface.clone(), None)];
             let mut c = CoupledSolver::new(f, solid, units, bodies, Vec::new(), method).expect("valid coupling");
             let mut sfd = damping(&c.fluid);
             for k in 1..=steps {

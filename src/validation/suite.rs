@@ -348,11 +348,25 @@ pub fn selects(names: &[&str], filter: Option<&str>, name: &str) -> bool {
     }
 }
 
-/// Runs the cases `filter` selects ([`selects`]).
-pub fn run(filter: Option<&str>) -> Vec<Outcome> {
+/// A `--case` filter that selects no case: the error lists every case's name.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("--case: '{filter}' names no validation case (a case's name or part of it: {})", .names.join(", "))]
+pub struct NoSuchCase {
+    pub filter: String,
+    pub names: Vec<&'static str>,
+}
+
+/// Runs the cases `filter` selects ([`selects`]); a filter that selects none is refused before
+/// anything runs.
+pub fn run(filter: Option<&str>) -> Result<Vec<Outcome>, NoSuchCase> {
     let mut out = Vec::new();
     let all = cases();
-    let names: Vec<&str> = all.iter().map(|(n, _)| *n).collect();
+    let names: Vec<&'static str> = all.iter().map(|(n, _)| *n).collect();
+    if let Some(f) = filter
+        && !names.iter().any(|n| selects(&names, filter, n))
+    {
+        return Err(NoSuchCase { filter: f.to_string(), names });
+    }
     for (name, f) in all {
         if !selects(&names, filter, name) {
             continue;
@@ -364,7 +378,7 @@ pub fn run(filter: Option<&str>) -> Vec<Outcome> {
             out.push(Outcome { case: name.to_string(), figure, measured, reference, pass, wall_s: wall });
         }
     }
-    out
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -384,5 +398,11 @@ mod tests {
         assert!(picked(Some("fsi_")).len() >= 8);
         assert_eq!(picked(None).len(), names.len());
         assert!(picked(Some("no_such_case")).is_empty());
+        // …and `run` refuses it before running anything, listing the cases.
+        let e = run(Some("no_such_case")).unwrap_err();
+        assert_eq!(e.names, names);
+        let msg = e.to_string();
+        assert!(msg.starts_with("--case: 'no_such_case' names no validation case"), "{msg}");
+        assert!(msg.contains("glottis_2d, ") && msg.contains("taylor_green_2d"), "{msg}");
     }
 }
