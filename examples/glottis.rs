@@ -9,7 +9,7 @@
 //!     cargo run --release --example glottis -- --preset cylinder_wake --air-on-gpu
 //!     cargo run --release --example glottis -- --air-on-gpu     # on the GPU even if it is lavapipe
 //!     cargo run --release --example glottis -- --cpu            # on the CPU even on a hardware GPU
-//!     cargo run --release --example glottis -- --isothermal-walls   # the folds' walls at T₀
+//!     cargo run --release --example glottis -- --adiabatic-walls    # the folds' walls adiabatic (the presets': isothermal at T₀)
 //!     cargo run --release --example glottis -- --frames 30 --screenshot glottis.png
 //!
 //! On a hardware GPU the simulation (a fluid preset's air, a coupled preset's air and folds)
@@ -22,7 +22,7 @@ use bevy::prelude::*;
 use bevy::render::renderer::RenderAdapterInfo;
 use phonation::plugin::{PhonationGpuPlugin, SimulationControl};
 use phonation::render::PhonationPlugins;
-use phonation::render::panel::{PanelState, PanelTarget};
+use phonation::render::panel::{PanelState, PanelTarget, WallHeat};
 use phonation::render::presets::choose_backend;
 use phonation::render::view::{CapturePlugin, FrameSimulation};
 
@@ -42,11 +42,18 @@ fn main() {
     } else {
         None
     };
+    let walls = if flag("--isothermal-walls") {
+        Some(WallHeat::Isothermal)
+    } else if flag("--adiabatic-walls") {
+        Some(WallHeat::Adiabatic)
+    } else {
+        None
+    };
     let window = Window { title: format!("phonation — {preset}"), resolution: (1280, 800).into(), ..default() };
     let mut app = App::new();
     app.add_plugins(DefaultPlugins.set(WindowPlugin { primary_window: Some(window), ..default() }))
         .add_plugins((PhonationPlugins, PhonationGpuPlugin))
-        .insert_resource(PanelState { preset, air_on_gpu: forced == Some(true), isothermal_walls: flag("--isothermal-walls"), ..default() })
+        .insert_resource(PanelState { preset, air_on_gpu: forced == Some(true), walls, ..default() })
         .insert_resource(SimulationControl { steps_per_frame: steps, ..default() })
         .insert_resource(ClearColor(Color::srgb(0.08, 0.08, 0.1)))
         .add_systems(

@@ -37,10 +37,10 @@ pub struct PanelState {
     /// Factor of the preset's lattice cells (the particles' spacing divided by it; one of
     /// [`super::presets::RESOLUTIONS`] in the panel); `None` keeps the preset's.
     pub resolution: Option<f64>,
-    /// The bodies' walls isothermal at T₀ (`coupling.wall_temperature_ratio = 1.0`); `false`
-    /// keeps the preset's (adiabatic). The real air at the glottis presets' ×0.5 lattice needs
-    /// it to pass a closure (README, "The coupled glottis").
-    pub isothermal_walls: bool,
+    /// How the bodies' walls exchange heat with the air; `None` keeps the preset's (the glottis
+    /// presets: isothermal at T₀, which the real air at their ×0.5 lattice needs to pass a
+    /// closure — README, "The coupled glottis"; the other coupled presets: adiabatic).
+    pub walls: Option<WallHeat>,
     /// Step a fluid preset's air, or a coupled preset's air and bodies, on the render device
     /// ([`crate::plugin::GpuStepping`]; the app needs [`crate::plugin::PhonationGpuPlugin`]):
     /// the tracers and slice are then made on the device too. Refused for the lattice-gas
@@ -49,17 +49,18 @@ pub struct PanelState {
     pub air_on_gpu: bool,
 }
 
+/// How a coupled scene's bodies' walls exchange heat with the air.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WallHeat {
+    /// At T₀ (`coupling.wall_temperature_ratio = 1.0`).
+    Isothermal,
+    /// No heat through the wall (no `wall_temperature_ratio`).
+    Adiabatic,
+}
+
 impl Default for PanelState {
     fn default() -> Self {
-        PanelState {
-            preset: "glottis_2d_c".into(),
-            lung_pressure: None,
-            fold_moduli: None,
-            method: None,
-            resolution: None,
-            isothermal_walls: false,
-            air_on_gpu: false,
-        }
+        PanelState { preset: "glottis_2d_c".into(), lung_pressure: None, fold_moduli: None, method: None, resolution: None, walls: None, air_on_gpu: false }
     }
 }
 
@@ -308,7 +309,14 @@ fn scene_controls(ui: &mut egui::Ui, state: &mut PanelState) {
     if kind != Some(crate::scene::SceneKind::Coupled) {
         return;
     }
-    ui.checkbox(&mut state.isothermal_walls, "walls isothermal at T₀ (else the preset's)");
+    ui.horizontal(|ui| {
+        ui.label(if state.walls.is_none() { "walls (the preset's)" } else { "walls" });
+        for (w, label) in [(WallHeat::Isothermal, "isothermal at T₀"), (WallHeat::Adiabatic, "adiabatic")] {
+            if ui.radio(state.walls == Some(w), label).clicked() {
+                state.walls = Some(w);
+            }
+        }
+    });
     let mut method = state.method.clone().unwrap_or_default();
     ui.horizontal(|ui| {
         ui.label(if state.method.is_none() { "coupling (the preset's)" } else { "coupling" });

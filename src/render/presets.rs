@@ -4,7 +4,7 @@
 //! is — whenever the state differs from what it was built with, whether the change came from the
 //! panel's widgets or from the app's own code (tests set the state directly).
 
-use super::panel::{PanelState, PanelTarget};
+use super::panel::{PanelState, PanelTarget, WallHeat};
 use crate::plugin::{CoupledGlottis, CoupledSimulation, FluidSimulation, GpuStepping, LatticeGasSimulation};
 use crate::scene::coupled::CoupledScene;
 use crate::scene::{Scene, SceneKind};
@@ -56,12 +56,15 @@ pub fn scene_of(state: &PanelState) -> Result<CoupledScene, String> {
             None => return Err(format!("method: preset {} has no coupling", state.preset)),
         }
     }
-    if state.isothermal_walls {
+    if let Some(w) = state.walls {
         match doc.get_mut("coupling").and_then(|c| c.as_table_mut()) {
             Some(c) => {
-                c.insert("wall_temperature_ratio".into(), toml::Value::Float(1.0));
+                match w {
+                    WallHeat::Isothermal => c.insert("wall_temperature_ratio".into(), toml::Value::Float(1.0)),
+                    WallHeat::Adiabatic => c.remove("wall_temperature_ratio"),
+                };
             }
-            None => return Err(format!("isothermal_walls: preset {} has no coupling", state.preset)),
+            None => return Err(format!("walls: preset {} has no coupling", state.preset)),
         }
     }
     let mut sc = CoupledScene::parse(&toml::to_string(&doc).map_err(|e| e.to_string())?).map_err(|e| e.to_string())?;
@@ -252,16 +255,23 @@ mod tests {
     use super::*;
     use wgpu::DeviceType;
 
-    /// The panel's "walls isothermal at T₀" puts `wall_temperature_ratio = 1.0` in the scene it
-    /// builds; unticked, the preset's walls (adiabatic) are kept.
+    /// The panel's walls: the preset's (the glottis presets isothermal at T₀, the flap
+    /// adiabatic), or isothermal at T₀ (`wall_temperature_ratio = 1.0`), or adiabatic (none),
+    /// whatever the preset says; the folds' ghosts carry θ₀ exactly when isothermal.
     #[test]
-    fn the_panel_makes_the_walls_isothermal_or_keeps_the_presets() {
-        let walls =
-            |preset: &str, isothermal_walls| scene_of(&PanelState { preset: preset.into(), resolution: Some(0.5), isothermal_walls, ..PanelState::default() });
-        assert_eq!(walls("glottis_2d_c", true).unwrap().coupling.wall_temperature_ratio, Some(1.0));
-        assert_eq!(walls("glottis_2d_c", false).unwrap().coupling.wall_temperature_ratio, None);
-        let c = walls("glottis_2d_c", true).unwrap().build().unwrap();
-        assert!(c.fluid.layout.ghosts.iter().any(|g| g.wall_temperature == Some(c.units.theta0)), "the folds' ghosts are isothermal");
+    fn the_panel_makes_the_walls_isothermal_or_adiabatic_or_keeps_the_presets() {
+        let walls = |preset: &str, walls| scene_of(&PanelState { preset: preset.into(), resolution: Some(0.5), walls, ..PanelState::default() }).unwrap();
+        assert_eq!(walls("glottis_2d_c", None).coupling.wall_temperature_ratio, Some(1.0), "the glottis presets are isothermal");
+        assert_eq!(walls("glottis_2d_c", Some(WallHeat::Isothermal)).coupling.wall_temperature_ratio, Some(1.0));
+        assert_eq!(walls("glottis_2d_c", Some(WallHeat::Adiabatic)).coupling.wall_temperature_ratio, None);
+        assert_eq!(walls("wall_flap", None).coupling.wall_temperature_ratio, None, "the flap's preset is adiabatic");
+        assert_eq!(walls("wall_flap", Some(WallHeat::Isothermal)).coupling.wall_temperature_ratio, Some(1.0));
+        for (w, isothermal) in [(None, true), (Some(WallHeat::Adiabatic), false)] {
+            let c = walls("glottis_2d_c", w).build().unwrap();
+            let folds = c.fluid.layout.ghosts.iter().filter(|g| g.wall_temperature == Some(c.units.theta0)).count();
+            assert_eq!(folds > 20, isothermal, "{w:?}: {folds} ghosts at θ₀");
+            assert!(c.fluid.layout.ghosts.iter().all(|g| g.wall_temperature.is_none() || g.wall_temperature == Some(c.units.theta0)));
+        }
     }
 
     #[test]

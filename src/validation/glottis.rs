@@ -78,7 +78,9 @@ pub fn case_c_scene(mach: Option<f64>) -> String {
 }
 
 /// Case C in real air on the coarse lattice (×0.5 of the seed's, 62 × 64 cells), with the
-/// folds' walls isothermal at T₀ (`coupling.wall_temperature_ratio = 1.0`): 4 ms from rest,
+/// folds' walls isothermal at T₀ (`coupling.wall_temperature_ratio = 1.0`, as the built-in
+/// glottis scenes have them since 2026-12-03; set here too, so that the case keeps its meaning
+/// whatever the scene file says): 4 ms from rest,
 /// through the first closure (≈ 2.2 ms) and the reopening (≈ 3.6 ms), in
 /// `out/validate/glottis_real_air_closure/`. With adiabatic walls the same run stops at the
 /// closure (step 18,944, 2.16 ms): the dead-end pockets the contact leaves heat and cool until
