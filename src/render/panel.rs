@@ -311,13 +311,14 @@ fn scene_controls(ui: &mut egui::Ui, state: &mut PanelState) {
     }
     ui.horizontal(|ui| {
         ui.label(if state.walls.is_none() { "walls (the preset's)" } else { "walls" });
+        let shown = state.walls.or_else(|| super::presets::preset_walls(&state.preset));
         for (w, label) in [(WallHeat::Isothermal, "isothermal at T₀"), (WallHeat::Adiabatic, "adiabatic")] {
-            if ui.radio(state.walls == Some(w), label).clicked() {
+            if ui.radio(shown == Some(w), label).clicked() {
                 state.walls = Some(w);
             }
         }
     });
-    let mut method = state.method.clone().unwrap_or_default();
+    let mut method = state.method.clone().or_else(|| super::presets::preset_method(&state.preset).map(String::from)).unwrap_or_default();
     ui.horizontal(|ui| {
         ui.label(if state.method.is_none() { "coupling (the preset's)" } else { "coupling" });
         for m in ["weak", "conserving"] {

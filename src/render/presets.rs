@@ -31,6 +31,23 @@ fn preset_table(state: &PanelState) -> Result<toml::Table, String> {
     Ok(doc)
 }
 
+/// The walls of a coupled preset as its scene file has them (`None`: no such coupled preset).
+pub fn preset_walls(preset: &str) -> Option<WallHeat> {
+    let doc: toml::Table = crate::scene::builtin(preset)?.parse().ok()?;
+    let coupling = doc.get("coupling")?.as_table()?;
+    Some(if coupling.contains_key("wall_temperature_ratio") { WallHeat::Isothermal } else { WallHeat::Adiabatic })
+}
+
+/// The coupling method of a coupled preset as the panel names it ("weak" or "conserving").
+pub fn preset_method(preset: &str) -> Option<&'static str> {
+    let doc: toml::Table = crate::scene::builtin(preset)?.parse().ok()?;
+    match doc.get("coupling")?.get("method")?.as_str()? {
+        "weak" => Some("weak"),
+        "momentum_conserving" | "conserving" => Some("conserving"),
+        _ => None,
+    }
+}
+
 /// The scene of `state`: the preset with its resolution, lung pressure, fold moduli, method and
 /// wall temperature replaced.
 pub fn scene_of(state: &PanelState) -> Result<CoupledScene, String> {
@@ -265,6 +282,14 @@ mod tests {
         assert_eq!(walls("glottis_2d_c", Some(WallHeat::Isothermal)).coupling.wall_temperature_ratio, Some(1.0));
         assert_eq!(walls("glottis_2d_c", Some(WallHeat::Adiabatic)).coupling.wall_temperature_ratio, None);
         assert_eq!(walls("wall_flap", None).coupling.wall_temperature_ratio, None, "the flap's preset is adiabatic");
+        // what the panel shows as the preset's choice
+        assert_eq!(preset_walls("glottis_2d_a"), Some(WallHeat::Isothermal));
+        assert_eq!(preset_walls("wall_flap"), Some(WallHeat::Adiabatic));
+        assert_eq!(preset_walls("cylinder_wake"), None);
+        assert_eq!(preset_method("glottis_2d_c"), Some("weak"));
+        assert_eq!(preset_method("wall_flap"), Some("weak"));
+        assert_eq!(preset_method("glottis_3d"), Some("conserving"));
+        assert_eq!(preset_method("lattice_gas_wake"), None);
         assert_eq!(walls("wall_flap", Some(WallHeat::Isothermal)).coupling.wall_temperature_ratio, Some(1.0));
         for (w, isothermal) in [(None, true), (Some(WallHeat::Adiabatic), false)] {
             let c = walls("glottis_2d_c", w).build().unwrap();
