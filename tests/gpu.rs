@@ -2123,3 +2123,26 @@ fn walls_that_outgrow_the_side_ghosts_room_are_refused_with_the_figures() {
     // made with those walls, the arrays have the room
     assert!(GpuFluid::from_solver(&ctx, &split).unwrap().set_geometry(&split).is_ok());
 }
+
+/// The bench's coupled row times at least one step stage by stage, however few steps it runs:
+/// a `bench --quick` of 5 steps met no multiple of `GpuCoupled::timing_every` (16) and printed
+/// every stage's share as 0 %. Both methods on the small flap, 5 steps: the shares are finite,
+/// non-negative, sum to 1, and the fluid's is not zero.
+#[test]
+fn the_bench_times_the_coupled_stages_of_a_short_run() {
+    use phonation::scene::coupled::CoupledScene;
+    if context().is_none() {
+        return;
+    }
+    for text in [SMALL_FLAP.to_string(), small_flap_weak()] {
+        let sc = CoupledScene::parse(&text).unwrap();
+        let v = phonation::gpu::bench::coupled_speed("small flap", || sc.build().unwrap(), 5).unwrap();
+        let sum: f64 = v.gpu_stage_shares.iter().map(|(_, s)| s).sum();
+        eprintln!("{:?}: {:.2} steps/s", v.gpu_stage_shares, v.gpu_steps_per_s);
+        assert!(v.gpu_stage_shares.iter().all(|(_, s)| s.is_finite() && *s >= 0.0), "{:?}", v.gpu_stage_shares);
+        assert!((sum - 1.0).abs() < 1e-9, "shares sum to {sum}");
+        let fluid = v.gpu_stage_shares.iter().find(|(n, _)| n == "fluid").map_or(0.0, |(_, s)| *s);
+        assert!(fluid > 0.0, "the fluid stage was timed: {:?}", v.gpu_stage_shares);
+        assert!(v.gpu_coupling_share >= 0.0 && v.gpu_coupling_share < 1.0);
+    }
+}
