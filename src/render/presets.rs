@@ -31,21 +31,38 @@ fn preset_table(state: &PanelState) -> Result<toml::Table, String> {
     Ok(doc)
 }
 
-/// The walls of a coupled preset as its scene file has them (`None`: no such coupled preset).
-pub fn preset_walls(preset: &str) -> Option<WallHeat> {
+/// A coupled built-in scene's walls and coupling method as its file has them (the method as the
+/// panel names it, "weak" or "conserving"); `None` for a scene without `[coupling]`.
+fn coupling_choices(preset: &str) -> Option<(WallHeat, Option<&'static str>)> {
     let doc: toml::Table = crate::scene::builtin(preset)?.parse().ok()?;
     let coupling = doc.get("coupling")?.as_table()?;
-    Some(if coupling.contains_key("wall_temperature_ratio") { WallHeat::Isothermal } else { WallHeat::Adiabatic })
+    let walls = if coupling.contains_key("wall_temperature_ratio") { WallHeat::Isothermal } else { WallHeat::Adiabatic };
+    let method = match coupling.get("method").and_then(|m| m.as_str()) {
+        Some("weak") => Some("weak"),
+        Some("momentum_conserving" | "conserving") => Some("conserving"),
+        _ => None,
+    };
+    Some((walls, method))
+}
+
+/// [`coupling_choices`] of `preset`: read once per panel preset (the panel asks every frame),
+/// parsed on demand for any other built-in scene.
+fn preset_choices(preset: &str) -> Option<(WallHeat, Option<&'static str>)> {
+    static PANEL: std::sync::OnceLock<Vec<Option<(WallHeat, Option<&'static str>)>>> = std::sync::OnceLock::new();
+    match PRESETS.iter().position(|p| *p == preset) {
+        Some(i) => PANEL.get_or_init(|| PRESETS.iter().map(|p| coupling_choices(p)).collect())[i],
+        None => coupling_choices(preset),
+    }
+}
+
+/// The walls of a coupled preset as its scene file has them (`None`: no such coupled preset).
+pub fn preset_walls(preset: &str) -> Option<WallHeat> {
+    preset_choices(preset).map(|(w, _)| w)
 }
 
 /// The coupling method of a coupled preset as the panel names it ("weak" or "conserving").
 pub fn preset_method(preset: &str) -> Option<&'static str> {
-    let doc: toml::Table = crate::scene::builtin(preset)?.parse().ok()?;
-    match doc.get("coupling")?.get("method")?.as_str()? {
-        "weak" => Some("weak"),
-        "momentum_conserving" | "conserving" => Some("conserving"),
-        _ => None,
-    }
+    preset_choices(preset).and_then(|(_, m)| m)
 }
 
 /// The scene of `state`: the preset with its resolution, lung pressure, fold moduli, method and

@@ -324,12 +324,12 @@ impl CoupledScene {
             }
         }
         let mut bodies = Vec::new();
+        // every body's wall at the same temperature (or adiabatic)
+        let wall_temperature = self.coupling.wall_temperature_ratio.map(|r| r * units.theta0);
         for (k, b) in self.solid.file.solid.bodies.iter().enumerate() {
             let surface = BodySurface::build(p, k as u16, &reference_shape(b, p.dim))
                 .map_err(|e| SceneError { field: format!("solid.bodies[{k}]"), reason: e.to_string() })?;
             let motion = self.coupling.motions.iter().find(|m| m.body == k).map(|m| m.motion.clone());
-            // every body's wall at the same temperature (or adiabatic)
-            let wall_temperature = self.coupling.wall_temperature_ratio.map(|r| r * units.theta0);
             bodies.push(CoupledBody { surface, motion, wall_temperature });
         }
         let fluid = self.fluid.build_solver();
