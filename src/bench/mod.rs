@@ -298,6 +298,9 @@ pub struct BenchReport {
     pub storage_errors: Vec<StorageError>,
     /// MPS solid, explicit and implicit, at 10⁵ (and 10⁶ unless quick) particles.
     pub solid: Vec<crate::solid::bench::SolidSpeed>,
+    /// The implicit step against the explicit one to the same simulated time, for an
+    /// elastic-limited and viscosity-limited materials ([`crate::solid::bench::crossover`]).
+    pub solid_crossover: Vec<crate::solid::bench::CrossoverRow>,
     /// FCHC lattice gas (periodic box, fill 0.2, p = 0.1).
     pub lattice_gas: Vec<crate::lattice_gas::bench::LatticeGasSpeed>,
     /// Coupled (weak, CPU): the clamped elastic cylinder of Schäfer–Turek 2D-1 at three
@@ -482,6 +485,13 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
         solid.push(solid_speed(side, Integrator::Explicit, if quick { 3 } else { 5 }, bw));
         solid.push(solid_speed(side, Integrator::Implicit, if quick { 2 } else { 3 }, bw));
     }
+    // the crossover: the benchmark material (its step limited by the elastic waves) and the same
+    // block 100, 1000 and 10⁴ times as viscous (the viscous term limits the explicit step)
+    let solid_crossover = match (wants("solid"), quick) {
+        (false, _) => Vec::new(),
+        (true, true) => crate::solid::bench::crossover(8, &[crate::solid::bench::BENCHMARK_VISCOSITY, 1000.0], &[2.0, 10.0], 2),
+        (true, false) => crate::solid::bench::crossover(12, &[crate::solid::bench::BENCHMARK_VISCOSITY, 100.0, 1000.0, 10000.0], &[10.0, 30.0, 100.0, 300.0], 2),
+    };
     for v in &mut solid {
         v.flop_fraction = v.flops_per_update.map(|f| f * v.particle_updates_per_s / fma.best);
     }
@@ -521,6 +531,7 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
         lattices,
         speed_vs_error,
         solid,
+        solid_crossover,
         lattice_gas,
         coupled,
         two_mass,

@@ -164,6 +164,29 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             let st: Vec<String> = v.stage_shares.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
             println!("          stages: {}", st.join(", "));
         }
+        if let Some(first) = r.solid_crossover.first() {
+            println!("implicit against explicit to the same simulated time ({} particles; cost: wall per simulated s over the explicit row's; ! = a CG solve stopped short of its tolerance):", first.particles);
+            println!(
+                "{:>9} {:>8} {:9} {:>7} {:>6} {:>7}  {:>11} {:>11} {:>7} {:>10}",
+                "viscosity", "lim/lim0", "step", "Δt/lim", "steps", "CG it.", "s/step", "s/sim. s", "cost", "error"
+            );
+        }
+        for c in &r.solid_crossover {
+            println!(
+                "{:>9.3e} {:>8.3} {:9} {:>7.2} {:>6} {:>7.1}{} {:>11.3e} {:>11.3e} {:>7.2} {:>10.2e}",
+                c.viscosity,
+                c.limit_over_inviscid_limit,
+                format!("{:?}", c.integrator).to_lowercase(),
+                c.time_step_over_explicit_limit,
+                c.steps,
+                c.cg_iterations,
+                if c.cg_converged { " " } else { "!" },
+                c.wall_per_step_s,
+                c.wall_per_simulated_s,
+                c.cost_over_explicit,
+                c.displacement_error
+            );
+        }
         if !r.lattice_gas.is_empty() {
             lattice_gas_header();
         }

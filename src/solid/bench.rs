@@ -106,7 +106,15 @@ pub fn speed_of(
 
 /// The benchmark body: a `side`³ cube, clamped on one face, released from a small shear.
 pub fn benchmark_block(side: usize, integrator: Integrator) -> SolidSolver {
-    let mat = Orthotropic { young: [1.0e6, 3.0e6, 2.0e6], poisson: [0.2, 0.25, 0.3], shear: [4.0e5, 5.0e5, 6.0e5], density: 1.0, viscosity: 1.0 };
+    benchmark_block_with_viscosity(side, integrator, BENCHMARK_VISCOSITY)
+}
+
+/// The benchmark material's viscosity (model units: the block's E ~ 10⁶, ρ = 1, l₀ = 0.1).
+pub const BENCHMARK_VISCOSITY: f64 = 1.0;
+
+/// [`benchmark_block`] with the material's viscosity set to `viscosity`.
+pub fn benchmark_block_with_viscosity(side: usize, integrator: Integrator, viscosity: f64) -> SolidSolver {
+    let mat = Orthotropic { young: [1.0e6, 3.0e6, 2.0e6], poisson: [0.2, 0.25, 0.3], shear: [4.0e5, 5.0e5, 6.0e5], density: 1.0, viscosity };
     let l0 = 0.1;
     let mut p = Particles::new(3, l0);
     for x in sample_box(3, DVec3::ZERO, DVec3::splat(side as f64 * l0), l0) {
@@ -120,6 +128,102 @@ pub fn benchmark_block(side: usize, integrator: Integrator) -> SolidSolver {
         s.dt = 10.0 * s.explicit_limit;
     }
     s
+}
+
+/// One row of the implicit-against-explicit crossover ([`crossover`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct CrossoverRow {
+    /// The material's viscosity (model units) and its explicit limit over the same block's
+    /// limit without viscosity: 1 when the step is limited by the elastic waves, ≪ 1 when
+    /// the viscous term limits it.
+    pub viscosity: f64,
+    pub limit_over_inviscid_limit: f64,
+    pub particles: usize,
+    pub integrator: Integrator,
+    pub time_step_over_explicit_limit: f64,
+    pub steps: u64,
+    /// Mean CG iterations per step (0 for explicit), and whether every solve reached the
+    /// tolerance (`cg_tolerance`, default 10⁻⁸) within `cg_max_iterations`.
+    pub cg_iterations: f64,
+    pub cg_converged: bool,
+    /// Wall seconds per step and per simulated second (the preconditioner's one-off setup left
+    /// out: [`SolidSolver::prepare_preconditioner`]).
+    pub wall_per_step_s: f64,
+    pub wall_per_simulated_s: f64,
+    /// This row's wall per simulated second over the explicit row's (same material): < 1
+    /// where the implicit step is the cheaper way to the same simulated time.
+    pub cost_over_explicit: f64,
+    /// ‖x − x_explicit‖ / ‖x_explicit − x⁰‖ over the particles at the common end time: what
+    /// the longer step costs in accuracy (0 for the explicit row, the reference).
+    pub displacement_error: f64,
+}
+
+/// The crossover of the implicit and the explicit step (issue 16: "the implicit step is faster
+/// per simulated second wherever the explicit step is limited by viscosity"): for each
+/// viscosity, the `side`³ benchmark block run to the same simulated time
+/// T = `steps_at_largest` × max(`ratios`) × explicit limit, explicitly at the default step
+/// (half the limit) and implicitly at each of `ratios` × the limit (seed 000 (2.63)–(2.66),
+/// CG to the default tolerance). Rows per viscosity: the explicit one, then one per ratio.
+pub fn crossover(side: usize, viscosities: &[f64], ratios: &[f64], steps_at_largest: u64) -> Vec<CrossoverRow> {
+    let largest = ratios.iter().copied().fold(0.0, f64::max);
+    let mut rows = Vec::new();
+    for &viscosity in viscosities {
+        let inviscid = benchmark_block_with_viscosity(side, Integrator::Explicit, 0.0).explicit_limit;
+        let mut explicit = benchmark_block_with_viscosity(side, Integrator::Explicit, viscosity);
+        let limit = explicit.explicit_limit;
+        let end = steps_at_largest as f64 * largest * limit;
+        let run = |s: &mut SolidSolver| {
+            let steps = (end / s.dt).round().max(1.0) as u64;
+            s.dt = end / steps as f64;
+            if s.options.integrator == Integrator::Implicit {
+                // the one-off setup (block Jacobi, the probed coarse space) is not per-step cost
+                s.prepare_preconditioner();
+            }
+            let (t, mut iters, mut converged) = (Instant::now(), 0usize, true);
+            for _ in 0..steps {
+                s.step().expect("the benchmark block stays finite");
+                iters += s.last.cg.iterations;
+                converged &= s.options.integrator == Integrator::Explicit || s.last.cg.converged;
+            }
+            (steps, iters as f64 / steps as f64, t.elapsed().as_secs_f64(), converged)
+        };
+        let row = |s: &SolidSolver, (steps, cg, wall, converged): (u64, f64, f64, bool), reference: Option<(&[DVec3], f64)>| {
+            let p = &s.particles;
+            let (error, cost) = match reference {
+                None => (0.0, 1.0),
+                Some((x_ref, explicit_cost)) => {
+                    let diff: f64 = (0..p.len()).map(|i| (p.position[i] - x_ref[i]).length_squared()).sum();
+                    let moved: f64 = (0..p.len()).map(|i| (x_ref[i] - p.reference[i]).length_squared()).sum();
+                    ((diff / moved).sqrt(), wall / end / explicit_cost)
+                }
+            };
+            CrossoverRow {
+                viscosity,
+                limit_over_inviscid_limit: limit / inviscid,
+                particles: p.len(),
+                integrator: s.options.integrator,
+                time_step_over_explicit_limit: s.dt / limit,
+                steps,
+                cg_iterations: cg,
+                cg_converged: converged,
+                wall_per_step_s: wall / steps as f64,
+                wall_per_simulated_s: wall / end,
+                cost_over_explicit: cost,
+                displacement_error: error,
+            }
+        };
+        let measured = run(&mut explicit);
+        rows.push(row(&explicit, measured, None));
+        let explicit_cost = measured.2 / end;
+        let x_ref = explicit.particles.position.clone();
+        for &ratio in ratios {
+            let mut s = benchmark_block_with_viscosity(side, Integrator::Implicit, viscosity);
+            s.dt = ratio * s.explicit_limit;
+            let measured = run(&mut s);
+            rows.push(row(&s, measured, Some((&x_ref, explicit_cost))));
+        }
+    }
+    rows
 }
 
 #[cfg(test)]
@@ -140,6 +244,33 @@ mod tests {
         let mut s = benchmark_block(4, Integrator::Explicit);
         Solver::advance(&mut s, 200).expect("half the explicit limit is stable");
         assert_eq!(Solver::step_count(&s), 200);
+    }
+
+    #[test]
+    fn the_crossover_runs_every_integrator_to_the_same_time_and_measures_the_error_against_the_explicit_run() {
+        // a 5³ block, elastic-limited (viscosity 0.1) and viscosity-limited (100): the explicit
+        // row is the reference; the implicit rows reach the same time in fewer steps
+        let rows = crossover(5, &[0.1, 100.0], &[2.0, 8.0], 2);
+        assert_eq!(rows.len(), 6);
+        for m in rows.chunks(3) {
+            let (e, i2, i8) = (&m[0], &m[1], &m[2]);
+            assert_eq!(e.integrator, Integrator::Explicit);
+            assert_eq!(e.displacement_error, 0.0);
+            assert!((e.time_step_over_explicit_limit - 0.5).abs() < 0.02, "{e:?}");
+            // T = 2 × 8 limits: 32 explicit steps, 8 and 2 implicit ones
+            assert_eq!((e.steps, i2.steps, i8.steps), (32, 8, 2));
+            for i in [i2, i8] {
+                assert_eq!(i.integrator, Integrator::Implicit);
+                assert!(i.cg_iterations >= 1.0 && i.cg_converged, "{i:?}");
+                assert!(i.displacement_error > 0.0 && i.displacement_error < 1.0, "{i:?}");
+                assert!((i.cost_over_explicit - i.wall_per_simulated_s / e.wall_per_simulated_s).abs() < 1e-9 * i.cost_over_explicit);
+            }
+            // the longer step departs further from the explicit reference
+            assert!(i8.displacement_error > i2.displacement_error, "{i2:?} {i8:?}");
+        }
+        // viscosity 0.1 leaves the step to the elastic waves; 100 shortens it
+        assert!(rows[0].limit_over_inviscid_limit > 0.9, "{:?}", rows[0]);
+        assert!(rows[3].limit_over_inviscid_limit < 0.5, "{:?}", rows[3]);
     }
 
     #[test]
