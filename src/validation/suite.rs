@@ -308,7 +308,8 @@ pub fn cases() -> Vec<Case> {
             // the rigid obstacle and method 2, the two runs side by side (one core each). Δp was
             // +3.6 / +2.2 % above 0.11752 at D = 20 / 30 and got worse at Mach 0.05 (the lattice
             // viscosity falls with the Mach number): this case tells whether resolution closes
-            // it at Mach 0.1. ≈ 50 and 80 min on one core each (README).
+            // it at Mach 0.1. Measured (2026-12-03, 2 cores): Δp +1.8 / +1.9 % (pass), C_D +3.7 %
+            // (quadrature), +2.6 % (exchange), +2.7 % (method 2) (fail); 35 and 63 min side by side.
             use fsi::CylinderBody::{ConservingCoupled, RigidObstacle};
             schafer_turek_rows(40, 0.1, 6.0, &[RigidObstacle, ConservingCoupled])
         }),
@@ -415,6 +416,9 @@ mod tests {
         assert_eq!(picked(Some("glottis_2d")), ["glottis_2d"]);
         assert_eq!(picked(Some("glottis")), ["glottis_2d", "glottis_real_air_closure", "glottis_speed_error"]);
         assert_eq!(picked(Some("taylor_green")), ["taylor_green_2d", "taylor_green_3d"]);
+        // the D = 20 channel (minutes) is not also the D = 40 one (an hour on 2 cores)
+        assert_eq!(picked(Some("fsi_schafer_turek_2d1")), ["fsi_schafer_turek_2d1"]);
+        assert_eq!(picked(Some("schafer_turek")), ["fsi_schafer_turek_2d1", "fsi_schafer_turek_2d1_d40"]);
         assert!(picked(Some("fsi_")).len() >= 8);
         assert_eq!(picked(None).len(), names.len());
         assert!(picked(Some("no_such_case")).is_empty());
