@@ -301,7 +301,7 @@ pub fn cases() -> Vec<Case> {
             // −0.19 % at D = 20, where the two measures differ by 1.9 %; +0.06 % at D = 10,
             // undamped, where they differ by 10.4 %).
             use fsi::CylinderBody::{ConservingCoupled, RigidObstacle, WeakCoupled};
-            schafer_turek_rows(20, 0.1, 6.0, &[RigidObstacle, WeakCoupled(TractionModel::PressureAndShear), ConservingCoupled])
+            schafer_turek_rows(20, 0.1, 6.0, &[RigidObstacle, WeakCoupled(TractionModel::PressureAndShear), ConservingCoupled], 1.0)
         }),
         ("fsi_schafer_turek_2d1_d40", || {
             // The same channel at D = 40 cells (176,000 nodes), Mach 0.1, 6 s, damped as above:
@@ -311,20 +311,62 @@ pub fn cases() -> Vec<Case> {
             // it at Mach 0.1. Measured (2026-12-03, 2 cores): Δp +1.8 / +1.9 % (pass), C_D +3.7 %
             // (quadrature), +2.6 % (exchange), +2.7 % (method 2) (fail); 35 and 63 min side by side.
             use fsi::CylinderBody::{ConservingCoupled, RigidObstacle};
-            schafer_turek_rows(40, 0.1, 6.0, &[RigidObstacle, ConservingCoupled])
+            schafer_turek_rows(40, 0.1, 6.0, &[RigidObstacle, ConservingCoupled], 1.0)
+        }),
+        ("fsi_schafer_turek_2d1_d30_air_at_rho0", || {
+            // D = 30, Mach 0.1, 6 s, damped, the rigid obstacle and method 2 side by side, with
+            // the outlet at ρ₀ / 1.0079: the level at which the air around the cylinder is at
+            // the benchmark's ρ₀ (`fsi_schafer_turek_2d1_outlet_level` measured 1.0079 ρ₀ there
+            // with the outlet at ρ₀, D = 20; the forces follow the level one for one). The
+            // density near the cylinder is in the JSON line each run prints.
+            use fsi::CylinderBody::{ConservingCoupled, RigidObstacle};
+            schafer_turek_rows(30, 0.1, 6.0, &[RigidObstacle, ConservingCoupled], 1.0 / 1.0079)
+        }),
+        ("fsi_schafer_turek_2d1_outlet_level", || {
+            // The rigid obstacle at D = 20, Mach 0.1, 6 s, damped, twice side by side: the outlet
+            // at ρ₀ (as every other case) and at the level that puts the air around the cylinder
+            // at ρ₀ (ρ_out = ρ₀ / the first run's density there, estimated before either runs as
+            // 1/1.017, the density measured near the cylinder at Mach 0.1). Rows: the density
+            // near the cylinder, C_D and Δp of each; what the pressure level does to the forces.
+            let start = fsi::ChannelStart::Damped { gain: 1.0, filter_width: 1.0 };
+            let levels = [1.0, 1.0 / 1.017];
+            let runs: Vec<_> = {
+                use rayon::prelude::*;
+                levels
+                    .par_iter()
+                    .with_max_len(1)
+                    .map(|&rho| fsi::schafer_turek_2d1_with_outlet(20, 0.1, start, 6.0, fsi::CylinderBody::RigidObstacle, rho))
+                    .collect()
+            };
+            let mut out = Vec::new();
+            for r in &runs {
+                println!("schafer_turek_2d1: {}", serde_json::to_string(&r).unwrap_or_default());
+                let at = format!("outlet ρ = {:.4} ρ₀", r.outlet_density);
+                let cd = r.drag_coefficient / fsi::ST_2D1_DRAG - 1.0;
+                let dp = r.pressure_drop / fsi::ST_2D1_PRESSURE_DROP - 1.0;
+                out.push((format!("{at}: density near the cylinder / ρ₀"), r.density_near_cylinder, "measured".into(), r.density_near_cylinder.is_finite()));
+                out.push((format!("{at}: C_D / 5.5795 − 1"), cd, "|Δ| ≤ 0.02".into(), cd.abs() <= 0.02));
+                out.push((format!("{at}: Δp / 0.11752 − 1"), dp, "|Δ| ≤ 0.02".into(), dp.abs() <= 0.02));
+            }
+            out
         }),
     ]
 }
 
-/// Schäfer–Turek 2D-1 at `cells_per_diameter` and lattice Mach `mach` for `duration` s, damped
+/// Schäfer–Turek 2D-1 at `cells_per_diameter` and lattice Mach `mach` for `duration` s, the
+/// outlet at `outlet_density` (units of ρ₀), damped
 /// (χ = 1/s, Δ = 1 s), each of `bodies` run side by side (rayon tasks), rows in the order of
 /// `bodies`: C_D and Δp against the benchmark (±2 %), the spread of C_D over the averaging window
 /// (≤ 0.5 %, settled), the rigid obstacle's drag by momentum exchange, and method 2's drag
 /// against it (±1 %: the same measure of the same wall, README) when both ran.
-fn schafer_turek_rows(cells_per_diameter: usize, mach: f64, duration: f64, bodies: &[fsi::CylinderBody]) -> Vec<(String, f64, String, bool)> {
+fn schafer_turek_rows(cells_per_diameter: usize, mach: f64, duration: f64, bodies: &[fsi::CylinderBody], outlet_density: f64) -> Vec<(String, f64, String, bool)> {
     use rayon::prelude::*;
     let start = fsi::ChannelStart::Damped { gain: 1.0, filter_width: 1.0 };
-    let runs: Vec<_> = bodies.par_iter().with_max_len(1).map(|&body| (body, fsi::schafer_turek_2d1(cells_per_diameter, mach, start, duration, body))).collect();
+    let runs: Vec<_> = bodies
+        .par_iter()
+        .with_max_len(1)
+        .map(|&body| (body, fsi::schafer_turek_2d1_with_outlet(cells_per_diameter, mach, start, duration, body, outlet_density)))
+        .collect();
     let rigid_exchange = runs.iter().find_map(|(_, r)| r.exchange_drag_coefficient).unwrap_or(f64::NAN);
     let mut out = Vec::new();
     for (body, r) in &runs {
@@ -418,7 +460,10 @@ mod tests {
         assert_eq!(picked(Some("taylor_green")), ["taylor_green_2d", "taylor_green_3d"]);
         // the D = 20 channel (minutes) is not also the D = 40 one (an hour on 2 cores)
         assert_eq!(picked(Some("fsi_schafer_turek_2d1")), ["fsi_schafer_turek_2d1"]);
-        assert_eq!(picked(Some("schafer_turek")), ["fsi_schafer_turek_2d1", "fsi_schafer_turek_2d1_d40"]);
+        assert_eq!(
+            picked(Some("schafer_turek")),
+            ["fsi_schafer_turek_2d1", "fsi_schafer_turek_2d1_d40", "fsi_schafer_turek_2d1_d30_air_at_rho0", "fsi_schafer_turek_2d1_outlet_level"]
+        );
         assert!(picked(Some("fsi_")).len() >= 8);
         assert_eq!(picked(None).len(), names.len());
         assert!(picked(Some("no_such_case")).is_empty());
