@@ -294,8 +294,8 @@ pub fn cases() -> Vec<Case> {
             // ring between the inlet and the constant-pressure outlet (a lossless resonator): the
             // air is settled by selective frequency damping (χ = 1/s, Δ = 1 s; it leaves the
             // steady state unchanged), and the spread of C_D over the window is a row of its
-            // own. The weakly compressible channel's density near the cylinder is ~1.7 % above
-            // ρ₀ at Mach 0.1 (O(Ma²)). The rigid obstacle's drag is measured twice: by the
+            // own. The weakly compressible channel's air within one diameter of the cylinder
+            // is 0.79 % above ρ₀ at Mach 0.1 (O(Ma²); `fsi_schafer_turek_2d1_outlet_level`). The rigid obstacle's drag is measured twice: by the
             // traction quadrature (method 1's measure) and by the momentum its wall nodes take
             // out of the air (method 2's); method 2's drag must be the latter (measured, damped:
             // −0.19 % at D = 20, where the two measures differ by 1.9 %; +0.06 % at D = 10,
@@ -325,9 +325,9 @@ pub fn cases() -> Vec<Case> {
         ("fsi_schafer_turek_2d1_outlet_level", || {
             // The rigid obstacle at D = 20, Mach 0.1, 6 s, damped, twice side by side: the outlet
             // at ρ₀ (as every other case) and at the level that puts the air around the cylinder
-            // at ρ₀ (ρ_out = ρ₀ / the first run's density there, estimated before either runs as
-            // 1/1.017, the density measured near the cylinder at Mach 0.1). Rows: the density
-            // near the cylinder, C_D and Δp of each; what the pressure level does to the forces.
+            // at ρ₀ as estimated before either ran (ρ₀ / 1.017; the first run measured 1.0079
+            // there, so the second overshoots to 0.9918). Rows: the density near the cylinder,
+            // C_D and Δp of each; what the pressure level does to the forces.
             let start = fsi::ChannelStart::Damped { gain: 1.0, filter_width: 1.0 };
             let levels = [1.0, 1.0 / 1.017];
             let runs: Vec<_> = {
