@@ -322,6 +322,10 @@ pub fn cases() -> Vec<Case> {
             use fsi::CylinderBody::{ConservingCoupled, RigidObstacle};
             schafer_turek_rows(30, 0.1, 6.0, &[RigidObstacle, ConservingCoupled], 1.0 / 1.0079)
         }),
+        ("fsi_schafer_turek_2d1_d30_air_at_rho0_weak", || {
+            // The same channel with method 1 (the weak coupling), its own run (≈ 25 min on 2 cores).
+            schafer_turek_rows(30, 0.1, 6.0, &[fsi::CylinderBody::WeakCoupled(TractionModel::PressureAndShear)], 1.0 / 1.0079)
+        }),
         ("fsi_schafer_turek_2d1_outlet_level", || {
             // The rigid obstacle at D = 20, Mach 0.1, 6 s, damped, twice side by side: the outlet
             // at ρ₀ (as every other case) and at the level that puts the air around the cylinder
@@ -462,7 +466,13 @@ mod tests {
         assert_eq!(picked(Some("fsi_schafer_turek_2d1")), ["fsi_schafer_turek_2d1"]);
         assert_eq!(
             picked(Some("schafer_turek")),
-            ["fsi_schafer_turek_2d1", "fsi_schafer_turek_2d1_d40", "fsi_schafer_turek_2d1_d30_air_at_rho0", "fsi_schafer_turek_2d1_outlet_level"]
+            [
+                "fsi_schafer_turek_2d1",
+                "fsi_schafer_turek_2d1_d40",
+                "fsi_schafer_turek_2d1_d30_air_at_rho0",
+                "fsi_schafer_turek_2d1_d30_air_at_rho0_weak",
+                "fsi_schafer_turek_2d1_outlet_level"
+            ]
         );
         assert!(picked(Some("fsi_")).len() >= 8);
         assert_eq!(picked(None).len(), names.len());
