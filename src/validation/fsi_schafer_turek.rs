@@ -230,17 +230,15 @@ pub fn schafer_turek_2d1_with_outlet(
         };
         (p(drop_probes[0]) - p(drop_probes[1]), extrapolated(drop_probes[0], -1.0) - extrapolated(drop_probes[1], 1.0))
     };
+    // the nodes whose distance from the cylinder's centre (cells) passes `keep`
+    let r_lat = units.length_to_lattice(radius);
+    let nodes_at = |g: &crate::fluid::Grid, keep: &dyn Fn(f64) -> bool| -> Vec<usize> {
+        let cc = DVec3::from_array(lat(centre));
+        (0..g.len()).filter(|&n| keep((DVec3::from_array(g.coords(n).map(|x| x as f64)) - cc).length())).collect()
+    };
     // the air within one diameter of the cylinder's surface: nodes 1.2–2 radii from its centre
     // (fluid whatever the body does), for the density the forces see
-    let near_nodes = |g: &crate::fluid::Grid| -> Vec<usize> {
-        let (cc, r) = (DVec3::from_array(lat(centre)), units.length_to_lattice(radius));
-        (0..g.len())
-            .filter(|&n| {
-                let d = (DVec3::from_array(g.coords(n).map(|x| x as f64)) - cc).length();
-                d >= 1.2 * r && d <= 2.0 * r
-            })
-            .collect()
-    };
+    let near_nodes = |g: &crate::fluid::Grid| nodes_at(g, &|d| (1.2 * r_lat..=2.0 * r_lat).contains(&d));
     let near_density = |f: &FluidSolver, nodes: &[usize]| nodes.iter().map(|&n| f.macro_at(n).rho).sum::<f64>() / nodes.len() as f64;
     let mut exchange_drag = None;
     let (stage_shares, substeps, max_displacement, n_particles) = match body {
@@ -251,11 +249,7 @@ pub fn schafer_turek_2d1_with_outlet(
             let drag = |f: &FluidSolver| surface_forces(f, &units, std::slice::from_ref(&surface), &particles, TractionModel::PressureAndShear, 1.0).total[0];
             // the cylinder's wall nodes: within 3 cells of its surface (the channel walls lie
             // 15 radii away)
-            let cylinder_walls: Vec<usize> = {
-                let g = &f.layout.grid;
-                let (cc, r) = (DVec3::from_array(c), units.length_to_lattice(radius));
-                (0..g.len()).filter(|&n| (DVec3::from_array(g.coords(n).map(|x| x as f64)) - cc).length() < r + 3.0).collect()
-            };
+            let cylinder_walls = nodes_at(&f.layout.grid, &|d| d < r_lat + 3.0);
             // lattice momentum per step → N per m of span
             let force_unit = units.density * units.velocity * units.dx * units.dx / (params.dt * units.time());
             let mut exchanged = DVec3::ZERO;
