@@ -322,6 +322,11 @@ pub fn cases() -> Vec<Case> {
             use fsi::CylinderBody::{ConservingCoupled, RigidObstacle};
             schafer_turek_rows(30, 0.1, 6.0, &[RigidObstacle, ConservingCoupled], 1.0 / 1.0079)
         }),
+        ("fsi_schafer_turek_2d1_d30_air_at_rho0_10s", || {
+            // The rigid obstacle and method 2 as above, run to 10 s like method 1's case below.
+            use fsi::CylinderBody::{ConservingCoupled, RigidObstacle};
+            schafer_turek_rows(30, 0.1, 10.0, &[RigidObstacle, ConservingCoupled], 1.0 / 1.0079)
+        }),
         ("fsi_schafer_turek_2d1_d30_air_at_rho0_weak", || {
             // The same channel with method 1 (the weak coupling), its own run (≈ 25 min on 2 cores).
             schafer_turek_rows(30, 0.1, 6.0, &[fsi::CylinderBody::WeakCoupled(TractionModel::PressureAndShear)], 1.0 / 1.0079)
@@ -475,6 +480,7 @@ mod tests {
                 "fsi_schafer_turek_2d1",
                 "fsi_schafer_turek_2d1_d40",
                 "fsi_schafer_turek_2d1_d30_air_at_rho0",
+                "fsi_schafer_turek_2d1_d30_air_at_rho0_10s",
                 "fsi_schafer_turek_2d1_d30_air_at_rho0_weak",
                 "fsi_schafer_turek_2d1_d30_air_at_rho0_weak_10s",
                 "fsi_schafer_turek_2d1_outlet_level"
