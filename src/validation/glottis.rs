@@ -56,6 +56,57 @@ pub fn rows() -> Vec<(String, f64, String, bool)> {
     out
 }
 
+/// The seed's case list as it is written (body 1·10⁵ dyn/cm², cover 10·10⁵ for A and 100·10⁵
+/// for C: the layers swapped against its narrative, [`BodyCoverCase`]) on `glottis_2d_coarse`,
+/// 20 ms from rest, A and C side by side, in `out/validate/glottis_seed_layer_list_{a,c}/`: does
+/// the list as written give the seed's f0? Measured (2026-12-03): no — the soft body lets the
+/// lung pressure blow the glottis open (case A's gap to 0.59 cm of the fold's 0.77 cm width,
+/// 6,700 cm³/s; case C's to 0.28 cm, a first cycle of ≈ 17 ms). Rows: each case's largest glottal
+/// area against ten times the rest gap's (G = 0.021 cm over the 1.4 cm length) and its peak
+/// flow against the largest of the narrative reading's cases (case A, 228 cm³/s). ≈ 20 min on 2
+/// cores.
+pub fn seed_layer_list_rows() -> Vec<(String, f64, String, bool)> {
+    use rayon::prelude::*;
+    let cases = [("A", 10.0e5), ("C", 100.0e5)];
+    let reports: Vec<anyhow::Result<CoupledReport>> = cases
+        .par_iter()
+        .with_max_len(1)
+        .map(|&(name, cover)| {
+            let mut t: toml::Table = crate::scene::builtin("glottis_2d_coarse").expect("built in").parse()?;
+            t.get_mut("run").and_then(|r| r.as_table_mut()).ok_or_else(|| anyhow::anyhow!("glottis_2d_coarse has no [run]"))?.insert("duration".into(), toml::Value::Float(0.02));
+            let mut sc = CoupledScene::parse(&toml::to_string(&t)?)?;
+            sc.set_fold_moduli(cover, 1.0e5);
+            let dir = PathBuf::from(format!("out/validate/glottis_seed_layer_list_{}", name.to_lowercase()));
+            run_coupled_scene(&sc, &dir, &crate::run::RunOptions { show_progress: false, ..Default::default() })
+        })
+        .collect();
+    const REST_GAP: f64 = 0.021;
+    const LENGTH: f64 = 1.4;
+    const NARRATIVE_PEAK_FLOW: f64 = 228.0;
+    let mut out = Vec::new();
+    for ((name, cover), r) in cases.iter().zip(reports) {
+        let label = format!("case {name} as listed (body 1e5, cover {cover:.0e} dyn/cm²)");
+        let r = match r {
+            Ok(r) => r,
+            Err(e) => {
+                out.push((format!("{label}: {e}"), f64::NAN, "runs".into(), false));
+                continue;
+            }
+        };
+        let g = r.glottis.clone().expect("a glottis scene");
+        out.push((format!("{label}: stable 20 ms (fluid mass drift)"), r.fluid_mass_drift, r.instability.clone().unwrap_or_else(|| "finite".into()), r.instability.is_none()));
+        let open = 10.0 * REST_GAP * LENGTH;
+        out.push((format!("{label}: largest glottal area (cm²)"), g.max_area, format!("> {open:.3} (ten times the rest gap's: blown open)"), g.max_area > open));
+        out.push((
+            format!("{label}: peak flow (cm³/s)"),
+            g.max_flow,
+            format!("> {NARRATIVE_PEAK_FLOW} (the narrative reading's largest, case A)"),
+            g.max_flow > NARRATIVE_PEAK_FLOW,
+        ));
+    }
+    out
+}
+
 /// The resolutions of the speed-against-error study: factors of the seed's 124 × 128 lattice.
 pub const STUDY_RESOLUTIONS: [f64; 3] = [0.5, 0.75, 1.0];
 

@@ -282,6 +282,7 @@ pub fn cases() -> Vec<Case> {
             super::glottis::rows()
         }),
         ("glottis_real_air_closure", super::glottis::real_air_closure_rows),
+        ("glottis_seed_layer_list", super::glottis::seed_layer_list_rows),
         ("glottis_speed_error", || {
             // Case C's f0 against resolution (×0.5, ×0.75, ×1 of the seed's lattice) and Mach
             // scaling (real air, Mach 0.3), 40 ms each, with each run's wall time per simulated
@@ -470,7 +471,7 @@ mod tests {
         let names: Vec<&str> = all.iter().map(|(n, _)| *n).collect();
         let picked = |f: Option<&str>| -> Vec<&str> { names.iter().copied().filter(|n| selects(&names, f, n)).collect() };
         assert_eq!(picked(Some("glottis_2d")), ["glottis_2d"]);
-        assert_eq!(picked(Some("glottis")), ["glottis_2d", "glottis_real_air_closure", "glottis_speed_error"]);
+        assert_eq!(picked(Some("glottis")), ["glottis_2d", "glottis_real_air_closure", "glottis_seed_layer_list", "glottis_speed_error"]);
         assert_eq!(picked(Some("taylor_green")), ["taylor_green_2d", "taylor_green_3d"]);
         // the D = 20 channel (minutes) is not also the D = 40 one (an hour on 2 cores)
         assert_eq!(picked(Some("fsi_schafer_turek_2d1")), ["fsi_schafer_turek_2d1"]);
