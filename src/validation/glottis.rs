@@ -59,12 +59,12 @@ pub fn rows() -> Vec<(String, f64, String, bool)> {
 /// The seed's case list as it is written (body 1·10⁵ dyn/cm², cover 10·10⁵ for A and 100·10⁵
 /// for C: the layers swapped against its narrative, [`BodyCoverCase`]) on `glottis_2d_coarse`,
 /// 20 ms from rest, A and C side by side, in `out/validate/glottis_seed_layer_list_{a,c}/`: does
-/// the list as written give the seed's f0? Measured (2026-12-03): no — the soft body lets the
-/// lung pressure blow the glottis open (case A's gap to 0.59 cm of the fold's 0.77 cm width,
-/// 6,700 cm³/s; case C's to 0.28 cm, a first cycle of ≈ 17 ms). Rows: each case's largest glottal
-/// area against ten times the rest gap's (G = 0.021 cm over the 1.4 cm length) and its peak
-/// flow against the largest of the narrative reading's cases (case A, 228 cm³/s). ≈ 20 min on 2
-/// cores.
+/// the list as written give the seed's f0? Measured (2026-12-03, 1729 s on 2 cores): no — the
+/// soft body lets the lung pressure blow the glottis open (case A: area 0.785 cm², a gap of
+/// 0.56 cm of the fold's 0.77 cm width, 5,240 cm³/s; case C: 0.395 cm², 880 cm³/s, a first cycle
+/// of ≈ 17 ms). Rows: each case's largest glottal area against ten times the rest gap's
+/// (G = 0.021 cm over the 1.4 cm length) and its peak flow against the largest of the narrative
+/// reading's cases (case A, 228 cm³/s).
 pub fn seed_layer_list_rows() -> Vec<(String, f64, String, bool)> {
     use rayon::prelude::*;
     let cases = [("A", 10.0e5), ("C", 100.0e5)];

@@ -324,7 +324,8 @@ pub fn cases() -> Vec<Case> {
             schafer_turek_rows(30, 0.1, 6.0, &[RigidObstacle, ConservingCoupled], 1.0 / 1.0079)
         }),
         ("fsi_schafer_turek_2d1_d30_air_at_rho0_10s", || {
-            // The rigid obstacle and method 2 as above, run to 10 s like method 1's case below.
+            // The rigid obstacle and method 2 as above, run to 10 s like method 1's case below
+            // (39 and 57 min side by side here, beside other runs).
             use fsi::CylinderBody::{ConservingCoupled, RigidObstacle};
             schafer_turek_rows(30, 0.1, 10.0, &[RigidObstacle, ConservingCoupled], 1.0 / 1.0079)
         }),
@@ -334,7 +335,8 @@ pub fn cases() -> Vec<Case> {
         }),
         ("fsi_schafer_turek_2d1_d30_air_at_rho0_weak_10s", || {
             // Method 1 as above, run to 10 s: at 6 s its C_D read +2.06 % and the drag was
-            // still falling (at D = 20 the 10-s run read 0.5 % below the 6-s one). ≈ 45 min on 2 cores.
+            // still falling (at D = 20 the 10-s run read 0.5 % below the 6-s one). 57 min on one
+            // core beside other runs.
             schafer_turek_rows(30, 0.1, 10.0, &[fsi::CylinderBody::WeakCoupled(TractionModel::PressureAndShear)], 1.0 / 1.0079)
         }),
         ("fsi_schafer_turek_2d1_outlet_level", || {
