@@ -145,6 +145,12 @@ pub fn schafer_turek_2d1(cells_per_diameter: usize, mach: f64, start: ChannelSta
     schafer_turek_2d1_with_outlet(cells_per_diameter, mach, start, duration, body, 1.0)
 }
 
+/// The outlet density (units of ρ₀) at which the air within one diameter of the cylinder is at
+/// ρ₀ at Mach 0.1: with the outlet at ρ₀ it measured 1.0079 ρ₀ there (D = 20,
+/// `validate --case fsi_schafer_turek_2d1_outlet_level`), and 1.0001–1.0005 ρ₀ with this level
+/// at D = 30. The incompressible benchmark's ρ = 1 where the forces act.
+pub const OUTLET_DENSITY_AIR_AT_RHO0: f64 = 1.0 / 1.0079;
+
 /// [`schafer_turek_2d1`] with the constant-pressure outlet at density `outlet_density` (units of
 /// ρ₀; 1 in [`schafer_turek_2d1`]). The incompressible benchmark fixes no pressure level; in the
 /// weakly compressible channel the level sets the density of the air around the cylinder,

@@ -72,9 +72,8 @@ pub fn seed_layer_list_rows() -> Vec<(String, f64, String, bool)> {
         .par_iter()
         .with_max_len(1)
         .map(|&(name, cover)| {
-            let mut t: toml::Table = crate::scene::builtin("glottis_2d_coarse").expect("built in").parse()?;
-            t.get_mut("run").and_then(|r| r.as_table_mut()).ok_or_else(|| anyhow::anyhow!("glottis_2d_coarse has no [run]"))?.insert("duration".into(), toml::Value::Float(0.02));
-            let mut sc = CoupledScene::parse(&toml::to_string(&t)?)?;
+            let text = crate::run::sweep::set_key(crate::scene::builtin("glottis_2d_coarse").expect("built in"), "run.duration", 0.02)?;
+            let mut sc = CoupledScene::parse(&text)?;
             sc.set_fold_moduli(cover, 1.0e5);
             let dir = PathBuf::from(format!("out/validate/glottis_seed_layer_list_{}", name.to_lowercase()));
             run_coupled_scene(&sc, &dir, &crate::run::RunOptions { show_progress: false, ..Default::default() })

@@ -316,28 +316,27 @@ pub fn cases() -> Vec<Case> {
         }),
         ("fsi_schafer_turek_2d1_d30_air_at_rho0", || {
             // D = 30, Mach 0.1, 6 s, damped, the rigid obstacle and method 2 side by side, with
-            // the outlet at ρ₀ / 1.0079: the level at which the air around the cylinder is at
-            // the benchmark's ρ₀ (`fsi_schafer_turek_2d1_outlet_level` measured 1.0079 ρ₀ there
-            // with the outlet at ρ₀, D = 20; the forces follow the level one for one). The
+            // the outlet at the level that puts the air around the cylinder at the benchmark's
+            // ρ₀ (`OUTLET_DENSITY_AIR_AT_RHO0`; the forces follow the level one for one). The
             // density near the cylinder is in the JSON line each run prints.
             use fsi::CylinderBody::{ConservingCoupled, RigidObstacle};
-            schafer_turek_rows(30, 0.1, 6.0, &[RigidObstacle, ConservingCoupled], 1.0 / 1.0079)
+            schafer_turek_rows(30, 0.1, 6.0, &[RigidObstacle, ConservingCoupled], fsi::OUTLET_DENSITY_AIR_AT_RHO0)
         }),
         ("fsi_schafer_turek_2d1_d30_air_at_rho0_10s", || {
             // The rigid obstacle and method 2 as above, run to 10 s like method 1's case below
             // (39 and 57 min side by side here, beside other runs).
             use fsi::CylinderBody::{ConservingCoupled, RigidObstacle};
-            schafer_turek_rows(30, 0.1, 10.0, &[RigidObstacle, ConservingCoupled], 1.0 / 1.0079)
+            schafer_turek_rows(30, 0.1, 10.0, &[RigidObstacle, ConservingCoupled], fsi::OUTLET_DENSITY_AIR_AT_RHO0)
         }),
         ("fsi_schafer_turek_2d1_d30_air_at_rho0_weak", || {
             // The same channel with method 1 (the weak coupling), its own run (≈ 25 min on 2 cores).
-            schafer_turek_rows(30, 0.1, 6.0, &[fsi::CylinderBody::WeakCoupled(TractionModel::PressureAndShear)], 1.0 / 1.0079)
+            schafer_turek_rows(30, 0.1, 6.0, &[fsi::CylinderBody::WeakCoupled(TractionModel::PressureAndShear)], fsi::OUTLET_DENSITY_AIR_AT_RHO0)
         }),
         ("fsi_schafer_turek_2d1_d30_air_at_rho0_weak_10s", || {
             // Method 1 as above, run to 10 s: at 6 s its C_D read +2.06 % and the drag was
             // still falling (at D = 20 the 10-s run read 0.5 % below the 6-s one). 57 min on one
             // core beside other runs.
-            schafer_turek_rows(30, 0.1, 10.0, &[fsi::CylinderBody::WeakCoupled(TractionModel::PressureAndShear)], 1.0 / 1.0079)
+            schafer_turek_rows(30, 0.1, 10.0, &[fsi::CylinderBody::WeakCoupled(TractionModel::PressureAndShear)], fsi::OUTLET_DENSITY_AIR_AT_RHO0)
         }),
         ("fsi_schafer_turek_2d1_outlet_level", || {
             // The rigid obstacle at D = 20, Mach 0.1, 6 s, damped, twice side by side: the outlet
