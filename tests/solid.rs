@@ -354,6 +354,7 @@ fn solid_scenes_validate_and_bad_input_names_the_field() {
         ("normal = [0.0, 1.0]", "normal = [0.0, 0.0]", "solid.walls[0].normal"),
         ("max = [1.0, 1.0]\nvelocity", "max = [0.05, 1.0]\nvelocity", "solid.bodies[0].max"),
         ("[run]", "[run]\nbogus = 1", "run.bogus"),
+        ("gravity = ", "preconditioner = \"jacobi\"\ngravity = ", "solid.preconditioner"),
     ];
     for (from, to, field) in cases {
         assert!(base.contains(from), "{from}");
@@ -361,6 +362,12 @@ fn solid_scenes_validate_and_bad_input_names_the_field() {
         println!("{e}");
         assert_eq!(e.field, field);
     }
+    // the implicit solve's smoother is a scene option
+    for (text, pre) in [("block_jacobi", phonation::solid::Preconditioner::BlockJacobi), ("patches", phonation::solid::Preconditioner::Patches)] {
+        let s = SolidScene::parse(&base.replacen("gravity = ", &format!("preconditioner = \"{text}\"\ngravity = "), 1)).unwrap().build().unwrap();
+        assert_eq!(s.options.preconditioner, pre);
+    }
+    assert_eq!(SolidScene::parse(base).unwrap().build().unwrap().options.preconditioner, phonation::solid::Preconditioner::Patches);
     // an explicit step beyond the stability limit is refused with the limit in the reason
     let e = SolidScene::parse(&base.replacen("gravity = ", "time_step = 1.0e-3\ngravity = ", 1)).unwrap().build().unwrap_err();
     println!("{e}");

@@ -448,7 +448,7 @@ fn coupled_rows(method: &'static str, body: crate::validation::fsi::CylinderBody
 }
 
 /// Parts of the benchmark, for `bench --only`.
-pub const SUITES: [&str; 9] = ["fdlb", "storage", "solid", "lattice_gas", "coupled", "two_mass", "glottis", "drawing", "scaling"];
+pub const SUITES: [&str; 10] = ["fdlb", "storage", "solid", "crossover", "lattice_gas", "coupled", "two_mass", "glottis", "drawing", "scaling"];
 
 /// The CPU benchmark (every suite of [`SUITES`], or only `only`). `quick` shrinks grids for a
 /// smoke run.
@@ -473,7 +473,7 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
             c.run()
         })
         .collect();
-    use crate::solid::{Integrator, bench::solid_speed};
+    use crate::solid::{Integrator, Preconditioner, bench::solid_speed, bench::solid_speed_with};
     let mut solid = Vec::new();
     for side in if !wants("solid") {
         vec![]
@@ -484,13 +484,17 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
     } {
         solid.push(solid_speed(side, Integrator::Explicit, if quick { 3 } else { 5 }, bw));
         solid.push(solid_speed(side, Integrator::Implicit, if quick { 2 } else { 3 }, bw));
+        // the smoother against block Jacobi, in the same process
+        solid.push(solid_speed_with(side, Integrator::Implicit, Preconditioner::BlockJacobi, if quick { 2 } else { 3 }, bw));
     }
     // the crossover: the benchmark material (its step limited by the elastic waves) and the same
     // block 100, 1000 and 10⁴ times as viscous (the viscous term limits the explicit step)
-    let solid_crossover = match (wants("solid"), quick) {
+    let solid_crossover = match (wants("solid") || only == Some("crossover"), quick) {
         (false, _) => Vec::new(),
         (true, true) => crate::solid::bench::crossover(8, &[crate::solid::bench::BENCHMARK_VISCOSITY, 1000.0], &[2.0, 10.0], 2),
-        (true, false) => crate::solid::bench::crossover(12, &[crate::solid::bench::BENCHMARK_VISCOSITY, 100.0, 1000.0, 10000.0], &[10.0, 30.0, 100.0, 300.0], 2),
+        (true, false) => {
+            crate::solid::bench::crossover(12, &[crate::solid::bench::BENCHMARK_VISCOSITY, 100.0, 1000.0, 10000.0], &[10.0, 30.0, 100.0, 300.0], 2)
+        }
     };
     for v in &mut solid {
         v.flop_fraction = v.flops_per_update.map(|f| f * v.particle_updates_per_s / fma.best);

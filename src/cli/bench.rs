@@ -22,7 +22,7 @@ pub struct BenchArgs {
     /// Also write the report as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Only one suite: fdlb, storage (f32 against f64 populations), solid, lattice_gas, coupled, two_mass, glottis, drawing or scaling
+    /// Only one suite: fdlb, storage (f32 against f64 populations), solid, crossover (the implicit-against-explicit table of the solid suite alone), lattice_gas, coupled, two_mass, glottis, drawing or scaling
     /// (cost per update against size: only when asked for, it takes minutes).
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(phonation::bench::SUITES))]
     pub only: Option<String>,
@@ -38,7 +38,11 @@ fn percent(f: Option<f64>) -> String {
 fn solid_row(v: &phonation::solid::bench::SolidSpeed, extra: &str) {
     println!(
         "{:9} {:>10} {:>10} {:>14.3e} {:>9.0} {:>8} {:>8} {:>9.1} {:>8.1}{extra}",
-        format!("{:?}", v.integrator),
+        match v.preconditioner {
+            Some(phonation::solid::Preconditioner::BlockJacobi) => "impl/bj".to_string(),
+            Some(phonation::solid::Preconditioner::Patches) => "impl/ptch".to_string(),
+            None => format!("{:?}", v.integrator),
+        },
         v.particles,
         v.bonds,
         v.particle_updates_per_s,
@@ -153,7 +157,9 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             println!("{:46} {:>11.3e} {:>12.3e} {:>14.3e}", e.case, e.f64_error, e.f32_error, e.f32_minus_f64);
         }
         if !r.solid.is_empty() {
-            println!("MPS solid (3D, r_e = 2.1 l0):");
+            println!(
+                "MPS solid (3D, r_e = 2.1 l0; implicit at 10× the explicit limit, CG to 1e-8 with the coarse space and the patch (ptch) or block-Jacobi (bj) smoother):"
+            );
             println!(
                 "{:9} {:>10} {:>10} {:>14} {:>9} {:>8} {:>8} {:>9} {:>8}",
                 "step", "particles", "bonds", "updates/s", "B/update", "of b/w", "of flops", "CG it.", "Δt/lim"
@@ -165,7 +171,10 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             println!("          stages: {}", st.join(", "));
         }
         if let Some(first) = r.solid_crossover.first() {
-            println!("implicit against explicit to the same simulated time ({} particles; cost: wall per simulated s over the explicit row's; ! = a CG solve stopped short of its tolerance):", first.particles);
+            println!(
+                "implicit against explicit to the same simulated time ({} particles; cost: wall per simulated s over the explicit row's; ! = a CG solve stopped short of its tolerance):",
+                first.particles
+            );
             println!(
                 "{:>9} {:>8} {:9} {:>7} {:>6} {:>7}  {:>11} {:>11} {:>7} {:>10}",
                 "viscosity", "lim/lim0", "step", "Δt/lim", "steps", "CG it.", "s/step", "s/sim. s", "cost", "error"

@@ -42,6 +42,8 @@ pub struct SolidSpec {
     #[serde(default)]
     pub gravity: Vec<f64>,
     pub cg_tolerance: Option<f64>,
+    /// The implicit solve's smoother on the CPU: "patches" (default) or "block_jacobi".
+    pub preconditioner: Option<crate::solid::Preconditioner>,
     pub materials: Vec<MaterialSpec>,
     pub bodies: Vec<BodySpec>,
     #[serde(default)]
@@ -397,6 +399,7 @@ impl SolidScene {
             contact: s.contact.clone(),
             walls: s.walls.iter().map(|w| Wall { normal: v3(&w.normal).normalize(), offset: w.offset }).collect(),
             cg_tolerance: s.cg_tolerance.unwrap_or(d.cg_tolerance),
+            preconditioner: s.preconditioner.unwrap_or(d.preconditioner),
             ..d
         };
         SolidSolver::new(p, self.materials.clone(), opts)

@@ -12,7 +12,7 @@
 //! stress, the integration — is left out, so the count is a lower bound).
 
 use super::particles::{Particles, sample_box};
-use super::{Integrator, Orthotropic, SolidOptions, SolidSolver};
+use super::{Integrator, Orthotropic, Preconditioner, SolidOptions, SolidSolver};
 use glam::DVec3;
 use serde::Serialize;
 use std::time::Instant;
@@ -28,6 +28,8 @@ pub const FLOPS_PER_BOND: f64 = 24.0 + 139.0;
 #[derive(Clone, Debug, Serialize)]
 pub struct SolidSpeed {
     pub integrator: Integrator,
+    /// The implicit step's smoother (`None` for explicit steps).
+    pub preconditioner: Option<Preconditioner>,
     pub particles: usize,
     pub bonds: usize,
     pub particle_updates_per_s: f64,
@@ -56,8 +58,14 @@ pub fn footprint(s: &SolidSolver) -> usize {
 /// A cube of `side`³ particles of the orthotropic test material, clamped on one face and
 /// released from a small shear (so that CG has work to do).
 pub fn solid_speed(side: usize, integrator: Integrator, steps: u64, bandwidth: f64) -> SolidSpeed {
+    solid_speed_with(side, integrator, Preconditioner::default(), steps, bandwidth)
+}
+
+/// [`solid_speed`] with the implicit step preconditioned by `preconditioner`'s smoother.
+pub fn solid_speed_with(side: usize, integrator: Integrator, preconditioner: Preconditioner, steps: u64, bandwidth: f64) -> SolidSpeed {
     let t0 = Instant::now();
     let mut s = benchmark_block(side, integrator);
+    s.options.preconditioner = preconditioner;
     let setup = t0.elapsed().as_secs_f64();
     s.step().expect("the benchmark block stays finite");
     let t = Instant::now();
@@ -90,6 +98,7 @@ pub fn speed_of(
     let bytes = 2.0 * 104.0 * bonds as f64 / n as f64 + 700.0;
     SolidSpeed {
         integrator: s.options.integrator,
+        preconditioner: (s.options.integrator == Integrator::Implicit).then_some(s.options.preconditioner),
         particles: n,
         bonds,
         particle_updates_per_s: ups,

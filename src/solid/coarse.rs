@@ -1,6 +1,7 @@
 //! A coarse-space correction for the implicit step's preconditioner (two-level additive
-//! Schwarz): block Jacobi (one 3×3 block per particle, [`super::implicit::BlockJacobi`]) damps
-//! what varies from particle to particle, but the smooth, body-wide modes of
+//! Schwarz): the smoother (the patches of [`super::patch_jacobi`], or block Jacobi, one 3×3
+//! block per particle, [`super::implicit::BlockJacobi`]) damps what varies from particle to
+//! particle, but the smooth, body-wide modes of
 //! A = M − Δt D − Δt² K are what a large time step makes stiff, and block Jacobi needs many
 //! iterations to move them. The particles are grouped into aggregates (cubes of a few
 //! spacings); on each, the affine motions — translations, rotations and uniform strains (2D: 6
@@ -12,7 +13,7 @@
 //! particle's influence one bond further than the gradient model's two) are pushed together,
 //! one axis at a time, and each aggregate's response is read as the entry of the one pushed
 //! aggregate within its reach. A_c is dense and factorised by Cholesky; the preconditioner is
-//! z = BJ r + P A_c⁻¹ Pᵀ r, symmetric positive definite as conjugate gradients need.
+//! z = S r + P A_c⁻¹ Pᵀ r (S the smoother), symmetric positive definite as conjugate gradients need.
 //!
 //! The aggregates grow with the body so that A_c stays small (≤ [`MAX_UNKNOWNS`] unknowns): a
 //! coarse space of ≈ 10³ aggregates still carries the body's lowest modes.

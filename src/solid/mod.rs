@@ -12,6 +12,7 @@
 //! | [`contact`] | distinct-element contact between bodies and with walls | 2.22–2.37 |
 //! | [`implicit`] | block-Jacobi preconditioned conjugate gradients | 2.63–2.66 |
 //! | `linear` | the implicit system's operator A x, matrix-free at a configuration | 2.63–2.66 |
+//! | [`patch_jacobi`] | patch block-Jacobi smoother (exact inverses of 3³-particle blocks of A) | 2.63–2.66 |
 //! | [`coarse`] | the preconditioner's coarse-space correction (aggregates' translations, probed A_c) | 2.63–2.66 |
 //! | [`timestep`] | explicit stability limit | — |
 //! | [`solver`] | explicit and implicit steps driven by the solid stage lists | 2.44–2.66 |
@@ -27,6 +28,7 @@ pub mod implicit;
 mod linear;
 pub mod material;
 pub mod particles;
+pub mod patch_jacobi;
 pub mod rotation;
 pub mod solver;
 pub mod state;
@@ -35,4 +37,4 @@ pub mod timestep;
 pub use contact::{ContactParams, Wall};
 pub use material::Orthotropic;
 pub use particles::Particles;
-pub use solver::{Energies, Integrator, SolidOptions, SolidSolver};
+pub use solver::{Energies, Integrator, Preconditioner, SolidOptions, SolidSolver};

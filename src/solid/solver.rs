@@ -10,6 +10,7 @@ use super::implicit::{BlockJacobi, CgReport, conjugate_gradient};
 use super::linear::LinearOperator;
 use super::material::{Orthotropic, Voigt6, min_mandel_eigenvalue};
 use super::particles::Particles;
+use super::patch_jacobi::PatchJacobi;
 use super::rotation::{advance_quaternion, solve_all_rotations, solve_angular_velocity};
 use super::timestep::stable_time_step;
 use crate::error::SceneError;
@@ -28,6 +29,19 @@ pub enum Integrator {
     /// Backward Euler on velocities with linearised pair forces, (2.57)–(2.66), rotations by
     /// Newton–Raphson (2.73)–(2.76).
     Implicit,
+}
+
+/// The smoother of the implicit step's preconditioner on the CPU (the coarse space
+/// [`super::coarse`] is added to either; the GPU solve uses block Jacobi alone).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Preconditioner {
+    /// One 3×3 block per particle ([`BlockJacobi`]).
+    BlockJacobi,
+    /// The exact inverse of each patch of 3³ particles' block ([`PatchJacobi`]): 2.6–3× fewer
+    /// iterations than block Jacobi on the benchmark blocks at 10× the explicit step.
+    #[default]
+    Patches,
 }
 
 /// Numerical options of a solid.
@@ -50,6 +64,8 @@ pub struct SolidOptions {
     pub cg_max_iterations: usize,
     /// Newton–Raphson tolerance of the implicit rotations (relative moment).
     pub rotation_tolerance: f64,
+    /// The implicit step's smoother on the CPU.
+    pub preconditioner: Preconditioner,
 }
 
 impl Default for SolidOptions {
@@ -67,6 +83,7 @@ impl Default for SolidOptions {
             cg_tolerance: 1e-8,
             cg_max_iterations: 2000,
             rotation_tolerance: 1e-12,
+            preconditioner: Preconditioner::default(),
         }
     }
 }
@@ -113,6 +130,8 @@ pub struct SolidSolver {
     total_force: Vec<DVec3>,
     total_torque: Vec<DVec3>,
     precond: Option<BlockJacobi>,
+    /// Implicit only, [`Preconditioner::Patches`]: the patch smoother, built with the coarse space.
+    patches: Option<PatchJacobi>,
     /// Implicit only: the preconditioner's coarse-space correction ([`super::coarse`]), built
     /// with the block-Jacobi part; `None` inside when A_c could not be factorised.
     coarse: Option<Option<CoarseSpace>>,
@@ -176,6 +195,7 @@ impl SolidSolver {
             total_force: vec![DVec3::ZERO; n],
             total_torque: vec![DVec3::ZERO; n],
             precond: None,
+            patches: None,
             coarse: None,
             jinv: vec![DMat3::ZERO; n],
             particles,
@@ -244,6 +264,7 @@ impl SolidSolver {
         assert_eq!(added_mass.len(), self.particles.len(), "one added mass per particle");
         self.particles.added_mass = added_mass;
         self.precond = None;
+        self.patches = None;
         self.coarse = None;
     }
 
@@ -398,9 +419,13 @@ impl SolidSolver {
         let rhs: Vec<DVec3> = (0..n).map(|i| if p.fixed[i] { DVec3::ZERO } else { dt * (self.total_force[i] + dt * kv[i]) }).collect();
         let mass: Vec<f64> = (0..n).map(|i| p.mass[i] + p.added_mass[i]).collect();
         let fixed = &p.fixed;
-        let (bj, coarse) = (self.precond.as_ref().unwrap(), self.coarse.as_ref().and_then(|c| c.as_ref()));
+        let (bj, patches, coarse) = (self.precond.as_ref(), self.patches.as_ref(), self.coarse.as_ref().and_then(|c| c.as_ref()));
         let precondition = |r: &[DVec3], z: &mut [DVec3]| {
-            bj.apply(r, z);
+            match (patches, bj) {
+                (Some(p), _) => p.apply(r, z),
+                (None, Some(b)) => b.apply(r, z),
+                (None, None) => unreachable!("prepare_preconditioner builds one smoother"),
+            }
             if let Some(c) = coarse {
                 c.add_correction(r, z);
             }
@@ -420,12 +445,15 @@ impl SolidSolver {
         p.velocity.par_iter_mut().zip(&dv).for_each(|(v, d)| *v += *d);
     }
 
-    /// Builds the implicit step's preconditioner (block Jacobi and the coarse space) for the
-    /// current Δt if it is not built yet; the first implicit step does it otherwise. A
-    /// benchmark calls it to keep the one-off setup out of the per-step cost.
+    /// Builds the implicit step's preconditioner (the smoother of
+    /// [`SolidOptions::preconditioner`] and the coarse space) for the current Δt if it is not
+    /// built yet; the first implicit step does it otherwise. A benchmark calls it to keep the
+    /// one-off setup out of the per-step cost.
     pub fn prepare_preconditioner(&mut self) {
-        if self.precond.is_none() {
-            self.precond = Some(BlockJacobi::new(&self.disc, &self.particles, self.dt));
+        match self.options.preconditioner {
+            Preconditioner::Patches if self.patches.is_none() => self.patches = Some(PatchJacobi::new(&self.disc, &self.particles, self.dt)),
+            Preconditioner::BlockJacobi if self.precond.is_none() => self.precond = Some(BlockJacobi::new(&self.disc, &self.particles, self.dt)),
+            _ => {}
         }
         if self.coarse.is_none() {
             self.coarse = Some(self.reference_coarse_space());

@@ -11,7 +11,10 @@ use glam::DVec3;
 use std::time::Instant;
 
 pub use super::fsi_momentum::{MomentumResult, added_mass_stability, pressure_pulse_momentum, pulse_on_a_free_disc, pulse_on_a_free_disc_by};
-pub use super::fsi_schafer_turek::{ChannelCylinderResult, ChannelStart, CylinderBody, ST_2D1_DRAG, ST_2D1_LIFT, ST_2D1_PRESSURE_DROP, OUTLET_DENSITY_AIR_AT_RHO0, schafer_turek_2d1, schafer_turek_2d1_with_outlet};
+pub use super::fsi_schafer_turek::{
+    ChannelCylinderResult, ChannelStart, CylinderBody, OUTLET_DENSITY_AIR_AT_RHO0, ST_2D1_DRAG, ST_2D1_LIFT, ST_2D1_PRESSURE_DROP, schafer_turek_2d1,
+    schafer_turek_2d1_with_outlet,
+};
 
 /// D2Q21, monatomic, θ₀ = 0.6: the air of every case here; returns the equilibrium and the
 /// largest L1 speed (for the time step).

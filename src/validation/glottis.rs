@@ -93,9 +93,19 @@ pub fn seed_layer_list_rows() -> Vec<(String, f64, String, bool)> {
             }
         };
         let g = r.glottis.clone().expect("a glottis scene");
-        out.push((format!("{label}: stable 20 ms (fluid mass drift)"), r.fluid_mass_drift, r.instability.clone().unwrap_or_else(|| "finite".into()), r.instability.is_none()));
+        out.push((
+            format!("{label}: stable 20 ms (fluid mass drift)"),
+            r.fluid_mass_drift,
+            r.instability.clone().unwrap_or_else(|| "finite".into()),
+            r.instability.is_none(),
+        ));
         let open = 10.0 * REST_GAP * LENGTH;
-        out.push((format!("{label}: largest glottal area (cm²)"), g.max_area, format!("> {open:.3} (ten times the rest gap's: blown open)"), g.max_area > open));
+        out.push((
+            format!("{label}: largest glottal area (cm²)"),
+            g.max_area,
+            format!("> {open:.3} (ten times the rest gap's: blown open)"),
+            g.max_area > open,
+        ));
         out.push((
             format!("{label}: peak flow (cm³/s)"),
             g.max_flow,
