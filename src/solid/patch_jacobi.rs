@@ -406,10 +406,15 @@ mod tests {
                     assert!(s.last.cg.converged, "{pre:?}: {:?}", s.last.cg);
                     its.push(s.last.cg.iterations);
                 }
-                (its, s.particles.position.clone(), s.particles.reference.clone())
+                (its, s.particles.position.clone(), s.particles.reference.clone(), s)
             };
-            let (bj, xb, x0) = run(Preconditioner::BlockJacobi);
-            let (pa, xp, _) = run(Preconditioner::Patches);
+            let (bj, xb, x0, _) = run(Preconditioner::BlockJacobi);
+            let (pa, xp, _, mut s) = run(Preconditioner::Patches);
+            // the option, not what happens to be built, picks the smoother: switched after the
+            // patches were built, the next step is block Jacobi's again
+            s.options.preconditioner = Preconditioner::BlockJacobi;
+            s.step().unwrap();
+            assert!(s.last.cg.iterations >= 2 * pa[2], "{dim}D: {:?} after switching to block Jacobi", s.last.cg);
             let moved = xb.iter().zip(&x0).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
             let diff = xb.iter().zip(&xp).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
             println!("{dim}D {side}: CG iterations block Jacobi {bj:?}, patches {pa:?}; positions differ by {:.1e} of the motion", diff / moved);

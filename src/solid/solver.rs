@@ -38,8 +38,9 @@ pub enum Integrator {
 pub enum Preconditioner {
     /// One 3×3 block per particle ([`BlockJacobi`]).
     BlockJacobi,
-    /// The exact inverse of each patch of 3³ particles' block ([`PatchJacobi`]): 2.6–3× fewer
-    /// iterations than block Jacobi on the benchmark blocks at 10× the explicit step.
+    /// The exact inverse of each patch's block (3³ particles in 3D, 4² in 2D; [`PatchJacobi`]):
+    /// 2.3–3× fewer iterations than block Jacobi on the 12³–30³ benchmark blocks at 10× the
+    /// explicit step (1.4–1.5× at 10⁶ particles, where the coarse space is too coarse).
     #[default]
     Patches,
 }
@@ -133,7 +134,7 @@ pub struct SolidSolver {
     /// Implicit only, [`Preconditioner::Patches`]: the patch smoother, built with the coarse space.
     patches: Option<PatchJacobi>,
     /// Implicit only: the preconditioner's coarse-space correction ([`super::coarse`]), built
-    /// with the block-Jacobi part; `None` inside when A_c could not be factorised.
+    /// with the smoother; `None` inside when A_c could not be factorised.
     coarse: Option<Option<CoarseSpace>>,
     /// Implicit only: J_i⁻¹ of (2.74) at the current state.
     jinv: Vec<DMat3>,
@@ -419,12 +420,14 @@ impl SolidSolver {
         let rhs: Vec<DVec3> = (0..n).map(|i| if p.fixed[i] { DVec3::ZERO } else { dt * (self.total_force[i] + dt * kv[i]) }).collect();
         let mass: Vec<f64> = (0..n).map(|i| p.mass[i] + p.added_mass[i]).collect();
         let fixed = &p.fixed;
-        let (bj, patches, coarse) = (self.precond.as_ref(), self.patches.as_ref(), self.coarse.as_ref().and_then(|c| c.as_ref()));
+        // the smoother the options name (both may be built: the GPU backend asks for block
+        // Jacobi's blocks whatever the CPU uses)
+        let (preconditioner, bj, patches, coarse) =
+            (self.options.preconditioner, self.precond.as_ref(), self.patches.as_ref(), self.coarse.as_ref().and_then(|c| c.as_ref()));
         let precondition = |r: &[DVec3], z: &mut [DVec3]| {
-            match (patches, bj) {
-                (Some(p), _) => p.apply(r, z),
-                (None, Some(b)) => b.apply(r, z),
-                (None, None) => unreachable!("prepare_preconditioner builds one smoother"),
+            match preconditioner {
+                Preconditioner::Patches => patches.expect("prepare_preconditioner builds the patches").apply(r, z),
+                Preconditioner::BlockJacobi => bj.expect("prepare_preconditioner builds block Jacobi").apply(r, z),
             }
             if let Some(c) = coarse {
                 c.add_correction(r, z);
