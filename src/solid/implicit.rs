@@ -6,7 +6,7 @@
 //! Clamped particles are constrained to ΔV = 0.
 
 use super::forces::Discretisation;
-use super::material::{mul6, to_voigt};
+use super::material::mul6;
 use super::particles::Particles;
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
@@ -39,14 +39,7 @@ impl BlockJacobi {
                 let mut kb = DMat3::ZERO;
                 let mut add = |k: usize, g: DVec3| {
                     let c = &d.grad_stiffness[k];
-                    let e: Vec<[f64; 6]> = (0..3)
-                        .map(|a| {
-                            let mut dx = DVec3::ZERO;
-                            dx[a] = 1.0;
-                            let h = super::bonds::outer(dx, g);
-                            to_voigt(&(0.5 * (h + h.transpose())))
-                        })
-                        .collect();
+                    let e = super::patch_jacobi::unit_strains(g);
                     for a in 0..3 {
                         let s = mul6(c, &e[a]);
                         for bb in 0..3 {

@@ -46,6 +46,8 @@ pub struct PatchJacobi {
     start: Vec<usize>,
     /// Position of particle i in `members`; `u32::MAX` for clamped particles.
     slot: Vec<u32>,
+    /// Patch of particle i; `u32::MAX` for clamped particles.
+    patch: Vec<u32>,
     /// Lower triangle (row-major, packed) of A_PP⁻¹ of each patch, from `inverse_start[p]`.
     inverse: Vec<f32>,
     inverse_start: Vec<usize>,
@@ -53,7 +55,7 @@ pub struct PatchJacobi {
 
 /// Voigt strains of the unit displacements along x, y, z of a particle that moves particle k's
 /// strain with weight `g` (ε_k changes by sym(δx ⊗ g)).
-fn unit_strains(g: DVec3) -> [[f64; 6]; 3] {
+pub(super) fn unit_strains(g: DVec3) -> [[f64; 6]; 3] {
     std::array::from_fn(|a| {
         let h = outer(DVec3::AXES[a], g);
         to_voigt(&(0.5 * (h + h.transpose())))
@@ -86,16 +88,15 @@ impl PatchJacobi {
         }
         let mut members = Vec::with_capacity(n);
         let mut start = vec![0];
-        for m in cells.into_values() {
-            members.extend(m);
+        let (mut slot, mut patch) = (vec![u32::MAX; n], vec![u32::MAX; n]);
+        for (q, m) in cells.into_values().enumerate() {
+            for i in m {
+                slot[i as usize] = members.len() as u32;
+                patch[i as usize] = q as u32;
+                members.push(i);
+            }
             start.push(members.len());
         }
-        let mut slot = vec![u32::MAX; n];
-        for (t, &i) in members.iter().enumerate() {
-            slot[i as usize] = t as u32;
-        }
-        let patch_of = |i: usize| -> usize { start.partition_point(|&s| s <= slot[i] as usize) - 1 };
-        let patch: Vec<usize> = (0..n).map(|i| if slot[i] == u32::MAX { usize::MAX } else { patch_of(i) }).collect();
         let patches = start.len() - 1;
         let layout = Layout { members: &members, start: &start, slot: &slot, patch: &patch };
         let inverses: Vec<Vec<f32>> = (0..patches)
@@ -113,7 +114,7 @@ impl PatchJacobi {
             total += inv.len();
         }
         inverse_start.push(total);
-        Self { members, start, slot, inverse: inverses.concat(), inverse_start }
+        Self { members, start, slot, patch, inverse: inverses.concat(), inverse_start }
     }
 
     /// Number of patches.
@@ -131,28 +132,34 @@ impl PatchJacobi {
             slices.push(head);
             rest = tail;
         }
-        slices.into_par_iter().enumerate().for_each(|(q, out)| {
-            let mem = &self.members[self.start[q]..self.start[q + 1]];
-            let inv = &self.inverse[self.inverse_start[q]..self.inverse_start[q + 1]];
-            let m = 3 * mem.len();
-            let rl: Vec<f64> = mem.iter().flat_map(|&i| r[i as usize].to_array()).collect();
-            let mut y = vec![0.0f64; m];
-            // packed lower triangle: row a holds columns 0..=a
-            let mut at = 0;
-            for a in 0..m {
-                let row = &inv[at..at + a + 1];
-                let mut s = 0.0;
-                for (c, &v) in row[..a].iter().enumerate() {
-                    s += v as f64 * rl[c];
-                    y[c] += v as f64 * rl[a];
+        // (r_P, z_P) scratch per worker thread, not per patch: this runs every CG iteration
+        slices.into_par_iter().enumerate().for_each_init(
+            || (Vec::new(), Vec::new()),
+            |(rl, y), (q, out)| {
+                let mem = &self.members[self.start[q]..self.start[q + 1]];
+                let inv = &self.inverse[self.inverse_start[q]..self.inverse_start[q + 1]];
+                let m = 3 * mem.len();
+                rl.clear();
+                rl.extend(mem.iter().flat_map(|&i| r[i as usize].to_array()));
+                y.clear();
+                y.resize(m, 0.0f64);
+                // packed lower triangle: row a holds columns 0..=a
+                let mut at = 0;
+                for a in 0..m {
+                    let row = &inv[at..at + a + 1];
+                    let mut s = 0.0;
+                    for (c, &v) in row[..a].iter().enumerate() {
+                        s += v as f64 * rl[c];
+                        y[c] += v as f64 * rl[a];
+                    }
+                    y[a] += s + row[a] as f64 * rl[a];
+                    at += a + 1;
                 }
-                y[a] += s + row[a] as f64 * rl[a];
-                at += a + 1;
-            }
-            for (l, o) in out.iter_mut().enumerate() {
-                *o = DVec3::new(y[3 * l], y[3 * l + 1], y[3 * l + 2]);
-            }
-        });
+                for (l, o) in out.iter_mut().enumerate() {
+                    *o = DVec3::new(y[3 * l], y[3 * l + 1], y[3 * l + 2]);
+                }
+            },
+        );
         z.par_iter_mut().enumerate().for_each(|(i, zi)| *zi = if self.slot[i] == u32::MAX { DVec3::ZERO } else { zp[self.slot[i] as usize] });
     }
 }
@@ -162,7 +169,7 @@ struct Layout<'a> {
     members: &'a [u32],
     start: &'a [usize],
     slot: &'a [u32],
-    patch: &'a [usize],
+    patch: &'a [u32],
 }
 
 impl Layout<'_> {
@@ -173,7 +180,7 @@ impl Layout<'_> {
         let dt2 = dt * dt;
         let mem = &members[start[q]..start[q + 1]];
         let m = 3 * mem.len();
-        let local = |j: usize| -> Option<usize> { (patch[j] == q).then(|| slot[j] as usize - start[q]) };
+        let local = |j: usize| -> Option<usize> { (patch[j] == q as u32).then(|| slot[j] as usize - start[q]) };
         let mut a = vec![0.0f64; m * m];
         let mut add_block = |li: usize, lj: usize, blk: &[[f64; 3]; 3]| {
             for (x, row) in blk.iter().enumerate() {
@@ -338,9 +345,7 @@ mod tests {
             let p = &s.particles;
             let pj = PatchJacobi::new(&s.disc, p, s.dt);
             let n = p.len();
-            let patch: Vec<usize> =
-                (0..n).map(|i| if pj.slot[i] == u32::MAX { usize::MAX } else { pj.start.partition_point(|&t| t <= pj.slot[i] as usize) - 1 }).collect();
-            let layout = Layout { members: &pj.members, start: &pj.start, slot: &pj.slot, patch: &patch };
+            let layout = Layout { members: &pj.members, start: &pj.start, slot: &pj.slot, patch: &pj.patch };
             // an interior patch (all 3^dim members, none clamped) and one on the free corner
             let full = (patch_spacings(dim) as usize).pow(dim as u32);
             let interior = (0..pj.patches()).find(|&q| pj.start[q + 1] - pj.start[q] == full);

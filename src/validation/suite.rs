@@ -391,6 +391,9 @@ pub fn cases() -> Vec<Case> {
                     "≤ 30 (issue 16's goal), converged to 10⁻⁸".into(),
                     ok && cg.converged && cg.iterations <= 30,
                 ));
+                if !ok {
+                    break;
+                }
             }
             out
         }),
