@@ -15,9 +15,15 @@
 //! aggregate within its reach. A_c is dense and factorised by Cholesky; the preconditioner is
 //! z = S r + P A_c⁻¹ Pᵀ r (S the smoother), symmetric positive definite as conjugate gradients need.
 //!
-//! The aggregates grow with the body so that A_c stays small (≤ [`MAX_UNKNOWNS`] unknowns): a
-//! coarse space of ≈ 10³ aggregates still carries the body's lowest modes.
+//! A small body's aggregates are 4 spacings wide, grown until A_c has ≤ [`MAX_UNKNOWNS`]
+//! unknowns, and A_c is dense. A body too large for that with aggregates as wide as A's reach
+//! (beyond ~3·10⁴ particles in 3D) keeps aggregates of that width and holds A_c block-sparse,
+//! solved by an inner conjugate-gradient loop with a third level ([`super::coarse_sparse`]):
+//! grown aggregates stop carrying the intermediate modes (the 10⁶-particle block, aggregates of
+//! 18 spacings: see the README).
 
+use super::coarse_sparse::{BlockSparse, Groups, SparseCoarse};
+use super::dense::{cholesky, cholesky_solve};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -32,14 +38,23 @@ pub struct CoarseSpace {
     aggregate: Vec<u32>,
     /// First coarse unknown of each aggregate (and the total at the end).
     offset: Vec<usize>,
-    /// Lower Cholesky factor of A_c, row-major, unknowns².
-    factor: Vec<f64>,
+    /// How A_c is held and solved.
+    solve: CoarseSolve,
     /// Side of an aggregate (length).
     pub side: f64,
     /// The basis vectors at each particle (those of its aggregate's basis, in order), from
     /// `start[i]`: P's entries, evaluated once.
     vectors: Vec<DVec3>,
     start: Vec<usize>,
+}
+
+/// A_c and its solve.
+#[derive(Clone, Debug)]
+enum CoarseSolve {
+    /// Lower Cholesky factor of the dense A_c, row-major, unknowns².
+    Dense(Vec<f64>),
+    /// Block-sparse A_c solved by inner conjugate gradients with a third level.
+    Sparse(SparseCoarse),
 }
 
 /// Mode k of an aggregate of side `side` at `rel` from its centre — the affine motions:
@@ -68,23 +83,114 @@ fn mode_count(dim: usize) -> usize {
     if dim == 2 { 6 } else { 12 }
 }
 
+/// An orthonormal basis (in the inner product over the particles `members`) of the affine
+/// modes about `centre`, as coefficients of [`mode`]: Gram–Schmidt, dropping a mode that the
+/// others already span there (a one-particle-thick aggregate's strain across its thickness).
+fn affine_basis(members: &[usize], reference: &[DVec3], centre: DVec3, side: f64, dim: usize) -> Vec<[f64; 12]> {
+    let modes = mode_count(dim);
+    let mut gram = [[0.0; 12]; 12];
+    for &i in members {
+        let v: Vec<DVec3> = (0..modes).map(|k| mode(k, dim, reference[i] - centre, side)).collect();
+        for k in 0..modes {
+            for l in 0..modes {
+                gram[k][l] += v[k].dot(v[l]);
+            }
+        }
+    }
+    let dot = |a: &[f64; 12], b: &[f64; 12]| -> f64 { (0..modes).map(|k| (0..modes).map(|l| a[k] * gram[k][l] * b[l]).sum::<f64>()).sum() };
+    let mut accepted: Vec<[f64; 12]> = Vec::new();
+    for k in 0..modes {
+        let mut v = [0.0; 12];
+        v[k] = 1.0;
+        let norm0 = dot(&v, &v);
+        for b in &accepted {
+            let p = dot(&v, b);
+            for (x, y) in v.iter_mut().zip(b) {
+                *x -= p * y;
+            }
+        }
+        let norm = dot(&v, &v);
+        if norm > 1e-8 * norm0 {
+            let s = 1.0 / norm.sqrt();
+            accepted.push(v.map(|x| x * s));
+        }
+    }
+    accepted
+}
+
+/// Basis vector `b` (coefficients of the modes about `centre`, aggregate side `side`) at `x`.
+fn basis_value(b: &[f64; 12], dim: usize, x: DVec3, centre: DVec3, side: f64) -> DVec3 {
+    (0..mode_count(dim)).map(|k| b[k] * mode(k, dim, x - centre, side)).sum()
+}
+
+/// Where the aggregates lie: a grid of cubes of side `side` from `lo`.
+struct AggregateGrid {
+    lo: DVec3,
+    side: f64,
+    cells: [usize; 3],
+    dim: usize,
+}
+
+impl AggregateGrid {
+    fn new(reference: &[DVec3], dim: usize, side: f64) -> Self {
+        let lo = reference.iter().fold(DVec3::splat(f64::INFINITY), |a, x| a.min(*x));
+        let hi = reference.iter().fold(DVec3::splat(f64::NEG_INFINITY), |a, x| a.max(*x));
+        let cells = std::array::from_fn(|a| if a < dim { ((hi[a] - lo[a]) / side).floor() as usize + 1 } else { 1 });
+        Self { lo, side, cells, dim }
+    }
+
+    /// Upper bound of the coarse unknowns: every cell an aggregate with all its modes.
+    fn unknowns(&self) -> usize {
+        self.cells.iter().product::<usize>() * mode_count(self.dim)
+    }
+
+    fn coords(&self, x: DVec3) -> [usize; 3] {
+        std::array::from_fn(|a| if a < self.dim { (((x[a] - self.lo[a]) / self.side).floor() as usize).min(self.cells[a] - 1) } else { 0 })
+    }
+
+    fn flat(&self, c: [usize; 3]) -> usize {
+        (c[2] * self.cells[1] + c[1]) * self.cells[0] + c[0]
+    }
+
+    fn centre(&self, c: [usize; 3]) -> DVec3 {
+        self.lo + DVec3::from_array(std::array::from_fn(|a| if a < self.dim { (c[a] as f64 + 0.5) * self.side } else { 0.0 }))
+    }
+}
+
 impl CoarseSpace {
     /// Builds the coarse space of particles at `reference` (spacing l₀, dimension `dim`) for the
     /// operator `apply` (x ↦ A x, zero on `fixed` particles), whose reach is `reach` (length).
-    /// `None` when A_c is not positive definite to round-off (the caller keeps block Jacobi).
-    pub fn build(reference: &[DVec3], fixed: &[bool], dim: usize, spacing: f64, reach: f64, mut apply: impl FnMut(&[DVec3], &mut [DVec3])) -> Option<Self> {
-        let n = reference.len();
-        let modes = mode_count(dim);
-        let lo = reference.iter().fold(DVec3::splat(f64::INFINITY), |a, x| a.min(*x));
-        let hi = reference.iter().fold(DVec3::splat(f64::NEG_INFINITY), |a, x| a.max(*x));
-        let cells = |side: f64| -> [usize; 3] { std::array::from_fn(|a| if a < dim { ((hi[a] - lo[a]) / side).floor() as usize + 1 } else { 1 }) };
+    /// Aggregates of 4 spacings, grown until a dense A_c has ≤ [`MAX_UNKNOWNS`] unknowns; when
+    /// even aggregates as wide as A's reach need more, aggregates of that width (they couple to
+    /// their 3^dim neighbours only: probing takes 3^dim × modes operator products) and A_c
+    /// block-sparse ([`super::coarse_sparse`]). `None` when A_c is not positive definite to
+    /// round-off (the caller keeps the smoother alone).
+    pub fn build(reference: &[DVec3], fixed: &[bool], dim: usize, spacing: f64, reach: f64, apply: impl FnMut(&[DVec3], &mut [DVec3])) -> Option<Self> {
+        let sparse_side = (4.0 * spacing).max(reach * (1.0 + 1e-9));
+        if AggregateGrid::new(reference, dim, sparse_side).unknowns() > MAX_UNKNOWNS {
+            return Self::build_with(reference, fixed, dim, sparse_side, reach, true, apply);
+        }
         let mut side = 4.0 * spacing;
-        while cells(side).iter().product::<usize>() * modes > MAX_UNKNOWNS {
+        while AggregateGrid::new(reference, dim, side).unknowns() > MAX_UNKNOWNS {
             side *= 1.25;
         }
-        let nc = cells(side);
-        let coords = |x: DVec3| -> [usize; 3] { std::array::from_fn(|a| if a < dim { (((x[a] - lo[a]) / side).floor() as usize).min(nc[a] - 1) } else { 0 }) };
-        let flat = |c: [usize; 3]| (c[2] * nc[1] + c[1]) * nc[0] + c[0];
+        Self::build_with(reference, fixed, dim, side, reach, false, apply)
+    }
+
+    /// [`CoarseSpace::build`] with the aggregates' side and A_c's storage given.
+    pub fn build_with(
+        reference: &[DVec3],
+        fixed: &[bool],
+        dim: usize,
+        side: f64,
+        reach: f64,
+        sparse: bool,
+        mut apply: impl FnMut(&[DVec3], &mut [DVec3]),
+    ) -> Option<Self> {
+        let n = reference.len();
+        let modes = mode_count(dim);
+        let grid = AggregateGrid::new(reference, dim, side);
+        let nc = grid.cells;
         // dense ids of the aggregates that hold a free particle
         let mut id = vec![u32::MAX; nc.iter().product()];
         let mut grid_of = Vec::new();
@@ -94,8 +200,8 @@ impl CoarseSpace {
             if fixed[i] {
                 continue;
             }
-            let c = coords(reference[i]);
-            let f = flat(c);
+            let c = grid.coords(reference[i]);
+            let f = grid.flat(c);
             if id[f] == u32::MAX {
                 id[f] = grid_of.len() as u32;
                 grid_of.push(c);
@@ -108,55 +214,38 @@ impl CoarseSpace {
         if count == 0 {
             return None;
         }
-        let centre: Vec<DVec3> =
-            grid_of.iter().map(|c| lo + DVec3::from_array(std::array::from_fn(|a| if a < dim { (c[a] as f64 + 0.5) * side } else { 0.0 }))).collect();
-        // per aggregate, Gram–Schmidt of the affine modes in the inner product over its particles
-        // (a mode that the others already span there — a one-particle-thick aggregate's strain
-        // across its thickness — is dropped)
-        let basis: Vec<Vec<[f64; 12]>> = members
-            .iter()
-            .zip(&centre)
-            .map(|(m, c)| {
-                let mut gram = [[0.0; 12]; 12];
-                for &i in m {
-                    let v: Vec<DVec3> = (0..modes).map(|k| mode(k, dim, reference[i] - *c, side)).collect();
-                    for k in 0..modes {
-                        for l in 0..modes {
-                            gram[k][l] += v[k].dot(v[l]);
-                        }
-                    }
-                }
-                let dot = |a: &[f64; 12], b: &[f64; 12]| -> f64 { (0..modes).map(|k| (0..modes).map(|l| a[k] * gram[k][l] * b[l]).sum::<f64>()).sum() };
-                let mut accepted: Vec<[f64; 12]> = Vec::new();
-                for k in 0..modes {
-                    let mut v = [0.0; 12];
-                    v[k] = 1.0;
-                    let norm0 = dot(&v, &v);
-                    for b in &accepted {
-                        let p = dot(&v, b);
-                        for (x, y) in v.iter_mut().zip(b) {
-                            *x -= p * y;
-                        }
-                    }
-                    let norm = dot(&v, &v);
-                    if norm > 1e-8 * norm0 {
-                        let s = 1.0 / norm.sqrt();
-                        accepted.push(v.map(|x| x * s));
-                    }
-                }
-                accepted
-            })
-            .collect();
+        let centre: Vec<DVec3> = grid_of.iter().map(|c| grid.centre(*c)).collect();
+        let basis: Vec<Vec<[f64; 12]>> = members.iter().zip(&centre).map(|(m, c)| affine_basis(m, reference, *c, side, dim)).collect();
         let mut offset = vec![0];
         for b in &basis {
             offset.push(offset.last().unwrap() + b.len());
         }
         let m = *offset.last().unwrap();
-        let value = |j: usize, b: &[f64; 12], i: usize| -> DVec3 { (0..modes).map(|k| b[k] * mode(k, dim, reference[i] - centre[j], side)).sum() };
+        let value = |j: usize, b: &[f64; 12], i: usize| -> DVec3 { basis_value(b, dim, reference[i], centre[j], side) };
         // aggregates within reach differ by at most r in each index; colour period 2r + 1
         let r = (reach / side).floor() as usize + 1;
         let period = 2 * r + 1;
-        let mut a = vec![0.0; m * m];
+        let neighbours_of = |c: &[usize; 3]| -> Vec<u32> {
+            let mut list = Vec::new();
+            for k in 0..period.pow(dim as u32) {
+                let mut o = [0usize; 3];
+                let mut inside = true;
+                for ax in 0..dim {
+                    let v = c[ax] as isize + (k / period.pow(ax as u32) % period) as isize - r as isize;
+                    inside &= v >= 0 && (v as usize) < nc[ax];
+                    o[ax] = v.max(0) as usize;
+                }
+                if inside && id[grid.flat(o)] != u32::MAX {
+                    list.push(id[grid.flat(o)]);
+                }
+            }
+            list
+        };
+        let mut storage = if sparse {
+            Storage::Sparse(BlockSparse::new(offset.clone(), grid_of.iter().map(neighbours_of).collect()))
+        } else {
+            Storage::Dense(vec![0.0; m * m])
+        };
         let colours: Vec<[usize; 3]> =
             (0..period.pow(dim as u32)).map(|k| std::array::from_fn(|ax| if ax < dim { (k / period.pow(ax as u32)) % period } else { 0 })).collect();
         let mut x = vec![DVec3::ZERO; n];
@@ -192,26 +281,21 @@ impl CoarseSpace {
                         inside &= v >= 0 && (v as usize) < nc[ax];
                         ci[ax] = v.max(0) as usize;
                     }
-                    if !inside || id[flat(ci)] == u32::MAX {
+                    if !inside || id[grid.flat(ci)] == u32::MAX {
                         continue;
                     }
-                    let i = id[flat(ci)] as usize;
+                    let i = id[grid.flat(ci)] as usize;
                     if d >= basis[i].len() {
                         continue;
                     }
                     for (e, b) in basis[j].iter().enumerate() {
                         let response: f64 = members[j].iter().map(|&p| value(j, b, p).dot(y[p])).sum();
-                        a[(offset[j] + e) * m + offset[i] + d] = response;
+                        match &mut storage {
+                            Storage::Dense(a) => a[(offset[j] + e) * m + offset[i] + d] = response,
+                            Storage::Sparse(a) => *a.entry_mut(j, e, i, d).expect("a pushed aggregate within reach is a neighbour") = response,
+                        }
                     }
                 }
-            }
-        }
-        // symmetric in exact arithmetic; symmetrised against round-off
-        for p in 0..m {
-            for q in 0..p {
-                let s = 0.5 * (a[p * m + q] + a[q * m + p]);
-                a[p * m + q] = s;
-                a[q * m + p] = s;
             }
         }
         let mut start = Vec::with_capacity(n + 1);
@@ -224,7 +308,28 @@ impl CoarseSpace {
             }
         }
         start.push(vectors.len());
-        cholesky(&mut a, m).then_some(Self { aggregate, offset, factor: a, side, vectors, start })
+        let solve = match storage {
+            Storage::Dense(mut a) => {
+                // symmetric in exact arithmetic; symmetrised against round-off
+                for p in 0..m {
+                    for q in 0..p {
+                        let s = 0.5 * (a[p * m + q] + a[q * m + p]);
+                        a[p * m + q] = s;
+                        a[q * m + p] = s;
+                    }
+                }
+                if !cholesky(&mut a, m) {
+                    return None;
+                }
+                CoarseSolve::Dense(a)
+            }
+            Storage::Sparse(mut a) => {
+                a.symmetrise();
+                let groups = third_level(reference, &grid_of, &members, &centre, &basis, dim, side);
+                CoarseSolve::Sparse(SparseCoarse::new(a, groups)?)
+            }
+        };
+        Some(Self { aggregate, offset, solve, side, vectors, start })
     }
 
     /// Number of coarse unknowns.
@@ -232,29 +337,78 @@ impl CoarseSpace {
         *self.offset.last().expect("one offset per aggregate and the total")
     }
 
+    /// Whether A_c is solved iteratively (to [`super::coarse_sparse::INNER_TOLERANCE`]): the
+    /// preconditioner then varies slightly from one application to the next, and the outer
+    /// conjugate gradients must be the flexible kind.
+    pub fn is_inexact(&self) -> bool {
+        matches!(self.solve, CoarseSolve::Sparse(_))
+    }
+
+    /// A_c as a dense row-major matrix (the dense factor multiplied out, or the sparse matrix
+    /// applied to the unit vectors): for tests.
+    #[cfg(test)]
+    pub(super) fn matrix(&self) -> Vec<f64> {
+        let m = self.unknowns();
+        let mut a = vec![0.0; m * m];
+        match &self.solve {
+            CoarseSolve::Dense(l) => {
+                for p in 0..m {
+                    for q in 0..m {
+                        a[p * m + q] = (0..=p.min(q)).map(|s| l[p * m + s] * l[q * m + s]).sum();
+                    }
+                }
+            }
+            CoarseSolve::Sparse(s) => {
+                let (mut e, mut y) = (vec![0.0; m], vec![0.0; m]);
+                for q in 0..m {
+                    e[q] = 1.0;
+                    s.apply(&e, &mut y);
+                    e[q] = 0.0;
+                    for p in 0..m {
+                        a[p * m + q] = y[p];
+                    }
+                }
+            }
+        }
+        a
+    }
+
+    /// For a block-sparse A_c: its unknowns, A₂'s, the inner solves so far and their mean
+    /// iterations.
+    pub fn inner_solve(&self) -> Option<(usize, usize, usize, f64)> {
+        match &self.solve {
+            CoarseSolve::Dense(_) => None,
+            CoarseSolve::Sparse(s) => {
+                let ((m, m2), (n, it)) = (s.unknowns(), s.inner_iterations());
+                Some((m, m2, n, it))
+            }
+        }
+    }
+
     /// z += P A_c⁻¹ Pᵀ r.
     pub fn add_correction(&self, r: &[DVec3], z: &mut [DVec3]) {
         let m = self.unknowns();
-        let mut u = vec![0.0; m];
+        let mut g = vec![0.0; m];
         for (i, ri) in r.iter().enumerate() {
             let a = self.aggregate[i];
             if a != u32::MAX {
                 let o = self.offset[a as usize];
                 for (e, v) in self.vectors[self.start[i]..self.start[i + 1]].iter().enumerate() {
-                    u[o + e] += v.dot(*ri);
+                    g[o + e] += v.dot(*ri);
                 }
             }
         }
-        // L Lᵀ u = Pᵀ r: forward then backward substitution
-        let l = &self.factor;
-        for p in 0..m {
-            let s: f64 = (0..p).map(|q| l[p * m + q] * u[q]).sum();
-            u[p] = (u[p] - s) / l[p * m + p];
-        }
-        for p in (0..m).rev() {
-            let s: f64 = (p + 1..m).map(|q| l[q * m + p] * u[q]).sum();
-            u[p] = (u[p] - s) / l[p * m + p];
-        }
+        let u = match &self.solve {
+            CoarseSolve::Dense(l) => {
+                cholesky_solve(l, m, &mut g);
+                g
+            }
+            CoarseSolve::Sparse(s) => {
+                let mut u = vec![0.0; m];
+                s.solve(&g, &mut u);
+                u
+            }
+        };
         let u = &u;
         z.par_iter_mut().enumerate().for_each(|(i, zi)| {
             let a = self.aggregate[i];
@@ -268,24 +422,83 @@ impl CoarseSpace {
     }
 }
 
-/// In-place dense Cholesky A = L Lᵀ (row-major m × m; the lower triangle becomes L); false when a
-/// pivot is not positive (A not positive definite to round-off).
-fn cholesky(a: &mut [f64], m: usize) -> bool {
-    for j in 0..m {
-        let d = a[j * m + j] - (0..j).map(|k| a[j * m + k] * a[j * m + k]).sum::<f64>();
-        if d.is_nan() || d <= 1e-14 * a[j * m + j].abs() {
-            return false;
-        }
-        let d = d.sqrt();
-        a[j * m + j] = d;
-        let (head, tail) = a.split_at_mut((j + 1) * m);
-        let row_j = &head[j * m..j * m + j];
-        tail.par_chunks_mut(m).for_each(|row_i| {
-            let s: f64 = row_i[..j].iter().zip(row_j).map(|(x, y)| x * y).sum();
-            row_i[j] = (row_i[j] - s) / d;
-        });
+/// A_c while it is probed.
+enum Storage {
+    Dense(Vec<f64>),
+    Sparse(BlockSparse),
+}
+
+/// The third level of a block-sparse coarse space: the aggregates grouped into cubes of g³
+/// (g ≥ 2, the smallest that keeps A₂ within [`MAX_UNKNOWNS`] unknowns), each group's affine
+/// modes (an orthonormal basis over its particles) expressed in its aggregates' bases. An
+/// affine motion of the group is affine on each aggregate, so it lies in the aggregate's span
+/// and the coefficients — the projections onto the aggregate's orthonormal basis — are exact.
+fn third_level(
+    reference: &[DVec3],
+    grid_of: &[[usize; 3]],
+    members: &[Vec<usize>],
+    centre: &[DVec3],
+    basis: &[Vec<[f64; 12]>],
+    dim: usize,
+    side: f64,
+) -> Groups {
+    let modes = mode_count(dim);
+    let extent: [usize; 3] = std::array::from_fn(|a| grid_of.iter().map(|c| c[a] + 1).max().unwrap_or(1));
+    let groups_along = |g: usize| -> [usize; 3] { std::array::from_fn(|a| extent[a].div_ceil(g)) };
+    let mut g = 2;
+    while groups_along(g).iter().product::<usize>() * modes > MAX_UNKNOWNS {
+        g += 1;
     }
-    true
+    let along = groups_along(g);
+    let mut dense = vec![u32::MAX; along.iter().product()];
+    let mut group = Vec::with_capacity(grid_of.len());
+    let mut cells: Vec<[usize; 3]> = Vec::new();
+    let mut particles: Vec<Vec<usize>> = Vec::new();
+    for (j, c) in grid_of.iter().enumerate() {
+        let gc: [usize; 3] = std::array::from_fn(|a| c[a] / g);
+        let f = (gc[2] * along[1] + gc[1]) * along[0] + gc[0];
+        if dense[f] == u32::MAX {
+            dense[f] = cells.len() as u32;
+            cells.push(gc);
+            particles.push(Vec::new());
+        }
+        group.push(dense[f]);
+        particles[dense[f] as usize].extend_from_slice(&members[j]);
+    }
+    // a group's centre: that of its first cell's aggregate shifted to the middle of g × g cells
+    let side2 = g as f64 * side;
+    let centre2: Vec<DVec3> = cells
+        .iter()
+        .map(|gc| {
+            let (j, c) = grid_of.iter().enumerate().find(|(_, c)| (0..3).all(|a| c[a] / g == gc[a])).expect("a group holds an aggregate");
+            let shift =
+                DVec3::from_array(std::array::from_fn(|a| if a < dim { ((gc[a] * g) as f64 - c[a] as f64 + 0.5 * g as f64 - 0.5) * side } else { 0.0 }));
+            centre[j] + shift
+        })
+        .collect();
+    let basis2: Vec<Vec<[f64; 12]>> = particles.iter().zip(&centre2).map(|(p, c)| affine_basis(p, reference, *c, side2, dim)).collect();
+    let mut offset = vec![0];
+    for b in &basis2 {
+        offset.push(offset.last().unwrap() + b.len());
+    }
+    let q = (0..grid_of.len())
+        .into_par_iter()
+        .map(|j| {
+            let gj = group[j] as usize;
+            let w = basis2[gj].len();
+            let mut q = vec![0.0; basis[j].len() * w];
+            for &i in &members[j] {
+                for (e, b) in basis[j].iter().enumerate() {
+                    let v = basis_value(b, dim, reference[i], centre[j], side);
+                    for (l, b2) in basis2[gj].iter().enumerate() {
+                        q[e * w + l] += v.dot(basis_value(b2, dim, reference[i], centre2[gj], side2));
+                    }
+                }
+            }
+            q
+        })
+        .collect();
+    Groups { group, offset, q }
 }
 
 #[cfg(test)]
@@ -327,7 +540,7 @@ mod tests {
         // A_c by columns: P e_q, then Pᵀ A P e_q; compare with L Lᵀ
         let m = c.unknowns();
         assert_eq!(m, 15 * 4);
-        let l = &c.factor;
+        let CoarseSolve::Dense(l) = &c.solve else { panic!("a dense coarse space") };
         let slot = |q: usize| -> (usize, usize) {
             let j = c.offset.iter().rposition(|&o| o <= q).unwrap();
             (j, q - c.offset[j])

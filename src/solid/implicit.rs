@@ -96,7 +96,12 @@ fn dot(a: &[DVec3], b: &[DVec3]) -> f64 {
 
 /// Solves A x = b (A symmetric positive definite, given as `apply(x, out)`, preconditioned by
 /// the symmetric positive definite `precondition(r, z)`: z ≈ A⁻¹ r), starting from the content
-/// of `x`; stops at ‖r‖ ≤ `tol` ‖b‖ or after `max_iter` iterations.
+/// of `x`; stops at ‖r‖ ≤ `tol` ‖b‖ or after `max_iter` iterations. `flexible` for a
+/// preconditioner that varies slightly between applications (an inner iterative solve): β then
+/// takes the Polak–Ribière form rᵢ₊₁·(zᵢ₊₁ − zᵢ) / rᵢ·zᵢ (Golub & Ye 1999, "Inexact
+/// preconditioned conjugate gradient method with inner-outer iteration"), which equals the
+/// standard rᵢ₊₁·zᵢ₊₁ / rᵢ·zᵢ for a fixed preconditioner.
+#[allow(clippy::too_many_arguments)]
 pub fn conjugate_gradient(
     mut apply: impl FnMut(&[DVec3], &mut [DVec3]),
     precondition: impl Fn(&[DVec3], &mut [DVec3]),
@@ -105,6 +110,7 @@ pub fn conjugate_gradient(
     fixed: &[bool],
     tol: f64,
     max_iter: usize,
+    flexible: bool,
 ) -> CgReport {
     let n = b.len();
     let mut r = vec![DVec3::ZERO; n];
@@ -132,10 +138,11 @@ pub fn conjugate_gradient(
         let alpha = rz / pap;
         x.par_iter_mut().zip(&p).for_each(|(xi, pi)| *xi += alpha * *pi);
         r.par_iter_mut().zip(&ap).for_each(|(ri, ai)| *ri -= alpha * *ai);
+        let r_z_old = if flexible { dot(&r, &z) } else { 0.0 };
         precondition(&r, &mut z);
         mask(&mut z, fixed);
         let rz_new = dot(&r, &z);
-        let beta = rz_new / rz;
+        let beta = (rz_new - r_z_old) / rz;
         rz = rz_new;
         p.par_iter_mut().zip(&z).for_each(|(pi, zi)| *pi = *zi + beta * *pi);
         it += 1;

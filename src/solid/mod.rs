@@ -13,14 +13,18 @@
 //! | [`implicit`] | block-Jacobi preconditioned conjugate gradients | 2.63–2.66 |
 //! | `linear` | the implicit system's operator A x, matrix-free at a configuration | 2.63–2.66 |
 //! | [`patch_jacobi`] | patch block-Jacobi smoother (exact inverses of 3³-particle blocks of A) | 2.63–2.66 |
-//! | [`coarse`] | the preconditioner's coarse-space correction (aggregates' translations, probed A_c) | 2.63–2.66 |
+//! | [`coarse`] | the preconditioner's coarse-space correction (aggregates' affine motions, probed A_c) | 2.63–2.66 |
+//! | [`coarse_sparse`] | a large body's A_c block-sparse, solved by inner CG with a third level | 2.63–2.66 |
+//! | `dense` | dense Cholesky for the preconditioner's small matrices | — |
 //! | [`timestep`] | explicit stability limit | — |
 //! | [`solver`] | explicit and implicit steps driven by the solid stage lists | 2.44–2.66 |
 
 pub mod bench;
 pub mod bonds;
 pub mod coarse;
+pub mod coarse_sparse;
 pub mod contact;
+mod dense;
 pub mod fold;
 pub mod forces;
 pub mod grid;

@@ -369,9 +369,10 @@ pub fn cases() -> Vec<Case> {
         ("solid_implicit_million", || {
             // the yardstick for the implicit solve: the 10⁶-particle benchmark block
             // (100³, clamped on one face, released from a shear) at 10× the explicit limit, CG to
-            // 10⁻⁸ with the patch smoother and the coarse space (the default). Measured
-            // 2026-12-03 (2 cores, 19 min, 7 GB): 76 and 81 iterations — the coarse space, capped
-            // at 2000 unknowns, is too coarse at this size; the rows fail until a third level
+            // 10⁻⁸ with the patch smoother and the coarse space (the default: block-sparse at this
+            // size, with a third level). Measured 2026-12-04 (2 cores, 13 min, 6.9 GB): 27 and 28
+            // iterations (76 and 81 before the patches lost their thin remainders and the coarse
+            // space its 2000-unknown cap)
             use crate::solid::{Integrator, bench::benchmark_block};
             let mut s = benchmark_block(100, Integrator::Implicit);
             let mut out = Vec::new();
