@@ -553,10 +553,10 @@ mod tests {
 
     /// The block-sparse coarse space with its third level (what a body beyond ~3·10⁴ particles
     /// gets) against the dense one on the same aggregates, on the 20³ benchmark block at 10×
-    /// the explicit step (aggregates one reach, 6.3 spacings, wide: 4³ of them, 768 unknowns):
-    /// the probed A_c is the same matrix to round-off, and the implicit steps take the same
-    /// number of CG iterations (measured 2026-12-04: 31, 30, 32 both ways, 52 aggregates of 12
-    /// unknowns, the clamped face's left out) to the same motion (10⁻¹¹ of it).
+    /// the explicit step (aggregates one reach, 6.3 spacings, wide: 52 of them — 4³ less those
+    /// that hold only the clamped face — 624 unknowns): the probed A_c is the same matrix to
+    /// round-off, and the implicit steps take the same number of CG iterations (measured
+    /// 2026-12-04: 31, 30, 32 both ways) to the same motion (10⁻¹¹ of it).
     #[test]
     fn the_sparse_coarse_space_with_a_third_level_steps_like_the_dense_one() {
         let base = benchmark_block(20, Integrator::Implicit);
