@@ -325,7 +325,7 @@ impl CoarseSpace {
             }
             Storage::Sparse(mut a) => {
                 a.symmetrise();
-                let groups = third_level(reference, &grid_of, &members, &centre, &basis, dim, side);
+                let groups = third_level(reference, &grid, &grid_of, &members, &centre, &basis);
                 CoarseSolve::Sparse(SparseCoarse::new(a, groups)?)
             }
         };
@@ -435,13 +435,13 @@ enum Storage {
 /// and the coefficients — the projections onto the aggregate's orthonormal basis — are exact.
 fn third_level(
     reference: &[DVec3],
+    grid: &AggregateGrid,
     grid_of: &[[usize; 3]],
     members: &[Vec<usize>],
     centre: &[DVec3],
     basis: &[Vec<[f64; 12]>],
-    dim: usize,
-    side: f64,
 ) -> Groups {
+    let (dim, side) = (grid.dim, grid.side);
     let modes = mode_count(dim);
     let extent: [usize; 3] = std::array::from_fn(|a| grid_of.iter().map(|c| c[a] + 1).max().unwrap_or(1));
     let groups_along = |g: usize| -> [usize; 3] { std::array::from_fn(|a| extent[a].div_ceil(g)) };
@@ -465,17 +465,10 @@ fn third_level(
         group.push(dense[f]);
         particles[dense[f] as usize].extend_from_slice(&members[j]);
     }
-    // a group's centre: that of its first cell's aggregate shifted to the middle of g × g cells
+    // a group's centre: the middle of its g × g (× g) cells
     let side2 = g as f64 * side;
-    let centre2: Vec<DVec3> = cells
-        .iter()
-        .map(|gc| {
-            let (j, c) = grid_of.iter().enumerate().find(|(_, c)| (0..3).all(|a| c[a] / g == gc[a])).expect("a group holds an aggregate");
-            let shift =
-                DVec3::from_array(std::array::from_fn(|a| if a < dim { ((gc[a] * g) as f64 - c[a] as f64 + 0.5 * g as f64 - 0.5) * side } else { 0.0 }));
-            centre[j] + shift
-        })
-        .collect();
+    let centre2: Vec<DVec3> =
+        cells.iter().map(|gc| grid.lo + DVec3::from_array(std::array::from_fn(|a| if a < dim { (gc[a] as f64 + 0.5) * side2 } else { 0.0 }))).collect();
     let basis2: Vec<Vec<[f64; 12]>> = particles.iter().zip(&centre2).map(|(p, c)| affine_basis(p, reference, *c, side2, dim)).collect();
     let mut offset = vec![0];
     for b in &basis2 {
