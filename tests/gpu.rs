@@ -764,6 +764,13 @@ fn solid_whole_steps_match_the_cpu_backend() {
             let verr = rel_vec(&gpu.download_vectors(SolidArray::Velocity), &cpu.particles.velocity);
             println!("{dim}D {integrator:?}, {steps} steps: displacement difference {err:.2e}, velocity {verr:.2e} (relative to the largest)");
             assert!(err < 1e-3 && verr < 1e-3);
+            // the device's CG tally counts every solve as the CPU's does (none when explicit)
+            assert_eq!(gpu.cg_tally.solves, cpu.cg_tally.solves, "{:?} vs {:?}", gpu.cg_tally, cpu.cg_tally);
+            assert_eq!(cpu.cg_tally.solves, if integrator == Integrator::Implicit { steps } else { 0 });
+            if integrator == Integrator::Implicit {
+                assert_eq!(gpu.cg_tally.unconverged, 0, "{:?}", gpu.cg_tally);
+                assert!(gpu.cg_tally.max_iterations >= gpu.last_cg.0 && gpu.cg_tally.worst_relative_residual <= 1e-6, "{:?}", gpu.cg_tally);
+            }
         }
     }
 }

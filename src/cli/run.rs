@@ -119,6 +119,16 @@ fn run_coupled(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> anyhow::Resu
         r.particles, r.substeps, r.steps, r.simulated_s, r.wall_s, r.coupled_steps_per_s, r.final_forces, r.max_displacement, r.fluid_mass_drift
     );
     eprintln!("stage shares: {}", r.stage_shares.iter().map(|(n, s)| format!("{n} {:.0}%", 100.0 * s)).collect::<Vec<_>>().join(", "));
+    if let Some(cg) = r.solid_cg {
+        eprintln!(
+            "implicit solid: {} CG solves, {:.1} iterations on average, {} at most, {} short of the tolerance (largest relative residual {:.2e})",
+            cg.solves,
+            cg.mean_iterations(),
+            cg.max_iterations,
+            cg.unconverged,
+            cg.worst_relative_residual
+        );
+    }
     for p in &r.particle_probes {
         eprintln!("{p}");
     }

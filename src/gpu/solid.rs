@@ -85,6 +85,8 @@ pub struct GpuSolid {
     pub cg_max_iterations: usize,
     /// Iterations and relative residual of the last CG solve.
     pub last_cg: (usize, f64),
+    /// Every CG solve on the device so far (as the CPU solver's).
+    pub cg_tally: crate::solid::implicit::CgTally,
     pub step_count: u64,
     contact: Option<GpuContact>,
     /// Reference positions X: the `pos` buffer holds the displacement u = x − X
@@ -197,6 +199,7 @@ impl GpuSolid {
             cg_tolerance: 1e-5,
             cg_max_iterations: s.options.cg_max_iterations,
             last_cg: (0, 0.0),
+            cg_tally: Default::default(),
             step_count: 0,
             contact: None,
             reference: p.reference.clone(),
@@ -358,6 +361,7 @@ impl GpuSolid {
             }
         }
         self.last_cg = (it, rel);
+        self.cg_tally.add(it, rel, rel <= self.cg_tolerance);
     }
 
     /// One whole step, stage by stage in the order of the solid's stage list.

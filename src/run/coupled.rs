@@ -15,6 +15,7 @@ pub use crate::run::particle_probes::ParticleProbeReport;
 use crate::run::particle_probes::probe_reports;
 use crate::run::solid::write_vtk;
 use crate::scene::coupled::CoupledScene;
+use crate::solid::implicit::CgTally;
 use crate::state::state_hash;
 use serde::Serialize;
 use std::io::Write;
@@ -45,6 +46,9 @@ pub struct CoupledReport {
     pub covered: usize,
     /// Method 2's momentum exchange summed over the run (on either backend), `None` for method 1.
     pub exchange: Option<ExchangeReport>,
+    /// The implicit solid's CG solves of this run (method 2, either backend; a resumed run's
+    /// since it resumed), `None` with the explicit solid.
+    pub solid_cg: Option<CgTally>,
     /// Each particle probe (`coupling.probes`): its transverse displacement's oscillation over
     /// the second half of the run.
     pub particle_probes: Vec<ParticleProbeReport>,
@@ -168,7 +172,17 @@ fn csv_header(c: &CoupledSolver, probes: &[(String, Vec<usize>)]) -> String {
     for (name, _) in probes {
         h += &format!(",{name}_dx,{name}_dy");
     }
-    h + ",max_displacement,fluid_px,fluid_py,solid_px,solid_py,transit_px,transit_py,fluid_mass,uncovered,covered"
+    h += ",max_displacement,fluid_px,fluid_py,solid_px,solid_py,transit_px,transit_py,fluid_mass,uncovered,covered";
+    if implicit(c) {
+        h += ",cg_iterations,cg_residual";
+    }
+    h
+}
+
+/// Whether the solid steps implicitly (method 2): `coupling.csv` then carries the last CG
+/// solve's iterations and relative residual.
+fn implicit(c: &CoupledSolver) -> bool {
+    c.solid.options.integrator == crate::solid::Integrator::Implicit
 }
 
 /// Each particle probe's mean displacement.
@@ -178,8 +192,8 @@ fn probe_displacements(c: &CoupledSolver, probes: &[(String, Vec<usize>)]) -> Ve
 }
 
 /// One row of `coupling.csv`; `probe_d`: each particle probe's displacement
-/// ([`probe_displacements`]).
-fn csv_row(c: &CoupledSolver, probe_d: &[glam::DVec3], totals: &Totals) -> String {
+/// ([`probe_displacements`]); `cg`: the last CG solve's iterations and relative residual.
+fn csv_row(c: &CoupledSolver, probe_d: &[glam::DVec3], totals: &Totals, cg: (usize, f64)) -> String {
     let p = &c.solid.particles;
     let mut r = format!("{},{:.9e}", c.step_count, c.time);
     for (k, b) in c.bodies.iter().enumerate() {
@@ -201,10 +215,14 @@ fn csv_row(c: &CoupledSolver, probe_d: &[glam::DVec3], totals: &Totals) -> Strin
     let fm = c.fluid_momentum(totals);
     let sm = p.linear_momentum();
     let tm = c.added_mass_momentum();
-    r + &format!(
+    r += &format!(
         ",{max_d:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.12e},{},{}",
         fm.x, fm.y, sm.x, sm.y, tm.x, tm.y, totals.mass, c.geometry.uncovered, c.geometry.covered
-    )
+    );
+    if implicit(c) {
+        r += &format!(",{},{:.3e}", cg.0, cg.1);
+    }
+    r
 }
 
 /// Runs `sc` for its duration (or `opts.steps`), writing into `dir`, with checkpoints and
@@ -252,7 +270,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
         None => {
             writeln!(csv, "{}", csv_header(c, &particle_probes))?;
             let d = probe_displacements(c, &particle_probes);
-            writeln!(csv, "{}", csv_row(c, &d, &c.fluid.totals()))?;
+            writeln!(csv, "{}", csv_row(c, &d, &c.fluid.totals(), (0, 0.0)))?;
             probe_samples.push((c.time, d.iter().map(|d| d.y).collect()));
             csv.flush()?;
             probes.sample(&c.fluid, &fluid_scene.units)?;
@@ -279,9 +297,10 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
         // fails writes nothing, and the next advance (or the end) stops the run with it
         if t.hit[0] || t.last {
             let Ok(totals) = e.totals() else { return Ok(()) };
+            let (_, last_cg) = e.cg();
             let Ok(c) = e.observe(|_| Vec::new()) else { return Ok(()) };
             let d = probe_displacements(c, &particle_probes);
-            writeln!(csv, "{}", csv_row(c, &d, &totals))?;
+            writeln!(csv, "{}", csv_row(c, &d, &totals, last_cg))?;
             csv.flush()?;
             // uniformly sampled (not the last step's extra row): the oscillation needs a
             // constant interval
@@ -339,6 +358,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
     // the whole state of the step reached (after a device failure: the last one brought back)
     let _ = engine.state();
     let readback = engine.is_gpu().then(|| engine.readback());
+    let (cg_tally, _) = engine.cg();
     let c = engine.solver();
     if instability.is_some() {
         snapshot(c, 999, &mut files)?;
@@ -374,6 +394,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
             mass_to_walls: e.mass_to_walls,
             wall_frame_momentum: e.wall_frame.to_array(),
         }),
+        solid_cg: implicit(c).then_some(cg_tally),
         particle_probes: probe_reports(&particle_probes.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(), &probe_samples, 0.5),
         glottis: glottis_report,
         instability: instability.map(|e| e.to_string()),
@@ -438,111 +459,5 @@ fn glottal_outputs(sc: &CoupledScene, dir: &Path, record: &GlottalRecord, files:
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Runs the flap scene `sc` for 20 steps and returns the report, the last coupling.csv
-    /// row's time and the tip probe's dy, after checking that the tip moves at
-    /// just under the release speed (10 cm/s) and the body's mean at the first mode's ratio.
-    fn flap_release(sc: &CoupledScene, tag: &str) -> (CoupledReport, f64, f64) {
-        let dir = std::env::temp_dir().join(format!("phonation-{tag}-{}", std::process::id()));
-        let r = run_coupled_scene(sc, &dir, &RunOptions { steps: Some(20), backend: crate::run::Backend::Cpu, ..Default::default() }).unwrap();
-        assert!(r.instability.is_none(), "{:?}", r.instability);
-        let text = std::fs::read_to_string(dir.join("coupling.csv")).unwrap();
-        let mut lines = text.lines();
-        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-        let last: Vec<f64> = lines.last().unwrap().split(',').map(|v| v.parse().unwrap()).collect();
-        let col = |name: &str| last[header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"))];
-        let (t, tip, mean) = (col("time_s"), col("tip_dy"), col("mean_dy_0"));
-        println!("{tag}: t = {t:.3e} s: tip dy {tip:.4e} cm (10 t = {:.4e}), body mean / tip {:.4}", 10.0 * t, mean / tip);
-        // The air's reaction (the flap's added mass) can only slow the tip.
-        let ratio = tip / (10.0 * t);
-        assert!(ratio > 0.9 && ratio < 1.0, "tip {tip} after {t} s: {ratio} of the release speed");
-        let expected = 0.3915 * 4.0 / 4.5;
-        assert!((mean / tip / expected - 1.0).abs() < 0.03, "mean/tip {} vs {expected}", mean / tip);
-        std::fs::remove_dir_all(&dir).ok();
-        (r, t, tip)
-    }
-
-    /// The Wall flap's first 20 steps: released in its first clamped–free bending mode measured
-    /// from the clamp line at x = 5.5 cm (the square's rear face), the tip probe (a column of
-    /// `coupling.csv` and the summary) moves at just under the release speed, 10 cm/s, and the whole body
-    /// (its clamped root, 1/9 of the particles, at rest) at 8/9 of the mode's mean/tip ratio,
-    /// ∫φ/φ(L) = 0.3915 (Euler–Bernoulli). Measured from x = 0 instead, the root would move.
-    /// Measured: the tip at 0.964 of 10 t at D = 20 cells (0.989 at D = 10, where the flap was
-    /// thinner than a cell and the air barely saw it).
-    #[test]
-    fn the_flap_tip_probe_follows_the_first_mode_release() {
-        let sc = CoupledScene::parse(crate::scene::builtin("wall_flap").unwrap()).unwrap();
-        let (r, _, tip) = flap_release(&sc, "flap");
-        let p = &r.particle_probes[0];
-        // the summary's largest |dy| is the last row's, as the tip moves away (the CSV holds
-        // ten significant digits)
-        assert_eq!(p.name, "tip");
-        assert!((p.max_abs_dy / tip - 1.0).abs() < 1e-9, "{} vs {tip}", p.max_abs_dy);
-        assert!(p.oscillation.is_none(), "20 steps hold no cycle");
-    }
-
-    /// The 3D Wall flap (method 2 in 3D), its span cut from 1 cm to 0.2 cm (4 cells; the
-    /// built-in is GPU-sized) for a CPU test: 20 steps run, and the tip probe moves at just under
-    /// the release speed as in 2D (measured 0.972 of 10 t; 2D: 0.964), with the body's mean at
-    /// the first mode's ratio. The spanwise force on the flap is round-off (slip walls, a
-    /// flow uniform along z).
-    #[test]
-    fn the_3d_flap_runs_and_its_tip_follows_the_first_mode_release() {
-        let text = crate::scene::builtin("wall_flap_3d").unwrap();
-        let mut thin = text.to_string();
-        for (a, b) in [
-            ("size = [19.5, 12.0, 1.0]", "size = [19.5, 12.0, 0.2]"),
-            ("cells = [390, 240, 20]", "cells = [390, 240, 4]"),
-            ("max = [5.5, 6.5, 1.0]", "max = [5.5, 6.5, 0.2]"),
-            ("max = [9.5, 6.03, 1.0]", "max = [9.5, 6.03, 0.2]"),
-            ("max = [5.5, 6.1, 1.0]", "max = [5.5, 6.1, 0.2]"),
-            ("max = [9.6, 6.1, 1.0]", "max = [9.6, 6.1, 0.2]"),
-            ("position = [11.0, 6.5, 0.5]", "position = [11.0, 6.5, 0.1]"),
-        ] {
-            assert!(thin.contains(a), "the built-in 3D flap has {a}");
-            thin = thin.replace(a, b);
-        }
-        let sc = CoupledScene::parse(&thin).unwrap();
-        flap_release(&sc, "flap3d");
-    }
-
-    /// The CPU-sized glottis for 3000 coupled steps (0.96 ms): the lung pressure reaches the
-    /// folds, pushes them apart and air starts to flow through the glottis.
-    #[test]
-    fn the_lung_pressure_opens_the_glottis_and_air_flows() {
-        let sc = CoupledScene::parse(crate::scene::builtin("glottis_2d_coarse").unwrap()).unwrap();
-        let dir = std::env::temp_dir().join(format!("phonation-glottis-{}", std::process::id()));
-        let r = run_coupled_scene(&sc, &dir, &RunOptions { steps: Some(3000), backend: crate::run::Backend::Cpu, ..Default::default() }).unwrap();
-        assert!(r.instability.is_none(), "{:?}", r.instability);
-        let g = r.glottis.as_ref().expect("a glottis scene reports its glottis");
-        // one sample per probe interval (10 steps) and the initial one, streamed to the CSV
-        assert_eq!(g.samples, 301);
-        let csv = crate::output::voice::read_glottal_csv(&dir.join("glottal_flow.csv")).unwrap();
-        assert_eq!(csv.flow.len(), 301);
-        // (the CSV prints times to 10 significant digits)
-        assert!((csv.dt - 10.0 * r.dt).abs() < 1e-8 * r.dt, "{} vs {}", csv.dt, 10.0 * r.dt);
-        let area = &csv.columns[0].1;
-        let (a_end, u_end) = (*area.last().unwrap(), *csv.flow.last().unwrap());
-        // pushed apart: the area grew by at least a fifth from the seed's 0.021 cm × 1.4 cm
-        assert!((g.initial_area - 0.0294).abs() < 1e-9 && a_end > 1.2 * 0.0294, "area {} → {a_end}", g.initial_area);
-        assert!(g.largest_upper_margin > 0.002, "upper margin moved {}", g.largest_upper_margin);
-        // air flows up, and never more than the ideal (Bernoulli) flow through the open area
-        let rho: f64 = 1.184e-3;
-        let bernoulli = |a: f64| a * (2.0 * 8000.0 / rho).sqrt();
-        assert!(u_end > 0.0, "flow {u_end}");
-        for (u, a) in csv.flow.iter().zip(area) {
-            assert!(*u <= bernoulli(*a), "flow {u} above the Bernoulli flow {} through {a} cm²", bernoulli(*a));
-        }
-        // the two folds feel mirrored forces: the whole coupled solver keeps the symmetry
-        let [fl, fr] = [r.final_forces[0], r.final_forces[1]];
-        assert!((fl[0] + fr[0]).abs() < 1e-9 * fl[0].abs() && (fl[1] - fr[1]).abs() < 1e-9 * fl[1].abs(), "{fl:?} {fr:?}");
-        // a run this short has no voice yet, and says why; the outputs are there
-        assert!(!g.oscillating && g.no_voice.is_some());
-        for f in ["voice.json", "glottal_flow.wav", "radiated.wav", "glottal_flow.svg", "coupling.csv", "summary.json"] {
-            assert!(dir.join(f).exists(), "{f}");
-        }
-        let _ = std::fs::remove_dir_all(&dir);
-    }
-}
+#[path = "coupled_tests.rs"]
+mod tests;

@@ -17,6 +17,7 @@ use crate::coupling::CoupledSolver;
 use crate::fluid::{Instability, Totals};
 use crate::gpu::coupled::GpuCoupled;
 use crate::gpu::{DeviceHealth, GpuError};
+use crate::solid::implicit::CgTally;
 use crate::step::Solver;
 
 /// The coupled solver on a backend (see the module table for what a GPU run brings back).
@@ -168,6 +169,15 @@ impl CoupledEngine {
         match &self.on {
             CoupledOn::Cpu(_) => None,
             CoupledOn::Gpu(g) => Some(&g.fluid),
+        }
+    }
+
+    /// The implicit solid's CG solves so far on whichever backend steps it (none with the
+    /// explicit solid), and the last one's iterations and relative residual.
+    pub fn cg(&self) -> (CgTally, (usize, f64)) {
+        match &self.on {
+            CoupledOn::Cpu(c) => (c.solid.cg_tally, (c.solid.last.cg.iterations, c.solid.last.cg.relative_residual)),
+            CoupledOn::Gpu(g) => (g.solid.cg_tally, g.solid.last_cg),
         }
     }
 

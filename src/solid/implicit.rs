@@ -20,6 +20,38 @@ pub struct CgReport {
     pub converged: bool,
 }
 
+/// The implicit solves of a run so far: how many, their CG iterations (sum and largest) and
+/// how many stopped at the iteration limit short of the tolerance — what a coupled run reports
+/// in `summary.json` (`solid_cg`) beside the per-row figures of its CSV.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct CgTally {
+    pub solves: u64,
+    pub iterations: u64,
+    pub max_iterations: usize,
+    pub unconverged: u64,
+    /// The largest final ‖r‖ / ‖B‖ of any solve.
+    pub worst_relative_residual: f64,
+}
+
+impl CgTally {
+    /// Adds one solve.
+    pub fn add(&mut self, iterations: usize, relative_residual: f64, converged: bool) {
+        self.solves += 1;
+        self.iterations += iterations as u64;
+        self.max_iterations = self.max_iterations.max(iterations);
+        self.unconverged += u64::from(!converged);
+        // a NaN residual (a diverged solve) is the worst of all
+        if !(relative_residual <= self.worst_relative_residual) {
+            self.worst_relative_residual = relative_residual;
+        }
+    }
+
+    /// Mean CG iterations per solve (0 before the first).
+    pub fn mean_iterations(&self) -> f64 {
+        if self.solves == 0 { 0.0 } else { self.iterations as f64 / self.solves as f64 }
+    }
+}
+
 /// Inverse diagonal blocks of A = (M + M_a) − Δt D − Δt² K at the reference configuration
 /// (rotations = I): the mass, the pair stiffness and damping Σ_j (Δt² k_ij + Δt c_ij), and the
 /// gradient-model self-stiffness Σ_k V_k (∂ε_k/∂x_i)ᵀ C'_k (∂ε_k/∂x_i).

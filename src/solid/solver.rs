@@ -6,7 +6,7 @@ use super::coarse::CoarseSpace;
 use super::contact::{ContactInput, ContactParams, Contacts, Wall};
 use super::forces::{Discretisation, ForceField, Mode, StressField, bond_forces, rotation_chain, strain_stress};
 use super::grid::Periods;
-use super::implicit::{BlockJacobi, CgReport, conjugate_gradient};
+use super::implicit::{BlockJacobi, CgReport, CgTally, conjugate_gradient};
 use super::linear::LinearOperator;
 use super::material::{Orthotropic, Voigt6, min_mandel_eigenvalue};
 use super::particles::Particles;
@@ -123,6 +123,9 @@ pub struct SolidSolver {
     pub time: f64,
     pub step_count: u64,
     pub last: StepStats,
+    /// Every implicit solve of this solver so far (not carried by a checkpoint: a resumed run
+    /// counts from its resumption).
+    pub cg_tally: CgTally,
     pub timings: Vec<(SolidStage, Duration)>,
     rot: Vec<DMat3>,
     stress: StressField,
@@ -188,6 +191,7 @@ impl SolidSolver {
             time: 0.0,
             step_count: 0,
             last: StepStats::default(),
+            cg_tally: CgTally::default(),
             timings: Vec::new(),
             rot: vec![DMat3::IDENTITY; n],
             stress: StressField::new(n),
@@ -445,6 +449,7 @@ impl SolidSolver {
             coarse.is_some_and(CoarseSpace::is_inexact),
         );
         self.last.cg = report;
+        self.cg_tally.add(report.iterations, report.relative_residual, report.converged);
         let p = &mut self.particles;
         p.velocity.par_iter_mut().zip(&dv).for_each(|(v, d)| *v += *d);
     }
