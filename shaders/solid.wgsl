@@ -277,6 +277,12 @@ fn integrate_explicit(@builtin(global_invocation_id) gid: vec3<u32>) {
 // partial sums (four per workgroup) and the scalars: [pAp, rz, rr, bb, -, rz_old, -, -]
 @group(1) @binding(7) var<storage, read_write> partials: array<f32>;
 @group(1) @binding(8) var<storage, read_write> scalars: array<f32>;
+// the patch smoother (src/solid/patch_jacobi.rs), in two arrays (the stage's storage bindings
+// are 32 at most on some devices): `patch_index` = [Q, where each of the Q patches' members
+// start (Q + 1 offsets), where each patch's inverse starts (Q + 1), the free particles patch by
+// patch], and the packed lower triangles of A_PP⁻¹
+@group(1) @binding(9) var<storage, read> patch_index: array<u32>;
+@group(1) @binding(10) var<storage, read> patch_inverse: array<f32>;
 
 // (2.74) by Müller's fixed-point step far from the solution and Newton near it, warm-started
 // from the current quaternion; then J⁻¹ of (2.74) at the solution.
@@ -482,6 +488,52 @@ fn cg_update(@builtin(global_invocation_id) gid: vec3<u32>) {
     cg[1u * P.n + i] = vec4<f32>(r, 0.0);
     let z = select(precond[i] * r, vec3<f32>(0.0), pinfo[i].w > 0.5);
     cg[2u * P.n + i] = vec4<f32>(z, 0.0);
+}
+
+// the most unknowns of one patch (64 particles × 3); the host falls back to block Jacobi above
+const PATCH_UNKNOWNS: u32 = 192u;
+var<workgroup> patch_r: array<f32, PATCH_UNKNOWNS>;
+
+// z_P = A_PP⁻¹ r_P, one workgroup per patch (CPU twin: PatchJacobi::apply). It overwrites z
+// at every free particle (each is in one patch) after cg_rhs / cg_update wrote r; clamped
+// particles keep the z = 0 those kernels gave them. Unknown a of a patch is component a % 3 of
+// its member a / 3; the inverse is symmetric, stored as its lower triangle row by row.
+@compute @workgroup_size(64)
+fn cg_patches(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let q = wid.x + wid.y * 65535u;
+    let patches = patch_index[0];
+    if q >= patches { return; }
+    // the members of patch q at patch_index[first ..), 3 unknowns each
+    let members = 3u + 2u * patches;
+    let first = members + patch_index[1u + q];
+    let m = 3u * (patch_index[2u + q] - patch_index[1u + q]);
+    for (var a = li; a < m; a += 64u) {
+        patch_r[a] = cg[P.n + patch_index[first + a / 3u]][a % 3u];
+    }
+    workgroupBarrier();
+    let base = patch_index[2u + patches + q];
+    for (var a = li; a < m; a += 64u) {
+        let row = base + a * (a + 1u) / 2u;
+        var z = 0.0;
+        for (var c = 0u; c <= a; c++) {
+            z += patch_inverse[row + c] * patch_r[c];
+        }
+        for (var c = a + 1u; c < m; c++) {
+            z += patch_inverse[base + c * (c + 1u) / 2u + a] * patch_r[c];
+        }
+        cg[2u * P.n + patch_index[first + a / 3u]][a % 3u] = z;
+    }
+}
+
+// p = z and the operator's first input, after the patch smoother gave the first z
+@compute @workgroup_size(64)
+fn cg_first_direction(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = idx(gid);
+    if i >= P.n { return; }
+    let z = cg[2u * P.n + i].xyz;
+    cg[3u * P.n + i] = vec4<f32>(z, 0.0);
+    lin_x[i] = vec4<f32>(z, 0.0);
+    lin_v[i] = vec4<f32>(z / P.dt, 0.0);
 }
 
 // after the sums of the new r: β = rz_new / rz_old; p = z + β p; the operator's next input

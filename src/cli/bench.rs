@@ -374,21 +374,28 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         } else {
             vec![46, 100]
         } {
-            for (integ, steps) in
-                [(phonation::solid::Integrator::Explicit, if quick { 10 } else { 50 }), (phonation::solid::Integrator::Implicit, if quick { 2 } else { 5 })]
-            {
-                match phonation::gpu::solid::solid_speed(&ctx, side, integ, steps, bw) {
+            use phonation::solid::{Integrator, Preconditioner};
+            // the implicit solve with the patches (the default) and with block Jacobi: the
+            // smoother's gain on the device, method against method in one process
+            let implicit_steps = if quick { 2 } else { 5 };
+            for (integ, pre, steps) in [
+                (Integrator::Explicit, Preconditioner::Patches, if quick { 10 } else { 50 }),
+                (Integrator::Implicit, Preconditioner::Patches, implicit_steps),
+                (Integrator::Implicit, Preconditioner::BlockJacobi, implicit_steps),
+            ] {
+                match phonation::gpu::solid::solid_speed(&ctx, side, integ, pre, steps, bw) {
                     Ok(v) => {
                         let key = format!("{:?}/{}", v.integrator, v.particles).to_lowercase();
-                        let vs = cpu_solid
-                            .iter()
-                            .find(|(k, _)| *k == key)
+                        // against the CPU's default (patches and the coarse space)
+                        let vs = (pre == Preconditioner::Patches)
+                            .then(|| cpu_solid.iter().find(|(k, _)| *k == key))
+                            .flatten()
                             .map(|(_, c)| format!("  {:.2}× the CPU", v.particle_updates_per_s / c))
                             .unwrap_or_default();
                         solid_row(&v, &vs);
                         gpu_solid.push(v);
                     }
-                    Err(e) => println!("{:?} {side}³ skipped: {e}", integ),
+                    Err(e) => println!("{integ:?} ({pre:?}) {side}³ skipped: {e}"),
                 }
             }
         }

@@ -15,7 +15,7 @@
 //! 144, per bond 3 × 16 + 12.
 
 use super::context::{GpuContext, GpuError};
-use crate::solid::{Integrator, SolidSolver};
+use crate::solid::{Integrator, Preconditioner, SolidSolver};
 use crate::stages::SolidStageKind;
 use glam::{DMat3, DQuat, DVec3};
 
@@ -29,6 +29,43 @@ use bindings::{Buf, Buffers, G0, G1, Kernel, Pipelines};
 use wgpu::util::DeviceExt;
 
 const SHADER: &str = include_str!("../../shaders/solid.wgsl");
+
+/// The patch smoother's arrays as the device reads them (`patch_index` and `patch_inverse` in
+/// shaders/solid.wgsl): [Q, the Q + 1 member offsets, the Q + 1 inverse offsets, the members].
+#[derive(Default)]
+struct PatchArrays {
+    index: Vec<u32>,
+    inverse: Vec<f32>,
+}
+
+impl PatchArrays {
+    fn patches(&self) -> u32 {
+        self.index.first().copied().unwrap_or(0)
+    }
+}
+
+/// The most particles of one patch the device's smoother takes (its workgroup holds r_P:
+/// `PATCH_UNKNOWNS` = 3 × this in shaders/solid.wgsl).
+pub const PATCH_MAX_PARTICLES: usize = 64;
+
+/// The patches in the device's layout, or why they cannot go there (a patch larger than
+/// [`PATCH_MAX_PARTICLES`], an inverse beyond the binding size `limit`).
+fn device_patches(pj: &crate::solid::patch_jacobi::PatchJacobi, limit: u64) -> Result<PatchArrays, String> {
+    let (members, start, inverse, inverse_start) = pj.flat();
+    let largest = pj.largest_patch();
+    if largest > PATCH_MAX_PARTICLES {
+        return Err(format!("a patch of {largest} particles (the device's smoother takes {PATCH_MAX_PARTICLES}): block Jacobi on the GPU"));
+    }
+    let bytes = 4 * inverse.len() as u64;
+    if bytes > limit || inverse.len() > u32::MAX as usize {
+        return Err(format!("the patches' inverses take {bytes} B, beyond max_storage_buffer_binding_size = {limit} B: block Jacobi on the GPU"));
+    }
+    let mut index = Vec::with_capacity(1 + start.len() + inverse_start.len() + members.len());
+    index.push((start.len() - 1) as u32);
+    index.extend(start.iter().chain(inverse_start).map(|&x| x as u32));
+    index.extend(members);
+    Ok(PatchArrays { index, inverse: inverse.to_vec() })
+}
 
 fn v4(v: DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
@@ -87,6 +124,14 @@ pub struct GpuSolid {
     pub last_cg: (usize, f64),
     /// Every CG solve on the device so far (as the CPU solver's).
     pub cg_tally: crate::solid::implicit::CgTally,
+    /// What preconditions the implicit solve here: the CPU options' patches
+    /// ([`crate::solid::patch_jacobi`], without the coarse space, which stays on the CPU) or
+    /// block Jacobi — chosen by the options, or when the patches do not fit
+    /// (`preconditioner_note` says why).
+    pub preconditioner: Preconditioner,
+    pub preconditioner_note: Option<String>,
+    /// Patches of the patch smoother (0 with block Jacobi).
+    patch_count: u32,
     pub step_count: u64,
     contact: Option<GpuContact>,
     /// Reference positions X: the `pos` buffer holds the displacement u = x − X
@@ -100,11 +145,17 @@ impl GpuSolid {
     pub fn from_solver(ctx: &GpuContext, s: &mut SolidSolver) -> Result<Self, GpuError> {
         let device = ctx.device.clone();
         let n = s.particles.len();
-        let pre: Vec<[f32; 12]> =
-            if s.options.integrator == Integrator::Implicit { s.preconditioner().blocks().iter().map(m3).collect() } else { vec![[0f32; 12]; n] };
+        let implicit = s.options.integrator == Integrator::Implicit;
+        let pre: Vec<[f32; 12]> = if implicit { s.preconditioner().blocks().iter().map(m3).collect() } else { vec![[0f32; 12]; n] };
+        let limit = ctx.limits.max_storage_buffer_binding_size;
+        let patches = (implicit && s.options.preconditioner == Preconditioner::Patches).then(|| device_patches(s.patch_smoother(), limit));
+        let (preconditioner, patch_arrays, preconditioner_note) = match patches {
+            Some(Ok(a)) => (Preconditioner::Patches, a, None),
+            Some(Err(why)) => (Preconditioner::BlockJacobi, PatchArrays::default(), Some(why)),
+            None => (Preconditioner::BlockJacobi, PatchArrays::default(), None),
+        };
         let b = &s.disc.bonds;
         let nb = b.len();
-        let limit = ctx.limits.max_storage_buffer_binding_size;
         for (what, bytes) in [("bond arrays", 16 * nb as u64), ("stiffness array", 144 * n as u64), ("CG vectors", 112 * n as u64)] {
             if bytes > limit {
                 return Err(GpuError::TooLarge { what, bytes, limit, unit: "bytes", limit_name: "max_storage_buffer_binding_size" });
@@ -149,6 +200,9 @@ impl GpuSolid {
                 Buf::Precond => storage(name, bytemuck::cast_slice(&pre)),
                 Buf::Partials => storage(name, bytemuck::cast_slice(&vec![0f32; 4 * n.div_ceil(256) + 4])),
                 Buf::Scalars => storage(name, bytemuck::cast_slice(&[0f32; 8])),
+                // block Jacobi: Q = 0 (the smoother is never dispatched then)
+                Buf::PatchIndex => storage(name, bytemuck::cast_slice(if patch_arrays.index.is_empty() { &[0u32][..] } else { &patch_arrays.index })),
+                Buf::PatchInverse => storage(name, bytemuck::cast_slice(&patch_arrays.inverse)),
                 // the per-particle vectors
                 Buf::Pos
                 | Buf::Vel
@@ -200,6 +254,9 @@ impl GpuSolid {
             cg_max_iterations: s.options.cg_max_iterations,
             last_cg: (0, 0.0),
             cg_tally: Default::default(),
+            preconditioner,
+            preconditioner_note,
+            patch_count: patch_arrays.patches(),
             step_count: 0,
             contact: None,
             reference: p.reference.clone(),
@@ -259,11 +316,33 @@ impl GpuSolid {
         self.queue.write_buffer(&self.buffers[Buf::Load], 0, bytemuck::cast_slice(&loads));
     }
 
+    /// z = blockdiag(A_PP⁻¹) r by the device's patch smoother alone (`cg_patches`; z = 0 at
+    /// clamped particles): the twin of [`crate::solid::patch_jacobi::PatchJacobi::apply`], for
+    /// parity tests. `None` when the device uses block Jacobi. Overwrites the CG vectors.
+    pub fn apply_patches(&mut self, r: &[DVec3]) -> Option<Vec<DVec3>> {
+        if self.preconditioner != Preconditioner::Patches {
+            return None;
+        }
+        let n = self.n;
+        let mut vecs = vec![[0f32; 4]; 7 * n];
+        for (i, ri) in r.iter().enumerate() {
+            vecs[n + i] = v4(*ri, 0.0);
+        }
+        self.queue.write_buffer(&self.buffers[Buf::Cg], 0, bytemuck::cast_slice(&vecs));
+        self.submit(&[Kernel::CgPatches]);
+        let all = self.read_f32(Buf::Cg);
+        Some((0..n).map(|i| DVec3::new(all[4 * (2 * n + i)] as f64, all[4 * (2 * n + i) + 1] as f64, all[4 * (2 * n + i) + 2] as f64)).collect())
+    }
+
     fn dispatch(&self, pass: &mut wgpu::ComputePass, kernel: Kernel) {
         pass.set_pipeline(&self.pipelines[kernel]);
         pass.set_bind_group(0, &self.groups[0], &[]);
         pass.set_bind_group(1, &self.groups[1], &[]);
         match kernel {
+            Kernel::CgPatches => {
+                let w = self.patch_count.max(1);
+                if w <= 65_535 { pass.dispatch_workgroups(w, 1, 1) } else { pass.dispatch_workgroups(65_535, w.div_ceil(65_535), 1) }
+            }
             Kernel::CgDots => pass.dispatch_workgroups((self.n as u32).div_ceil(256).max(1), 1, 1),
             Kernel::CgSum | Kernel::CgKeep => pass.dispatch_workgroups(1, 1, 1),
             _ => {
@@ -329,8 +408,13 @@ impl GpuSolid {
                 self.dispatch(&mut pass, e);
             }
             self.dispatch(&mut pass, Kernel::CgRhs);
+            if self.preconditioner == Preconditioner::Patches {
+                self.dispatch(&mut pass, Kernel::CgPatches);
+                self.dispatch(&mut pass, Kernel::CgFirstDirection);
+            }
         }
         self.queue.submit([enc.finish()]);
+        let patches = self.preconditioner == Preconditioner::Patches;
         let mut it = 0;
         let mut rel = f64::INFINITY;
         let check_every = 8;
@@ -342,9 +426,13 @@ impl GpuSolid {
                     for e in Self::LINEAR {
                         self.dispatch(&mut pass, e);
                     }
-                    for e in
-                        [Kernel::CgApply, Kernel::CgDots, Kernel::CgSum, Kernel::CgKeep, Kernel::CgUpdate, Kernel::CgDots, Kernel::CgSum, Kernel::CgDirection]
-                    {
+                    for e in [Kernel::CgApply, Kernel::CgDots, Kernel::CgSum, Kernel::CgKeep, Kernel::CgUpdate] {
+                        self.dispatch(&mut pass, e);
+                    }
+                    if patches {
+                        self.dispatch(&mut pass, Kernel::CgPatches);
+                    }
+                    for e in [Kernel::CgDots, Kernel::CgSum, Kernel::CgDirection] {
                         self.dispatch(&mut pass, e);
                     }
                 }
@@ -519,10 +607,20 @@ impl GpuSolid {
 pub type Kinematics = (Vec<DVec3>, Vec<DVec3>, Vec<Vec<u8>>);
 
 /// Particle updates per second of the GPU solid on the benchmark block of
-/// [`crate::solid::bench::benchmark_block`]; `bandwidth` is the device's copy bandwidth (B/s).
-pub fn solid_speed(ctx: &GpuContext, side: usize, integrator: Integrator, steps: u64, bandwidth: f64) -> Result<crate::solid::bench::SolidSpeed, GpuError> {
+/// [`crate::solid::bench::benchmark_block`] with the implicit solve's `preconditioner` (the
+/// patches fall back to block Jacobi where they do not fit: the row says which ran);
+/// `bandwidth` is the device's copy bandwidth (B/s).
+pub fn solid_speed(
+    ctx: &GpuContext,
+    side: usize,
+    integrator: Integrator,
+    preconditioner: Preconditioner,
+    steps: u64,
+    bandwidth: f64,
+) -> Result<crate::solid::bench::SolidSpeed, GpuError> {
     let t0 = std::time::Instant::now();
     let mut s = crate::solid::bench::benchmark_block(side, integrator);
+    s.options.preconditioner = preconditioner;
     let mut g = GpuSolid::from_solver(ctx, &mut s)?;
     let setup = t0.elapsed().as_secs_f64();
     g.run(1);
@@ -536,8 +634,8 @@ pub fn solid_speed(ctx: &GpuContext, side: usize, integrator: Integrator, steps:
     g.wait();
     let wall = t.elapsed().as_secs_f64();
     let mut v = crate::solid::bench::speed_of(false, &s, steps, wall, iters, setup, Vec::new(), bandwidth);
-    // the device solve is preconditioned by block Jacobi whatever the CPU options say
-    v.preconditioner = v.preconditioner.map(|_| crate::solid::Preconditioner::BlockJacobi);
+    // the device solve's preconditioner: the patches without the coarse space, or block Jacobi
+    v.preconditioner = v.preconditioner.map(|_| g.preconditioner);
     Ok(v)
 }
 

@@ -1,8 +1,9 @@
 //! Preconditioned conjugate gradients for the implicit system A ΔV = B of seed 000
 //! (2.63)–(2.66), matrix-free (the product A p is one evaluation of the linearised force
 //! kernels, as §3.1.3 multiplies only over the neighbour lists), and the block-Jacobi
-//! preconditioner (one 3×3 block per particle: the GPU's, and the CPU's with
-//! `preconditioner = "block_jacobi"`; the CPU's default smoother is [`super::patch_jacobi`]).
+//! preconditioner (one 3×3 block per particle, with `preconditioner = "block_jacobi"` on
+//! either backend; the default smoother is [`super::patch_jacobi`], on the CPU with the coarse
+//! space, on the GPU without it).
 //! Clamped particles are constrained to ΔV = 0.
 
 use super::forces::Discretisation;

@@ -150,6 +150,19 @@ impl PatchJacobi {
         &self.members[self.start[q]..self.start[q + 1]]
     }
 
+    /// The most particles in one patch.
+    pub fn largest_patch(&self) -> usize {
+        self.start.windows(2).map(|w| w[1] - w[0]).max().unwrap_or(0)
+    }
+
+    /// The flat arrays as the GPU's twin of [`Self::apply`] reads them: the patches' members
+    /// one after the other, where each patch's members start (patches + 1 offsets), and the
+    /// packed lower triangles of A_PP⁻¹ (row a holds columns 0..=a of the 3m unknowns x, y, z of
+    /// each member in turn) with where each patch's starts.
+    pub fn flat(&self) -> (&[u32], &[usize], &[f32], &[usize]) {
+        (&self.members, &self.start, &self.inverse, &self.inverse_start)
+    }
+
     /// z = blockdiag(A_PP⁻¹) r (zero on clamped particles).
     pub fn apply(&self, r: &[DVec3], z: &mut [DVec3]) {
         let mut zp = vec![DVec3::ZERO; self.members.len()];

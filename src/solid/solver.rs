@@ -281,6 +281,15 @@ impl SolidSolver {
         self.precond.as_ref().unwrap()
     }
 
+    /// The patch smoother for the current Δt (built on first use, without the coarse space:
+    /// what the GPU's implicit solve applies, [`crate::solid::Preconditioner::Patches`]).
+    pub fn patch_smoother(&mut self) -> &PatchJacobi {
+        if self.patches.is_none() {
+            self.patches = Some(PatchJacobi::new(&self.disc, &self.particles, self.dt));
+        }
+        self.patches.as_ref().unwrap()
+    }
+
     /// J_i⁻¹ of (2.74) from the last implicit `Rotations` stage.
     pub fn rotation_jacobian_inverses(&self) -> &[DMat3] {
         &self.jinv

@@ -39,10 +39,12 @@ pub(super) enum Buf {
     Precond,
     Partials,
     Scalars,
+    PatchIndex,
+    PatchInverse,
 }
 
 impl Buf {
-    pub const COUNT: usize = 30;
+    pub const COUNT: usize = 32;
 
     /// The shader's variable name.
     pub fn name(self) -> &'static str {
@@ -77,6 +79,8 @@ impl Buf {
             Buf::Precond => "precond",
             Buf::Partials => "partials",
             Buf::Scalars => "scalars",
+            Buf::PatchIndex => "patch_index",
+            Buf::PatchInverse => "patch_inverse",
         }
     }
 }
@@ -107,7 +111,7 @@ pub(super) const G0: [(Buf, bool); 21] = [
 ];
 
 /// (buffer, read-only) per binding of group 1 (the implicit method's solve).
-pub(super) const G1: [(Buf, bool); 9] = [
+pub(super) const G1: [(Buf, bool); 11] = [
     (Buf::LinX, false),
     (Buf::LinV, false),
     (Buf::Theta, false),
@@ -117,6 +121,8 @@ pub(super) const G1: [(Buf, bool); 9] = [
     (Buf::Precond, true),
     (Buf::Partials, false),
     (Buf::Scalars, false),
+    (Buf::PatchIndex, true),
+    (Buf::PatchInverse, true),
 ];
 
 /// Every buffer, indexed by [`Buf`].
@@ -163,10 +169,12 @@ pub(super) enum Kernel {
     IntegrateImplicit,
     AngularVelocity,
     PrepareKv,
+    CgPatches,
+    CgFirstDirection,
 }
 
 impl Kernel {
-    pub const ALL: [Kernel; 20] = [
+    pub const ALL: [Kernel; 22] = [
         Kernel::RotationMatrices,
         Kernel::StrainStressFull,
         Kernel::StrainStressLinear,
@@ -187,6 +195,8 @@ impl Kernel {
         Kernel::IntegrateImplicit,
         Kernel::AngularVelocity,
         Kernel::PrepareKv,
+        Kernel::CgPatches,
+        Kernel::CgFirstDirection,
     ];
 
     /// The WGSL entry point.
@@ -212,6 +222,8 @@ impl Kernel {
             Kernel::IntegrateImplicit => "integrate_implicit",
             Kernel::AngularVelocity => "angular_velocity",
             Kernel::PrepareKv => "prepare_kv",
+            Kernel::CgPatches => "cg_patches",
+            Kernel::CgFirstDirection => "cg_first_direction",
         }
     }
 }
@@ -263,5 +275,12 @@ mod tests {
         entries.sort();
         ours.sort();
         assert_eq!(entries, ours);
+        // the patch smoother's workgroup array holds the unknowns of the largest patch the host
+        // uploads
+        let (_, c) = module.constants.iter().find(|(_, c)| c.name.as_deref() == Some("PATCH_UNKNOWNS")).expect("PATCH_UNKNOWNS in the shader");
+        match module.global_expressions[c.init] {
+            naga::Expression::Literal(naga::Literal::U32(v)) => assert_eq!(v as usize, 3 * super::super::PATCH_MAX_PARTICLES),
+            ref e => panic!("PATCH_UNKNOWNS = {e:?}"),
+        }
     }
 }
