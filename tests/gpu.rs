@@ -810,7 +810,11 @@ fn the_patch_smoother_matches_its_cpu_twin() {
 /// two solutions agree within 10⁻⁵ of the motion (measured 2.9·10⁻⁷: the same system), and both
 /// land on the CPU's step (patches and the coarse space, f64, CG to 10⁻⁸) within 2·10⁻³ of the
 /// motion — measured 1.07·10⁻³ for either preconditioner alike, so the f32 step's own
-/// difference on this block's first step (its sheared start, v = 0.1 x ŷ), not the solve's.
+/// difference, not the solve's: the block starts sheared (v = 0.1 x ŷ), and B = Δt (f + Δt K v)
+/// of a uniform shear is large bond terms cancelling to the faces' net, which f32 keeps to
+/// ~10⁻³ (measured on the 8³ block with and without viscosity, with the clamped particles at
+/// rest or not: 1.25–1.26·10⁻³ after one step, 4.4–5.5·10⁻⁴ after four; started at rest under
+/// a load instead, 1.1·10⁻⁵ and 1.9·10⁻⁶).
 #[test]
 fn the_device_solve_with_patches_takes_fewer_iterations_than_block_jacobi() {
     use phonation::solid::Preconditioner;
