@@ -21,51 +21,19 @@ use glam::{DMat3, DQuat, DVec3};
 
 mod bindings;
 mod contact;
+mod solve;
 
 pub use contact::CONTACT_SLOTS;
 use contact::GpuContact;
+pub use solve::PATCH_MAX_PARTICLES;
+use solve::{PatchArrays, device_patches};
 
 use bindings::{Buf, Buffers, G0, G1, Kernel, Pipelines};
 use wgpu::util::DeviceExt;
 
-const SHADER: &str = include_str!("../../shaders/solid.wgsl");
-
-/// The patch smoother's arrays as the device reads them (`patch_index` and `patch_inverse` in
-/// shaders/solid.wgsl): [Q, the Q + 1 member offsets, the Q + 1 inverse offsets, the members].
-#[derive(Default)]
-struct PatchArrays {
-    index: Vec<u32>,
-    inverse: Vec<f32>,
-}
-
-impl PatchArrays {
-    fn patches(&self) -> u32 {
-        self.index.first().copied().unwrap_or(0)
-    }
-}
-
-/// The most particles of one patch the device's smoother takes (its workgroup holds r_P:
-/// `PATCH_UNKNOWNS` = 3 × this in shaders/solid.wgsl).
-pub const PATCH_MAX_PARTICLES: usize = 64;
-
-/// The patches in the device's layout, or why they cannot go there (a patch larger than
-/// [`PATCH_MAX_PARTICLES`], an inverse beyond the binding size `limit`).
-fn device_patches(pj: &crate::solid::patch_jacobi::PatchJacobi, limit: u64) -> Result<PatchArrays, String> {
-    let (members, start, inverse, inverse_start) = pj.flat();
-    let largest = pj.largest_patch();
-    if largest > PATCH_MAX_PARTICLES {
-        return Err(format!("a patch of {largest} particles (the device's smoother takes {PATCH_MAX_PARTICLES}): block Jacobi on the GPU"));
-    }
-    let bytes = 4 * inverse.len() as u64;
-    if bytes > limit || inverse.len() > u32::MAX as usize {
-        return Err(format!("the patches' inverses take {bytes} B, beyond max_storage_buffer_binding_size = {limit} B: block Jacobi on the GPU"));
-    }
-    let mut index = Vec::with_capacity(1 + start.len() + inverse_start.len() + members.len());
-    index.push((start.len() - 1) as u32);
-    index.extend(start.iter().chain(inverse_start).map(|&x| x as u32));
-    index.extend(members);
-    Ok(PatchArrays { index, inverse: inverse.to_vec() })
-}
+/// shaders/solid.wgsl (state, forces, explicit step) and shaders/solid_implicit.wgsl (the
+/// implicit method), one module.
+pub(crate) const SHADER: &str = concat!(include_str!("../../shaders/solid.wgsl"), include_str!("../../shaders/solid_implicit.wgsl"));
 
 fn v4(v: DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
@@ -316,24 +284,6 @@ impl GpuSolid {
         self.queue.write_buffer(&self.buffers[Buf::Load], 0, bytemuck::cast_slice(&loads));
     }
 
-    /// z = blockdiag(A_PP⁻¹) r by the device's patch smoother alone (`cg_patches`; z = 0 at
-    /// clamped particles): the twin of [`crate::solid::patch_jacobi::PatchJacobi::apply`], for
-    /// parity tests. `None` when the device uses block Jacobi. Overwrites the CG vectors.
-    pub fn apply_patches(&mut self, r: &[DVec3]) -> Option<Vec<DVec3>> {
-        if self.preconditioner != Preconditioner::Patches {
-            return None;
-        }
-        let n = self.n;
-        let mut vecs = vec![[0f32; 4]; 7 * n];
-        for (i, ri) in r.iter().enumerate() {
-            vecs[n + i] = v4(*ri, 0.0);
-        }
-        self.queue.write_buffer(&self.buffers[Buf::Cg], 0, bytemuck::cast_slice(&vecs));
-        self.submit(&[Kernel::CgPatches]);
-        let all = self.read_f32(Buf::Cg);
-        Some((0..n).map(|i| DVec3::new(all[4 * (2 * n + i)] as f64, all[4 * (2 * n + i) + 1] as f64, all[4 * (2 * n + i) + 2] as f64)).collect())
-    }
-
     fn dispatch(&self, pass: &mut wgpu::ComputePass, kernel: Kernel) {
         pass.set_pipeline(&self.pipelines[kernel]);
         pass.set_bind_group(0, &self.groups[0], &[]);
@@ -394,62 +344,6 @@ impl GpuSolid {
             SolidStageKind::ConjugateGradient => self.conjugate_gradient(),
             SolidStageKind::Integrate => self.submit(&[if implicit { Kernel::IntegrateImplicit } else { Kernel::IntegrateExplicit }]),
         }
-    }
-
-    fn conjugate_gradient(&mut self) {
-        // internal force of the state → cg[6n..7n); K v → force; then B, r, z, p
-        let mut enc = self.device.create_command_encoder(&Default::default());
-        let bytes = self.buffers[Buf::Force].size();
-        enc.copy_buffer_to_buffer(&self.buffers[Buf::Force], 0, &self.buffers[Buf::Cg], 6 * bytes, bytes);
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            self.dispatch(&mut pass, Kernel::PrepareKv);
-            for e in Self::LINEAR {
-                self.dispatch(&mut pass, e);
-            }
-            self.dispatch(&mut pass, Kernel::CgRhs);
-            if self.preconditioner == Preconditioner::Patches {
-                self.dispatch(&mut pass, Kernel::CgPatches);
-                self.dispatch(&mut pass, Kernel::CgFirstDirection);
-            }
-        }
-        self.queue.submit([enc.finish()]);
-        let patches = self.preconditioner == Preconditioner::Patches;
-        let mut it = 0;
-        let mut rel = f64::INFINITY;
-        let check_every = 8;
-        while it < self.cg_max_iterations {
-            let mut enc = self.device.create_command_encoder(&Default::default());
-            {
-                let mut pass = enc.begin_compute_pass(&Default::default());
-                for _ in 0..check_every {
-                    for e in Self::LINEAR {
-                        self.dispatch(&mut pass, e);
-                    }
-                    for e in [Kernel::CgApply, Kernel::CgDots, Kernel::CgSum, Kernel::CgKeep, Kernel::CgUpdate] {
-                        self.dispatch(&mut pass, e);
-                    }
-                    if patches {
-                        self.dispatch(&mut pass, Kernel::CgPatches);
-                    }
-                    for e in [Kernel::CgDots, Kernel::CgSum, Kernel::CgDirection] {
-                        self.dispatch(&mut pass, e);
-                    }
-                }
-            }
-            self.queue.submit([enc.finish()]);
-            it += check_every;
-            let sc = self.read_f32(Buf::Scalars);
-            rel = (sc[2] as f64).max(0.0).sqrt() / (sc[3] as f64).sqrt().max(1e-300);
-            if sc[3] == 0.0 {
-                rel = 0.0;
-            }
-            if rel <= self.cg_tolerance || !rel.is_finite() {
-                break;
-            }
-        }
-        self.last_cg = (it, rel);
-        self.cg_tally.add(it, rel, rel <= self.cg_tolerance);
     }
 
     /// One whole step, stage by stage in the order of the solid's stage list.

@@ -75,7 +75,7 @@ mod tests {
             ("shaders/level_set_grid.wgsl", crate::gpu::fold_surface::SHADER.to_string()),
             ("shaders/slice.wgsl", crate::gpu::slice::SHADER.to_string()),
             ("shaders/tracers.wgsl (+ hash.wgsl)", crate::gpu::tracers::SHADER.to_string()),
-            ("shaders/solid.wgsl", include_str!("../../shaders/solid.wgsl").to_string()),
+            ("shaders/solid.wgsl + solid_implicit.wgsl", crate::gpu::solid::SHADER.to_string()),
             ("shaders/solid_contact.wgsl", include_str!("../../shaders/solid_contact.wgsl").to_string()),
             ("lattice_gas (shaders/lattice_gas.wgsl + generated)", crate::gpu::lattice_gas_codegen::shader()),
         ] {

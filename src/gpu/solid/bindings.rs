@@ -1,4 +1,4 @@
-//! The bindings and kernels of shaders/solid.wgsl by type instead of by string: one [`Buf`] per
+//! The bindings and kernels of shaders/solid.wgsl (+ solid_implicit.wgsl) by type instead of by string: one [`Buf`] per
 //! binding, named as the shader names its variable, and one [`Kernel`] per entry point. A test
 //! parses the shader with naga and checks every binding's name, group, index and access and
 //! every entry point against these lists, so a renamed or reordered binding fails the tests
@@ -146,7 +146,7 @@ impl Index<Buf> for Buffers {
     }
 }
 
-/// An entry point of shaders/solid.wgsl.
+/// An entry point of shaders/solid.wgsl + solid_implicit.wgsl.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Kernel {
     RotationMatrices,
@@ -253,7 +253,7 @@ mod tests {
     /// and index with the same access, and the entry points are exactly [`Kernel::ALL`].
     #[test]
     fn the_bindings_and_kernels_match_the_shader() {
-        let module = crate::gpu::wgsl_check::validate("shaders/solid.wgsl", super::super::SHADER);
+        let module = crate::gpu::wgsl_check::validate("shaders/solid.wgsl + solid_implicit.wgsl", super::super::SHADER);
         let groups: [&[(Buf, bool)]; 2] = [&G0, &G1];
         let mut seen = 0;
         for (_, var) in module.global_variables.iter() {
