@@ -322,6 +322,7 @@ impl SolidEngine {
         let mut g = GpuSolid::from_solver(&ctx, &mut solver)?;
         let health = Some(uploaded(&ctx)?);
         g.cg_tolerance = gpu_cg_tolerance(cg_tolerance)?;
+        let name = with_preconditioner_note(name, &g);
         Ok(Self { solver, gpu: Some(g), health, name })
     }
 
@@ -329,6 +330,15 @@ impl SolidEngine {
     /// CPU, whose solver reports it in `solver.last.cg`).
     pub fn gpu_last_cg(&self) -> Option<(usize, f64)> {
         self.gpu.as_ref().map(|g| g.last_cg)
+    }
+}
+
+/// The backend's name, with why the device's implicit solve fell back to block Jacobi from
+/// the patches when it did (printed as the run's backend and kept in `summary.json`).
+pub(super) fn with_preconditioner_note(name: String, g: &GpuSolid) -> String {
+    match &g.preconditioner_note {
+        Some(why) => format!("{name}; implicit solve: {why}"),
+        None => name,
     }
 }
 

@@ -71,6 +71,7 @@ impl CoupledEngine {
         if let Some(why) = health.settle() {
             return Err(GpuError::Failed(why).into());
         }
+        let name = super::backend::with_preconditioner_note(name, &g.solid);
         Ok(Self { on: CoupledOn::Gpu(Box::new(g)), health: Some(health), name, mirror: Mirror::new(step), solid_at: step })
     }
 

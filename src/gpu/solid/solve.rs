@@ -123,3 +123,37 @@ impl GpuSolid {
         self.cg_tally.add(it, rel, rel <= self.cg_tolerance);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::solid::Integrator;
+    use crate::solid::patch_jacobi::PatchJacobi;
+
+    /// The device's layout of the patches: [Q, Q + 1 member offsets, Q + 1 inverse offsets, the
+    /// members], the same patches as the CPU's; and the two fallbacks to block Jacobi, each
+    /// saying why: a patch above [`PATCH_MAX_PARTICLES`] (5³ = 125 particles), inverses beyond
+    /// the binding size.
+    #[test]
+    fn the_patches_go_to_the_device_in_its_layout_or_say_why_not() {
+        let s = crate::solid::bench::benchmark_block(8, Integrator::Implicit);
+        let pj = PatchJacobi::new(&s.disc, &s.particles, s.dt);
+        let a = device_patches(&pj, u64::MAX).expect("27-particle patches fit");
+        let q = pj.patches();
+        assert_eq!(a.patches() as usize, q);
+        let (members, start, inverse, inverse_start) = pj.flat();
+        assert_eq!(a.index.len(), 1 + 2 * (q + 1) + members.len());
+        for k in 0..=q {
+            assert_eq!(a.index[1 + k] as usize, start[k]);
+            assert_eq!(a.index[2 + q + k] as usize, inverse_start[k]);
+        }
+        assert_eq!(&a.index[3 + 2 * q..], members);
+        assert_eq!(a.inverse, inverse);
+        let too_small = device_patches(&pj, 4 * inverse.len() as u64 - 1).err().expect("one byte short");
+        assert!(too_small.contains("max_storage_buffer_binding_size"), "{too_small}");
+        let big = PatchJacobi::with_patch_side(&s.disc, &s.particles, s.dt, 5.0 * s.particles.spacing);
+        assert!(big.largest_patch() > PATCH_MAX_PARTICLES);
+        let why = device_patches(&big, u64::MAX).err().expect("a 5³ patch is refused");
+        assert!(why.contains("block Jacobi"), "{why}");
+    }
+}
