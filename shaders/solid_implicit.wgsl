@@ -144,6 +144,14 @@ fn chain_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
     force[m] = vec4<f32>(force[m].xyz - s, 0.0);
 }
 
+// the search direction p of particle i, and the operator's next input from it: position
+// increments p, velocity increments p/Δt
+fn set_direction(i: u32, p: vec3<f32>) {
+    cg[3u * P.n + i] = vec4<f32>(p, 0.0);
+    lin_x[i] = vec4<f32>(p, 0.0);
+    lin_v[i] = vec4<f32>(p / P.dt, 0.0);
+}
+
 // B = Δt (f + Δt K v): `force` holds K v, cg[6n + i] the internal force of the state,
 // `extra_force` the contact force
 @compute @workgroup_size(64)
@@ -159,10 +167,7 @@ fn cg_rhs(@builtin(global_invocation_id) gid: vec3<u32>) {
     cg[1u * P.n + i] = vec4<f32>(b, 0.0);
     let z = select(precond[i] * b, vec3<f32>(0.0), pinfo[i].w > 0.5);
     cg[2u * P.n + i] = vec4<f32>(z, 0.0);
-    cg[3u * P.n + i] = vec4<f32>(z, 0.0);
-    // the linear operator reads its increments from lin_x / lin_v
-    lin_x[i] = vec4<f32>(z, 0.0);
-    lin_v[i] = vec4<f32>(z / P.dt, 0.0);
+    set_direction(i, z);
 }
 
 // A p = (m + m_a) p − Δt² (K p + D p/Δt), `force` holds K p + D p/Δt
@@ -272,10 +277,7 @@ fn cg_patches(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_i
 fn cg_first_direction(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = idx(gid);
     if i >= P.n { return; }
-    let z = cg[2u * P.n + i].xyz;
-    cg[3u * P.n + i] = vec4<f32>(z, 0.0);
-    lin_x[i] = vec4<f32>(z, 0.0);
-    lin_v[i] = vec4<f32>(z / P.dt, 0.0);
+    set_direction(i, cg[2u * P.n + i].xyz);
 }
 
 // after the sums of the new r: β = rz_new / rz_old; p = z + β p; the operator's next input
@@ -284,10 +286,7 @@ fn cg_direction(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = idx(gid);
     if i >= P.n { return; }
     let beta = select(scalars[1] / scalars[5], 0.0, scalars[5] == 0.0);
-    let p = cg[2u * P.n + i].xyz + beta * cg[3u * P.n + i].xyz;
-    cg[3u * P.n + i] = vec4<f32>(p, 0.0);
-    lin_x[i] = vec4<f32>(p, 0.0);
-    lin_v[i] = vec4<f32>(p / P.dt, 0.0);
+    set_direction(i, cg[2u * P.n + i].xyz + beta * cg[3u * P.n + i].xyz);
 }
 
 // keeps rz of this iteration (scalars[5]) for the next β

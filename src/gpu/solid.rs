@@ -116,7 +116,13 @@ impl GpuSolid {
         let implicit = s.options.integrator == Integrator::Implicit;
         let pre: Vec<[f32; 12]> = if implicit { s.preconditioner().blocks().iter().map(m3).collect() } else { vec![[0f32; 12]; n] };
         let limit = ctx.limits.max_storage_buffer_binding_size;
-        let patches = (implicit && s.options.preconditioner == Preconditioner::Patches).then(|| device_patches(s.patch_smoother(), limit));
+        let wants_patches = implicit && s.options.preconditioner == Preconditioner::Patches;
+        if wants_patches {
+            s.patch_smoother();
+        }
+        // the rest reads the solver only: the inverses go up from the solver's own array
+        let s = &*s;
+        let patches = wants_patches.then(|| device_patches(s.built_patch_smoother().expect("built above"), limit));
         let (preconditioner, patch_arrays, preconditioner_note) = match patches {
             Some(Ok(a)) => (Preconditioner::Patches, a, None),
             Some(Err(why)) => (Preconditioner::BlockJacobi, PatchArrays::default(), Some(why)),
@@ -170,7 +176,7 @@ impl GpuSolid {
                 Buf::Scalars => storage(name, bytemuck::cast_slice(&[0f32; 8])),
                 // block Jacobi: Q = 0 (the smoother is never dispatched then)
                 Buf::PatchIndex => storage(name, bytemuck::cast_slice(if patch_arrays.index.is_empty() { &[0u32][..] } else { &patch_arrays.index })),
-                Buf::PatchInverse => storage(name, bytemuck::cast_slice(&patch_arrays.inverse)),
+                Buf::PatchInverse => storage(name, bytemuck::cast_slice(patch_arrays.inverse)),
                 // the per-particle vectors
                 Buf::Pos
                 | Buf::Vel

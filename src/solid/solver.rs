@@ -290,6 +290,12 @@ impl SolidSolver {
         self.patches.as_ref().unwrap()
     }
 
+    /// The patch smoother if it is built ([`Self::patch_smoother`] builds it), borrowed
+    /// without borrowing the solver mutably.
+    pub fn built_patch_smoother(&self) -> Option<&PatchJacobi> {
+        self.patches.as_ref()
+    }
+
     /// J_i⁻¹ of (2.74) from the last implicit `Rotations` stage.
     pub fn rotation_jacobian_inverses(&self) -> &[DMat3] {
         &self.jinv
