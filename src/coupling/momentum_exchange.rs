@@ -65,13 +65,9 @@ pub fn add_face_fluxes(fluid: &FluidSolver, weight: f64, reference: Option<&[f64
     let at = |node: usize, d: isize| (node as isize + d) as usize;
     // (c_i, 1): momentum and mass of one unit of population i
     let cv = |i: usize| DVec4::new(c[i][0] as f64, c[i][1] as f64, c[i][2] as f64, 1.0);
-    for node in 0..grid.len() {
-        // Only a fluid node with a wall next to it along an axis has a wall face.
-        if kind[node] != NodeKind::Fluid
-            || !(0..grid.dim).any(|a| is_wall(kind[at(node, grid.stride[a] as isize)]) || is_wall(kind[at(node, -(grid.stride[a] as isize))]))
-        {
-            continue;
-        }
+    // Only a fluid node with a wall next to it along an axis has a wall face: the layout lists
+    // them, in the order a scan of the lattice would meet them (the sums stay bit for bit).
+    for &node in &layout.wall_faces {
         for (i, ci) in c.iter().enumerate().take(q) {
             let hv = |n: usize| h[pop.index(n, i)];
             let h0 = reference.map_or(0.0, |r| r[i]);

@@ -126,6 +126,10 @@ pub struct Layout {
     /// The stencils of the fluid nodes next to walls thinner than the upwind stencil, with
     /// their side ghosts ([`super::thin_wall`]); empty for geometries without such walls.
     pub thin_taps: Vec<ThinTap>,
+    /// The fluid nodes with a wall (a ghost or face-halo node) next to them along an axis,
+    /// ascending: the nodes through whose faces the air hands momentum to the walls
+    /// (`coupling::momentum_exchange`), found from the ghosts and face halos.
+    pub wall_faces: Vec<usize>,
 }
 
 /// Distance (cells) from two obstacles within which a node between them is pinched out of the
@@ -375,8 +379,31 @@ impl Layout {
                 taps
             }
         };
-        Layout { grid, boundaries, obstacles, kind, ghosts, face_halos, periodic, fluid_count, thin_taps }
+        let wall_faces = wall_face_nodes(&grid, &kind, ghosts.iter().map(|g| g.node).chain(face_halos.iter().map(|h| h.node)));
+        Layout { grid, boundaries, obstacles, kind, ghosts, face_halos, periodic, fluid_count, thin_taps, wall_faces }
     }
+}
+
+/// The fluid nodes next to one of `walls` along an axis, ascending and each once. With `walls`
+/// every ghost and face halo of a layout this is every fluid node with a non-fluid,
+/// non-periodic axis neighbour: a node next to a fluid node is within its stencil's reach, so
+/// it is a ghost (solid), a face halo or a periodic copy, never inactive — O(walls), not a scan
+/// of the lattice.
+fn wall_face_nodes(grid: &Grid, kind: &[NodeKind], walls: impl Iterator<Item = usize>) -> Vec<usize> {
+    let mut nodes = Vec::new();
+    for w in walls {
+        for a in 0..grid.dim {
+            let s = grid.stride[a];
+            for n in [w.checked_sub(s), Some(w + s)].into_iter().flatten() {
+                if kind.get(n) == Some(&NodeKind::Fluid) {
+                    nodes.push(n);
+                }
+            }
+        }
+    }
+    nodes.sort_unstable();
+    nodes.dedup();
+    nodes
 }
 
 impl Layout {

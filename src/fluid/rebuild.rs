@@ -108,6 +108,7 @@ mod tests {
     use crate::fluid::geometry::Polygon;
     use crate::fluid::geometry::Shape;
     use crate::fluid::grid::Grid;
+    use crate::fluid::layout::NodeKind;
 
     fn assert_same(local: &Layout, full: &Layout, label: &str) {
         assert_eq!(local.obstacles, full.obstacles, "{label}: obstacles");
@@ -121,6 +122,16 @@ mod tests {
         assert_eq!(local.periodic, full.periodic, "{label}: periodic runs");
         assert_eq!(local.thin_taps, full.thin_taps, "{label}: thin taps");
         assert_eq!(local.fluid_count, full.fluid_count, "{label}: fluid count");
+        assert_eq!(local.wall_faces, full.wall_faces, "{label}: wall faces");
+        assert_eq!(full.wall_faces, wall_faces_by_scan(full), "{label}: wall faces against a scan of the lattice");
+    }
+
+    /// Every fluid node with a non-fluid, non-periodic axis neighbour, by a scan of the lattice
+    /// (what `Layout::wall_faces` lists from the ghosts and face halos).
+    fn wall_faces_by_scan(l: &Layout) -> Vec<usize> {
+        let wall = |n: usize| !matches!(l.kind[n], NodeKind::Fluid | NodeKind::Periodic);
+        let g = &l.grid;
+        (0..g.len()).filter(|&n| l.kind[n] == NodeKind::Fluid && (0..g.dim).any(|a| wall(n + g.stride[a]) || wall(n - g.stride[a]))).collect()
     }
 
     /// A disc of particles (spacing 0.4 cells, radius `r`) at `c`, moving at `v`.
