@@ -229,12 +229,27 @@ fn cg_sum(@builtin(local_invocation_index) li: u32) {
 fn cg_update(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = idx(gid);
     if i >= P.n { return; }
+    let r = update_solution_and_residual(i);
+    let z = select(precond[i] * r, vec3<f32>(0.0), pinfo[i].w > 0.5);
+    cg[2u * P.n + i] = vec4<f32>(z, 0.0);
+}
+
+// cg_update without block Jacobi's z, for the patch smoother, which writes z next (clamped
+// particles keep the z = 0 that cg_rhs gave them at the start of the solve)
+@compute @workgroup_size(64)
+fn cg_update_residual(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = idx(gid);
+    if i >= P.n { return; }
+    update_solution_and_residual(i);
+}
+
+// x += α p, r -= α A p; returns the new r
+fn update_solution_and_residual(i: u32) -> vec3<f32> {
     let alpha = select(scalars[1] / scalars[0], 0.0, scalars[0] == 0.0);
     cg[i] = vec4<f32>(cg[i].xyz + alpha * cg[3u * P.n + i].xyz, 0.0);
     let r = cg[1u * P.n + i].xyz - alpha * cg[4u * P.n + i].xyz;
     cg[1u * P.n + i] = vec4<f32>(r, 0.0);
-    let z = select(precond[i] * r, vec3<f32>(0.0), pinfo[i].w > 0.5);
-    cg[2u * P.n + i] = vec4<f32>(z, 0.0);
+    return r;
 }
 
 // the most unknowns of one patch (64 particles × 3); the host falls back to block Jacobi above
@@ -242,7 +257,7 @@ const PATCH_UNKNOWNS: u32 = 192u;
 var<workgroup> patch_r: array<f32, PATCH_UNKNOWNS>;
 
 // z_P = A_PP⁻¹ r_P, one workgroup per patch (CPU twin: PatchJacobi::apply). It overwrites z
-// at every free particle (each is in one patch) after cg_rhs / cg_update wrote r; clamped
+// at every free particle (each is in one patch) after cg_rhs / cg_update_residual wrote r; clamped
 // particles keep the z = 0 those kernels gave them. Unknown a of a patch is component a % 3 of
 // its member a / 3; the inverse is symmetric, stored as its lower triangle row by row.
 @compute @workgroup_size(64)

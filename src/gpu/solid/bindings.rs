@@ -171,10 +171,11 @@ pub(super) enum Kernel {
     PrepareKv,
     CgPatches,
     CgFirstDirection,
+    CgUpdateResidual,
 }
 
 impl Kernel {
-    pub const ALL: [Kernel; 22] = [
+    pub const ALL: [Kernel; 23] = [
         Kernel::RotationMatrices,
         Kernel::StrainStressFull,
         Kernel::StrainStressLinear,
@@ -197,6 +198,7 @@ impl Kernel {
         Kernel::PrepareKv,
         Kernel::CgPatches,
         Kernel::CgFirstDirection,
+        Kernel::CgUpdateResidual,
     ];
 
     /// The WGSL entry point.
@@ -224,6 +226,7 @@ impl Kernel {
             Kernel::PrepareKv => "prepare_kv",
             Kernel::CgPatches => "cg_patches",
             Kernel::CgFirstDirection => "cg_first_direction",
+            Kernel::CgUpdateResidual => "cg_update_residual",
         }
     }
 }

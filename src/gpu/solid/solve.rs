@@ -98,11 +98,15 @@ impl GpuSolid {
                     for e in Self::LINEAR {
                         self.dispatch(&mut pass, e);
                     }
-                    for e in [Kernel::CgApply, Kernel::CgDots, Kernel::CgSum, Kernel::CgKeep, Kernel::CgUpdate] {
+                    for e in [Kernel::CgApply, Kernel::CgDots, Kernel::CgSum, Kernel::CgKeep] {
                         self.dispatch(&mut pass, e);
                     }
                     if patches {
+                        // x, r; then z by the patches (block Jacobi's z would be overwritten)
+                        self.dispatch(&mut pass, Kernel::CgUpdateResidual);
                         self.dispatch(&mut pass, Kernel::CgPatches);
+                    } else {
+                        self.dispatch(&mut pass, Kernel::CgUpdate);
                     }
                     for e in [Kernel::CgDots, Kernel::CgSum, Kernel::CgDirection] {
                         self.dispatch(&mut pass, e);
