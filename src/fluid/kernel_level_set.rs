@@ -33,6 +33,9 @@ pub struct KernelLevelSet {
     bins: [usize; 3],
     start: Vec<u32>,
     order: Vec<u32>,
+    /// The points in bin order (`points[order[k]]` at k): [`Self::level`] reads each bin's as
+    /// one contiguous run.
+    sorted: Vec<[f64; 3]>,
 }
 
 /// Smallest |∇L| (per cell) used in −L/|∇L|: deep inside a body, or far outside it, where L is
@@ -51,7 +54,7 @@ impl KernelLevelSet {
             }
         }
         let bins: [usize; 3] = std::array::from_fn(|a| if points.is_empty() { 1 } else { (((hi[a] - lo[a]) / re).ceil() as usize).max(1) });
-        let mut s = KernelLevelSet { points, velocities, re, r_min, phi, bounds: (lo, hi), bins, start: Vec::new(), order: Vec::new() };
+        let mut s = KernelLevelSet { points, velocities, re, r_min, phi, bounds: (lo, hi), bins, start: Vec::new(), order: Vec::new(), sorted: Vec::new() };
         let n_bins = bins[0] * bins[1] * bins[2];
         let key: Vec<usize> = s.points.iter().map(|p| s.bin_of(*p).expect("a point lies in its own box")).collect();
         let mut count = vec![0u32; n_bins + 1];
@@ -67,6 +70,7 @@ impl KernelLevelSet {
             order[fill[k] as usize] = j as u32;
             fill[k] += 1;
         }
+        s.sorted = order.iter().map(|&j| s.points[j as usize]).collect();
         (s.start, s.order) = (count, order);
         s
     }
@@ -117,23 +121,42 @@ impl KernelLevelSet {
         })
     }
 
-    /// L(p) and ∇L(p) (per cell).
+    /// L(p) and ∇L(p) (per cell). The particles of [`Self::candidates`] in the same order (the
+    /// sums are the same bit for bit), read from [`Self::sorted`] as one run per row of bins;
+    /// those beyond r_e by more than round-off are passed over before the square root.
     pub fn level(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
         let mut l = -self.phi;
         let mut g = [0.0; 3];
-        for j in self.candidates(p) {
-            let x = &self.points[j];
-            let d = [p[0] - x[0], p[1] - x[1], p[2] - x[2]];
-            let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            if r > self.re {
-                continue;
-            }
-            l += self.re / r.max(self.r_min) - 1.0;
-            if r > self.r_min {
-                // d/dr (r_e/r) = −r_e/r², along d/r.
-                let k = -self.re / (r * r * r);
-                for a in 0..3 {
-                    g[a] += k * d[a];
+        if !self.near(p) {
+            return (l, g);
+        }
+        let c = self.cell_of(p);
+        let b = self.bins;
+        let range = |a: usize| (c[a] - 1).max(0) as usize..=(c[a] + 1).min(b[a] as i64 - 1) as usize;
+        // r² above this is r > r_e whatever the rounding of r = √r²; below it, r is compared
+        let far = self.re * self.re * (1.0 + 1e-12);
+        let (x0, x1) = (*range(0).start(), *range(0).end());
+        for z in range(2) {
+            for y in range(1) {
+                let row = (z * b[1] + y) * b[0];
+                for x in &self.sorted[self.start[row + x0] as usize..self.start[row + x1 + 1] as usize] {
+                    let d = [p[0] - x[0], p[1] - x[1], p[2] - x[2]];
+                    let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                    if r2 > far {
+                        continue;
+                    }
+                    let r = r2.sqrt();
+                    if r > self.re {
+                        continue;
+                    }
+                    l += self.re / r.max(self.r_min) - 1.0;
+                    if r > self.r_min {
+                        // d/dr (r_e/r) = −r_e/r², along d/r.
+                        let k = -self.re / (r * r * r);
+                        for a in 0..3 {
+                            g[a] += k * d[a];
+                        }
+                    }
                 }
             }
         }
@@ -246,7 +269,7 @@ mod tests {
     }
 
     /// The binned kernel sum equals the sum over every particle (a scattered cloud, points
-    /// in and out of its box).
+    /// in and out of its box), and, bit for bit, the sum over the bins' particles in index order.
     #[test]
     fn the_binned_sum_sees_every_particle_within_reach() {
         let pts: Vec<[f64; 3]> = (0..300)
@@ -266,8 +289,21 @@ mod tests {
                 })
                 .sum::<f64>()
                 - 3.0;
-            let (l, _) = s.level(p);
+            let (l, g) = s.level(p);
             assert!((l - brute).abs() < 1e-9 * brute.abs().max(1.0), "{p:?}: {l} vs {brute}");
+            // the same sums, bit for bit, as over `candidates` (the bins' particles by index)
+            let (mut l_ref, mut g_ref) = (-s.phi, [0.0; 3]);
+            for j in s.candidates(p) {
+                let d = [p[0] - pts[j][0], p[1] - pts[j][1], p[2] - pts[j][2]];
+                let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                if r <= s.re {
+                    l_ref += s.re / r.max(s.r_min) - 1.0;
+                    if r > s.r_min {
+                        (0..3).for_each(|a| g_ref[a] += -s.re / (r * r * r) * d[a]);
+                    }
+                }
+            }
+            assert_eq!((l.to_bits(), g.map(f64::to_bits)), (l_ref.to_bits(), g_ref.map(f64::to_bits)), "{p:?}");
             assert_eq!(s.weights(p).count(), pts.iter().filter(|x| ((x[0] - p[0]).powi(2) + (x[1] - p[1]).powi(2)).sqrt() <= 2.2).count());
         }
     }

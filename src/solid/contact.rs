@@ -76,6 +76,22 @@ fn friction(p: &ContactParams, cs: DVec3, fn_mag: f64) -> (DVec3, bool) {
     }
 }
 
+/// Whether each particle lies within `reach` (a little more, for round-off) of the bounding box
+/// of a body other than its own.
+fn near_another_body(x: &[DVec3], body: &[u16], reach: f64) -> Vec<bool> {
+    let bodies = body.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
+    let mut boxes = vec![(DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)); bodies];
+    for (p, &b) in x.iter().zip(body) {
+        let (lo, hi) = &mut boxes[b as usize];
+        (*lo, *hi) = (lo.min(*p), hi.max(*p));
+    }
+    let reach2 = (1.01 * reach).powi(2);
+    x.iter()
+        .zip(body)
+        .map(|(p, &b)| boxes.iter().enumerate().any(|(k, (lo, hi))| k != b as usize && lo.x <= hi.x && (p.clamp(*lo, *hi) - *p).length_squared() <= reach2))
+        .collect()
+}
+
 impl Contacts {
     /// Adds contact forces and torques to `force`/`torque`.
     /// Tangential-spring anchors held: (particle pairs, particle–wall contacts).
@@ -91,9 +107,13 @@ impl Contacts {
         self.active = (0, 0);
         self.sliding = 0;
         let multi_body = inp.body.iter().any(|&b| b != inp.body[0]);
-        if multi_body {
+        // Only a particle within l₀ of another body's bounding box can touch that body: the
+        // others are not searched from (for two folds apart, none is). The grid holds every
+        // particle, so each search meets its neighbours in the same order as without the filter.
+        let near_other = if multi_body { near_another_body(inp.x, inp.body, l0) } else { Vec::new() };
+        if near_other.iter().any(|&b| b) {
             let grid = SearchGrid::build(inp.x, l0, [None; 3]);
-            for i in 0..n {
+            for i in (0..n).filter(|&i| near_other[i]) {
                 let mut near: Vec<(usize, DVec3)> = Vec::new();
                 grid.for_each_within(inp.x[i], l0, inp.x, |j, d| {
                     if j > i && inp.body[j] != inp.body[i] {
@@ -184,5 +204,45 @@ impl Contacts {
             }
         }
         self.walls = wall_seen;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Three bodies of scattered particles, two of them interleaved at their edges, one far:
+    /// every particle with another body's particle within l₀ is searched from, the far body's
+    /// particles and those deep inside the others are not.
+    #[test]
+    fn only_particles_near_another_body_are_searched_from() {
+        let l0 = 0.1;
+        let mut x = Vec::new();
+        let mut body = Vec::new();
+        for k in 0..3000u32 {
+            let t = k as f64;
+            let (b, origin) = match k % 3 {
+                0 => (0u16, DVec3::ZERO),
+                1 => (1, DVec3::new(0.95, 0.0, 0.0)),
+                _ => (2, DVec3::new(5.0, 0.0, 0.0)),
+            };
+            x.push(origin + DVec3::new((t * 0.618_034).fract(), (t * 0.414_214).fract(), (t * 0.732_051).fract()));
+            body.push(b);
+        }
+        let near = near_another_body(&x, &body, l0);
+        let mut touching = 0;
+        for i in 0..x.len() {
+            for j in 0..x.len() {
+                if body[i] != body[j] && (x[i] - x[j]).length() < l0 {
+                    assert!(near[i] && near[j], "{i} and {j} touch");
+                    touching += 1;
+                }
+            }
+        }
+        let flagged = near.iter().filter(|&&b| b).count();
+        assert!(touching > 100, "{touching} touching pairs");
+        assert!((0..x.len()).filter(|&i| body[i] == 2).all(|i| !near[i]), "the far body is never searched from");
+        // the two interleaved bodies overlap in a slab 0.05 wide, flagged with l₀ either side
+        assert!(flagged > 200 && flagged < 700, "{flagged} of {} flagged", x.len());
     }
 }
