@@ -93,12 +93,13 @@ fn near_another_body(x: &[DVec3], body: &[u16], reach: f64) -> Vec<bool> {
 }
 
 impl Contacts {
-    /// Adds contact forces and torques to `force`/`torque`.
     /// Tangential-spring anchors held: (particle pairs, particle–wall contacts).
     pub fn anchors(&self) -> (usize, usize) {
         (self.pairs.len(), self.walls.len())
     }
 
+    /// Adds contact forces and torques to `force`/`torque`: between particles of different
+    /// bodies closer than l₀ (2.23–2.37) and between particles and `walls`.
     pub fn apply(&mut self, p: &ContactParams, walls: &[Wall], inp: &ContactInput, force: &mut [DVec3], torque: &mut [DVec3]) {
         let l0 = inp.diameter;
         let n = inp.x.len();
