@@ -100,16 +100,26 @@ impl KernelLevelSet {
         (0..3).all(|a| c[a] >= 0 && (c[a] as usize) < self.bins[a]).then(|| (c[2] as usize * self.bins[1] + c[1] as usize) * self.bins[0] + c[0] as usize)
     }
 
-    /// The particles in the bins around `p` (every particle within r_e of it, and some more).
-    fn candidates(&self, p: [f64; 3]) -> impl Iterator<Item = usize> + '_ {
+    /// The bins around `p` as runs of bin-ordered slots (indices into `order` and `sorted`):
+    /// one run per row of up to three bins along x, rows in z then y order; none when `p` is
+    /// farther than r_e from every point's box.
+    fn runs(&self, p: [f64; 3]) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
         let near = self.near(p);
         let c = self.cell_of(p);
         let b = self.bins;
         let range = move |a: usize| (c[a] - 1).max(0)..=(c[a] + 1).min(b[a] as i64 - 1);
-        range(2)
-            .filter(move |_| near)
-            .flat_map(move |z| range(1).flat_map(move |y| range(0).map(move |x| (z as usize * b[1] + y as usize) * b[0] + x as usize)))
-            .flat_map(move |bin| self.order[self.start[bin] as usize..self.start[bin + 1] as usize].iter().map(|&j| j as usize))
+        let (x0, x1) = (*range(0).start(), *range(0).end());
+        range(2).filter(move |_| near).flat_map(move |z| {
+            range(1).map(move |y| {
+                let row = (z as usize * b[1] + y as usize) * b[0];
+                self.start[row + x0 as usize] as usize..self.start[row + x1 as usize + 1] as usize
+            })
+        })
+    }
+
+    /// The particles in the bins around `p` (every particle within r_e of it, and some more).
+    fn candidates(&self, p: [f64; 3]) -> impl Iterator<Item = usize> + '_ {
+        self.runs(p).flat_map(move |run| self.order[run].iter().map(|&j| j as usize))
     }
 
     /// The kernel weight of every particle within r_e of `p`: (particle, w) (2.124).
@@ -127,35 +137,25 @@ impl KernelLevelSet {
     pub fn level(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
         let mut l = -self.phi;
         let mut g = [0.0; 3];
-        if !self.near(p) {
-            return (l, g);
-        }
-        let c = self.cell_of(p);
-        let b = self.bins;
-        let range = |a: usize| (c[a] - 1).max(0) as usize..=(c[a] + 1).min(b[a] as i64 - 1) as usize;
         // r² above this is r > r_e whatever the rounding of r = √r²; below it, r is compared
         let far = self.re * self.re * (1.0 + 1e-12);
-        let (x0, x1) = (*range(0).start(), *range(0).end());
-        for z in range(2) {
-            for y in range(1) {
-                let row = (z * b[1] + y) * b[0];
-                for x in &self.sorted[self.start[row + x0] as usize..self.start[row + x1 + 1] as usize] {
-                    let d = [p[0] - x[0], p[1] - x[1], p[2] - x[2]];
-                    let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                    if r2 > far {
-                        continue;
-                    }
-                    let r = r2.sqrt();
-                    if r > self.re {
-                        continue;
-                    }
-                    l += self.re / r.max(self.r_min) - 1.0;
-                    if r > self.r_min {
-                        // d/dr (r_e/r) = −r_e/r², along d/r.
-                        let k = -self.re / (r * r * r);
-                        for a in 0..3 {
-                            g[a] += k * d[a];
-                        }
+        for run in self.runs(p) {
+            for x in &self.sorted[run] {
+                let d = [p[0] - x[0], p[1] - x[1], p[2] - x[2]];
+                let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                if r2 > far {
+                    continue;
+                }
+                let r = r2.sqrt();
+                if r > self.re {
+                    continue;
+                }
+                l += self.re / r.max(self.r_min) - 1.0;
+                if r > self.r_min {
+                    // d/dr (r_e/r) = −r_e/r², along d/r.
+                    let k = -self.re / (r * r * r);
+                    for a in 0..3 {
+                        g[a] += k * d[a];
                     }
                 }
             }
@@ -291,7 +291,8 @@ mod tests {
                 - 3.0;
             let (l, g) = s.level(p);
             assert!((l - brute).abs() < 1e-9 * brute.abs().max(1.0), "{p:?}: {l} vs {brute}");
-            // the same sums, bit for bit, as over `candidates` (the bins' particles by index)
+            // the same sums, bit for bit, as over `candidates` (the bins' particles through `order`
+            // and `points`, where `level` reads the bin-ordered copy)
             let (mut l_ref, mut g_ref) = (-s.phi, [0.0; 3]);
             for j in s.candidates(p) {
                 let d = [p[0] - pts[j][0], p[1] - pts[j][1], p[2] - pts[j][2]];
