@@ -111,7 +111,7 @@ fn every_kernel_matches_its_cpu_twin() {
             }
         }
         gpu.finish_step();
-        assert!(gpu.instability().is_none());
+        assert!(gpu.instability() == Ok(None));
     }
 }
 
@@ -129,7 +129,7 @@ fn whole_steps_match_the_cpu_backend() {
         // f32 round-off accumulates over 200 steps of a dissipative scheme: 1e-4 of each
         // population's scale bounds it (measured 4e-5 to 6e-5 on lavapipe).
         assert!(d < 1e-4, "{}: {d:e}", if dim3 { "3D" } else { "2D" });
-        assert!(gpu.instability().is_none());
+        assert!(gpu.instability() == Ok(None));
         assert_eq!(gpu.step_count, steps);
     }
 }
@@ -256,7 +256,7 @@ fn gpu_reports_instability() {
     cpu.params.a = 0.0;
     let mut gpu = GpuFluid::from_solver(&ctx, &cpu).unwrap();
     gpu.run(300);
-    let (node, code) = gpu.instability().expect("Δt = 1 must blow up");
+    let (node, code) = gpu.instability().expect("the flag is read").expect("Δt = 1 must blow up");
     assert!(cpu.layout.kind[node] == NodeKind::Fluid && (1..=3).contains(&code));
 }
 
@@ -632,6 +632,19 @@ fn rel_vec(a: &[DVec3], b: &[DVec3]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (*x - *y).length()).fold(0.0, f64::max) / scale
 }
 
+/// How much larger than the populations' largest relative difference (GPU against CPU) the air's
+/// force on a body may differ, relative to itself. The force is the momentum exchange's sum over
+/// the wall faces of the populations beside the wall, so it carries their round-off; it is not
+/// the largest difference but a sum of near-wall ones, weighted. Measured after 200 steps of the
+/// small flap: 1.06× on lavapipe (force 4.1e-5 of |F|, populations 3.9e-5; Mesa's f32 rounds
+/// every operation correctly) and 2.27× on an H200 (NVIDIA 580.159 Vulkan driver: 1.11e-4 and
+/// 4.89e-5; WGSL lets a driver divide to 2.5 ulp and fuse multiply-adds, which the force's path
+/// through the wall's populations, the exchange's weights and the solid's f32 positions feels
+/// more than the bulk does). 3× keeps a margin over the H200 and still fails a force path that
+/// loses precision of its own (an f32 sum over the faces, a wrong weight), which the populations
+/// would not show. Before 2026-12-04 the force was held to 1e-4 of |F| outright, set from lavapipe.
+const FORCE_OVER_POPULATIONS: f64 = 3.0;
+
 /// A GPU coupled run (its state brought back by `download_into`) against the CPU run of the same
 /// scene from particle positions `x0`: the displacements' largest difference over the largest
 /// displacement, the populations' (`max_relative_difference`), the air's force on body 0, and
@@ -664,21 +677,42 @@ impl CoupledParity {
     /// The figures, for the test's log.
     fn summary(&self) -> String {
         format!(
-            "largest displacement {:.3e} cm, displacement difference {:.2e}, populations {:.2e}; force on the flap {:?} (CPU) vs {:?} (GPU); \
-             nodes uncovered / covered {:?} (CPU) vs {:?} (GPU)",
-            self.umax, self.du, self.df, self.fc, self.fg, self.cpu_nodes, self.gpu_nodes
+            "largest displacement {:.3e} cm, displacement difference {:.2e}, populations {:.2e}; force on the flap {:?} (CPU) vs {:?} (GPU): \
+             difference {:.2e} of |F|, {:.2} × the populations'; nodes uncovered / covered {:?} (CPU) vs {:?} (GPU)",
+            self.umax,
+            self.du,
+            self.df,
+            self.fc,
+            self.fg,
+            self.force_difference(),
+            self.force_difference() / self.df,
+            self.cpu_nodes,
+            self.gpu_nodes
         )
     }
 
-    /// The same nodes changed side (some did), and displacements, populations and force within
-    /// `bound` of their scale.
+    /// |F_GPU − F_CPU| / |F_CPU|.
+    fn force_difference(&self) -> f64 {
+        (self.fg - self.fc).length() / self.fc.length()
+    }
+
+    /// The same nodes changed side (some did), displacements and populations within `bound` of
+    /// their scale, and the force within [`FORCE_OVER_POPULATIONS`] × the populations' measured
+    /// difference of its own size (so within 3 × `bound`).
     fn assert_within(&self, bound: f64) {
         let (c, g) = (self.cpu_nodes, self.gpu_nodes);
         assert!(c.0 > 0 && c.1 > 0, "the bodies must uncover and cover nodes");
         assert_eq!(g, c, "nodes uncovered / covered, GPU vs CPU");
         assert!(self.du < bound, "displacement {:e}", self.du);
         assert!(self.df < bound, "populations {:e}", self.df);
-        assert!((self.fg - self.fc).length() < bound * self.fc.length(), "force {:?} vs {:?}", self.fg, self.fc);
+        assert!(
+            self.force_difference() < FORCE_OVER_POPULATIONS * self.df,
+            "force {:?} vs {:?}: {:.2e} of |F|, populations {:.2e}",
+            self.fg,
+            self.fc,
+            self.force_difference(),
+            self.df
+        );
     }
 }
 
@@ -1523,9 +1557,10 @@ kernel_radius = 1.0
 /// nodes. The geometry must agree exactly: the same nodes changed side. Bounds: the fluid alone
 /// carries 4e-5 to 6e-5 of f32 round-off after 200 steps and is held to 1e-4
 /// (`whole_steps_match_the_cpu_backend`); the coupling adds no rounding of its own beyond the
-/// exchange's f32 sums (1e-5, `coupling_kernels_match_their_cpu_twins`), so the populations,
-/// the flap's displacement and the force on it are held to 1e-4 of their scale (measured on
-/// lavapipe: 4.2e-5, 1.1e-6, 1.3e-5). The particles' velocities carry the solid's own f32
+/// exchange's f32 sums (1e-5, `coupling_kernels_match_their_cpu_twins`), so the populations and
+/// the flap's displacement are held to 1e-4 of their scale (measured on lavapipe: 3.9e-5,
+/// 9.0e-7; on an H200: 4.9e-5, 2.8e-6), and the force on it to 3× the populations' difference
+/// of its own size ([`FORCE_OVER_POPULATIONS`]; measured 4.1e-5 and 1.1e-4). The particles' velocities carry the solid's own f32
 /// noise in particle-scale modes, measured here on the same flap without air over the same
 /// sub-steps (1.4e-3); the coupling may not amplify it by more than 3× (measured 1.8e-3). Before
 /// the GPU solid stored displacements instead of absolute positions, these were 2.5e-2 and
@@ -1757,9 +1792,13 @@ fn a_coupled_scene_runs_on_the_gpu_backend_with_the_cpus_outputs() {
     assert!(gpu.iter().all(|r| r[tip].is_finite()) && gpu.last().unwrap()[tip] != 0.0, "the tip probe is read from the device's particles");
     let f_scale = cpu.iter().map(|r| r[fx].abs()).fold(0.0, f64::max);
     let d_scale = cpu.iter().map(|r| r[dy].abs()).fold(0.0, f64::max);
+    let worst = cpu.iter().zip(&gpu).map(|(c, g)| (c[fx] - g[fx]).abs()).fold(0.0, f64::max);
+    eprintln!("force_x rows: largest difference {:.2e} of the largest |F_x|", worst / f_scale);
     for (c, g) in cpu.iter().zip(&gpu) {
         assert_eq!(c[0], g[0], "the same steps");
-        assert!((c[fx] - g[fx]).abs() <= 1e-4 * f_scale, "force {} vs {}", c[fx], g[fx]);
+        // the coupled parity bounds: the force to FORCE_OVER_POPULATIONS × the populations'
+        // bound (measured: 2.7e-5 of the scale on lavapipe, 1.14e-4 on an H200)
+        assert!((c[fx] - g[fx]).abs() <= FORCE_OVER_POPULATIONS * 1e-4 * f_scale, "force {} vs {}", c[fx], g[fx]);
         assert!((c[dy] - g[dy]).abs() <= 1e-4 * d_scale, "displacement {} vs {}", c[dy], g[dy]);
     }
     assert!(d_scale > 0.0 && f_scale > 0.0);
@@ -1852,9 +1891,9 @@ fn small_flap_weak() -> String {
 /// Method 1 on the GPU: the fluid, the solid and the tractions (2.110–2.113, the traction
 /// kernels) on the device, the surface polygons' walls and the traction's plan on the CPU. Over
 /// 200 steps of the small flap the geometry agrees exactly (the same nodes uncovered and
-/// covered), and the displacements, populations and the air's force on the flap are held to
-/// 2e-4 of their scale (method 2's bound is 1e-4, `coupled_steps_on_the_gpu_match_the_cpu_over_200_steps`;
-/// why, below).
+/// covered), and the displacements and populations are held to 2e-4 of their scale (method 2's
+/// bound is 1e-4, `coupled_steps_on_the_gpu_match_the_cpu_over_200_steps`; why, below), the air's
+/// force on the flap to [`FORCE_OVER_POPULATIONS`] × the populations' difference.
 #[test]
 fn weak_coupled_steps_on_the_gpu_match_the_cpu() {
     use phonation::gpu::coupled::GpuCoupled;
@@ -2026,7 +2065,7 @@ fn the_periodic_fill_copies_what_the_advection_reads() {
         cpu.run(steps).unwrap();
         gpu.run(steps);
         let label = if dim3 { "3D" } else { "2D" };
-        assert!(gpu.instability().is_none(), "{label}");
+        assert!(gpu.instability() == Ok(None), "{label}");
         let state = gpu.download(GpuArray::State);
         let n = cpu.layout.grid.len();
         for node in (0..n).filter(|&k| cpu.layout.kind[k] == NodeKind::Fluid) {

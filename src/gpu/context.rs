@@ -241,6 +241,27 @@ fn try_read_parts(device: &wgpu::Device, queue: &wgpu::Queue, parts: &[(&wgpu::B
     Some(out)
 }
 
+/// All of `b` copied into `staging` (MAP_READ | COPY_DST, at least as large; made once by the
+/// caller) and read from there: a read that allocates nothing on the device. None when it fails.
+pub fn try_read_into(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buffer, staging: &wgpu::Buffer) -> Option<Vec<u8>> {
+    let size = b.size();
+    let mut enc = device.create_command_encoder(&Default::default());
+    enc.copy_buffer_to_buffer(b, 0, staging, 0, size);
+    queue.submit([enc.finish()]);
+    let slice = staging.slice(..size);
+    let mapped = Arc::new(Mutex::new(None));
+    let done = mapped.clone();
+    slice.map_async(wgpu::MapMode::Read, move |r| *done.lock().expect("readback") = Some(r));
+    let _ = device.poll(wgpu::PollType::wait_indefinitely());
+    if !matches!(mapped.lock().expect("readback").take(), Some(Ok(()))) {
+        eprintln!("gpu: reading a buffer back failed (device lost)");
+        return None;
+    }
+    let out = slice.get_mapped_range().to_vec();
+    staging.unmap();
+    Some(out)
+}
+
 /// Compute pipelines for the named entry points of one module, sharing a pipeline layout.
 pub fn compute_pipelines(
     device: &wgpu::Device,

@@ -177,8 +177,9 @@ impl GpuCoupled {
     pub fn check_fluid(&mut self) -> Result<(), Instability> {
         let Some(at) = self.fluid_unchecked.take() else { return Ok(()) };
         match self.fluid.instability() {
-            Some((node, code)) => Err(self.fluid_instability(node, code, at)),
-            None => Ok(()),
+            Ok(Some((node, code))) => Err(self.fluid_instability(node, code, at)),
+            Ok(None) => Ok(()),
+            Err(_) => Err(self.failed_read(&format!("reading the fluid's instability flag of step {} back failed (the device lost)", at.0))),
         }
     }
 

@@ -22,7 +22,7 @@ mod totals;
 mod traction;
 
 pub use geometry::SideGhostRoom;
-pub use readback::{GpuArray, compare_nodes};
+pub use readback::{FlagReadFailed, GpuArray, compare_nodes};
 
 use super::codegen::{self, Split, WORKGROUP};
 use super::context::{GpuContext, GpuError};
@@ -120,6 +120,10 @@ pub struct GpuFluid {
     /// changed); the others rewrote the tables in place ([`Self::set_geometry`]).
     pub geometry_rebinds: u64,
     status: wgpu::Buffer,
+    /// The flag's own staging buffer, made once: reading the flag after an advance allocates
+    /// nothing on the device (a read that needed memory would fail where the device's memory
+    /// is full, as a state read may).
+    status_staging: wgpu::Buffer,
     ghosts: (wgpu::Buffer, wgpu::Buffer, u32),
     faces: (wgpu::Buffer, u32),
     periodic: (wgpu::Buffer, u32),
@@ -225,6 +229,12 @@ impl GpuFluid {
         let h = storage(&device, "h", fb);
         let mac = storage(&device, "mac", bytemuck::cast_slice(&vec![0f32; 5 * stride]));
         let status = storage(&device, "status", bytemuck::cast_slice(&[u32::MAX, 0u32]));
+        let status_staging = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("status staging"),
+            size: status.size(),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let t = geometry::Tables::of(s, stride).expect("the room is made for twice the side ghosts of s");
         let kind = storage(&device, "kind", bytemuck::cast_slice(&t.kind));
         let window = s.temperature_window();
@@ -304,6 +314,7 @@ impl GpuFluid {
             kind_host: t.kind.clone(),
             geometry_rebinds: 0,
             status,
+            status_staging,
             params_stage,
             params_count,
             device,

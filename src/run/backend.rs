@@ -266,7 +266,15 @@ impl Solver for FluidEngine {
             self.mirror.failed = true;
             return Err(device_failure(why, g.step_count, g.step_count as f64 * s.params.dt, "lattice units", n, kept));
         }
-        if let Some((node, code)) = g.instability() {
+        let flag = g.instability().map_err(|_| {
+            let why = self.health.as_ref().and_then(|h| h.settle()).unwrap_or_else(|| "reading the instability flag back failed".into());
+            device_failure(why, g.step_count, g.step_count as f64 * s.params.dt, "lattice units", n, kept)
+        });
+        if let Err(e) = &flag {
+            self.mirror.failed = true;
+            return Err(e.clone());
+        }
+        if let Ok(Some((node, code))) = flag {
             self.mirror.failed = true;
             let quantity = GpuFluid::status_quantity(code);
             return Err(Instability {

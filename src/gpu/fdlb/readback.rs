@@ -22,9 +22,20 @@ pub enum GpuArray {
     Macro,
 }
 
+/// Reading the instability flag back failed (the device lost): nothing is known of the
+/// steps since the last read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FlagReadFailed;
+
 impl GpuFluid {
-    pub fn instability(&self) -> Option<(usize, u32)> {
-        Self::decode_status(&self.read_buffer(&self.status))
+    /// The instability flag: the first node out of range and its code
+    /// ([`Self::status_quantity`]), None while every node is in range. Read through the flag's
+    /// own staging buffer, so it allocates nothing; a read that fails (the device lost) is
+    /// [`FlagReadFailed`], never a flag.
+    pub fn instability(&self) -> Result<Option<(usize, u32)>, FlagReadFailed> {
+        crate::gpu::context::try_read_into(&self.device, &self.queue, &self.status, &self.status_staging)
+            .map(|raw| Self::decode_status(&raw))
+            .ok_or(FlagReadFailed)
     }
 
     /// The buffer of the instability flag (first node out of range and its code; it stays set),
