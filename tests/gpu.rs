@@ -636,7 +636,7 @@ fn rel_vec(a: &[DVec3], b: &[DVec3]) -> f64 {
 /// force on a body may differ, relative to itself. The force is the momentum exchange's sum over
 /// the wall faces of the populations beside the wall, so it carries their round-off; it is not
 /// the largest difference but a sum of near-wall ones, weighted. Measured after 200 steps of the
-/// small flap: 1.06× on lavapipe (force 4.1e-5 of |F|, populations 3.9e-5; Mesa's f32 rounds
+/// small flap: 1.07× on lavapipe (force 4.1e-5 of |F|, populations 3.9e-5; Mesa's f32 rounds
 /// every operation correctly) and 2.27× on an H200 (NVIDIA 580.159 Vulkan driver: 1.11e-4 and
 /// 4.89e-5; WGSL lets a driver divide to 2.5 ulp and fuse multiply-adds, which the force's path
 /// through the wall's populations, the exchange's weights and the solid's f32 positions feels
