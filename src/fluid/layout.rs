@@ -7,6 +7,7 @@ use super::geometry::{Obstacle, Shape, dot};
 use super::grid::{Grid, HALO};
 use super::rebuild::Region;
 use super::thin_wall::{ThinTap, WallGeometry, thin_taps};
+use rayon::prelude::*;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
@@ -132,6 +133,10 @@ pub struct Layout {
     pub wall_faces: Vec<usize>,
 }
 
+/// Nodes per task of the layout's parallel loops (level-set evaluations): enough to outweigh a
+/// task's cost on the pool, few enough to spread a body's few thousand nodes over the threads.
+const PAR_NODES: usize = 256;
+
 /// Distance (cells) from two obstacles within which a node between them is pinched out of the
 /// fluid: a slit narrower than one cell holds no fluid node.
 pub const PINCH: f64 = 0.5;
@@ -232,9 +237,13 @@ impl Layout {
             Some((p, _)) => p.kind.clone(),
         };
         let mut solid = vec![false; n];
-        for &idx in &todo {
+        // which nodes lie in (or are pinched by) an obstacle: one level-set evaluation per node
+        // and obstacle, independent of the others, so evaluated on the pool's threads (in order:
+        // the same answers as one by one)
+        let inside: Vec<bool> = todo.par_iter().with_min_len(PAR_NODES).map(|&idx| containing(pos(grid.coords(idx))).is_some()).collect();
+        for (&idx, inside) in todo.iter().zip(inside) {
             let x = grid.coords(idx);
-            if containing(pos(x)).is_some() {
+            if inside {
                 kind[idx] = NodeKind::Inactive;
                 solid[idx] = true;
                 continue;
@@ -290,32 +299,38 @@ impl Layout {
         };
         let fluid_at = |x: [i64; 3]| fluid_node(&grid, &kind, &periodic_axis, x);
 
-        let mut ghosts = Vec::new();
+        // each ghost's wall point, image stencil and wall velocity from the level sets, on the
+        // pool's threads, collected in node order
+        let mut ghosts: Vec<Ghost> = todo
+            .par_iter()
+            .with_min_len(PAR_NODES / 8)
+            .filter(|&&idx| kind[idx] == NodeKind::Ghost)
+            .map(|&idx| {
+                let p = pos(grid.coords(idx));
+                let k = containing(p).expect("ghost is inside (or pinched by) a solid");
+                let o = &obstacles[k];
+                let d = o.shape.sdf(p);
+                let nrm = o.shape.normal(p);
+                let wall = [p[0] - d * nrm[0], p[1] - d * nrm[1], p[2] - d * nrm[2]];
+                let d_img = (-d).max(1.0);
+                let img = [wall[0] + d_img * nrm[0], wall[1] + d_img * nrm[1], wall[2] + d_img * nrm[2]];
+                let mut image = interpolation_stencil(&grid, img, &fluid_at);
+                if image.is_empty() {
+                    // The image point fell where no fluid is near (a body that crosses a
+                    // face wall: the nearest surface of a node beyond the wall can face away
+                    // from the fluid): the nearest fluid node to the ghost itself, which is
+                    // within two cells along an axis by the definition of a ghost.
+                    image = interpolation_stencil(&grid, p, &fluid_at);
+                }
+                let v = ghost_wall_velocity(o, wall);
+                Ghost { node: idx, image, ratio: d / d_img, wall_velocity: v, wall_temperature: o.temperature }
+            })
+            .collect();
         let mut face_halos = Vec::new();
         let mut periodic = Vec::new();
         for &idx in &todo {
             let x = grid.coords(idx);
             match kind[idx] {
-                NodeKind::Ghost => {
-                    let p = pos(x);
-                    let k = containing(p).expect("ghost is inside (or pinched by) a solid");
-                    let o = &obstacles[k];
-                    let d = o.shape.sdf(p);
-                    let nrm = o.shape.normal(p);
-                    let wall = [p[0] - d * nrm[0], p[1] - d * nrm[1], p[2] - d * nrm[2]];
-                    let d_img = (-d).max(1.0);
-                    let img = [wall[0] + d_img * nrm[0], wall[1] + d_img * nrm[1], wall[2] + d_img * nrm[2]];
-                    let mut image = interpolation_stencil(&grid, img, &fluid_at);
-                    if image.is_empty() {
-                        // The image point fell where no fluid is near (a body that crosses a
-                        // face wall: the nearest surface of a node beyond the wall can face away
-                        // from the fluid): the nearest fluid node to the ghost itself, which is
-                        // within two cells along an axis by the definition of a ghost.
-                        image = interpolation_stencil(&grid, p, &fluid_at);
-                    }
-                    let v = ghost_wall_velocity(o, wall);
-                    ghosts.push(Ghost { node: idx, image, ratio: d / d_img, wall_velocity: v, wall_temperature: o.temperature });
-                }
                 NodeKind::FaceHalo => {
                     let a = (0..3).find(|&a| x[a] < 0 || x[a] >= grid.n[a] as i64).unwrap();
                     let face = if x[a] < 0 { Face::ALL[2 * a] } else { Face::ALL[2 * a + 1] };
