@@ -226,27 +226,21 @@ fn try_read_parts(device: &wgpu::Device, queue: &wgpu::Queue, parts: &[(&wgpu::B
         enc.copy_buffer_to_buffer(b, offset, &staging, at, len);
         at += len;
     }
-    queue.submit([enc.finish()]);
-    let slice = staging.slice(..);
-    let mapped = Arc::new(Mutex::new(None));
-    let done = mapped.clone();
-    slice.map_async(wgpu::MapMode::Read, move |r| *done.lock().expect("readback") = Some(r));
-    let _ = device.poll(wgpu::PollType::wait_indefinitely());
-    if !matches!(mapped.lock().expect("readback").take(), Some(Ok(()))) {
-        eprintln!("gpu: reading a buffer back failed (device lost or out of memory)");
-        return None;
-    }
-    let out = slice.get_mapped_range().to_vec();
-    staging.unmap();
-    Some(out)
+    submit_and_map(device, queue, enc, &staging, size)
 }
 
 /// All of `b` copied into `staging` (MAP_READ | COPY_DST, at least as large; made once by the
 /// caller) and read from there: a read that allocates nothing on the device. None when it fails.
 pub fn try_read_into(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buffer, staging: &wgpu::Buffer) -> Option<Vec<u8>> {
-    let size = b.size();
     let mut enc = device.create_command_encoder(&Default::default());
-    enc.copy_buffer_to_buffer(b, 0, staging, 0, size);
+    enc.copy_buffer_to_buffer(b, 0, staging, 0, b.size());
+    submit_and_map(device, queue, enc, staging, b.size())
+}
+
+/// Submits `enc` (its copies into `staging`), waits for the device and reads the first `size`
+/// bytes of `staging` back; None when the mapping fails (the device lost, or `staging` never
+/// made for want of memory).
+fn submit_and_map(device: &wgpu::Device, queue: &wgpu::Queue, enc: wgpu::CommandEncoder, staging: &wgpu::Buffer, size: u64) -> Option<Vec<u8>> {
     queue.submit([enc.finish()]);
     let slice = staging.slice(..size);
     let mapped = Arc::new(Mutex::new(None));
@@ -254,7 +248,7 @@ pub fn try_read_into(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buffe
     slice.map_async(wgpu::MapMode::Read, move |r| *done.lock().expect("readback") = Some(r));
     let _ = device.poll(wgpu::PollType::wait_indefinitely());
     if !matches!(mapped.lock().expect("readback").take(), Some(Ok(()))) {
-        eprintln!("gpu: reading a buffer back failed (device lost)");
+        eprintln!("gpu: reading a buffer back failed (device lost or out of memory)");
         return None;
     }
     let out = slice.get_mapped_range().to_vec();
