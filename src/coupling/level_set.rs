@@ -122,12 +122,6 @@ mod tests {
     use super::*;
     use crate::solid::particles::sample_ball;
 
-    /// A disc of radius 6 cells sampled at l₀ = 0.5 cells, r_e = 2.1 l₀: the zero contour of L
-    /// lies on the circle to a fraction of a cell and the normals point nearly radially.
-    /// Measured (48 crossing links): 0.177 cells rms (0.403 at most) off the circle, normals
-    /// 12.2° rms (24.4° at most). A wider kernel smooths both: r_e = 1.5, 2, 3 cells give 0.149,
-    /// 0.131, 0.112 cells and 9.5°, 7.9°, 6.3° rms — method 2 will want r_e ≥ 2 cells for its
-    /// level set, wider than the solid's own r_e.
     /// The binned sums are the brute-force sums, bit for bit: a 3D ball of particles, points
     /// on and around its surface, some exactly r_e from a particle, and φ from either.
     #[test]
@@ -154,6 +148,12 @@ mod tests {
         assert_eq!(surface_level(&points, &xs, re, r_min).to_bits(), phi_brute.to_bits());
     }
 
+    /// A disc of radius 6 cells sampled at l₀ = 0.5 cells, r_e = 2.1 l₀: the zero contour of L
+    /// lies on the circle to a fraction of a cell and the normals point nearly radially.
+    /// Measured (48 crossing links): 0.177 cells rms (0.403 at most) off the circle, normals
+    /// 12.2° rms (24.4° at most). A wider kernel smooths both: r_e = 1.5, 2, 3 cells give 0.149,
+    /// 0.131, 0.112 cells and 9.5°, 7.9°, 6.3° rms — method 2 will want r_e ≥ 2 cells for its
+    /// level set, wider than the solid's own r_e.
     #[test]
     fn the_level_set_of_a_disc_is_zero_on_its_circle_with_radial_normals() {
         let (c, radius, l0) = (DVec3::new(15.3, 14.8, 0.0), 6.0, 0.5);

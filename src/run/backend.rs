@@ -266,15 +266,13 @@ impl Solver for FluidEngine {
             self.mirror.failed = true;
             return Err(device_failure(why, g.step_count, g.step_count as f64 * s.params.dt, "lattice units", n, kept));
         }
-        let flag = g.instability().map_err(|_| {
-            let why = self.health.as_ref().and_then(|h| h.settle()).unwrap_or_else(|| "reading the instability flag back failed".into());
-            device_failure(why, g.step_count, g.step_count as f64 * s.params.dt, "lattice units", n, kept)
-        });
-        if let Err(e) = &flag {
+        let Ok(flag) = g.instability() else {
+            // the flag could not be read: the device failed, not the air
             self.mirror.failed = true;
-            return Err(e.clone());
-        }
-        if let Ok(Some((node, code))) = flag {
+            let why = self.health.as_ref().and_then(|h| h.settle()).unwrap_or_else(|| "reading the instability flag back failed".into());
+            return Err(device_failure(why, g.step_count, g.step_count as f64 * s.params.dt, "lattice units", n, kept));
+        };
+        if let Some((node, code)) = flag {
             self.mirror.failed = true;
             let quantity = GpuFluid::status_quantity(code);
             return Err(Instability {
