@@ -43,12 +43,13 @@ pub fn kernel_sum(points: &[DVec3], x: DVec3, re: f64, r_min: f64) -> f64 {
 pub fn kernel_sums(points: &[DVec3], xs: &[DVec3], re: f64, r_min: f64) -> Vec<f64> {
     // a reach a little beyond r_e, so that the grid's squared-distance test keeps every particle
     // that `(p − x).length() ≤ r_e` keeps; that test is the one applied
-    let grid = SearchGrid::build(points, re * (1.0 + 1e-9), [None; 3]);
+    let reach = re * (1.0 + 1e-9);
+    let grid = SearchGrid::build(points, reach, [None; 3]);
     xs.par_iter()
         .with_min_len(64)
         .map(|&x| {
             let mut near: Vec<(usize, f64)> = Vec::new();
-            grid.for_each_within(x, re * (1.0 + 1e-9), points, |j, _| {
+            grid.for_each_within(x, reach, points, |j, _| {
                 let r = (points[j] - x).length();
                 if r <= re {
                     near.push((j, re / r.max(r_min) - 1.0));

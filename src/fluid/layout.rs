@@ -239,11 +239,11 @@ impl Layout {
         let mut solid = vec![false; n];
         // which nodes lie in (or are pinched by) an obstacle: one level-set evaluation per node
         // and obstacle, independent of the others, so evaluated on the pool's threads (in order:
-        // the same answers as one by one)
-        let inside: Vec<bool> = todo.par_iter().with_min_len(PAR_NODES).map(|&idx| containing(pos(grid.coords(idx))).is_some()).collect();
-        for (&idx, inside) in todo.iter().zip(inside) {
+        // the same answers as one by one); kept for the ghosts below
+        let owner: Vec<Option<usize>> = todo.par_iter().with_min_len(PAR_NODES).map(|&idx| containing(pos(grid.coords(idx)))).collect();
+        for (&idx, owner) in todo.iter().zip(&owner) {
             let x = grid.coords(idx);
-            if inside {
+            if owner.is_some() {
                 kind[idx] = NodeKind::Inactive;
                 solid[idx] = true;
                 continue;
@@ -303,11 +303,12 @@ impl Layout {
         // pool's threads, collected in node order
         let mut ghosts: Vec<Ghost> = todo
             .par_iter()
+            .zip(&owner)
             .with_min_len(PAR_NODES / 8)
-            .filter(|&&idx| kind[idx] == NodeKind::Ghost)
-            .map(|&idx| {
+            .filter(|&(&idx, _)| kind[idx] == NodeKind::Ghost)
+            .map(|(&idx, owner)| {
                 let p = pos(grid.coords(idx));
-                let k = containing(p).expect("ghost is inside (or pinched by) a solid");
+                let k = owner.expect("ghost is inside (or pinched by) a solid");
                 let o = &obstacles[k];
                 let d = o.shape.sdf(p);
                 let nrm = o.shape.normal(p);
