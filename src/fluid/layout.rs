@@ -310,8 +310,15 @@ impl Layout {
                 let p = pos(grid.coords(idx));
                 let k = owner.expect("ghost is inside (or pinched by) a solid");
                 let o = &obstacles[k];
-                let d = o.shape.sdf(p);
-                let nrm = o.shape.normal(p);
+                let (d, nrm) = match &o.shape {
+                    // a level set's depth from the fluid node that makes this node a ghost
+                    // where Newton's steps give up (`fluid::ghost_wall`)
+                    Shape::KernelLevelSet(ls) => match nearest_fluid(&grid, &kind, grid.coords(idx)) {
+                        Some(q) => ls.ghost_wall(p, pos(q)),
+                        None => (o.shape.sdf(p), o.shape.normal(p)),
+                    },
+                    shape => (shape.sdf(p), shape.normal(p)),
+                };
                 let wall = [p[0] - d * nrm[0], p[1] - d * nrm[1], p[2] - d * nrm[2]];
                 let d_img = (-d).max(1.0);
                 let img = [wall[0] + d_img * nrm[0], wall[1] + d_img * nrm[1], wall[2] + d_img * nrm[2]];
@@ -398,6 +405,19 @@ impl Layout {
         let wall_faces = wall_face_nodes(&grid, &kind, ghosts.iter().map(|g| g.node).chain(face_halos.iter().map(|h| h.node)));
         Layout { grid, boundaries, obstacles, kind, ghosts, face_halos, periodic, fluid_count, thin_taps, wall_faces }
     }
+}
+
+/// The fluid node nearest to `x` (padded-grid coordinates) along an axis within two cells —
+/// ±1 before ±2, x before y before z — the one that makes a solid node a ghost; `None` when
+/// there is none.
+fn nearest_fluid(grid: &Grid, kind: &[NodeKind], x: [i64; 3]) -> Option<[i64; 3]> {
+    [1i64, 2].into_iter().find_map(|d| {
+        (0..grid.dim).flat_map(|a| [-d, d].map(move |s| (a, s))).find_map(|(a, s)| {
+            let mut y = x;
+            y[a] += s;
+            (grid.contains(y) && kind[grid.index(y)] == NodeKind::Fluid).then_some(y)
+        })
+    })
 }
 
 /// The fluid nodes next to one of `walls` along an axis, ascending and each once. With `walls`

@@ -6,6 +6,7 @@
 pub mod boundary;
 pub mod equilibrium;
 pub mod geometry;
+mod ghost_wall;
 pub mod grid;
 pub mod kernel_level_set;
 pub mod layout;
