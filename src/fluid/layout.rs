@@ -135,7 +135,7 @@ pub struct Layout {
 
 /// Nodes per task of the layout's parallel loops (level-set evaluations): enough to outweigh a
 /// task's cost on the pool, few enough to spread a body's few thousand nodes over the threads.
-const PAR_NODES: usize = 256;
+pub(super) const PAR_NODES: usize = 256;
 
 /// Distance (cells) from two obstacles within which a node between them is pinched out of the
 /// fluid: a slit narrower than one cell holds no fluid node.
@@ -236,31 +236,38 @@ impl Layout {
             None => vec![NodeKind::Inactive; n],
             Some((p, _)) => p.kind.clone(),
         };
-        let mut solid = vec![false; n];
         // which nodes lie in (or are pinched by) an obstacle: one level-set evaluation per node
         // and obstacle, independent of the others, so evaluated on the pool's threads (in order:
         // the same answers as one by one); kept for the ghosts below
         let owner: Vec<Option<usize>> = todo.par_iter().with_min_len(PAR_NODES).map(|&idx| containing(pos(grid.coords(idx)))).collect();
-        for (&idx, owner) in todo.iter().zip(&owner) {
-            let x = grid.coords(idx);
+        // each recomputed node's kind from its obstacle and its place (on the pool's threads)
+        let side = |idx: usize, owner: &Option<usize>| -> NodeKind {
             if owner.is_some() {
-                kind[idx] = NodeKind::Inactive;
-                solid[idx] = true;
-                continue;
+                return NodeKind::Inactive;
             }
-            let outside: Vec<usize> = (0..3).filter(|&a| x[a] < 0 || x[a] >= grid.n[a] as i64).collect();
-            kind[idx] = if outside.is_empty() {
-                NodeKind::Fluid
-            } else if outside.iter().all(|&a| periodic_axis[a]) {
-                NodeKind::Periodic
-            } else if outside.len() == 1 {
-                NodeKind::FaceHalo
-            } else {
-                NodeKind::Inactive
-            };
+            let x = grid.coords(idx);
+            let (mut outside, mut all_periodic) = (0, true);
+            for a in 0..3 {
+                if x[a] < 0 || x[a] >= grid.n[a] as i64 {
+                    outside += 1;
+                    all_periodic &= periodic_axis[a];
+                }
+            }
+            match outside {
+                0 => NodeKind::Fluid,
+                _ if all_periodic => NodeKind::Periodic,
+                1 => NodeKind::FaceHalo,
+                _ => NodeKind::Inactive,
+            }
+        };
+        let sides: Vec<NodeKind> = todo.par_iter().zip(&owner).with_min_len(PAR_NODES).map(|(&idx, o)| side(idx, o)).collect();
+        for (&idx, k) in todo.iter().zip(&sides) {
+            kind[idx] = *k;
         }
 
-        // Solid nodes within axis reach of a fluid node become ghosts.
+        // Solid nodes within axis reach of a fluid node become ghosts; face halos stay only
+        // where a fluid stencil reads them (not in corners). Both read the fluid nodes only,
+        // which this does not change: found on the pool's threads, then applied.
         let reach = |idx: usize, kind: &[NodeKind]| -> bool {
             let x = grid.coords(idx);
             for a in 0..grid.dim {
@@ -274,16 +281,19 @@ impl Layout {
             }
             false
         };
-        let fluid_kind = kind.clone();
-        for &idx in &todo {
-            if solid[idx] && reach(idx, &fluid_kind) {
-                kind[idx] = NodeKind::Ghost;
-            }
-        }
-        // Face halos only where a fluid stencil reads them (not in corners).
-        for &idx in &todo {
-            if kind[idx] == NodeKind::FaceHalo && !reach(idx, &fluid_kind) {
-                kind[idx] = NodeKind::Inactive;
+        let walls: Vec<Option<NodeKind>> = todo
+            .par_iter()
+            .zip(&owner)
+            .with_min_len(PAR_NODES)
+            .map(|(&idx, o)| match (o, kind[idx]) {
+                (Some(_), _) => reach(idx, &kind).then_some(NodeKind::Ghost),
+                (None, NodeKind::FaceHalo) => (!reach(idx, &kind)).then_some(NodeKind::Inactive),
+                _ => None,
+            })
+            .collect();
+        for (&idx, w) in todo.iter().zip(&walls) {
+            if let Some(k) = w {
+                kind[idx] = *k;
             }
         }
 

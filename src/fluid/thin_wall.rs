@@ -52,8 +52,9 @@
 use super::equilibrium::Equilibrium;
 use super::geometry::{Obstacle, dot};
 use super::grid::Grid;
-use super::layout::{Ghost, NodeKind, fluid_node, ghost_wall_velocity, interpolation_stencil};
+use super::layout::{Ghost, NodeKind, PAR_NODES, fluid_node, ghost_wall_velocity, interpolation_stencil};
 use super::storage::{RowBlocked, Storage, shift_of};
+use rayon::prelude::*;
 
 /// The value a far tap takes from the reader's side ([`crate::fluid::thin_wall`], side ghosts).
 #[derive(Clone, Debug, PartialEq)]
@@ -279,7 +280,8 @@ pub fn thin_taps(geo: &WallGeometry, only: Option<&[usize]>) -> Vec<ThinTap> {
     }
     // Image point of each ghost (mean of its image nodes' coordinates, by weight).
     let image: Vec<[f64; 3]> = ghosts
-        .iter()
+        .par_iter()
+        .with_min_len(PAR_NODES)
         .map(|g| {
             let at = grid.coords(g.node);
             let mut c = [0.0; 3];
@@ -297,7 +299,6 @@ pub fn thin_taps(geo: &WallGeometry, only: Option<&[usize]>) -> Vec<ThinTap> {
             c
         })
         .collect();
-    let mut out = Vec::new();
     let all: Vec<usize>;
     let nodes = match only {
         Some(v) => v,
@@ -306,9 +307,11 @@ pub fn thin_taps(geo: &WallGeometry, only: Option<&[usize]>) -> Vec<ThinTap> {
             &all
         }
     };
-    for &node in nodes {
+    // each node's taps apart, on the pool's threads, gathered in node order
+    let taps_of = |node: usize| -> Vec<ThinTap> {
+        let mut out = Vec::new();
         if kind[node] != NodeKind::Fluid {
-            continue;
+            return out;
         }
         let r = grid.coords(node);
         for axis in 0..grid.dim {
@@ -359,8 +362,10 @@ pub fn thin_taps(geo: &WallGeometry, only: Option<&[usize]>) -> Vec<ThinTap> {
                 }
             }
         }
-    }
-    out
+        out
+    };
+    let per_node: Vec<Vec<ThinTap>> = nodes.par_iter().with_min_len(PAR_NODES).map(|&node| taps_of(node)).collect();
+    per_node.into_iter().flatten().collect()
 }
 
 #[cfg(test)]
