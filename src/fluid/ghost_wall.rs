@@ -16,6 +16,7 @@
 //!
 //! Units: lattice cells.
 
+use super::bracket::illinois;
 use super::kernel_level_set::{FLAT, KernelLevelSet};
 
 /// Radius (cells) over which [`KernelLevelSet::mass_outward`] looks for the surface: beyond the
@@ -93,31 +94,7 @@ impl KernelLevelSet {
             b = (b + 0.5).min(SEARCH_REACH);
             fb = l_at(b);
         }
-        // which end the last two steps kept (Illinois: the kept end's value is halved)
-        let mut kept = 0i8;
-        for _ in 0..100 {
-            if b - a < CROSSING_TOLERANCE {
-                break;
-            }
-            let mut t = (a * fb - b * fa) / (fb - fa);
-            if !(t > a && t < b) {
-                t = 0.5 * (a + b);
-            }
-            let ft = l_at(t);
-            if ft > 0.0 {
-                (a, fa) = (t, ft);
-                if kept == 1 {
-                    fb *= 0.5;
-                }
-                kept = 1;
-            } else {
-                (b, fb) = (t, ft);
-                if kept == -1 {
-                    fa *= 0.5;
-                }
-                kept = -1;
-            }
-        }
+        let (_, _, b, _) = illinois(l_at, (a, fa), (b, fb), 100, |_, a, b| b - a < CROSSING_TOLERANCE);
         Some(b)
     }
 }

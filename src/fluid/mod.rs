@@ -4,6 +4,7 @@
 //! CPU reference solver.
 
 pub mod boundary;
+mod bracket;
 pub mod equilibrium;
 pub mod geometry;
 mod ghost_wall;

@@ -49,6 +49,7 @@
 //! unchanged. The GPU twin is the `thin_wall` kernel ([`crate::gpu::codegen::thin_wall`]), run
 //! after each advection.
 
+use super::bracket::illinois;
 use super::equilibrium::Equilibrium;
 use super::geometry::{Obstacle, dot};
 use super::grid::Grid;
@@ -209,8 +210,8 @@ impl WallGeometry<'_> {
             several => several.iter().map(|o| (*o, o.shape.sdf(pb))).min_by(|x, y| x.1.total_cmp(&y.1)).map(|(o, _)| o)?,
         };
         let level = |p: [f64; 3]| o.shape.signed_level(p);
-        let (mut ta, mut fa) = (0.0f64, level(pa));
-        let (mut tb, mut fb) = (1.0f64, level(pb));
+        let (ta, fa) = (0.0f64, level(pa));
+        let (tb, fb) = (1.0f64, level(pb));
         if !(fa > 0.0 && fb < 0.0) {
             return None;
         }
@@ -218,27 +219,7 @@ impl WallGeometry<'_> {
         // function with the wall's sign and zero contour ([`super::geometry::Shape::signed_level`]; nearly
         // linear along a line, so a few evaluations reach 10⁻¹⁰ cells).
         let at = |t: f64| std::array::from_fn::<f64, 3, _>(|k| pa[k] + t * (pb[k] - pa[k]));
-        let mut last = 0;
-        for _ in 0..60 {
-            let t = (ta * fb - tb * fa) / (fb - fa);
-            let ft = level(at(t));
-            if ft > 0.0 {
-                (ta, fa) = (t, ft);
-                if last == 1 {
-                    fb *= 0.5;
-                }
-                last = 1;
-            } else {
-                (tb, fb) = (t, ft);
-                if last == -1 {
-                    fa *= 0.5;
-                }
-                last = -1;
-            }
-            if ft.abs() < 1e-10 || tb - ta < 1e-10 {
-                break;
-            }
-        }
+        let (ta, fa, tb, fb) = illinois(|t| level(at(t)), (ta, fa), (tb, fb), 60, |ft, a, b| ft.abs() < 1e-10 || b - a < 1e-10);
         let wall = at((ta * fb - tb * fa) / (fb - fa));
         let nrm = o.shape.normal(wall);
         let back = [pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]];
