@@ -183,7 +183,7 @@ mod tests {
     /// On a thick disc and a thick ball of particles (r_e = 1 cell, spacing 0.4 cells, bodies
     /// 14 and 10 cells across), every ghost-like node's wall distance is the nearest contour
     /// point's — found by sampling the contour along 4000 (2D) or 20,000 (3D) rays from the
-    /// centre — within 0.08 cells (measured 0.045 in 2D and 0.038 in 3D: the contour is bumpy
+    /// centre — within 0.08 cells (measured 0.045 in 2D and 0.063 in 3D: the contour is bumpy
     /// on the particles' scale, and the searches' directions follow the body's mean surface),
     /// and a searched wall point lies on the contour (L changes sign within 10⁻⁸ cells of it
     /// along the normal). Where Newton's point is kept the result is `sdf` and `normal`, bit

@@ -133,7 +133,8 @@ pub struct Layout {
     pub wall_faces: Vec<usize>,
 }
 
-/// Nodes per task of the layout's parallel loops (level-set evaluations): enough to outweigh a
+/// Nodes per task of the layout's parallel loops (level-set evaluations, kinds, reach tests,
+/// thin-wall taps): enough to outweigh a
 /// task's cost on the pool, few enough to spread a body's few thousand nodes over the threads.
 pub(super) const PAR_NODES: usize = 256;
 
@@ -321,8 +322,8 @@ impl Layout {
                 let k = owner.expect("ghost is inside (or pinched by) a solid");
                 let o = &obstacles[k];
                 let (d, nrm) = match &o.shape {
-                    // a level set's depth from the fluid node that makes this node a ghost
-                    // where Newton's steps give up (`fluid::ghost_wall`)
+                    // a level set's wall point: the nearest of Newton's and two searches',
+                    // one toward the fluid node that makes this node a ghost (`fluid::ghost_wall`)
                     Shape::KernelLevelSet(ls) => match nearest_fluid(&grid, &kind, grid.coords(idx)) {
                         Some(q) => ls.ghost_wall(p, pos(q)),
                         None => (o.shape.sdf(p), o.shape.normal(p)),
@@ -417,7 +418,7 @@ impl Layout {
     }
 }
 
-/// The fluid node nearest to `x` (padded-grid coordinates) along an axis within two cells —
+/// The fluid node nearest to `x` (interior coordinates) along an axis within two cells —
 /// ±1 before ±2, x before y before z — the one that makes a solid node a ghost; `None` when
 /// there is none.
 fn nearest_fluid(grid: &Grid, kind: &[NodeKind], x: [i64; 3]) -> Option<[i64; 3]> {
