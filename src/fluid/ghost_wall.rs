@@ -17,6 +17,7 @@
 //! Units: lattice cells.
 
 use super::bracket::illinois;
+use super::geometry::norm as length;
 use super::kernel_level_set::{FLAT, KernelLevelSet};
 
 /// Radius (cells) over which [`KernelLevelSet::mass_outward`] looks for the surface: beyond the
@@ -31,10 +32,6 @@ const CROSSING_TOLERANCE: f64 = 1e-9;
 /// where Newton finds the nearest point a search along the same line finds it again, to the
 /// bracket's width.
 const NEWTON_TIE: f64 = 1e-6;
-
-fn length(v: [f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
-}
 
 /// −g/|g|, the outward normal of a level set of gradient g; zero where g is.
 fn outward(g: [f64; 3]) -> [f64; 3] {
@@ -57,7 +54,7 @@ impl KernelLevelSet {
         }
         // every candidate is a point of the contour, so its distance bounds the nearest one's
         // from above: the smallest wins, Newton's unless a search beats it by more than a tie
-        let mut best: Option<(f64, [f64; 3])> = self.depth(p).map(|d| (d, outward(g)));
+        let mut best: Option<(f64, [f64; 3])> = self.depth(p, (l, g)).map(|d| (d, outward(g)));
         let to = [outside[0] - p[0], outside[1] - p[1], outside[2] - p[2]];
         let reach = length(to);
         for dir in [self.mass_outward(p, MASS_RADIUS), to.map(|x| x / reach)] {
@@ -70,10 +67,9 @@ impl KernelLevelSet {
                 best = Some((t, dir));
             }
         }
-        match best {
-            Some((d, n)) => (-if d == 0.0 { f64::MIN_POSITIVE } else { d }, n),
-            None => (self.sdf(p), self.normal(p)),
-        }
+        // neither: `sdf`'s first-order estimate and `normal`, from the evaluation at p
+        let (d, n) = best.unwrap_or((l / length(g).max(FLAT), outward(g)));
+        (-if d == 0.0 { f64::MIN_POSITIVE } else { d }, n)
     }
 
     /// The distance t along the unit direction `dir` from `p` (where L = `l_p` > 0) at which L
@@ -206,7 +202,7 @@ mod tests {
                 assert!(d < 0.0, "{p:?}: inside, so a negative distance ({d})");
                 let truth = nearest(p);
                 worst = worst.max((-d - truth).abs());
-                match s.depth(p) {
+                match s.depth(p, s.level(p)) {
                     Some(newton) => worst_newton = worst_newton.max((newton - truth).abs()),
                     None => {
                         gave_up += 1;
@@ -214,7 +210,7 @@ mod tests {
                     }
                 }
                 if (d.to_bits(), n.map(f64::to_bits)) == (s.sdf(p).to_bits(), s.normal(p).map(f64::to_bits)) {
-                    assert!(s.depth(p).is_some(), "{p:?}: sdf's value where Newton gave up");
+                    assert!(s.depth(p, s.level(p)).is_some(), "{p:?}: sdf's value where Newton gave up");
                     kept += 1;
                     continue;
                 }

@@ -243,7 +243,7 @@ impl KernelLevelSet {
         if !(l > 0.0) {
             return -l / n.max(FLAT);
         }
-        let depth = self.depth(p).unwrap_or(l / n.max(FLAT));
+        let depth = self.depth(p, (l, g)).unwrap_or(l / n.max(FLAT));
         -if depth == 0.0 { f64::MIN_POSITIVE } else { depth }
     }
 
@@ -260,11 +260,12 @@ impl KernelLevelSet {
     /// (where L has levelled off, deep in a thick body, ∇L is the particles' granularity and
     /// the steps wander: `fluid::ghost_wall`) or if the steps do not reach the contour within
     /// [`NEWTON_STEPS`].
-    pub(super) fn depth(&self, p: [f64; 3]) -> Option<f64> {
+    /// `at_p` is L and ∇L at `p` (the callers have them already).
+    pub(super) fn depth(&self, p: [f64; 3], at_p: (f64, [f64; 3])) -> Option<f64> {
         let mut x = p;
         let mut last = f64::INFINITY;
-        for _ in 0..NEWTON_STEPS {
-            let (l, g) = self.level(x);
+        for k in 0..NEWTON_STEPS {
+            let (l, g) = if k == 0 { at_p } else { self.level(x) };
             let g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
             if g2 < FLAT * FLAT || !(l.abs() < last) {
                 return None;

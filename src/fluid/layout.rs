@@ -269,19 +269,7 @@ impl Layout {
         // Solid nodes within axis reach of a fluid node become ghosts; face halos stay only
         // where a fluid stencil reads them (not in corners). Both read the fluid nodes only,
         // which this does not change: found on the pool's threads, then applied.
-        let reach = |idx: usize, kind: &[NodeKind]| -> bool {
-            let x = grid.coords(idx);
-            for a in 0..grid.dim {
-                for s in [-2i64, -1, 1, 2] {
-                    let mut y = x;
-                    y[a] += s;
-                    if grid.contains(y) && kind[grid.index(y)] == NodeKind::Fluid {
-                        return true;
-                    }
-                }
-            }
-            false
-        };
+        let reach = |idx: usize, kind: &[NodeKind]| nearest_fluid(&grid, kind, grid.coords(idx)).is_some();
         let walls: Vec<Option<NodeKind>> = todo
             .par_iter()
             .zip(&owner)
