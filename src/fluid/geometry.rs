@@ -70,7 +70,7 @@ impl Shape {
     /// a line enters the solid.
     pub fn signed_level(&self, p: [f64; 3]) -> f64 {
         match self {
-            Shape::KernelLevelSet(k) => -k.level(p).0,
+            Shape::KernelLevelSet(k) => -k.level_value(p),
             _ => self.sdf(p),
         }
     }

@@ -78,7 +78,7 @@ impl KernelLevelSet {
     /// to [`SEARCH_REACH`]. `None` when L stays positive that far. The returned t is the
     /// bracket's outer end (L ≤ 0 there).
     fn first_crossing(&self, p: [f64; 3], l_p: f64, dir: [f64; 3], end: f64) -> Option<f64> {
-        let l_at = |t: f64| self.level([p[0] + t * dir[0], p[1] + t * dir[1], p[2] + t * dir[2]]).0;
+        let l_at = |t: f64| self.level_value([p[0] + t * dir[0], p[1] + t * dir[1], p[2] + t * dir[2]]);
         let (mut a, mut fa) = (0.0, l_p);
         let mut b = end.min(SEARCH_REACH);
         let mut fb = l_at(b);

@@ -199,6 +199,21 @@ impl KernelLevelSet {
     /// sums are the same bit for bit), read from [`Self::sorted`] as one run per row of bins;
     /// those beyond r_e by more than round-off are passed over before the square root.
     pub fn level(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
+        self.sums::<true, false>(p).expect("runs to the end")
+    }
+
+    /// L(p) alone: the same value as `level(p).0`, bit for bit (the same sum in the same order),
+    /// without the gradient: the ghost walls' searches along a line need only L.
+    pub(super) fn level_value(&self, p: [f64; 3]) -> f64 {
+        self.sums::<false, false>(p).expect("runs to the end").0
+    }
+
+    /// The kernel sums at `p`: L and, with `GRADIENT`, ∇L (else zero). With `STOP_INSIDE`,
+    /// `None` as soon as L > 0 after a row of bins: every term r_e/max(r, r_min) − 1 is ≥ 0 in
+    /// floating point too (r ≤ r_e), and a rounded sum with a term ≥ 0 added does not fall, so
+    /// the whole sum would be > 0 as well — the point is inside; a sum that does not stop is
+    /// the full one, bit for bit.
+    fn sums<const GRADIENT: bool, const STOP_INSIDE: bool>(&self, p: [f64; 3]) -> Option<(f64, [f64; 3])> {
         let mut l = -self.phi;
         let mut g = [0.0; 3];
         // r² above this is r > r_e whatever the rounding of r = √r²; below it, r is compared
@@ -215,7 +230,7 @@ impl KernelLevelSet {
                     continue;
                 }
                 l += self.re / r.max(self.r_min) - 1.0;
-                if r > self.r_min {
+                if GRADIENT && r > self.r_min {
                     // d/dr (r_e/r) = −r_e/r², along d/r.
                     let k = -self.re / (r * r * r);
                     for a in 0..3 {
@@ -223,8 +238,11 @@ impl KernelLevelSet {
                     }
                 }
             }
+            if STOP_INSIDE && l > 0.0 {
+                return None;
+            }
         }
-        (l, g)
+        Some((l, g))
     }
 
     /// Signed distance (cells), positive outside. Outside (L ≤ 0) the first-order estimate
@@ -250,8 +268,9 @@ impl KernelLevelSet {
     /// `None` inside (L > 0, where [`Self::sdf`] would run its Newton steps), else
     /// `Some(sdf(p))` — the same value, bit for bit — from one evaluation of L and ∇L: the
     /// layout classifies every node by this and asks for the depth of its ghost nodes only.
+    /// Inside, the sum stops at the first row of bins after which L > 0 ([`Self::sums`]).
     pub fn outside_distance(&self, p: [f64; 3]) -> Option<f64> {
-        let (l, g) = self.level(p);
+        let (l, g) = self.sums::<true, true>(p)?;
         (!(l > 0.0)).then(|| -l / (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt().max(FLAT))
     }
 
@@ -377,6 +396,54 @@ mod tests {
             assert_eq!((l.to_bits(), g.map(f64::to_bits)), (l_ref.to_bits(), g_ref.map(f64::to_bits)), "{p:?}");
             assert_eq!(s.weights(p).count(), pts.iter().filter(|x| ((x[0] - p[0]).powi(2) + (x[1] - p[1]).powi(2)).sqrt() <= 2.2).count());
         }
+    }
+
+    /// In 3D, with particles and points on bin edges and exactly r_e apart (a lattice of
+    /// particles, spacing 0.4, r_e = 1, probed at the particles, at r_e from them along axes and
+    /// diagonals, and scattered): the binned sums equal the sums over every particle,
+    /// `weights` finds exactly the particles within r_e, `level_value` is `level`'s L bit for
+    /// bit, and `outside_distance` stops early (`sums`) exactly where L > 0.
+    #[test]
+    fn the_binned_sums_see_every_particle_within_reach_in_3d() {
+        let mut pts = Vec::new();
+        for k in -12..=12 {
+            for j in -12..=12 {
+                for i in -12..=12 {
+                    let x = [0.4 * i as f64, 0.4 * j as f64, 0.4 * k as f64];
+                    if x[0] * x[0] + x[1] * x[1] + x[2] * x[2] <= 16.0 {
+                        pts.push([x[0] + 7.0, x[1] + 7.0, x[2] + 7.0]);
+                    }
+                }
+            }
+        }
+        let (re, r_min) = (1.0, 0.5);
+        let s = KernelLevelSet::new(pts.clone(), vec![[0.0; 3]; pts.len()], re, r_min, 2.0);
+        let mut probes = Vec::new();
+        for (n, x) in pts.iter().enumerate().step_by(7) {
+            let unit = [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [0.6, 0.8, 0.0], [0.0, 0.6, -0.8]][n % 5];
+            probes.push([x[0] + re * unit[0], x[1] + re * unit[1], x[2] + re * unit[2]]);
+            probes.push(*x);
+        }
+        for k in 0..3000 {
+            let t = k as f64;
+            probes.push([7.0 + 5.0 * (t * 0.731).sin(), 7.0 + 5.0 * (t * 0.397).cos(), 7.0 + 5.0 * (t * 0.113).sin()]);
+        }
+        let mut inside = 0;
+        for p in &probes {
+            let within: Vec<&[f64; 3]> = pts.iter().filter(|x| ((x[0] - p[0]).powi(2) + (x[1] - p[1]).powi(2) + (x[2] - p[2]).powi(2)).sqrt() <= re).collect();
+            let brute: f64 =
+                within.iter().map(|x| re / ((x[0] - p[0]).powi(2) + (x[1] - p[1]).powi(2) + (x[2] - p[2]).powi(2)).sqrt().max(r_min) - 1.0).sum::<f64>()
+                    - s.phi;
+            assert_eq!(s.weights(*p).count(), within.len(), "{p:?}");
+            let (l, _) = s.level(*p);
+            assert!((l - brute).abs() < 1e-12 * brute.abs().max(1.0), "{p:?}: {l} vs {brute}");
+            assert_eq!(s.level_value(*p).to_bits(), l.to_bits(), "{p:?}");
+            assert_eq!(s.outside_distance(*p).is_none(), l > 0.0, "{p:?}");
+            if l > 0.0 {
+                inside += 1;
+            }
+        }
+        assert!(inside > 1000 && inside < probes.len() - 1000, "{inside} of {} inside", probes.len());
     }
 
     /// The layout classifies nodes by `outside_distance` and must find the same side and, outside,
