@@ -258,6 +258,9 @@ impl CoupledScene {
                     );
                 }
             }
+            if let Some(f) = &b.fold {
+                f.check_attached(&format!("solid.bodies[{k}].fold"), size)?;
+            }
         }
         for (k, m) in coupling.motions.iter().enumerate() {
             if m.body >= s.bodies.len() {

@@ -98,6 +98,49 @@ impl FoldBodySpec {
         self.fixed_depth.unwrap_or(2.0 * spacing)
     }
 
+    /// A fold is attached to the larynx: its lateral face to the thyroid cartilage (the
+    /// domain's side wall) and, in 3D, its ends to the anterior and posterior walls. One whose
+    /// lateral face lies inside the domain (or, in 3D, whose length falls short of the
+    /// domain's) leaves a channel of air between it and the wall through which the lungs' air
+    /// goes around the glottis — and, where that channel is narrower than a cell, nodes that
+    /// leave and rejoin the air as the fold moves (the coarse 3D glottis as first built had a
+    /// slit 0.5–1.2 cells wide along each side wall and went unstable in it at step 665,
+    /// 0.38 ms). `size` is the domain's extent; `f` names the body in errors.
+    pub(super) fn check_attached(&self, f: &str, size: &[f64]) -> Result<(), SceneError> {
+        let m = 0.5 * self.section.gap;
+        // the lateral face nearest the mid-line: in 3D the anterior end's (the opening only
+        // moves it outward, towards the posterior end)
+        let (face, wall) = match self.side {
+            FoldSide::Left => (self.origin[0] - m - self.section.width, 0.0),
+            FoldSide::Right => (self.origin[0] + m + self.section.width, size[0]),
+        };
+        let inside = self.sign() * (wall - face);
+        if inside > 1e-9 * size[0] {
+            return err(
+                format!("{f}.origin"),
+                format!(
+                    "the fold's lateral face lies at x = {face} (its anterior end in 3D), {inside:.4} inside the domain's side wall at x = {wall}: \
+                     the air would flow between the fold and the wall, around the glottis; place the fold so that its lateral face \
+                     (origin.x ± (gap/2 + width)) reaches the wall or beyond (the clamped strip, fixed_depth, may lie beyond it), or narrow the domain"
+                ),
+            );
+        }
+        if self.origin.len() == 3 {
+            let (z0, z1) = (self.origin[2], self.origin[2] + self.section.length);
+            if z0 > 1e-9 * size[2] || z1 < size[2] * (1.0 - 1e-9) {
+                return err(
+                    format!("{f}.section.length"),
+                    format!(
+                        "the fold spans z = [{z0}, {z1}] of the domain's [0, {}]: its anterior and posterior ends must meet the domain's walls \
+                         (origin.z = 0, length = the domain's size along z), or the air flows around them",
+                        size[2]
+                    ),
+                );
+            }
+        }
+        Ok(())
+    }
+
     /// Bounding box (scene coordinates) of the fold less its clamped lateral strip: the part
     /// that moves, which must lie in the air's domain (the clamped strip is attached to the
     /// cartilage and may lie beyond the domain's wall).

@@ -128,7 +128,7 @@ mod tests {
         // outside a quarter ellipse of semi-axes width × length: 1 − π/4 of the section's
         // bounding box, less the cover — a sizeable layer
         assert!(ta > 0.05 && ta < 0.3, "thyroarytenoid fraction {ta}");
-        let x0 = 1.6625 / 2.0;
+        let x0 = 1.4875 / 2.0;
         let (l, r): (Vec<usize>, Vec<usize>) = (0..p.len()).partition(|&i| p.body[i] == 0);
         assert_eq!(l.len(), r.len());
         assert!(l.iter().all(|&i| p.reference[i].x < x0) && r.iter().all(|&i| p.reference[i].x > x0));
@@ -280,6 +280,26 @@ mod tests {
             let e = CoupledScene::parse(&base3.replacen(from, to, 1)).err().unwrap_or_else(|| panic!("{to} accepted"));
             assert_eq!(e.field, field, "{to}: {e}");
         }
+        // a fold whose lateral face stops short of the side wall (air between them, around the
+        // glottis): the 2D domain widened by two cells, which leaves the right fold's face
+        // 0.025 cm inside its wall; the coarse 3D glottis as first built (38 cells across: its
+        // faces 0.021–0.051 cm inside); a 3D fold shorter than the domain along z
+        let wide = base.replace("size = [1.513671875, 1.5625]", "size = [1.5625, 1.5625]").replace("cells = [62, 64]", "cells = [64, 64]");
+        assert_ne!(wide, base);
+        let e = CoupledScene::parse(&wide).err().expect("a fold short of its wall accepted");
+        assert_eq!(e.field, "solid.bodies[1].fold.origin", "{e}");
+        assert!(e.reason.contains("0.0252") && e.reason.contains("around the glottis"), "{e}");
+        let first = base3
+            .replace("size = [1.4875, 1.4, 1.4]", "size = [1.6625, 1.4, 1.4]")
+            .replace("cells = [34, 32, 32]", "cells = [38, 32, 32]")
+            .replace("0.74375", "0.83125");
+        assert_ne!(first, base3);
+        let e = CoupledScene::parse(&first).err().expect("the first coarse 3D glottis accepted");
+        assert_eq!(e.field, "solid.bodies[0].fold.origin", "{e}");
+        let short = base3.replacen("opening = 0.06,", "opening = 0.06, section = { length = 1.2 },", 1);
+        assert_ne!(short, base3);
+        let e = CoupledScene::parse(&short).err().expect("a 3D fold shorter than the domain accepted");
+        assert_eq!(e.field, "solid.bodies[0].fold.section.length", "{e}");
         // particles coarser than the cover layer (≈ 0.02 cm)
         let e = CoupledScene::parse(&base.replace("spacing = 0.01220703125", "spacing = 0.024")).err().unwrap();
         assert_eq!(e.field, "solid.spacing", "{e}");
