@@ -282,6 +282,8 @@ pub fn cases() -> Vec<Case> {
             super::glottis::rows()
         }),
         ("glottis_real_air_closure", super::glottis::real_air_closure_rows),
+        // the coarse 3D glottis, 1.5 ms from rest: ≈ 15 min on 2 cores
+        ("glottis_3d_coarse", super::glottis_3d::rows),
         ("glottis_seed_layer_list", super::glottis::seed_layer_list_rows),
         ("glottis_speed_error", || {
             // Case C's f0 against resolution (×0.5, ×0.75, ×1 of the seed's lattice) and Mach
@@ -510,7 +512,7 @@ mod tests {
         let names: Vec<&str> = all.iter().map(|(n, _)| *n).collect();
         let picked = |f: Option<&str>| -> Vec<&str> { names.iter().copied().filter(|n| selects(&names, f, n)).collect() };
         assert_eq!(picked(Some("glottis_2d")), ["glottis_2d"]);
-        assert_eq!(picked(Some("glottis")), ["glottis_2d", "glottis_real_air_closure", "glottis_seed_layer_list", "glottis_speed_error"]);
+        assert_eq!(picked(Some("glottis")), ["glottis_2d", "glottis_real_air_closure", "glottis_3d_coarse", "glottis_seed_layer_list", "glottis_speed_error"]);
         assert_eq!(picked(Some("taylor_green")), ["taylor_green_2d", "taylor_green_3d"]);
         // the D = 20 channel (minutes) is not also the D = 40 one (an hour on 2 cores)
         assert_eq!(picked(Some("fsi_schafer_turek_2d1")), ["fsi_schafer_turek_2d1"]);
