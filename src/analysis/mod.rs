@@ -5,6 +5,7 @@
 pub mod fit;
 pub mod lag;
 pub mod oscillation;
+pub mod path;
 pub mod pitch;
 pub mod resample;
 pub mod spectrum;

@@ -58,20 +58,50 @@ pub fn analyze(a: AnalyzeArgs) -> anyhow::Result<()> {
     for f in &r.files {
         println!("wrote {}", f.display());
     }
+    // a glottis with particle probes on its folds (the 3D scenes): their paths and phases too
+    if phonation::run::particle_probes::has_probes(&a.dir.join("coupling.csv")) {
+        analyze_particle_probes(&a.dir, a.window)?;
+    }
     Ok(())
 }
 
 /// The particle probes of a coupled run's coupling.csv over its last `window` fraction: printed,
 /// and written to `particle_probes.json`.
 fn analyze_particle_probes(dir: &std::path::Path, window: f64) -> anyhow::Result<()> {
-    let reports = phonation::run::particle_probes::probe_reports_from_csv(&dir.join("coupling.csv"), window)?;
+    let csv = dir.join("coupling.csv");
+    let reports = phonation::run::particle_probes::probe_reports_from_csv(&csv, window)?;
     for p in &reports {
         println!("{p}");
+    }
+    let (paths, leads) = phonation::run::particle_probes::probe_motion_from_csv(&csv, window)?;
+    for p in &paths {
+        match (&p.oscillation_dx, &p.path) {
+            (Some(o), Some(e)) => println!(
+                "probe {}: dx spectral peak {} Hz, largest |dx| {:.4e}; path an ellipse of semi-axes {:.4e} × {:.4e} (roundness {:.3}) at {:.1}°, {}",
+                p.name,
+                o.spectral_peak.map_or("none".into(), |f| format!("{f:.4}")),
+                o.max_abs,
+                e.semi_major,
+                e.semi_minor,
+                e.roundness(),
+                e.angle_rad.to_degrees(),
+                ["clockwise", "no area", "counter-clockwise"][(e.sense + 1) as usize]
+            ),
+            _ => println!("probe {}: dx does not oscillate over the window", p.name),
+        }
+    }
+    for l in &leads {
+        match l.lead_s {
+            Some(s) => println!("{} leads {} by {:.4e} s", l.leading, l.following, s),
+            None => println!("{} against {}: no lead (one of them does not oscillate)", l.leading, l.following),
+        }
     }
     let out = dir.join("particle_probes.json");
     std::fs::write(
         &out,
-        serde_json::to_string_pretty(&serde_json::json!({ "analysed_from": dir.join("coupling.csv"), "window_fraction": window, "probes": reports }))?,
+        serde_json::to_string_pretty(
+            &serde_json::json!({ "analysed_from": csv, "window_fraction": window, "probes": reports, "paths": paths, "leads": leads }),
+        )?,
     )?;
     println!("wrote {}", out.display());
     Ok(())

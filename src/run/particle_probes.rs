@@ -3,7 +3,9 @@
 //! `<probe>_dy`), so that a finished or resumed run can be re-read over any window
 //! (`phonation analyze DIR`).
 
+use crate::analysis::lag::lead_time;
 use crate::analysis::oscillation::{Oscillation, oscillation};
+use crate::analysis::path::{PathEllipse, path_ellipse};
 use anyhow::{Context, bail};
 use serde::Serialize;
 use std::path::Path;
@@ -76,6 +78,78 @@ pub fn probe_reports(names: &[String], samples: &[(f64, Vec<f64>)], fraction: f6
 /// the bodies' `mean_dy_<k>` are not probes), over the last `fraction` of the run. A csv written
 /// by a run that was resumed holds its rows once (the resume cuts the rows past its checkpoint).
 pub fn probe_reports_from_csv(path: &Path, fraction: f64) -> anyhow::Result<Vec<ParticleProbeReport>> {
+    let (names, samples) = read_probes(path, fraction)?;
+    let dy: Vec<(f64, Vec<f64>)> = samples.iter().map(|(t, d)| (*t, d.iter().map(|d| d[1]).collect())).collect();
+    Ok(probe_reports(&names, &dy, fraction))
+}
+
+/// A particle probe's motion in the plane of its two displacement components over the window:
+/// the oscillation of its x (for a fold: lateral, opening and closing) displacement and the
+/// ellipse of its (dx, dy) path (seed 000 §3.4.3: the medial surface's particles go round
+/// ellipses).
+#[derive(Clone, Debug, Serialize)]
+pub struct ProbePath {
+    pub name: String,
+    pub oscillation_dx: Option<Oscillation>,
+    pub path: Option<PathEllipse>,
+}
+
+/// The time by which probe `leading`'s dx leads probe `following`'s over the window (s, positive:
+/// `leading` moves first; the cross-correlation's peak within half a period of `leading`'s dx,
+/// [`lead_time`]): the vertical (lower margin before upper) and anterior–posterior phase
+/// differences of the seed's 3D glottis. `None` where either does not oscillate.
+#[derive(Clone, Debug, Serialize)]
+pub struct ProbeLead {
+    pub leading: String,
+    pub following: String,
+    pub lead_s: Option<f64>,
+}
+
+/// Every probe's [`ProbePath`] and the [`ProbeLead`] of every pair (in column order) over the
+/// last `fraction` of a run's `coupling.csv`.
+pub fn probe_motion_from_csv(path: &Path, fraction: f64) -> anyhow::Result<(Vec<ProbePath>, Vec<ProbeLead>)> {
+    let (names, samples) = read_probes(path, fraction)?;
+    let (t0, t1) = (samples[0].0, samples[samples.len() - 1].0);
+    let window: Vec<&(f64, Vec<[f64; 2]>)> = samples.iter().filter(|s| s.0 >= t1 - fraction * (t1 - t0)).collect();
+    let dt = if window.len() > 1 { (window[window.len() - 1].0 - window[0].0) / (window.len() - 1) as f64 } else { 0.0 };
+    let series = |k: usize, c: usize| -> Vec<f64> { window.iter().map(|s| s.1[k][c]).collect() };
+    let paths: Vec<ProbePath> = (0..names.len())
+        .map(|k| {
+            let (x, y) = (series(k, 0), series(k, 1));
+            // the ellipse over whole cycles of dx: a part cycle would weigh one side of it more
+            let c = whole_cycles(&x);
+            ProbePath { name: names[k].clone(), oscillation_dx: oscillation(&x, dt), path: path_ellipse(&x[c.clone()], &y[c]) }
+        })
+        .collect();
+    let mut leads = Vec::new();
+    for a in 0..names.len() {
+        for b in a + 1..names.len() {
+            let period = paths[a].oscillation_dx.as_ref().map(|o| o.spectral_peak.unwrap_or(o.frequency)).filter(|f| *f > 0.0).map(|f| 1.0 / f);
+            let lead_s = period.and_then(|p| {
+                let max_lag = ((0.5 * p / dt).round() as usize).clamp(1, window.len() / 3);
+                paths[b].oscillation_dx.as_ref().and_then(|_| lead_time(&series(a, 0), &series(b, 0), dt, max_lag))
+            });
+            leads.push(ProbeLead { leading: names[a].clone(), following: names[b].clone(), lead_s });
+        }
+    }
+    Ok((paths, leads))
+}
+
+/// The samples from `x`'s first upward mean crossing to its last (whole cycles), or all of them
+/// with fewer than two crossings.
+fn whole_cycles(x: &[f64]) -> std::ops::Range<usize> {
+    let mean = x.iter().sum::<f64>() / x.len().max(1) as f64;
+    let up: Vec<usize> = (1..x.len()).filter(|&k| x[k - 1] < mean && x[k] >= mean).collect();
+    match (up.first(), up.last()) {
+        (Some(&a), Some(&b)) if b > a => a..b,
+        _ => 0..x.len(),
+    }
+}
+
+/// The probes' names and samples (time, [dx, dy] per probe) of a run's `coupling.csv`, checked:
+/// `fraction` in (0, 1], a `time_s` column, at least one probe (`<probe>_dx`, `<probe>_dy`), a
+/// number in every cell, at least four rows.
+fn read_probes(path: &Path, fraction: f64) -> anyhow::Result<(Vec<String>, Vec<(f64, Vec<[f64; 2]>)>)> {
     if !(fraction > 0.0 && fraction <= 1.0) {
         bail!("window: {fraction} must lie in (0, 1]");
     }
@@ -83,7 +157,11 @@ pub fn probe_reports_from_csv(path: &Path, fraction: f64) -> anyhow::Result<Vec<
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().with_context(|| format!("{}: empty", path.display()))?.split(',').collect();
     let time = header.iter().position(|h| *h == "time_s").with_context(|| format!("{}: no time_s column", path.display()))?;
-    let probes: Vec<(usize, String)> = header.iter().enumerate().filter_map(|(i, h)| h.strip_suffix("_dy").map(|n| (i, n.to_string()))).collect();
+    let probes: Vec<(Option<usize>, usize, String)> = header
+        .iter()
+        .enumerate()
+        .filter_map(|(i, h)| h.strip_suffix("_dy").map(|n| (header.iter().position(|x| x.strip_suffix("_dx") == Some(n)), i, n.to_string())))
+        .collect();
     if probes.is_empty() {
         bail!("{}: no particle probe columns (<probe>_dy)", path.display());
     }
@@ -94,13 +172,18 @@ pub fn probe_reports_from_csv(path: &Path, fraction: f64) -> anyhow::Result<Vec<
             let c = cells.get(i).with_context(|| format!("{} row {}: {} cells, column {} missing", path.display(), row + 2, cells.len(), header[i]))?;
             c.trim().parse().with_context(|| format!("{} row {}, column {}: {c:?} is not a number", path.display(), row + 2, header[i]))
         };
-        samples.push((value(time)?, probes.iter().map(|(i, _)| value(*i)).collect::<anyhow::Result<Vec<f64>>>()?));
+        let d = probes.iter().map(|(x, y, _)| Ok([x.map(value).transpose()?.unwrap_or(0.0), value(*y)?])).collect::<anyhow::Result<Vec<[f64; 2]>>>()?;
+        samples.push((value(time)?, d));
     }
     if samples.len() < 4 {
         bail!("{}: {} rows, too few to analyse", path.display(), samples.len());
     }
-    let names: Vec<String> = probes.into_iter().map(|(_, n)| n).collect();
-    Ok(probe_reports(&names, &samples, fraction))
+    Ok((probes.into_iter().map(|(_, _, n)| n).collect(), samples))
+}
+
+/// Whether a run's `coupling.csv` has particle-probe columns (`<probe>_dy`).
+pub fn has_probes(path: &Path) -> bool {
+    std::fs::read_to_string(path).ok().and_then(|t| t.lines().next().map(|h| h.split(',').any(|c| c.ends_with("_dy")))).unwrap_or(false)
 }
 
 #[cfg(test)]
@@ -138,6 +221,40 @@ mod tests {
         std::fs::write(&path, "step,time_s,tip_dy\n0,0,1\n1,1e-3,x\n").unwrap();
         let e = probe_reports_from_csv(&path, 0.5).unwrap_err().to_string();
         assert!(e.contains("row 3") && e.contains("tip_dy"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// Two probes laid out as the 3D glottis writes them (`<probe>_dx`, `<probe>_dy`), going
+    /// round ellipses at 360 Hz — semi-axes 3 and 1 µm, the "lower" one counter-clockwise and
+    /// 0.2 ms ahead of the "upper" one, which goes clockwise — sampled every 5.7 µs: the leads,
+    /// the ellipses and their senses come back.
+    #[test]
+    fn the_probes_paths_and_leads_come_back_from_the_csv() {
+        let dir = std::env::temp_dir().join(format!("phonation_probe_paths_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("coupling.csv");
+        let (f, dt, lag) = (360.0, 5.7e-6, 0.2e-3);
+        let w = 2.0 * std::f64::consts::PI * f;
+        let mut text = String::from("step,time_s,force_x_0,mean_dx_0,mean_dy_0,lower_dx,lower_dy,upper_dx,upper_dy,max_displacement\n");
+        for k in 0..6000 {
+            let t = k as f64 * dt;
+            let (l, u) = (w * t, w * (t - lag));
+            text += &format!("{k},{t:.9e},1,0,0,{:.9e},{:.9e},{:.9e},{:.9e},0\n", 3e-4 * l.cos(), 1e-4 * l.sin(), 3e-4 * u.cos(), -1e-4 * u.sin());
+        }
+        std::fs::write(&path, text).unwrap();
+        assert!(has_probes(&path));
+        let (paths, leads) = probe_motion_from_csv(&path, 0.5).unwrap();
+        assert_eq!(paths.iter().map(|p| p.name.as_str()).collect::<Vec<_>>(), ["lower", "upper"]);
+        for (p, sense) in paths.iter().zip([1, -1]) {
+            let e = p.path.unwrap();
+            assert!((e.semi_major / 3e-4 - 1.0).abs() < 0.01 && (e.semi_minor / 1e-4 - 1.0).abs() < 0.01, "{}: {e:?}", p.name);
+            assert_eq!(e.sense, sense, "{}", p.name);
+            let fx = p.oscillation_dx.as_ref().unwrap().spectral_peak.unwrap();
+            assert!((fx / f - 1.0).abs() < 0.01, "{}: {fx} Hz", p.name);
+        }
+        assert_eq!(leads.len(), 1);
+        let lead = leads[0].lead_s.unwrap();
+        assert!((lead / lag - 1.0).abs() < 0.02, "lead {lead} s, expected {lag}");
         std::fs::remove_dir_all(&dir).ok();
     }
 }
