@@ -282,7 +282,7 @@ pub fn cases() -> Vec<Case> {
             super::glottis::rows()
         }),
         ("glottis_real_air_closure", super::glottis::real_air_closure_rows),
-        // the coarse 3D glottis, 1.5 ms from rest: ≈ 15 min on 2 cores
+        // the coarse 3D glottis, 1.5 ms from rest: 27 min on one core beside another run
         ("glottis_3d_coarse", super::glottis_3d::rows),
         ("glottis_seed_layer_list", super::glottis::seed_layer_list_rows),
         ("glottis_speed_error", || {
