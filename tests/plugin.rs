@@ -395,9 +395,14 @@ fn a_coupled_glottis_stepped_in_the_render_world_matches_the_gpu_backend() {
     use phonation::step::Solver;
     let Some(mut app) = render_world_app() else { return };
     // glottis_2d_coarse's gap (0.021 cm) is narrower than a cell: no air passes until the folds
-    // part (none in 1,500 steps). Opened to 0.08 cm (3.3 cells; D kept at 0.791 cm), the lung
-    // pressure's jet goes through from step ~150 and carries ~120 cm³/s by step 250 (CPU run).
-    let open = scene::builtin("glottis_2d_coarse").unwrap().replace("fold = { side", "fold = { section = { width = 0.711, gap = 0.08, d = 0.791 }, side");
+    // part (none in 1,500 steps). Opened to 0.08 cm (3.3 cells; the section's width kept, so
+    // D = width + G = 0.85 cm, and the clamped strip 0.06 cm deep, so that the lateral faces
+    // stay beyond the side walls and the free parts inside them), the lung pressure's jet goes
+    // through from step ~150 (CPU run).
+    let open = scene::builtin("glottis_2d_coarse")
+        .unwrap()
+        .replace("fold = { side", "fold = { section = { gap = 0.08, d = 0.85 }, side")
+        .replace("fixed_depth = 0.025", "fixed_depth = 0.06");
     let sc = CoupledScene::parse(&open).unwrap();
     const STEPS: u64 = 260;
     app.insert_resource(SimulationControl { paused: false, steps_per_frame: 20, single_steps: 0 });
