@@ -183,7 +183,10 @@ fn read_probes(path: &Path, fraction: f64) -> anyhow::Result<(Vec<String>, Vec<(
 
 /// Whether a run's `coupling.csv` has particle-probe columns (`<probe>_dy`).
 pub fn has_probes(path: &Path) -> bool {
-    std::fs::read_to_string(path).ok().and_then(|t| t.lines().next().map(|h| h.split(',').any(|c| c.ends_with("_dy")))).unwrap_or(false)
+    use std::io::BufRead;
+    let mut header = String::new();
+    std::fs::File::open(path).map(|f| std::io::BufReader::new(f).read_line(&mut header)).is_ok_and(|r| r.is_ok())
+        && header.trim_end().split(',').any(|c| c.ends_with("_dy"))
 }
 
 #[cfg(test)]
