@@ -69,11 +69,10 @@ pub fn analyze(a: AnalyzeArgs) -> anyhow::Result<()> {
 /// and written to `particle_probes.json`.
 fn analyze_particle_probes(dir: &std::path::Path, window: f64) -> anyhow::Result<()> {
     let csv = dir.join("coupling.csv");
-    let reports = phonation::run::particle_probes::probe_reports_from_csv(&csv, window)?;
+    let (reports, paths, leads) = phonation::run::particle_probes::probe_motion_from_csv(&csv, window)?;
     for p in &reports {
         println!("{p}");
     }
-    let (paths, leads) = phonation::run::particle_probes::probe_motion_from_csv(&csv, window)?;
     for p in &paths {
         match (&p.oscillation_dx, &p.path) {
             (Some(o), Some(e)) => println!(

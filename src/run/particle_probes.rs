@@ -1,7 +1,8 @@
 //! The oscillation of a coupled run's particle probes (a flap's tip, a fold's margin): from the
 //! samples a run collects as it goes, or read back from its `coupling.csv` (columns
-//! `<probe>_dy`), so that a finished or resumed run can be re-read over any window
-//! (`phonation analyze DIR`).
+//! `<probe>_dx`, `<probe>_dy`), so that a finished or resumed run can be re-read over any window
+//! (`phonation analyze DIR`): the dy oscillation, and the (dx, dy) path's ellipse and every
+//! pair's lead.
 
 use crate::analysis::lag::lead_time;
 use crate::analysis::oscillation::{Oscillation, oscillation};
@@ -74,15 +75,6 @@ pub fn probe_reports(names: &[String], samples: &[(f64, Vec<f64>)], fraction: f6
         .collect()
 }
 
-/// The particle probes of a coupled run's `coupling.csv` (its `time_s` and `<probe>_dy` columns;
-/// the bodies' `mean_dy_<k>` are not probes), over the last `fraction` of the run. A csv written
-/// by a run that was resumed holds its rows once (the resume cuts the rows past its checkpoint).
-pub fn probe_reports_from_csv(path: &Path, fraction: f64) -> anyhow::Result<Vec<ParticleProbeReport>> {
-    let (names, samples) = read_probes(path, fraction)?;
-    let dy: Vec<(f64, Vec<f64>)> = samples.iter().map(|(t, d)| (*t, d.iter().map(|d| d[1]).collect())).collect();
-    Ok(probe_reports(&names, &dy, fraction))
-}
-
 /// A particle probe's motion in the plane of its two displacement components over the window:
 /// the oscillation of its x (for a fold: lateral, opening and closing) displacement and the
 /// ellipse of its (dx, dy) path (seed 000 §3.4.3: the medial surface's particles go round
@@ -105,10 +97,15 @@ pub struct ProbeLead {
     pub lead_s: Option<f64>,
 }
 
-/// Every probe's [`ProbePath`] and the [`ProbeLead`] of every pair (in column order) over the
-/// last `fraction` of a run's `coupling.csv`.
-pub fn probe_motion_from_csv(path: &Path, fraction: f64) -> anyhow::Result<(Vec<ProbePath>, Vec<ProbeLead>)> {
+/// What `phonation analyze` reads from a run's particle probes (`coupling.csv`'s `time_s` and
+/// `<probe>_dx`, `<probe>_dy` columns; the bodies' `mean_dy_<k>` are not probes; a csv written by
+/// a resumed run holds its rows once, the resume cutting those past its checkpoint): every probe's
+/// [`ParticleProbeReport`] (its dy) and [`ProbePath`], and the [`ProbeLead`] of every pair (in
+/// column order), over the last `fraction` of its `coupling.csv` (read once).
+pub fn probe_motion_from_csv(path: &Path, fraction: f64) -> anyhow::Result<(Vec<ParticleProbeReport>, Vec<ProbePath>, Vec<ProbeLead>)> {
     let (names, samples) = read_probes(path, fraction)?;
+    let dy: Vec<(f64, Vec<f64>)> = samples.iter().map(|(t, d)| (*t, d.iter().map(|d| d[1]).collect())).collect();
+    let reports = probe_reports(&names, &dy, fraction);
     let (t0, t1) = (samples[0].0, samples[samples.len() - 1].0);
     let window: Vec<&(f64, Vec<[f64; 2]>)> = samples.iter().filter(|s| s.0 >= t1 - fraction * (t1 - t0)).collect();
     let dt = if window.len() > 1 { (window[window.len() - 1].0 - window[0].0) / (window.len() - 1) as f64 } else { 0.0 };
@@ -132,7 +129,7 @@ pub fn probe_motion_from_csv(path: &Path, fraction: f64) -> anyhow::Result<(Vec<
             leads.push(ProbeLead { leading: names[a].clone(), following: names[b].clone(), lead_s });
         }
     }
-    Ok((paths, leads))
+    Ok((reports, paths, leads))
 }
 
 /// The samples from `x`'s first upward mean crossing to its last (whole cycles), or all of them
@@ -208,7 +205,7 @@ mod tests {
             text += &format!("{k},{t:.9e},1,2,0,{:.9e},0,{:.9e},0\n", 5.0 * t, dy(t));
         }
         std::fs::write(&path, text).unwrap();
-        let r = probe_reports_from_csv(&path, 0.5).unwrap();
+        let r = probe_motion_from_csv(&path, 0.5).unwrap().0;
         assert_eq!(r.len(), 1);
         assert_eq!(r[0].name, "tip");
         assert!((r[0].window_start_s - 0.5 * 3.999).abs() < 1e-9, "{}", r[0].window_start_s);
@@ -217,12 +214,12 @@ mod tests {
         assert!((f - 3.2).abs() < 0.02, "spectral peak {f}");
         let expect = (2000..4000).map(|k| dy(k as f64 * 1e-3).abs()).fold(0.0, f64::max);
         assert!((o.max_abs - expect).abs() < 1e-8, "{} vs {expect}", o.max_abs);
-        let whole = probe_reports_from_csv(&path, 1.0).unwrap();
+        let whole = probe_motion_from_csv(&path, 1.0).unwrap().0;
         assert_eq!(whole[0].window_start_s, 0.0);
         // bad input names what is wrong
-        assert!(probe_reports_from_csv(&path, 0.0).unwrap_err().to_string().contains("window"));
+        assert!(probe_motion_from_csv(&path, 0.0).unwrap_err().to_string().contains("window"));
         std::fs::write(&path, "step,time_s,tip_dy\n0,0,1\n1,1e-3,x\n").unwrap();
-        let e = probe_reports_from_csv(&path, 0.5).unwrap_err().to_string();
+        let e = probe_motion_from_csv(&path, 0.5).unwrap_err().to_string();
         assert!(e.contains("row 3") && e.contains("tip_dy"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
     }
@@ -246,7 +243,9 @@ mod tests {
         }
         std::fs::write(&path, text).unwrap();
         assert!(has_probes(&path));
-        let (paths, leads) = probe_motion_from_csv(&path, 0.5).unwrap();
+        let (reports, paths, leads) = probe_motion_from_csv(&path, 0.5).unwrap();
+        assert_eq!(reports.len(), 2);
+        assert!((reports[0].oscillation.as_ref().unwrap().spectral_peak.unwrap() / f - 1.0).abs() < 0.01, "dy of the lower probe");
         assert_eq!(paths.iter().map(|p| p.name.as_str()).collect::<Vec<_>>(), ["lower", "upper"]);
         for (p, sense) in paths.iter().zip([1, -1]) {
             let e = p.path.unwrap();
