@@ -53,13 +53,20 @@ impl std::fmt::Display for ParticleProbeReport {
     }
 }
 
+/// The samples of the last `fraction` of `samples`' time span (in time order), where that part
+/// starts (s) and its mean sampling interval (0 with fewer than two samples).
+fn last_part<T>(samples: &[(f64, T)], fraction: f64) -> (&[(f64, T)], f64, f64) {
+    let (t0, t1) = (samples.first().map_or(0.0, |s| s.0), samples.last().map_or(0.0, |s| s.0));
+    let start = t1 - fraction * (t1 - t0);
+    let window = &samples[samples.partition_point(|s| s.0 < start)..];
+    let dt = if window.len() > 1 { (window[window.len() - 1].0 - window[0].0) / (window.len() - 1) as f64 } else { 0.0 };
+    (window, start, dt)
+}
+
 /// The oscillation of each probe's dy samples `(t, dy per probe)` over the last `fraction`
 /// (0, 1] of the samples' time span.
 pub fn probe_reports(names: &[String], samples: &[(f64, Vec<f64>)], fraction: f64) -> Vec<ParticleProbeReport> {
-    let (t0, t1) = (samples.first().map_or(0.0, |s| s.0), samples.last().map_or(0.0, |s| s.0));
-    let start = t1 - fraction * (t1 - t0);
-    let window: Vec<&(f64, Vec<f64>)> = samples.iter().filter(|s| s.0 >= start).collect();
-    let dt = if window.len() > 1 { (window[window.len() - 1].0 - window[0].0) / (window.len() - 1) as f64 } else { 0.0 };
+    let (window, start, dt) = last_part(samples, fraction);
     names
         .iter()
         .enumerate()
@@ -106,25 +113,25 @@ pub fn probe_motion_from_csv(path: &Path, fraction: f64) -> anyhow::Result<(Vec<
     let (names, samples) = read_probes(path, fraction)?;
     let dy: Vec<(f64, Vec<f64>)> = samples.iter().map(|(t, d)| (*t, d.iter().map(|d| d[1]).collect())).collect();
     let reports = probe_reports(&names, &dy, fraction);
-    let (t0, t1) = (samples[0].0, samples[samples.len() - 1].0);
-    let window: Vec<&(f64, Vec<[f64; 2]>)> = samples.iter().filter(|s| s.0 >= t1 - fraction * (t1 - t0)).collect();
-    let dt = if window.len() > 1 { (window[window.len() - 1].0 - window[0].0) / (window.len() - 1) as f64 } else { 0.0 };
-    let series = |k: usize, c: usize| -> Vec<f64> { window.iter().map(|s| s.1[k][c]).collect() };
-    let paths: Vec<ProbePath> = (0..names.len())
-        .map(|k| {
-            let (x, y) = (series(k, 0), series(k, 1));
+    let (window, _, dt) = last_part(&samples, fraction);
+    // each probe's (dx, dy) over the window, taken once
+    let xy: Vec<(Vec<f64>, Vec<f64>)> = (0..names.len()).map(|k| window.iter().map(|s| (s.1[k][0], s.1[k][1])).unzip()).collect();
+    let paths: Vec<ProbePath> = names
+        .iter()
+        .zip(&xy)
+        .map(|(name, (x, y))| {
             // the ellipse over whole cycles of dx: a part cycle would weigh one side of it more
-            let c = whole_cycles(&x);
-            ProbePath { name: names[k].clone(), oscillation_dx: oscillation(&x, dt), path: path_ellipse(&x[c.clone()], &y[c]) }
+            let c = whole_cycles(x);
+            ProbePath { name: name.clone(), oscillation_dx: oscillation(x, dt), path: path_ellipse(&x[c.clone()], &y[c]) }
         })
         .collect();
     let mut leads = Vec::new();
     for a in 0..names.len() {
+        let period = paths[a].oscillation_dx.as_ref().map(|o| o.spectral_peak.unwrap_or(o.frequency)).filter(|f| *f > 0.0).map(|f| 1.0 / f);
         for b in a + 1..names.len() {
-            let period = paths[a].oscillation_dx.as_ref().map(|o| o.spectral_peak.unwrap_or(o.frequency)).filter(|f| *f > 0.0).map(|f| 1.0 / f);
-            let lead_s = period.and_then(|p| {
+            let lead_s = period.filter(|_| paths[b].oscillation_dx.is_some()).and_then(|p| {
                 let max_lag = ((0.5 * p / dt).round() as usize).clamp(1, window.len() / 3);
-                paths[b].oscillation_dx.as_ref().and_then(|_| lead_time(&series(a, 0), &series(b, 0), dt, max_lag))
+                lead_time(&xy[a].0, &xy[b].0, dt, max_lag)
             });
             leads.push(ProbeLead { leading: names[a].clone(), following: names[b].clone(), lead_s });
         }
