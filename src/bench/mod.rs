@@ -172,6 +172,27 @@ pub fn fluid_footprint<S: Storage>(s: &FluidSolver<S>) -> usize {
     s.layout.grid.len() * (4 * s.eq.values_per_node() * std::mem::size_of::<S>() + crate::fluid::equilibrium::MACRO_FIELDS * 8)
 }
 
+/// f64 per array of the full benchmark's triad: 256 MiB, or the power of two at or above the
+/// last-level cache `llc` (bytes) where that is larger, so that the three arrays together are
+/// at least three times the cache (a machine here reports 480 MiB of L3, where three arrays of
+/// 256 MiB would be read partly from the cache).
+pub fn triad_elements(llc: usize) -> usize {
+    (1usize << 25).max((llc / 8).next_power_of_two())
+}
+
+/// The lattice side (a multiple of 32, at least `min_side`) at which the benchmark problem of
+/// `set` sweeps at least twice the last-level cache `llc` (bytes) — the bound below which
+/// [`fraction_of_bandwidth`] reports no fraction — so that the full benchmark measures the
+/// kernels against memory on any machine. The bytes per node are read from a small solver of
+/// the same kind ([`fluid_footprint`]).
+pub fn side_beyond_cache(set: VelocitySetKind, min_side: usize, llc: usize) -> usize {
+    let small = benchmark_solver_stored::<f64>(set, [8, 8, if VelocitySet::new(set).dim == 3 { 8 } else { 1 }]);
+    let per_node = fluid_footprint(&small) as f64 / small.layout.grid.len() as f64;
+    let dim = small.layout.grid.dim as i32;
+    let side = (2.0 * llc as f64 / per_node).powf(1.0 / dim as f64).ceil() as usize;
+    side.div_ceil(32).max(min_side.div_ceil(32)) * 32
+}
+
 /// Node updates per second of one timed block of `steps` steps.
 fn timed_block<S: Storage>(s: &mut FluidSolver<S>, steps: u64) -> f64 {
     let t = Instant::now();
@@ -454,11 +475,12 @@ pub const SUITES: [&str; 10] = ["fdlb", "storage", "solid", "crossover", "lattic
 /// smoke run.
 pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
     let wants = |suite: &str| only.is_none_or(|o| o == suite);
-    // three arrays of 256 MiB (quick: 64 MiB), far beyond any last-level cache here
-    let triad = triad(if quick { 1 << 23 } else { 1 << 25 }, 10);
+    let llc = last_level_cache_bytes();
+    let triad = triad(if quick { 1 << 23 } else { triad_elements(llc) }, 10);
     let bw = triad.best;
     let fma = fma_peak(5);
-    let (n2, n3, st) = if quick { (128, 32, 3) } else { (512, 96, 10) };
+    let (n2, n3, st) =
+        if quick { (128, 32, 3) } else { (side_beyond_cache(VelocitySetKind::D2q21, 512, llc), side_beyond_cache(VelocitySetKind::D3q39, 96, llc), 10) };
     let lattices = if wants("fdlb") {
         vec![lattice_speed(VelocitySetKind::D2q21, [n2, n2, 1], st, 5, bw), lattice_speed(VelocitySetKind::D3q39, [n3, n3, n3], st.min(5), 5, bw)]
     } else {
@@ -543,5 +565,28 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
         coupled,
         two_mass,
         glottis,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The full benchmark's sizes leave the cache on a machine with a large one: the triad's
+    /// three arrays are at least three times the cache, and the lattice the smallest multiple of
+    /// 32 whose swept bytes are at least twice it.
+    #[test]
+    fn the_full_benchmark_sizes_exceed_the_last_level_cache() {
+        assert_eq!(triad_elements(32 << 20), 1 << 25);
+        assert_eq!(triad_elements(480 << 20), 1 << 26);
+        assert!(3 * 8 * triad_elements(480 << 20) >= 3 * (480 << 20));
+        let llc = 24 << 20;
+        let side = side_beyond_cache(VelocitySetKind::D2q21, 64, llc);
+        let footprint = |n: usize| fluid_footprint(&benchmark_solver_stored::<f64>(VelocitySetKind::D2q21, [n, n, 1]));
+        assert_eq!(side % 32, 0);
+        assert!(footprint(side) >= 2 * llc, "side {side}: {} B", footprint(side));
+        assert!(footprint(side - 32) < 2 * llc, "side {} already beyond the cache", side - 32);
+        // a floor the cache does not reach is kept
+        assert_eq!(side_beyond_cache(VelocitySetKind::D2q21, 512, llc), 512);
     }
 }
