@@ -285,6 +285,9 @@ pub fn cases() -> Vec<Case> {
         // the coarse 3D glottis, 1.5 ms from rest: 27 min on one core beside another run
         ("glottis_3d_coarse", super::glottis_3d::rows),
         ("glottis_seed_layer_list", super::glottis::seed_layer_list_rows),
+        // each case's fold ringing in vacuum (both readings of the seed's list) and the coupled
+        // case C against its fold: ~10 min on 2 cores
+        ("glottis_fold_modes", super::glottis_modes::rows),
         ("glottis_speed_error", || {
             // Case C's f0 against resolution (×0.5, ×0.75, ×1 of the seed's lattice) and Mach
             // scaling (real air, Mach 0.3), 40 ms each, with each run's wall time per simulated
@@ -512,7 +515,10 @@ mod tests {
         let names: Vec<&str> = all.iter().map(|(n, _)| *n).collect();
         let picked = |f: Option<&str>| -> Vec<&str> { names.iter().copied().filter(|n| selects(&names, f, n)).collect() };
         assert_eq!(picked(Some("glottis_2d")), ["glottis_2d"]);
-        assert_eq!(picked(Some("glottis")), ["glottis_2d", "glottis_real_air_closure", "glottis_3d_coarse", "glottis_seed_layer_list", "glottis_speed_error"]);
+        assert_eq!(
+            picked(Some("glottis")),
+            ["glottis_2d", "glottis_real_air_closure", "glottis_3d_coarse", "glottis_seed_layer_list", "glottis_fold_modes", "glottis_speed_error"]
+        );
         assert_eq!(picked(Some("taylor_green")), ["taylor_green_2d", "taylor_green_3d"]);
         // the D = 20 channel (minutes) is not also the D = 40 one (an hour on 2 cores)
         assert_eq!(picked(Some("fsi_schafer_turek_2d1")), ["fsi_schafer_turek_2d1"]);

@@ -1,0 +1,269 @@
+//! The fold's own lowest mode, in vacuum: what sets the coupled glottis's f0, and why case C
+//! cannot reach the seed's 140–150 Hz in this model (seed 000 §3.4.1–3.4.2).
+//!
+//! One fold of `glottis_2d_coarse` (Fig. 3.9's section, body and cover layers, the lateral strip
+//! clamped) is released at rest shape with a uniform upward velocity — the lung pressure pushes
+//! the folds up and apart — and left to ring in vacuum; the mean vertical displacement of the
+//! particles along the medial surface gives the mode's frequency (the spectral peak,
+//! [`crate::analysis::oscillation`]). Measured on 2026-12-04 (2 Intel cores): case C rings at
+//! 358.2 / 358.8 / 359.2 Hz at l₀ = 0.0122 / 0.0061 / 0.0042 cm (the last the seed's own
+//! spacing, 17,892 particles): converged, and equal to the coupled case C's f0 (358–362 Hz at
+//! every lattice tried). Case A rings at 115 Hz, the coupled case A at 117.7 Hz.
+//! `validate --case glottis_fold_modes` (2026-12-04, 720 s on 2 cores beside another run, 19
+//! rows pass): narrative A–D 115.0, 162.6, 358.5, 506.9 Hz; the list as written 50.1, 71.3,
+//! 60.5, 85.9 Hz; case C at l₀/2 +0.36 %; f(B)/f(A) and f(D)/f(C) within 0.01 % of √2 (the
+//! list's 0.4–0.7 %); the coupled case C over 20 ms 361.0 Hz, 0.7 % above its fold's mode.
+//!
+//! The rows also ring the folds of the seed's case list as written (body 1·10⁵, cover 10·10⁵ …
+//! 200·10⁵ dyn/cm²: the layers swapped against its narrative, see [`BodyCoverCase`]): the
+//! list's modes fall in the seed's order A < C < B < D, which the narrative reading's modes
+//! (A < B < C < D, C ≈ √10 A) do not.
+
+use crate::analysis::oscillation::oscillation;
+use crate::run::coupled::run_coupled_scene;
+use crate::scene::coupled::CoupledScene;
+use crate::scene::solid::SolidScene;
+use crate::solid::fold::BodyCoverCase;
+use std::path::PathBuf;
+
+/// Upward release speed (cm/s): a swing of ~0.1–1 cell of the coarse lattice, small against the
+/// fold (linear regime).
+pub const RELEASE_SPEED: f64 = 20.0;
+
+/// Width (cm) of the strip along the fold's medial edge whose particles' mean vertical
+/// displacement is the mode's probe (the fold's free end; 0.77 cm wide in all).
+pub const MEDIAL_STRIP: f64 = 0.08;
+
+/// Samples of the probe per step count: every this many steps.
+const SAMPLE_EVERY: u64 = 10;
+
+/// What a fold released in vacuum did.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct FoldMode {
+    /// Spectral peak of the medial probe's vertical displacement (Hz).
+    pub frequency: f64,
+    /// Full cycles between the first and last upward mean crossings, and the frequency they give (Hz).
+    pub cycles: usize,
+    pub crossing_frequency: f64,
+    /// Largest |mean vertical displacement| of the medial strip (cm).
+    pub amplitude: f64,
+    pub particles: usize,
+    pub steps: u64,
+    /// Solid time step (s).
+    pub dt: f64,
+}
+
+/// The right fold of `glottis_2d_coarse` alone, in vacuum, sampled at `spacing` (cm), with
+/// (cover, body) Young's moduli (dyn/cm²; the shear moduli scale with them), released with
+/// [`RELEASE_SPEED`] upward.
+pub fn fold_in_vacuum(spacing: f64, cover: f64, body: f64, duration: f64) -> anyhow::Result<SolidScene> {
+    let glottis: toml::Table = crate::scene::builtin("glottis_2d_coarse").expect("built in").parse()?;
+    let mut solid = glottis.get("solid").and_then(|s| s.as_table()).cloned().ok_or_else(|| anyhow::anyhow!("glottis_2d_coarse has no [solid]"))?;
+    solid.remove("contact");
+    solid.insert("spacing".into(), toml::Value::Float(spacing));
+    let bodies = solid.get_mut("bodies").and_then(|b| b.as_array_mut()).ok_or_else(|| anyhow::anyhow!("glottis_2d_coarse has no solid.bodies"))?;
+    bodies.retain(|b| b.get("fold").and_then(|f| f.get("side")).and_then(|s| s.as_str()) == Some("right"));
+    let body_table = bodies.first_mut().and_then(|b| b.as_table_mut()).ok_or_else(|| anyhow::anyhow!("glottis_2d_coarse has no right fold"))?;
+    body_table.insert("velocity".into(), toml::Value::Array(vec![toml::Value::Float(0.0), toml::Value::Float(RELEASE_SPEED)]));
+    let mut t = toml::Table::new();
+    t.insert("name".into(), "fold_in_vacuum".into());
+    t.insert("description".into(), "one fold of glottis_2d_coarse released upward in vacuum".into());
+    t.insert("units".into(), "cgs".into());
+    t.insert("solid".into(), toml::Value::Table(solid));
+    let mut run = toml::Table::new();
+    run.insert("duration".into(), toml::Value::Float(duration));
+    t.insert("run".into(), toml::Value::Table(run));
+    let mut sc = SolidScene::parse(&toml::to_string(&t)?)?;
+    let b = &sc.file.solid.bodies[0];
+    let (body_m, cover_m) = (b.material, b.fold.as_ref().expect("a fold").cover_material);
+    for (m, e) in [(body_m, body), (cover_m, cover)] {
+        sc.materials[m] = sc.materials[m].scaled(e / sc.materials[m].young[0]);
+    }
+    Ok(sc)
+}
+
+/// The lowest mode of [`fold_in_vacuum`]: its run for `duration` s, the medial strip's mean
+/// vertical displacement sampled every [`SAMPLE_EVERY`] steps.
+pub fn lowest_mode(spacing: f64, cover: f64, body: f64, duration: f64) -> anyhow::Result<FoldMode> {
+    let sc = fold_in_vacuum(spacing, cover, body, duration)?;
+    let mut s = sc.build()?;
+    let p = &s.particles;
+    let medial_x = (0..p.len()).filter(|&i| !p.fixed[i]).map(|i| p.reference[i].x).fold(f64::INFINITY, f64::min);
+    let strip: Vec<usize> = (0..p.len()).filter(|&i| p.reference[i].x <= medial_x + MEDIAL_STRIP).collect();
+    anyhow::ensure!(!strip.is_empty(), "no particle along the medial edge");
+    let steps = (duration / s.dt).ceil() as u64;
+    let mut series = Vec::with_capacity((steps / SAMPLE_EVERY) as usize + 1);
+    for k in 1..=steps {
+        s.step()?;
+        if k % SAMPLE_EVERY == 0 {
+            let p = &s.particles;
+            series.push(strip.iter().map(|&i| p.position[i].y - p.reference[i].y).sum::<f64>() / strip.len() as f64);
+        }
+    }
+    let o = oscillation(&series, SAMPLE_EVERY as f64 * s.dt).ok_or_else(|| anyhow::anyhow!("the fold did not ring two full cycles in {duration} s"))?;
+    Ok(FoldMode {
+        frequency: o.spectral_peak.unwrap_or(f64::NAN),
+        cycles: o.cycles,
+        crossing_frequency: o.frequency,
+        amplitude: o.max_abs,
+        particles: s.particles.len(),
+        steps,
+        dt: s.dt,
+    })
+}
+
+/// The case's moduli as the seed's list writes them: body 1·10⁵, cover 10, 20, 100, 200 × 10⁵
+/// dyn/cm² for A, B, C, D (the narrative's cover and body swapped), as (cover, body).
+pub fn written_list_young(case: BodyCoverCase) -> (f64, f64) {
+    let (cover, body) = case.young();
+    (body, cover)
+}
+
+/// Ringing time (s) for at least 3 cycles of each reading's slowest mode (narrative A ≈ 115 Hz,
+/// half of it for C and D, ≥ 350 Hz; the written list ≈ 50–90 Hz).
+const NARRATIVE_DURATION: f64 = 0.03;
+const WRITTEN_LIST_DURATION: f64 = 0.08;
+
+/// The coarse lattice's particle spacing (cm, Δx/2 of `glottis_2d_coarse`).
+const COARSE_SPACING: f64 = 0.01220703125;
+
+/// Bound on f(2E)/f(E) − √2 when every modulus doubles: linear elastodynamics scales exactly
+/// (ω ∝ √E at fixed geometry and density) but for the fixed viscosity 5 g/(cm·s), whose damping
+/// does not double, and the time step, which follows the stiffness.
+const SIMILARITY_BOUND: f64 = 0.01;
+
+/// Bound on the mode's change from l₀ to l₀/2 (measured 0.2 %).
+const SPACING_BOUND: f64 = 0.01;
+
+/// Simulated time (s) of the coupled case C: seven periods of its ≈ 360 Hz after the first
+/// millisecond's onset (12 ms read f0 2.6 % low, the onset a third of the window).
+const COUPLED_DURATION: f64 = 0.02;
+
+/// Bound on |coupled f0 / in-vacuum mode − 1| for case C: the air adds ~10⁻³ of the fold's mass;
+/// what is left is f0's reading over a few periods of a run whose glottis closes in the lattice
+/// half of the time (the 40 ms runs: 358.1–360.5 Hz, within 0.6 % of the mode).
+const COUPLED_BOUND: f64 = 0.03;
+
+/// The rows of `validate --case glottis_fold_modes`: every case's fold mode in both readings of
+/// the seed's list, the similarity and convergence checks, the coupled case C's f0 against its
+/// fold's mode, and the orderings.
+pub fn rows() -> Vec<(String, f64, String, bool)> {
+    use rayon::prelude::*;
+    let cases = [BodyCoverCase::A, BodyCoverCase::B, BodyCoverCase::C, BodyCoverCase::D];
+    // (label, spacing, cover, body, duration)
+    let mut jobs: Vec<(String, f64, f64, f64, f64)> = Vec::new();
+    for c in cases {
+        let (cover, body) = c.young();
+        let slow = matches!(c, BodyCoverCase::A | BodyCoverCase::B);
+        jobs.push((format!("{c:?}"), COARSE_SPACING, cover, body, if slow { NARRATIVE_DURATION } else { NARRATIVE_DURATION / 2.0 }));
+    }
+    for c in cases {
+        let (cover, body) = written_list_young(c);
+        jobs.push((format!("{c:?} as listed"), COARSE_SPACING, cover, body, WRITTEN_LIST_DURATION));
+    }
+    let (cover_c, body_c) = BodyCoverCase::C.young();
+    jobs.push(("C, l₀/2".into(), COARSE_SPACING / 2.0, cover_c, body_c, 0.01));
+    let modes: Vec<anyhow::Result<FoldMode>> = jobs.par_iter().with_max_len(1).map(|(_, sp, cover, body, d)| lowest_mode(*sp, *cover, *body, *d)).collect();
+    let mut out = Vec::new();
+    let mut f = std::collections::HashMap::new();
+    for ((label, sp, cover, body, _), m) in jobs.iter().zip(modes) {
+        match m {
+            Ok(m) => {
+                f.insert(label.clone(), m.frequency);
+                out.push((
+                    format!("fold mode, case {label} (cover {cover:.0e}, body {body:.0e} dyn/cm², l₀ {sp:.4} cm; {} cycles)", m.cycles),
+                    m.frequency,
+                    "Hz (spectral peak; the mode the coupled glottis vibrates in)".into(),
+                    m.frequency.is_finite(),
+                ));
+            }
+            Err(e) => out.push((format!("fold mode, case {label}: {e}"), f64::NAN, "rings".into(), false)),
+        }
+    }
+    let get = |k: &str| f.get(k).copied().unwrap_or(f64::NAN);
+    let sqrt2 = std::f64::consts::SQRT_2;
+    for (hi, lo) in [("B", "A"), ("D", "C"), ("B as listed", "A as listed"), ("D as listed", "C as listed")] {
+        let r = get(hi) / get(lo);
+        out.push((
+            format!("  f({hi}) / f({lo}) (every modulus doubled)"),
+            r,
+            format!("√2 ± {:.0} %", SIMILARITY_BOUND * 100.0),
+            (r / sqrt2 - 1.0).abs() <= SIMILARITY_BOUND,
+        ));
+    }
+    let conv = get("C, l₀/2") / get("C") - 1.0;
+    out.push(("  case C: f(l₀/2) / f(l₀) − 1".into(), conv, format!("|·| ≤ {SPACING_BOUND} (converged in particle spacing)"), conv.abs() <= SPACING_BOUND));
+    let (fa, fc) = (get("A"), get("C"));
+    out.push((
+        "  case A's fold mode against the seed's f0 (110 Hz)".into(),
+        fa / BodyCoverCase::A.seed_f0() - 1.0,
+        "within ±20 %".into(),
+        (fa / BodyCoverCase::A.seed_f0() - 1.0).abs() <= 0.2,
+    ));
+    // the body sets the narrative reading's mode: body ×10 at a fixed cover multiplies it by
+    // nearly √10; the seed's A → C raised its f0 by 145/110 = 1.32
+    out.push((
+        "  narrative reading: f(C) / f(A) (body ×10, cover kept)".into(),
+        fc / fa,
+        "> 2.5 (√10 = 3.16: the body sets the mode; the seed's 1.32)".into(),
+        fc / fa > 2.5,
+    ));
+    let ordered = |a: &str, b: &str, c: &str, d: &str| get(a) < get(b) && get(b) < get(c) && get(c) < get(d);
+    out.push((
+        "  the seed's list as written rings in the seed's order A < C < B < D".into(),
+        get("C as listed") / get("A as listed"),
+        "f(C)/f(A) as listed (the seed's 1.32); holds".into(),
+        ordered("A as listed", "C as listed", "B as listed", "D as listed"),
+    ));
+    out.push(("  the narrative reading rings A < B < C < D".into(), get("D") / get("A"), "f(D)/f(A); holds".into(), ordered("A", "B", "C", "D")));
+    // the coupled case C on the coarse lattice: its f0 against its fold's mode
+    let coupled = (|| -> anyhow::Result<f64> {
+        let text = crate::run::sweep::set_key(crate::scene::builtin("glottis_2d_coarse").expect("built in"), "run.duration", COUPLED_DURATION)?;
+        let mut sc = CoupledScene::parse(&text)?;
+        sc.set_fold_moduli(cover_c, body_c);
+        let r = run_coupled_scene(
+            &sc,
+            &PathBuf::from("out/validate/glottis_fold_modes_coupled_c"),
+            &crate::run::RunOptions { show_progress: false, ..Default::default() },
+        )?;
+        anyhow::ensure!(r.instability.is_none(), "unstable: {}", r.instability.unwrap_or_default());
+        r.glottis.and_then(|g| g.f0_hz).ok_or_else(|| anyhow::anyhow!("no f0 in {COUPLED_DURATION} s"))
+    })();
+    match coupled {
+        Ok(f0) => out.push((
+            format!("  coupled case C (glottis_2d_coarse, {:.0} ms from rest): f0 / fold mode − 1", COUPLED_DURATION * 1e3),
+            f0 / fc - 1.0,
+            format!("|·| ≤ {COUPLED_BOUND} (f0 {f0:.1} Hz: the fold's own mode)"),
+            (f0 / fc - 1.0).abs() <= COUPLED_BOUND,
+        )),
+        Err(e) => out.push((format!("  coupled case C: {e}"), f64::NAN, "runs".into(), false)),
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Doubling every modulus raises a linear elastic body's modes by √2 exactly but for the
+    /// fixed viscosity: the fold of case A against case B (every modulus ×2), sampled as
+    /// `glottis_2d_coarse`'s (no coarser: the cover layer, 0.0203 cm, needs l₀ ≤ 0.0203).
+    #[test]
+    fn the_fold_mode_rises_as_the_square_root_of_the_moduli() {
+        let spacing = COARSE_SPACING;
+        let modes: Vec<FoldMode> = [BodyCoverCase::A, BodyCoverCase::B]
+            .iter()
+            .map(|c| {
+                let (cover, body) = c.young();
+                lowest_mode(spacing, cover, body, NARRATIVE_DURATION).expect("rings")
+            })
+            .collect();
+        assert!(modes[0].cycles >= 2, "case A rang {} cycles", modes[0].cycles);
+        let r = modes[1].frequency / modes[0].frequency;
+        assert!((r / std::f64::consts::SQRT_2 - 1.0).abs() <= SIMILARITY_BOUND, "f(B)/f(A) = {r} (f(A) = {} Hz)", modes[0].frequency);
+        // the release excites the fold's lowest mode: the crossings and the spectrum agree
+        for m in &modes {
+            assert!((m.crossing_frequency / m.frequency - 1.0).abs() < 0.05, "{m:?}");
+        }
+    }
+}
