@@ -124,6 +124,10 @@ pub fn written_list_young(case: BodyCoverCase) -> (f64, f64) {
 const NARRATIVE_DURATION: f64 = 0.03;
 const WRITTEN_LIST_DURATION: f64 = 0.08;
 
+/// Full cycles a mode's run must ring for its frequency to count (the spectral peak of fewer is
+/// broad, and the crossings' count coarse).
+const MIN_CYCLES: usize = 3;
+
 /// The coarse lattice's particle spacing (cm, Δx/2 of `glottis_2d_coarse`).
 const COARSE_SPACING: f64 = 0.01220703125;
 
@@ -132,7 +136,8 @@ const COARSE_SPACING: f64 = 0.01220703125;
 /// does not double, and the time step, which follows the stiffness.
 const SIMILARITY_BOUND: f64 = 0.01;
 
-/// Bound on the mode's change from l₀ to l₀/2 (measured 0.2 %).
+/// Bound on the mode's change from l₀ to l₀/2 (measured +0.36 %; 0.0042 cm, the seed's spacing,
+/// +0.28 % from 0.0122 cm).
 const SPACING_BOUND: f64 = 0.01;
 
 /// Simulated time (s) of the coupled case C: seven periods of its ≈ 360 Hz after the first
@@ -173,8 +178,8 @@ pub fn rows() -> Vec<(String, f64, String, bool)> {
                 out.push((
                     format!("fold mode, case {label} (cover {cover:.0e}, body {body:.0e} dyn/cm², l₀ {sp:.4} cm; {} cycles)", m.cycles),
                     m.frequency,
-                    "Hz (spectral peak; the mode the coupled glottis vibrates in)".into(),
-                    m.frequency.is_finite(),
+                    format!("Hz (spectral peak), rung ≥ {MIN_CYCLES} cycles"),
+                    m.frequency.is_finite() && m.cycles >= MIN_CYCLES,
                 ));
             }
             Err(e) => out.push((format!("fold mode, case {label}: {e}"), f64::NAN, "rings".into(), false)),
@@ -258,7 +263,7 @@ mod tests {
                 lowest_mode(spacing, cover, body, NARRATIVE_DURATION).expect("rings")
             })
             .collect();
-        assert!(modes[0].cycles >= 2, "case A rang {} cycles", modes[0].cycles);
+        assert!(modes[0].cycles >= MIN_CYCLES, "case A rang {} cycles", modes[0].cycles);
         let r = modes[1].frequency / modes[0].frequency;
         assert!((r / std::f64::consts::SQRT_2 - 1.0).abs() <= SIMILARITY_BOUND, "f(B)/f(A) = {r} (f(A) = {} Hz)", modes[0].frequency);
         // the release excites the fold's lowest mode: the crossings and the spectrum agree
