@@ -188,8 +188,7 @@ pub fn triad_elements(llc: usize) -> usize {
 pub fn side_beyond_cache(set: VelocitySetKind, min_side: usize, llc: usize) -> usize {
     let small = benchmark_solver_stored::<f64>(set, [8, 8, if VelocitySet::new(set).dim == 3 { 8 } else { 1 }]);
     let per_node = fluid_footprint(&small) as f64 / small.layout.grid.len() as f64;
-    let dim = small.layout.grid.dim as i32;
-    let side = (2.0 * llc as f64 / per_node).powf(1.0 / dim as f64).ceil() as usize;
+    let side = (2.0 * llc as f64 / per_node).powf(1.0 / small.layout.grid.dim as f64).ceil() as usize;
     side.div_ceil(32).max(min_side.div_ceil(32)) * 32
 }
 

@@ -38,19 +38,13 @@ pub const MEDIAL_STRIP: f64 = 0.08;
 const SAMPLE_EVERY: u64 = 10;
 
 /// What a fold released in vacuum did.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug)]
 pub struct FoldMode {
     /// Spectral peak of the medial probe's vertical displacement (Hz).
     pub frequency: f64,
     /// Full cycles between the first and last upward mean crossings, and the frequency they give (Hz).
     pub cycles: usize,
     pub crossing_frequency: f64,
-    /// Largest |mean vertical displacement| of the medial strip (cm).
-    pub amplitude: f64,
-    pub particles: usize,
-    pub steps: u64,
-    /// Solid time step (s).
-    pub dt: f64,
 }
 
 /// The right fold of `glottis_2d_coarse` alone, in vacuum, sampled at `spacing` (cm), with
@@ -101,15 +95,7 @@ pub fn lowest_mode(spacing: f64, cover: f64, body: f64, duration: f64) -> anyhow
         }
     }
     let o = oscillation(&series, SAMPLE_EVERY as f64 * s.dt).ok_or_else(|| anyhow::anyhow!("the fold did not ring two full cycles in {duration} s"))?;
-    Ok(FoldMode {
-        frequency: o.spectral_peak.unwrap_or(f64::NAN),
-        cycles: o.cycles,
-        crossing_frequency: o.frequency,
-        amplitude: o.max_abs,
-        particles: s.particles.len(),
-        steps,
-        dt: s.dt,
-    })
+    Ok(FoldMode { frequency: o.spectral_peak.unwrap_or(f64::NAN), cycles: o.cycles, crossing_frequency: o.frequency })
 }
 
 /// The case's moduli as the seed's list writes them: body 1·10⁵, cover 10, 20, 100, 200 × 10⁵
