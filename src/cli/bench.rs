@@ -462,6 +462,13 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                             v.round_trips,
                             v.nodes_per_round_trip
                         );
+                        let parts: Vec<String> = v.gpu_geometry_parts.iter().map(|(n, f)| format!("{n} {:.1}%", 100.0 * f)).collect();
+                        println!(
+                            "{:>30} fluid_geometry's parts: {}; {} device buffers or bind-group sets made in the timed steps",
+                            "",
+                            parts.join(", "),
+                            v.gpu_device_objects_made
+                        );
                         gpu_coupled.push(v);
                     }
                     Err(e) => println!("{label} skipped: {e}"),

@@ -249,6 +249,12 @@ pub struct CoupledGpuSpeed {
     pub round_trips: u64,
     /// Nodes whose populations crossed the bus for those changes (both ways), per change.
     pub nodes_per_round_trip: f64,
+    /// The parts of the `fluid_geometry` stage ([`super::coupled::GEOMETRY_PARTS`]) as shares of
+    /// a GPU step.
+    pub gpu_geometry_parts: Vec<(String, f64)>,
+    /// Buffers and bind-group sets the timed GPU steps made for their per-step work
+    /// ([`super::coupled::GpuCoupled::device_objects_made`]; 0 in the steady state).
+    pub gpu_device_objects_made: u64,
 }
 
 /// Times `steps` coupled steps of the solver `build` makes, on the GPU (a device of its own,
@@ -265,7 +271,8 @@ pub fn coupled_speed(scene: &str, build: impl Fn() -> crate::coupling::CoupledSo
     // at least one step of the timed ones is timed stage by stage (a `--quick` run of 5 steps
     // met no multiple of the default 16 and printed every share as 0 %)
     g.timing_every = g.timing_every.min(steps.max(1));
-    let (trips, trip_nodes) = (g.round_trips, g.round_trip_nodes);
+    g.geometry_parts = Default::default();
+    let (trips, trip_nodes, objects) = (g.round_trips, g.round_trip_nodes, g.device_objects_made());
     let t = Instant::now();
     let gpu_ok = warm && g.run(steps).is_ok();
     let gpu_wall = t.elapsed().as_secs_f64();
@@ -287,5 +294,7 @@ pub fn coupled_speed(scene: &str, build: impl Fn() -> crate::coupling::CoupledSo
         gpu_coupling_share: coupling,
         round_trips: g.round_trips - trips,
         nodes_per_round_trip: (g.round_trip_nodes - trip_nodes) as f64 / (g.round_trips - trips).max(1) as f64,
+        gpu_geometry_parts: g.geometry_part_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect(),
+        gpu_device_objects_made: g.device_objects_made() - objects,
     })
 }

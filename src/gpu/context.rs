@@ -220,13 +220,31 @@ fn try_read_parts(device: &wgpu::Device, queue: &wgpu::Queue, parts: &[(&wgpu::B
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let mut enc = device.create_command_encoder(&Default::default());
+    try_read_parts_into(device, queue, device.create_command_encoder(&Default::default()), parts, &staging)
+}
+
+/// `enc`'s commands, then the byte ranges (buffer, offset, length; multiples of 4) copied one
+/// after the other into `staging` (MAP_READ | COPY_DST, large enough; kept by the caller, so
+/// that the read makes no buffer) and read from there, in one submission and one wait; None
+/// when the read fails.
+pub fn try_read_parts_into(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    mut enc: wgpu::CommandEncoder,
+    parts: &[(&wgpu::Buffer, u64, u64)],
+    staging: &wgpu::Buffer,
+) -> Option<Vec<u8>> {
+    let size: u64 = parts.iter().map(|r| r.2).sum();
     let mut at = 0;
     for &(b, offset, len) in parts {
-        enc.copy_buffer_to_buffer(b, offset, &staging, at, len);
+        enc.copy_buffer_to_buffer(b, offset, staging, at, len);
         at += len;
     }
-    submit_and_map(device, queue, enc, &staging, size)
+    if size == 0 {
+        queue.submit([enc.finish()]);
+        return Some(Vec::new());
+    }
+    submit_and_map(device, queue, enc, staging, size)
 }
 
 /// All of `b` copied into `staging` (MAP_READ | COPY_DST, at least as large; made once by the

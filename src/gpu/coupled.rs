@@ -38,8 +38,12 @@
 //! solid's sub-steps are only submitted. The flag stays set once a node leaves its range, so
 //! reading it one step late loses nothing: the diagnosis names the step whose fluid stage failed
 //! ([`GpuCoupled::run`] reads the last step's flag before it returns, so a run never ends on an
-//! unchecked step). One step in [`GpuCoupled::timing_every`] waits after every stage as well,
-//! so that the per-stage times ([`GpuCoupled::stage_shares`]) are the stages' own.
+//! unchecked step). One step in [`GpuCoupled::timing_every`] waits for the device before its
+//! first stage (untimed) and after every stage as well, so that the per-stage times
+//! ([`GpuCoupled::stage_shares`]) are the stages' own. (Until 2026-12-05 it did not wait before
+//! the first stage: the previous step's solid sub-steps, still running on the device when the
+//! timed step began, were timed as that step's `fluid_geometry`, whose read of the particles
+//! waits for them.)
 
 use super::context::{GpuContext, GpuError};
 use super::coupling::CouplingKernels;
@@ -54,6 +58,13 @@ use std::time::{Duration, Instant};
 
 /// Steps between two steps timed stage by stage ([`GpuCoupled::timing_every`]).
 pub const TIMING_EVERY: u64 = 16;
+
+/// The parts of the `fluid_geometry` stage timed apart on the timed steps
+/// ([`GpuCoupled::geometry_parts`]): the wait for the particles (and the fluid's flag of the
+/// step before), the walls built on the CPU (level sets or polygons, the layout near the bodies),
+/// the populations of the nodes that change side across the bus (steps with changes only), and
+/// the boundary tables made from the layout and written to the device.
+pub const GEOMETRY_PARTS: [&str; 4] = ["particles back", "walls built on the CPU", "changed nodes across the bus", "tables written"];
 
 /// Fluid and solid of a coupled scene on the GPU (either coupling method).
 pub struct GpuCoupled {
@@ -95,6 +106,11 @@ pub struct GpuCoupled {
     /// The step and time of a fluid stage whose instability flag has not been read yet (read
     /// with the next step's particles, or by [`Self::check_fluid`]).
     fluid_unchecked: Option<(u64, f64)>,
+    /// Wall time of each of [`GEOMETRY_PARTS`] over the timed steps (a part of the
+    /// `fluid_geometry` entry of [`Self::timings`]).
+    pub geometry_parts: [Duration; 4],
+    /// Whether the step under way is one of the timed ones.
+    timing_now: bool,
 }
 
 impl GpuCoupled {
@@ -130,6 +146,8 @@ impl GpuCoupled {
             traction_plan: None,
             forces_stale: false,
             fluid_unchecked: None,
+            geometry_parts: [Duration::ZERO; 4],
+            timing_now: false,
         })
     }
 
@@ -150,6 +168,13 @@ impl GpuCoupled {
     /// [`Self::timing_every`]).
     pub fn step(&mut self) -> Result<(), Instability> {
         let timed = self.cpu.step_count.is_multiple_of(self.timing_every.max(1));
+        self.timing_now = timed;
+        if timed {
+            // the steps before were only submitted: their work still on the device (the solid's
+            // sub-steps) would be timed as this step's first stage, whose read of the particles
+            // waits for it
+            let _ = self.ctx.device.poll(wgpu::PollType::wait_indefinitely());
+        }
         for (k, st) in self.cpu.stages().iter().enumerate() {
             let t0 = Instant::now();
             let r = self.run_stage(st.kind);
@@ -202,6 +227,35 @@ impl GpuCoupled {
     /// Each stage's share of the wall time so far.
     pub fn stage_shares(&self) -> Vec<(&'static str, f64)> {
         crate::stages::time_shares(self.cpu.stages().iter().map(|s| s.name).zip(&self.timings))
+    }
+
+    /// Each of [`GEOMETRY_PARTS`] as a share of the timed steps' wall time (they add up to the
+    /// `fluid_geometry` share of [`Self::stage_shares`], less what the stage spends between them).
+    pub fn geometry_part_shares(&self) -> Vec<(&'static str, f64)> {
+        let total: Duration = self.timings.iter().sum();
+        GEOMETRY_PARTS.iter().zip(&self.geometry_parts).map(|(n, t)| (*n, if total.is_zero() { 0.0 } else { t.as_secs_f64() / total.as_secs_f64() })).collect()
+    }
+
+    /// The buffers and bind-group sets made on the device for the coupled step's per-step work
+    /// since the upload, their first ones included: the boundary tables' and thin-wall flux
+    /// tables' buffers and the stage bind groups remade when a table outgrew its buffer
+    /// ([`GpuFluid::step_objects_made`], [`GpuFluid::geometry_rebinds`]), method 1's traction
+    /// buffers and bind groups, method 2's hand-over buffers and bind groups, the particles'
+    /// staging buffer. (The population round trips of steps where nodes change side use their
+    /// own kept buffers and a staging buffer per read.) Constant over steps
+    /// that made none: the steady state of a coupled run (test
+    /// `a_coupled_step_makes_no_buffers_once_running` in tests/gpu.rs).
+    pub fn device_objects_made(&self) -> u64 {
+        self.fluid.geometry_rebinds + self.fluid.step_objects_made() + self.kernels.objects_made() + self.solid.readback_buffers_made()
+    }
+
+    /// Adds the time since `t0` to geometry part `k` on a timed step, and returns now.
+    fn time_part(&mut self, k: usize, t0: Instant) -> Instant {
+        let now = Instant::now();
+        if self.timing_now {
+            self.geometry_parts[k] += now - t0;
+        }
+        now
     }
 
     /// Runs one stage of the step (the step counter advances in [`Self::step`] only).
@@ -267,17 +321,28 @@ impl GpuCoupled {
     /// CPU mirror (whose populations are the device's, brought back by the last traction stage);
     /// the populations go up when nodes changed side (see the module table).
     fn polygon_geometry(&mut self, o: WeakOptions) -> Result<(), Instability> {
+        let t = Instant::now();
         self.download_particles(true)?;
-        let Some(walls) = self.cpu.next_polygon_walls(o)? else { return Ok(()) };
-        if walls.changes_nodes(&self.cpu.fluid.layout) {
+        let t = self.time_part(0, t);
+        let Some(walls) = self.cpu.next_polygon_walls(o)? else {
+            self.time_part(1, t);
+            return Ok(());
+        };
+        let t = if walls.changes_nodes(&self.cpu.fluid.layout) {
             let change = walls.change(&self.cpu.fluid.layout).clone();
+            let t = self.time_part(1, t);
             self.bring_back(&change)?;
+            let t = self.time_part(2, t);
             self.cpu.install_polygon_walls(walls);
+            let t = self.time_part(1, t);
             self.send_up(&change);
+            self.time_part(2, t)
         } else {
             self.cpu.install_polygon_walls(walls);
-        }
+            self.time_part(1, t)
+        };
         self.fluid.set_geometry(&self.cpu.fluid).map_err(|e| self.side_ghosts_outgrown(e))?;
+        self.time_part(3, t);
         Ok(())
     }
 
@@ -361,17 +426,25 @@ impl GpuCoupled {
 
     /// The walls at the particles' current positions (see the module table).
     fn fluid_geometry(&mut self) -> Result<(), Instability> {
+        let t = Instant::now();
         self.download_particles(false)?;
+        let t = self.time_part(0, t);
         let walls = self.cpu.next_level_set_walls()?;
-        if walls.changes_nodes(&self.cpu.fluid.layout) {
+        let t = if walls.changes_nodes(&self.cpu.fluid.layout) {
             let change = walls.change(&self.cpu.fluid.layout).clone();
+            let t = self.time_part(1, t);
             self.bring_back(&change)?;
+            let t = self.time_part(2, t);
             self.cpu.install_level_set_walls(walls);
+            let t = self.time_part(1, t);
             self.send_up(&change);
+            self.time_part(2, t)
         } else {
             self.cpu.install_level_set_walls(walls);
-        }
+            self.time_part(1, t)
+        };
         self.fluid.set_geometry(&self.cpu.fluid).map_err(|e| self.side_ghosts_outgrown(e))?;
+        self.time_part(3, t);
         Ok(())
     }
 

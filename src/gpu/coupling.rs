@@ -10,7 +10,8 @@
 //! fluid ([`super::GpuFluid::record_face_fluxes`]). The coupled step that strings them together
 //! is [`super::coupled::GpuCoupled`].
 
-use super::context::{GpuContext, buffer_layout, compute_pipelines, read_buffer};
+use super::context::{GpuContext, buffer_layout, compute_pipelines, try_read_parts_into};
+use super::growing::GrowingBuffer;
 use crate::fluid::{Grid, KernelLevelSet};
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, DVec4};
@@ -86,21 +87,70 @@ fn workgroups(count: u32) -> u32 {
 
 /// What a binding holds for one call.
 enum Binding<'a> {
-    /// A fresh buffer with these bytes.
+    /// These bytes, written into the binding's own buffer ([`Buffers`]).
     Data(&'a [u8]),
-    /// A one-element placeholder (the kernels of the call do not touch it).
+    /// The binding's own buffer as it is (the kernels of the call do not touch it).
     Unused,
     /// A buffer that lives on the device (the fluid's face-flux record, the scaled array).
     Resident(&'a wgpu::Buffer),
 }
 
-/// The compiled kernels (one pipeline layout, pipelines indexed by `Kernel`); buffers are
-/// made per call, except the per-node scaled momentum, kept between calls.
+/// The buffers the kernels' calls reuse: each binding's own (rewritten per call, remade only
+/// when a call's data outgrow it), the uniform with each kernel's parameters beside it, the
+/// staging buffer of the reads, and the bind group with the buffers it binds (made again only
+/// when one of them changed).
+struct Buffers {
+    params: wgpu::Buffer,
+    /// Each kernel's parameters of a call, one after the other, copied into `params` before it.
+    per_kernel: GrowingBuffer,
+    data: Vec<GrowingBuffer>,
+    staging: GrowingBuffer,
+    group: Option<(wgpu::BindGroup, Vec<wgpu::Buffer>)>,
+    /// Bind groups made so far.
+    groups_made: u64,
+}
+
+impl Buffers {
+    fn new(device: &wgpu::Device) -> Self {
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        Buffers {
+            params: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("coupling params"),
+                size: std::mem::size_of::<Params>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            // room for every kernel's parameters in one call
+            per_kernel: GrowingBuffer::with_room(
+                device,
+                "coupling kernel params",
+                wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                (Kernel::ALL.len() * std::mem::size_of::<Params>()) as u64,
+            ),
+            // 4 KiB each to start with: a few hundred particles' or changed nodes' entries
+            data: (0..BINDINGS).map(|_| GrowingBuffer::with_room(device, "coupling", storage, 4096)).collect(),
+            staging: GrowingBuffer::with_room(device, "coupling readback", wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, 0),
+            group: None,
+            groups_made: 0,
+        }
+    }
+
+    /// Buffers made so far (each growing buffer's first one included).
+    fn made(&self) -> u64 {
+        self.per_kernel.made() + self.staging.made() + self.data.iter().map(GrowingBuffer::made).sum::<u64>()
+    }
+}
+
+/// The compiled kernels (one pipeline layout, pipelines indexed by `Kernel`) and the buffers
+/// their calls reuse ([`Buffers`]; with the per-node scaled momentum): a hand-over of a
+/// running coupled scene makes no buffer or bind group ([`Self::objects_made`]).
 pub struct CouplingKernels {
     pipelines: [wgpu::ComputePipeline; 4],
     layout: wgpu::BindGroupLayout,
     /// `exchange_weights`' output, one vec4 per node, reused while the lattice fits in it.
     scaled: std::sync::Mutex<Option<wgpu::Buffer>>,
+    /// Made at the first call.
+    buffers: std::sync::Mutex<Option<Buffers>>,
 }
 
 fn v4(p: [f64; 3]) -> [f32; 4] {
@@ -132,7 +182,7 @@ impl CouplingKernels {
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("coupling"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
         let mut map = compute_pipelines(device, &module, &pl, &Kernel::ALL.map(Kernel::entry));
         let pipelines = Kernel::ALL.map(|k| map.remove(k.entry()).expect("one pipeline per entry point"));
-        CouplingKernels { pipelines, layout, scaled: std::sync::Mutex::new(None) }
+        CouplingKernels { pipelines, layout, scaled: std::sync::Mutex::new(None), buffers: std::sync::Mutex::new(None) }
     }
 
     fn params(set: &KernelLevelSet) -> Params {
@@ -148,66 +198,76 @@ impl CouplingKernels {
         }
     }
 
+    /// Buffers and bind groups the calls have made so far: the same after a call means the call
+    /// made none (the scaled array counts once made).
+    pub fn objects_made(&self) -> u64 {
+        let b = self.buffers.lock().expect("the buffers' lock");
+        let scaled = self.scaled.lock().expect("the scaled buffer's lock").is_some() as u64;
+        b.as_ref().map_or(0, |b| b.made() + b.groups_made) + scaled
+    }
+
     /// Runs `kernels` in order over `count` threads each, with the given bindings, then clears
-    /// the bindings named in `clear` and reads back those named in `read`.
+    /// the bindings named in `clear` and reads back those named in `read` (a binding of data:
+    /// as many bytes as the data; a resident buffer: all of it), in one trip.
     fn run(&self, ctx: &GpuContext, p: Params, data: [Binding; BINDINGS], kernels: &[(Kernel, u32)], clear: &[usize], read: &[usize]) -> Vec<Vec<u8>> {
-        let device = &ctx.device;
-        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("coupling params"),
-            contents: bytemuck::bytes_of(&p),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        });
-        let placeholder = [0u8; 16];
-        let made: Vec<Option<wgpu::Buffer>> = data
-            .iter()
-            .map(|d| {
-                let contents = match d {
-                    Binding::Resident(_) => return None,
-                    Binding::Data(d) if !d.is_empty() => *d,
-                    _ => &placeholder,
-                };
-                Some(device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("coupling"),
-                    contents,
-                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-                }))
-            })
-            .collect();
+        let (device, queue) = (&ctx.device, &ctx.queue);
+        let mut guard = self.buffers.lock().expect("the buffers' lock");
+        let b = guard.get_or_insert_with(|| Buffers::new(device));
+        for (buf, d) in b.data.iter_mut().zip(&data) {
+            if let Binding::Data(d) = d {
+                buf.write(device, queue, d);
+            }
+        }
+        // each kernel's thread count goes in through its own copy of the parameters
+        let size = std::mem::size_of::<Params>() as u64;
+        let each: Vec<Params> = kernels.iter().map(|&(_, count)| Params { count, ..p }).collect();
+        b.per_kernel.write(device, queue, bytemuck::cast_slice(&each));
         // binding k (0 the uniform)
-        let buffer = |k: usize| -> &wgpu::Buffer {
-            if k == 0 {
-                return &params;
-            }
-            match &data[k - 1] {
-                Binding::Resident(b) => b,
-                _ => made[k - 1].as_ref().expect("a buffer made for this binding"),
-            }
-        };
-        let entries_bg: Vec<wgpu::BindGroupEntry> =
-            (0..=BINDINGS).map(|k| wgpu::BindGroupEntry { binding: k as u32, resource: buffer(k).as_entire_binding() }).collect();
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("coupling"), layout: &self.layout, entries: &entries_bg });
+        let bound: Vec<wgpu::Buffer> = std::iter::once(b.params.clone())
+            .chain(data.iter().zip(&b.data).map(|(d, own)| match d {
+                Binding::Resident(r) => (*r).clone(),
+                _ => own.buffer().clone(),
+            }))
+            .collect();
+        if b.group.as_ref().is_none_or(|(_, was)| *was != bound) {
+            let entries: Vec<wgpu::BindGroupEntry> =
+                bound.iter().enumerate().map(|(k, buf)| wgpu::BindGroupEntry { binding: k as u32, resource: buf.as_entire_binding() }).collect();
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("coupling"), layout: &self.layout, entries: &entries });
+            b.group = Some((group, bound.clone()));
+            b.groups_made += 1;
+        }
+        let group = &b.group.as_ref().expect("made above").0;
         let mut enc = device.create_command_encoder(&Default::default());
-        for &(kernel, count) in kernels {
-            // each kernel's thread count goes in through its own uniform copy
-            let mut q = p;
-            q.count = count;
-            let ub = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("coupling params"),
-                contents: bytemuck::bytes_of(&q),
-                usage: wgpu::BufferUsages::COPY_SRC,
-            });
-            enc.copy_buffer_to_buffer(&ub, 0, &params, 0, std::mem::size_of::<Params>() as u64);
+        for (i, &(kernel, count)) in kernels.iter().enumerate() {
+            enc.copy_buffer_to_buffer(b.per_kernel.buffer(), i as u64 * size, &b.params, 0, size);
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(kernel.entry()), timestamp_writes: None });
             pass.set_pipeline(&self.pipelines[kernel as usize]);
-            pass.set_bind_group(0, &group, &[]);
+            pass.set_bind_group(0, group, &[]);
             let w = workgroups(count);
             if w <= 65_535 { pass.dispatch_workgroups(w, 1, 1) } else { pass.dispatch_workgroups(65_535, w / 65_535, 1) }
         }
         for &k in clear {
-            enc.clear_buffer(buffer(k), 0, None);
+            enc.clear_buffer(&bound[k], 0, None);
         }
-        ctx.queue.submit([enc.finish()]);
-        read.iter().map(|&k| read_buffer(device, &ctx.queue, buffer(k))).collect()
+        let lengths: Vec<u64> = read
+            .iter()
+            .map(|&k| match &data[k - 1] {
+                Binding::Data(d) => d.len() as u64,
+                _ => bound[k].size(),
+            })
+            .collect();
+        let parts: Vec<(&wgpu::Buffer, u64, u64)> = read.iter().zip(&lengths).map(|(&k, &len)| (&bound[k], 0, len)).collect();
+        b.staging.reserve(device, lengths.iter().sum());
+        let all = try_read_parts_into(device, queue, enc, &parts, b.staging.buffer()).unwrap_or_else(|| vec![0; lengths.iter().sum::<u64>() as usize]);
+        let mut at = 0;
+        lengths
+            .iter()
+            .map(|&len| {
+                let part = all[at..at + len as usize].to_vec();
+                at += len as usize;
+                part
+            })
+            .collect()
     }
 
     /// L, ∇L, the wall velocity and Σw at each of `queries` (lattice coordinates): the GPU twin of

@@ -26,6 +26,7 @@ pub use readback::{FlagReadFailed, GpuArray, compare_nodes};
 
 use super::codegen::{self, Split, WORKGROUP};
 use super::context::{GpuContext, GpuError};
+use super::growing::GrowingBuffer;
 use crate::fluid::FluidSolver;
 use crate::stages::{FDLB_STEP, RkStage, Stage, StageKind};
 use bytemuck::{Pod, Zeroable};
@@ -119,22 +120,29 @@ pub struct GpuFluid {
     /// Geometry changes that needed new boundary tables' buffers and bind groups (their sizes
     /// changed); the others rewrote the tables in place ([`Self::set_geometry`]).
     pub geometry_rebinds: u64,
+    /// Buffers and bind groups method 1's traction kernels have made (their buffers when they
+    /// outgrow them, the bind groups once per placement of fⁿ and buffer set).
+    traction_objects_made: u64,
     status: wgpu::Buffer,
     /// The flag's own staging buffer, made once: reading the flag after an advance allocates
     /// nothing on the device (a read that needed memory would fail where the device's memory
     /// is full, as a state read may).
     status_staging: wgpu::Buffer,
-    ghosts: (wgpu::Buffer, wgpu::Buffer, u32),
-    faces: (wgpu::Buffer, u32),
-    periodic: (wgpu::Buffer, u32),
+    /// The boundary tables (rewritten in place at each geometry change, remade only when they
+    /// outgrow their buffers) with their thread counts: ghosts and their image taps, face halos,
+    /// periodic copies.
+    ghosts: (GrowingBuffer, GrowingBuffer, u32),
+    faces: (GrowingBuffer, u32),
+    periodic: (GrowingBuffer, u32),
     params_stage: [wgpu::Buffer; 2],
-    /// The parameters of the ghost, face and periodic fills (with their thread counts).
+    /// The parameters of the ghost, face and periodic fills (with their thread counts; rewritten
+    /// when the counts change).
     params_count: [wgpu::Buffer; 3],
     /// The parameters every uniform of this lattice starts from.
     base: Params,
     /// Thin-wall taps, (first tap, count) per node, the node count, and the parameters of the
     /// two Runge–Kutta stages with that count.
-    thin: (wgpu::Buffer, wgpu::Buffer, u32, [wgpu::Buffer; 2]),
+    thin: (GrowingBuffer, GrowingBuffer, u32, [wgpu::Buffer; 2]),
     /// moments_collide, advect, ghost_fill, face_fill, periodic_copy, thin_wall (the `PIPE_*`
     /// indices).
     pipelines: [wgpu::ComputePipeline; 6],
@@ -264,7 +272,7 @@ impl GpuFluid {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("params"),
                 contents: bytemuck::bytes_of(&p),
-                usage: wgpu::BufferUsages::UNIFORM,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             })
         };
         let params_stage = [uniform(Params { stage: 1, ..base }), uniform(Params { stage: 2, ..base })];
@@ -284,15 +292,19 @@ impl GpuFluid {
                 pipeline_of(&device, "thin_wall", &codegen::thin_wall(eq, split), "main"),
             ],
             thin: (
-                storage(&device, "thin taps", bytemuck::cast_slice(&t.thin_taps)),
-                storage(&device, "thin ranges", bytemuck::cast_slice(&t.thin_ranges)),
+                GrowingBuffer::storage(&device, "thin taps", bytemuck::cast_slice(&t.thin_taps)),
+                GrowingBuffer::storage(&device, "thin ranges", bytemuck::cast_slice(&t.thin_ranges)),
                 thin_count,
                 params_thin,
             ),
             groups: [Vec::new(), Vec::new()],
-            ghosts: (storage(&device, "ghosts", bytemuck::cast_slice(&t.ghosts)), storage(&device, "images", bytemuck::cast_slice(&t.images)), counts[0]),
-            faces: (storage(&device, "faces", bytemuck::cast_slice(&t.faces)), counts[1]),
-            periodic: (storage(&device, "periodic", bytemuck::cast_slice(&t.periodic)), counts[2]),
+            ghosts: (
+                GrowingBuffer::storage(&device, "ghosts", bytemuck::cast_slice(&t.ghosts)),
+                GrowingBuffer::storage(&device, "images", bytemuck::cast_slice(&t.images)),
+                counts[0],
+            ),
+            faces: (GrowingBuffer::storage(&device, "faces", bytemuck::cast_slice(&t.faces)), counts[1]),
+            periodic: (GrowingBuffer::storage(&device, "periodic", bytemuck::cast_slice(&t.periodic)), counts[2]),
             base,
             interior: g.interior_len() as u32,
             eq: eq.clone(),
@@ -313,6 +325,7 @@ impl GpuFluid {
             kind,
             kind_host: t.kind.clone(),
             geometry_rebinds: 0,
+            traction_objects_made: 0,
             status,
             status_staging,
             params_stage,
@@ -398,19 +411,19 @@ impl GpuFluid {
                         PIPE_GHOST,
                         self.bind(
                             &self.pipelines[PIPE_GHOST],
-                            &[(0, &self.params_count[0]), (1, &self.ghosts.0), (2, &self.ghosts.1), (3, &self.mac)],
+                            &[(0, &self.params_count[0]), (1, self.ghosts.0.buffer()), (2, self.ghosts.1.buffer()), (3, &self.mac)],
                             &arrays,
                         ),
                         self.ghosts.2,
                     ),
                     (
                         PIPE_FACE,
-                        self.bind(&self.pipelines[PIPE_FACE], &[(0, &self.params_count[1]), (1, &self.faces.0), (3, &self.mac)], &arrays),
+                        self.bind(&self.pipelines[PIPE_FACE], &[(0, &self.params_count[1]), (1, self.faces.0.buffer()), (3, &self.mac)], &arrays),
                         self.faces.1,
                     ),
                     (
                         PIPE_PERIODIC,
-                        self.bind(&self.pipelines[PIPE_PERIODIC], &[(0, &self.params_count[2]), (4, &self.periodic.0)], &[(10 + g, &self.h)]),
+                        self.bind(&self.pipelines[PIPE_PERIODIC], &[(0, &self.params_count[2]), (4, self.periodic.0.buffer())], &[(10 + g, &self.h)]),
                         self.periodic.1,
                     ),
                 ]
@@ -418,9 +431,23 @@ impl GpuFluid {
             StageKind::Advect => {
                 let out = if k == 0 { f1 } else { fnext };
                 let bg = self.bind(&self.pipelines[PIPE_ADVECT], &[(0, params), (1, &self.kind)], &[(10, &self.h), (10 + g, out)]);
-                let thin =
-                    self.bind(&self.pipelines[PIPE_THIN], &[(0, &self.thin.3[k]), (1, &self.thin.0), (2, &self.thin.1)], &[(10, &self.h), (10 + g, out)]);
+                let thin = self.bind(
+                    &self.pipelines[PIPE_THIN],
+                    &[(0, &self.thin.3[k]), (1, self.thin.0.buffer()), (2, self.thin.1.buffer())],
+                    &[(10, &self.h), (10 + g, out)],
+                );
                 vec![(PIPE_ADVECT, bg, self.interior), (PIPE_THIN, thin, self.thin.2)]
+            }
+        }
+    }
+
+    /// The boundary and thin-wall dispatches' thread counts set to the tables' current counts
+    /// (after [`Self::set_geometry`] rewrote the tables in place).
+    fn set_dispatch_counts(&mut self) {
+        let counts = [(PIPE_GHOST, self.ghosts.2), (PIPE_FACE, self.faces.1), (PIPE_PERIODIC, self.periodic.1), (PIPE_THIN, self.thin.2)];
+        for (p, _, threads) in self.groups.iter_mut().flatten().flatten() {
+            if let Some(&(_, c)) = counts.iter().find(|(q, _)| q == p) {
+                *threads = c;
             }
         }
     }

@@ -105,6 +105,8 @@ pub struct GpuSolid {
     /// Reference positions X: the `pos` buffer holds the displacement u = x − X
     /// (shaders/solid.wgsl).
     reference: Vec<DVec3>,
+    /// The staging buffer of the coupled step's reads of the particles, kept between reads.
+    readback: super::growing::Readback,
 }
 
 impl GpuSolid {
@@ -234,6 +236,7 @@ impl GpuSolid {
             step_count: 0,
             contact: None,
             reference: p.reference.clone(),
+            readback: Default::default(),
         };
         if let Some(cp) = &s.options.contact {
             if s.options.walls.len() > 4 {
@@ -407,7 +410,7 @@ impl GpuSolid {
     pub fn download_kinematics(&self, extra: &[&wgpu::Buffer]) -> Option<Kinematics> {
         let mut buffers = vec![&self.buffers[Buf::Pos], &self.buffers[Buf::Vel]];
         buffers.extend_from_slice(extra);
-        let mut arrays = super::context::try_read_buffers(&self.device, &self.queue, &buffers)?;
+        let mut arrays = self.readback.read(&self.device, &self.queue, &buffers)?;
         let rest = arrays.split_off(2);
         Some((self.positions(&arrays[0]), self.vectors(&arrays[1]), rest))
     }
@@ -421,6 +424,12 @@ impl GpuSolid {
     /// reference position.
     fn positions(&self, raw: &[u8]) -> Vec<DVec3> {
         self.vectors(raw).into_iter().zip(&self.reference).map(|(u, x)| *x + u).collect()
+    }
+
+    /// Staging buffers the reads of [`Self::download_kinematics`] and
+    /// [`Self::download_into_with`] have made (one, unless a read outgrew it).
+    pub fn readback_buffers_made(&self) -> u64 {
+        self.readback.made()
     }
 
     /// A per-particle vector array as f64.
@@ -485,7 +494,7 @@ impl GpuSolid {
         let b = |buf: Buf| &self.buffers[buf];
         let mut buffers = vec![b(Buf::Pos), b(Buf::Vel), b(Buf::Spin), b(Buf::Quat)];
         buffers.extend_from_slice(extra);
-        let mut arrays = super::context::try_read_buffers(&self.device, &self.queue, &buffers)?;
+        let mut arrays = self.readback.read(&self.device, &self.queue, &buffers)?;
         let rest = arrays.split_off(4);
         let [pos, vel, spin, quat] = <[Vec<u8>; 4]>::try_from(arrays).expect("four arrays");
         s.particles.position = self.positions(&pos);

@@ -138,7 +138,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
 /// `thin_wall_fluxes`: the thin-wall part of the face-flux record (after `face_fluxes`, same
 /// stage). A thin-wall stencil changes a fluid node by −½Δt·|c_a|/6·(Σ w·h + Σ w_full·h_side), which is no face flux;
 /// the wall next to it takes the opposite, as in the CPU twin. One thread per such wall node
-/// (`targets`: node, first, count), walking its taps (`order` into `taps`), so no atomics.
+/// (`targets`: node, first, count; the first `P.count` of them), walking its taps (`order`
+/// into `taps`), so no atomics.
 pub fn thin_wall_fluxes(eq: &Equilibrium, split: Split) -> String {
     let q = eq.q();
     let mut s = format!("const WG: u32 = {WORKGROUP}u;\n{PARAMS}\n");
@@ -154,7 +155,7 @@ struct ThinTap { node: u32, axis: u32, sign: i32, step: i32, w: vec4<f32>, side:
 @compute @workgroup_size(WG)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = thread_index(gid, nwg);
-    if (i >= arrayLength(&targets)) { return; }
+    if (i >= P.count) { return; }
     let tg = targets[i];
     if (tg.z == 0u) { return; }
     let N = P.n_nodes;

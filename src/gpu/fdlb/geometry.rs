@@ -3,13 +3,12 @@
 //! once at upload, and again at every step of a coupled run whose walls move
 //! ([`GpuFluid::set_geometry`], the `fluid_geometry` stage).
 
-use super::{Entry, GpuFluid, Params, storage};
+use super::{Entry, GpuFluid, Params};
 use crate::fluid::layout::{HaloReach, NodeKind};
 use crate::fluid::thin_wall::side_ghost_count;
 use crate::fluid::{FaceCondition, FluidSolver};
 use crate::gpu::codegen::{FaceCode, GHOST_ISOTHERMAL, periodic_reach_code};
 use crate::gpu::thin_wall::{self, ThinTapEntry};
-use wgpu::util::DeviceExt;
 
 /// The geometry tables of a layout as the boundary kernels read them.
 pub(super) struct Tables {
@@ -103,13 +102,15 @@ impl Tables {
 
 impl GpuFluid {
     /// Replaces the geometry (node kinds and boundary tables) with that of `s`, a solver of the
-    /// same lattice whose walls moved: method 2's `fluid_geometry` stage on the GPU, the tables
-    /// built on the CPU from the bodies' level sets (the particles' positions come back each
-    /// step; the populations only on steps where nodes change side, [`Self::upload_state`]).
-    /// Only the span of node kinds that changed goes up (none on most steps); the boundary
-    /// tables (ghost depths and wall velocities change every step) are rewritten in place when
-    /// their sizes are unchanged, else new buffers and bind groups are made
-    /// ([`Self::geometry_rebinds`]). The populations are untouched.
+    /// same lattice whose walls moved: the `fluid_geometry` stage of a coupled step on the GPU,
+    /// the tables built on the CPU from the bodies' walls (the particles' positions come back
+    /// each step; the populations only on steps where nodes change side,
+    /// [`Self::upload_state`]). Only the span of node kinds that changed goes up (none on most
+    /// steps); the boundary tables (ghost depths and wall velocities change every step) are
+    /// rewritten in their buffers, and the fills' thread counts with them. New buffers and bind
+    /// groups are made only when a table outgrows its buffer (which holds half as much again as
+    /// when it was made, [`crate::gpu::growing::GrowingBuffer`]; counted by [`Self::geometry_rebinds`]), so that the
+    /// steady state of a coupled run makes none. The populations are untouched.
     /// Refused, changing nothing, when the new walls need more side ghosts than the arrays have
     /// room for ([`SideGhostRoom`]).
     pub fn set_geometry(&mut self, s: &FluidSolver) -> Result<(), SideGhostRoom> {
@@ -121,52 +122,49 @@ impl GpuFluid {
             self.queue.write_buffer(&self.kind, (4 * first) as u64, bytemuck::cast_slice(&t.kind[first..=last]));
             self.kind_host[first..=last].copy_from_slice(&t.kind[first..=last]);
         }
+        let (device, queue) = (&self.device, &self.queue);
+        let mut remade = false;
+        remade |= self.ghosts.0.write(device, queue, bytemuck::cast_slice(&t.ghosts));
+        remade |= self.ghosts.1.write(device, queue, bytemuck::cast_slice(&t.images));
+        remade |= self.faces.0.write(device, queue, bytemuck::cast_slice(&t.faces));
+        remade |= self.periodic.0.write(device, queue, bytemuck::cast_slice(&t.periodic));
+        let thin_remade =
+            self.thin.0.write(device, queue, bytemuck::cast_slice(&t.thin_taps)) | self.thin.1.write(device, queue, bytemuck::cast_slice(&t.thin_ranges));
+        remade |= thin_remade;
+        // the fills' thread counts: in their parameters and in the recorded dispatches
         let counts = t.counts();
-        let thin_count = t.thin_ranges.len() as u32;
-        let tables: [(&wgpu::Buffer, &[u8]); 6] = [
-            (&self.ghosts.0, bytemuck::cast_slice(&t.ghosts)),
-            (&self.ghosts.1, bytemuck::cast_slice(&t.images)),
-            (&self.faces.0, bytemuck::cast_slice(&t.faces)),
-            (&self.periodic.0, bytemuck::cast_slice(&t.periodic)),
-            (&self.thin.0, bytemuck::cast_slice(&t.thin_taps)),
-            (&self.thin.1, bytemuck::cast_slice(&t.thin_ranges)),
-        ];
-        let in_place = counts == [self.ghosts.2, self.faces.1, self.periodic.1]
-            && thin_count == self.thin.2
-            && tables.iter().all(|(b, d)| d.is_empty() || d.len() as u64 == b.size());
-        if in_place {
-            for (b, d) in tables {
-                if !d.is_empty() {
-                    self.queue.write_buffer(b, 0, d);
-                }
+        let old = [self.ghosts.2, self.faces.1, self.periodic.1];
+        for k in 0..3 {
+            if counts[k] != old[k] {
+                self.queue.write_buffer(&self.params_count[k], 0, bytemuck::bytes_of(&Params { count: counts[k], ..self.base }));
             }
-            // the same buffers: only the face-flux record's thin-tap targets follow the new taps
-            self.rebind_face_fluxes(s, false);
-            return Ok(());
         }
-        self.geometry_rebinds += 1;
-        let device = &self.device;
-        let uniform = |p: Params| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("params"),
-                contents: bytemuck::bytes_of(&p),
-                usage: wgpu::BufferUsages::UNIFORM,
-            })
-        };
-        let base = self.base;
-        self.params_count = counts.map(|c| uniform(Params { count: c, ..base }));
-        self.ghosts = (storage(device, "ghosts", bytemuck::cast_slice(&t.ghosts)), storage(device, "images", bytemuck::cast_slice(&t.images)), counts[0]);
-        self.faces = (storage(device, "faces", bytemuck::cast_slice(&t.faces)), counts[1]);
-        self.periodic = (storage(device, "periodic", bytemuck::cast_slice(&t.periodic)), counts[2]);
-        self.thin = (
-            storage(device, "thin taps", bytemuck::cast_slice(&t.thin_taps)),
-            storage(device, "thin ranges", bytemuck::cast_slice(&t.thin_ranges)),
-            thin_count,
-            [uniform(Params { stage: 1, count: thin_count, ..base }), uniform(Params { stage: 2, count: thin_count, ..base })],
-        );
-        self.groups = self.stage_groups();
-        self.rebind_face_fluxes(s, true);
+        (self.ghosts.2, self.faces.1, self.periodic.1) = (counts[0], counts[1], counts[2]);
+        let thin_count = t.thin_ranges.len() as u32;
+        if thin_count != self.thin.2 {
+            for (k, stage) in [1, 2].into_iter().enumerate() {
+                self.queue.write_buffer(&self.thin.3[k], 0, bytemuck::bytes_of(&Params { stage, count: thin_count, ..self.base }));
+            }
+            self.thin.2 = thin_count;
+        }
+        if remade {
+            self.geometry_rebinds += 1;
+            self.groups = self.stage_groups();
+        } else {
+            self.set_dispatch_counts();
+        }
+        // the face-flux record's thin-wall targets follow the new taps
+        self.refresh_thin_fluxes(s, thin_remade);
         Ok(())
+    }
+
+    /// Buffers and bind groups made for a coupled run's per-step work since the upload, the
+    /// first ones included: the boundary tables' and the thin-wall flux tables' buffers (more
+    /// only when a table outgrew its buffer) and method 1's traction kernels' buffers and bind
+    /// groups. The stage bind groups remade with the tables are [`Self::geometry_rebinds`].
+    pub fn step_objects_made(&self) -> u64 {
+        let tables = [&self.ghosts.0, &self.ghosts.1, &self.faces.0, &self.periodic.0, &self.thin.0, &self.thin.1];
+        tables.iter().map(|b| b.made()).sum::<u64>() + self.face_fluxes.as_ref().map_or(0, |ff| ff.thin_tables_made()) + self.traction_objects_made
     }
 
     /// Writes the populations of `s` (a solver of the same lattice) as the state fⁿ.

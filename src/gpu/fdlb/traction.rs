@@ -62,6 +62,9 @@ pub(super) struct TractionKernel {
     shares: wgpu::Buffer,
     /// Pieces of the last plan (whose forces `piece_force` holds).
     count: usize,
+    /// The two kernels' bind groups per placement of fⁿ (buffer 0 or 2) with the load buffer
+    /// they were made for, kept while these buffers live.
+    groups: [Option<(wgpu::Buffer, wgpu::BindGroup, wgpu::BindGroup)>; 2],
 }
 
 fn v4(v: DVec3) -> [f32; 4] {
@@ -121,13 +124,20 @@ impl GpuFluid {
             }
         }
         let k = self.traction.as_ref().expect("built by prepare_traction");
-        let forces = self.bind(&k.pieces_force, &[(0, &k.params), (1, &k.pieces), (2, &k.stencil), (3, &k.piece_force)], &[(10, &self.f[self.cur])]);
-        let spread = self.bind(&k.spread, &[(0, &k.params), (3, &k.piece_force), (4, &k.targets), (5, &k.shares), (6, load)], &[]);
+        let slot = self.cur / 2;
+        if k.groups[slot].as_ref().is_none_or(|(l, _, _)| l != load) {
+            let forces = self.bind(&k.pieces_force, &[(0, &k.params), (1, &k.pieces), (2, &k.stencil), (3, &k.piece_force)], &[(10, &self.f[self.cur])]);
+            let spread = self.bind(&k.spread, &[(0, &k.params), (3, &k.piece_force), (4, &k.targets), (5, &k.shares), (6, load)], &[]);
+            self.traction_objects_made += 2;
+            self.traction.as_mut().expect("built by prepare_traction").groups[slot] = Some((load.clone(), forces, spread));
+        }
+        let k = self.traction.as_ref().expect("built by prepare_traction");
+        let (_, forces, spread) = k.groups[slot].as_ref().expect("made above");
         let mut enc = self.device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
-            Self::dispatch(&mut pass, &k.pieces_force, &forces, pieces.len() as u32);
-            Self::dispatch(&mut pass, &k.spread, &spread, targets.len() as u32);
+            Self::dispatch(&mut pass, &k.pieces_force, forces, pieces.len() as u32);
+            Self::dispatch(&mut pass, &k.spread, spread, targets.len() as u32);
         }
         self.queue.submit([enc.finish()]);
     }
@@ -181,7 +191,9 @@ impl GpuFluid {
             targets: buffer("traction targets", 32 * targets, U::STORAGE | U::COPY_DST),
             shares: buffer("traction shares", 8 * shares, U::STORAGE | U::COPY_DST),
             count: 0,
+            groups: [None, None],
         });
+        self.traction_objects_made += 6;
     }
 }
 
