@@ -194,17 +194,20 @@ pub fn try_read_ranges(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buf
 pub fn try_read_buffers(device: &wgpu::Device, queue: &wgpu::Queue, buffers: &[&wgpu::Buffer]) -> Option<Vec<Vec<u8>>> {
     let parts: Vec<(&wgpu::Buffer, u64, u64)> = buffers.iter().map(|b| (*b, 0, b.size())).collect();
     let all = try_read_parts(device, queue, &parts)?;
+    Some(split_read(&all, buffers.iter().map(|b| b.size())))
+}
+
+/// The bytes of one trip's read cut back into its parts of `lengths` bytes, in order.
+pub fn split_read(all: &[u8], lengths: impl IntoIterator<Item = u64>) -> Vec<Vec<u8>> {
     let mut at = 0;
-    Some(
-        buffers
-            .iter()
-            .map(|b| {
-                let part = all[at..at + b.size() as usize].to_vec();
-                at += b.size() as usize;
-                part
-            })
-            .collect(),
-    )
+    lengths
+        .into_iter()
+        .map(|len| {
+            let part = all[at..at + len as usize].to_vec();
+            at += len as usize;
+            part
+        })
+        .collect()
 }
 
 /// The byte ranges (buffer, offset, length; multiples of 4), one after the other in one staging

@@ -10,7 +10,7 @@
 //! fluid ([`super::GpuFluid::record_face_fluxes`]). The coupled step that strings them together
 //! is [`super::coupled::GpuCoupled`].
 
-use super::context::{GpuContext, buffer_layout, compute_pipelines, try_read_parts_into};
+use super::context::{GpuContext, buffer_layout, compute_pipelines, split_read, try_read_parts_into};
 use super::growing::GrowingBuffer;
 use crate::fluid::{Grid, KernelLevelSet};
 use bytemuck::{Pod, Zeroable};
@@ -259,15 +259,7 @@ impl CouplingKernels {
         let parts: Vec<(&wgpu::Buffer, u64, u64)> = read.iter().zip(&lengths).map(|(&k, &len)| (&bound[k], 0, len)).collect();
         b.staging.reserve(device, lengths.iter().sum());
         let all = try_read_parts_into(device, queue, enc, &parts, b.staging.buffer()).unwrap_or_else(|| vec![0; lengths.iter().sum::<u64>() as usize]);
-        let mut at = 0;
-        lengths
-            .iter()
-            .map(|&len| {
-                let part = all[at..at + len as usize].to_vec();
-                at += len as usize;
-                part
-            })
-            .collect()
+        split_read(&all, lengths)
     }
 
     /// L, ∇L, the wall velocity and Σw at each of `queries` (lattice coordinates): the GPU twin of

@@ -82,24 +82,20 @@ impl Readback {
     /// Each of `buffers` whole, read in one trip (one submission, one wait), or None when the
     /// read fails.
     pub fn read(&self, device: &wgpu::Device, queue: &wgpu::Queue, buffers: &[&wgpu::Buffer]) -> Option<Vec<Vec<u8>>> {
-        let total: u64 = buffers.iter().map(|b| b.size()).sum();
+        let parts: Vec<(&wgpu::Buffer, u64, u64)> = buffers.iter().map(|b| (*b, 0, b.size())).collect();
+        let all = self.read_parts(device, queue, &parts)?;
+        Some(super::context::split_read(&all, buffers.iter().map(|b| b.size())))
+    }
+
+    /// The byte ranges (buffer, offset, length; multiples of 4) one after the other, read in
+    /// one trip, or None when the read fails.
+    pub fn read_parts(&self, device: &wgpu::Device, queue: &wgpu::Queue, parts: &[(&wgpu::Buffer, u64, u64)]) -> Option<Vec<u8>> {
+        let total: u64 = parts.iter().map(|p| p.2).sum();
         let mut guard = self.staging.lock().expect("the staging buffer's lock");
         let staging =
             guard.get_or_insert_with(|| GrowingBuffer::with_room(device, "readback", wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, total));
         staging.reserve(device, total);
-        let parts: Vec<(&wgpu::Buffer, u64, u64)> = buffers.iter().map(|b| (*b, 0, b.size())).collect();
-        let all = super::context::try_read_parts_into(device, queue, device.create_command_encoder(&Default::default()), &parts, staging.buffer())?;
-        let mut at = 0;
-        Some(
-            buffers
-                .iter()
-                .map(|b| {
-                    let part = all[at..at + b.size() as usize].to_vec();
-                    at += b.size() as usize;
-                    part
-                })
-                .collect(),
-        )
+        super::context::try_read_parts_into(device, queue, device.create_command_encoder(&Default::default()), parts, staging.buffer())
     }
 
     /// Staging buffers made so far.

@@ -14,6 +14,10 @@
 //! 60.5, 85.9 Hz; case C at l₀/2 +0.36 %; f(B)/f(A) and f(D)/f(C) within 0.01 % of √2 (the
 //! list's 0.4–0.7 %); the coupled case C over 20 ms 361.0 Hz, 0.7 % above its fold's mode.
 //!
+//! The fold released across the flow ([`lateral_mode`]: in phase, or rocking — the upper
+//! margin out and the lower in) rings at the modes that open and close the glottis: case A's at
+//! 307 and 386 Hz (2026-12-05), 2.7 and 3.4 times the mode the coupled glottis vibrates in.
+//!
 //! The rows also ring the folds of the seed's case list as written (body 1·10⁵, cover 10·10⁵ …
 //! 200·10⁵ dyn/cm²: the layers swapped against its narrative, see [`BodyCoverCase`]): the
 //! list's modes fall in the seed's order A < C < B < D, which the narrative reading's modes
@@ -81,17 +85,77 @@ pub fn fold_in_vacuum(spacing: f64, cover: f64, body: f64, duration: f64) -> any
 pub fn lowest_mode(spacing: f64, cover: f64, body: f64, duration: f64) -> anyhow::Result<FoldMode> {
     let sc = fold_in_vacuum(spacing, cover, body, duration)?;
     let mut s = sc.build()?;
-    let p = &s.particles;
-    let medial_x = (0..p.len()).filter(|&i| !p.fixed[i]).map(|i| p.reference[i].x).fold(f64::INFINITY, f64::min);
-    let strip: Vec<usize> = (0..p.len()).filter(|&i| p.reference[i].x <= medial_x + MEDIAL_STRIP).collect();
-    anyhow::ensure!(!strip.is_empty(), "no particle along the medial edge");
+    let strip = MedialStrip::of(&s.particles)?;
+    ring(&mut s, duration, |p| strip.all.iter().map(|&i| p.position[i].y - p.reference[i].y).sum::<f64>() / strip.all.len() as f64)
+}
+
+/// How [`lateral_mode`] sets the fold moving across the flow.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LateralRelease {
+    /// Every free particle at [`RELEASE_SPEED`] away from the mid-line (the glottis opening);
+    /// the probe is the medial strip's mean lateral displacement.
+    InPhase,
+    /// v_x = [`RELEASE_SPEED`] · (y − y_mid)/h over the fold, y_mid and h the middle and
+    /// half-height of the medial surface: the upper margin out, the lower in — the convergent–
+    /// divergent motion of a mucosal wave; the probe is half the upper margin's lateral
+    /// displacement less the lower's.
+    Rocking,
+}
+
+/// A lateral mode of [`fold_in_vacuum`] (its velocity replaced by `release`'s), rung for
+/// `duration` s: the modes that open and close the glottis, which a self-sustained oscillation
+/// drives (the lowest mode, [`lowest_mode`], moves the fold along the flow).
+pub fn lateral_mode(spacing: f64, cover: f64, body: f64, duration: f64, release: LateralRelease) -> anyhow::Result<FoldMode> {
+    let sc = fold_in_vacuum(spacing, cover, body, duration)?;
+    let mut s = sc.build()?;
+    let strip = MedialStrip::of(&s.particles)?;
+    let p = &mut s.particles;
+    for i in (0..p.len()).filter(|&i| !p.fixed[i]) {
+        let vx = match release {
+            LateralRelease::InPhase => RELEASE_SPEED,
+            LateralRelease::Rocking => RELEASE_SPEED * (p.reference[i].y - strip.y_mid) / strip.half_height,
+        };
+        p.velocity[i] = glam::DVec3::new(vx, 0.0, 0.0);
+    }
+    let mean_dx = |p: &crate::solid::Particles, g: &[usize]| g.iter().map(|&i| p.position[i].x - p.reference[i].x).sum::<f64>() / g.len() as f64;
+    ring(&mut s, duration, |p| match release {
+        LateralRelease::InPhase => mean_dx(p, &strip.all),
+        LateralRelease::Rocking => 0.5 * (mean_dx(p, &strip.upper) - mean_dx(p, &strip.lower)),
+    })
+}
+
+/// The particles within [`MEDIAL_STRIP`] of the fold's medial edge (its free end), split at the
+/// middle of their height into the lower and upper margins.
+struct MedialStrip {
+    all: Vec<usize>,
+    lower: Vec<usize>,
+    upper: Vec<usize>,
+    /// Middle and half of the strip's height (cm).
+    y_mid: f64,
+    half_height: f64,
+}
+
+impl MedialStrip {
+    fn of(p: &crate::solid::Particles) -> anyhow::Result<Self> {
+        let medial_x = (0..p.len()).filter(|&i| !p.fixed[i]).map(|i| p.reference[i].x).fold(f64::INFINITY, f64::min);
+        let all: Vec<usize> = (0..p.len()).filter(|&i| p.reference[i].x <= medial_x + MEDIAL_STRIP).collect();
+        anyhow::ensure!(!all.is_empty(), "no particle along the medial edge");
+        let (lo, hi) = all.iter().map(|&i| p.reference[i].y).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), y| (a.min(y), b.max(y)));
+        let y_mid = 0.5 * (lo + hi);
+        let (lower, upper) = all.iter().partition(|&&i| p.reference[i].y < y_mid);
+        Ok(MedialStrip { all, lower, upper, y_mid, half_height: 0.5 * (hi - lo) })
+    }
+}
+
+/// Steps `s` for `duration` s, sampling `probe` every [`SAMPLE_EVERY`] steps, and reads the
+/// mode off the series.
+fn ring(s: &mut crate::solid::SolidSolver, duration: f64, probe: impl Fn(&crate::solid::Particles) -> f64) -> anyhow::Result<FoldMode> {
     let steps = (duration / s.dt).ceil() as u64;
     let mut series = Vec::with_capacity((steps / SAMPLE_EVERY) as usize + 1);
     for k in 1..=steps {
         s.step()?;
         if k % SAMPLE_EVERY == 0 {
-            let p = &s.particles;
-            series.push(strip.iter().map(|&i| p.position[i].y - p.reference[i].y).sum::<f64>() / strip.len() as f64);
+            series.push(probe(&s.particles));
         }
     }
     let o = oscillation(&series, SAMPLE_EVERY as f64 * s.dt).ok_or_else(|| anyhow::anyhow!("the fold did not ring two full cycles in {duration} s"))?;
@@ -126,6 +190,14 @@ const SIMILARITY_BOUND: f64 = 0.01;
 /// +0.28 % from 0.0122 cm).
 const SPACING_BOUND: f64 = 0.01;
 
+/// Ringing time (s) of the lateral modes (≈ 300–400 Hz in case A: a dozen cycles).
+const LATERAL_DURATION: f64 = 0.04;
+
+/// The claim of the lateral rows: the lowest lateral mode lies more than this many times above
+/// the fold's lowest mode (measured 2026-12-05, in phase and rocking: case A 307 and 386 Hz
+/// against 115.0 Hz, 2.67 and 3.36; case C 976 and 1,202 Hz against 358.5 Hz, 2.72 and 3.35).
+const LATERAL_ABOVE: f64 = 2.0;
+
 /// Simulated time (s) of the coupled case C: seven periods of its ≈ 360 Hz after the first
 /// millisecond's onset (12 ms read f0 2.6 % low, the onset a third of the window).
 const COUPLED_DURATION: f64 = 0.02;
@@ -134,6 +206,20 @@ const COUPLED_DURATION: f64 = 0.02;
 /// what is left is f0's reading over a few periods of a run whose glottis closes in the lattice
 /// half of the time (the 40 ms runs: 358.1–360.5 Hz, within 0.6 % of the mode).
 const COUPLED_BOUND: f64 = 0.03;
+
+/// The row of one rung mode, `label` with its cycles: the spectral peak, passing when it rang
+/// ≥ [`MIN_CYCLES`]; or why it did not ring.
+fn mode_row(label: &str, m: &anyhow::Result<FoldMode>) -> (String, f64, String, bool) {
+    match m {
+        Ok(m) => (
+            format!("{label}, {} cycles", m.cycles),
+            m.frequency,
+            format!("Hz (spectral peak), rung ≥ {MIN_CYCLES} cycles"),
+            m.frequency.is_finite() && m.cycles >= MIN_CYCLES,
+        ),
+        Err(e) => (format!("{label}: {e}"), f64::NAN, "rings".into(), false),
+    }
+}
 
 /// The rows of `validate --case glottis_fold_modes`: every case's fold mode in both readings of
 /// the seed's list, the similarity and convergence checks, the coupled case C's f0 against its
@@ -158,18 +244,10 @@ pub fn rows() -> Vec<(String, f64, String, bool)> {
     let mut out = Vec::new();
     let mut f = std::collections::HashMap::new();
     for ((label, sp, cover, body, _), m) in jobs.iter().zip(modes) {
-        match m {
-            Ok(m) => {
-                f.insert(label.clone(), m.frequency);
-                out.push((
-                    format!("fold mode, case {label} (cover {cover:.0e}, body {body:.0e} dyn/cm², l₀ {sp:.4} cm; {} cycles)", m.cycles),
-                    m.frequency,
-                    format!("Hz (spectral peak), rung ≥ {MIN_CYCLES} cycles"),
-                    m.frequency.is_finite() && m.cycles >= MIN_CYCLES,
-                ));
-            }
-            Err(e) => out.push((format!("fold mode, case {label}: {e}"), f64::NAN, "rings".into(), false)),
+        if let Ok(m) = &m {
+            f.insert(label.clone(), m.frequency);
         }
+        out.push(mode_row(&format!("fold mode, case {label} (cover {cover:.0e}, body {body:.0e} dyn/cm², l₀ {sp:.4} cm)"), &m));
     }
     let get = |k: &str| f.get(k).copied().unwrap_or(f64::NAN);
     let sqrt2 = std::f64::consts::SQRT_2;
@@ -199,6 +277,34 @@ pub fn rows() -> Vec<(String, f64, String, bool)> {
         "> 2.5 (√10 = 3.16: the body sets the mode; the seed's 1.32)".into(),
         fc / fa > 2.5,
     ));
+    // the modes that open and close the glottis, against the one it vibrates in
+    let lateral: Vec<(BodyCoverCase, LateralRelease, anyhow::Result<FoldMode>)> = [BodyCoverCase::A, BodyCoverCase::C]
+        .into_iter()
+        .flat_map(|c| [(c, LateralRelease::InPhase), (c, LateralRelease::Rocking)])
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .with_max_len(1)
+        .map(|(c, r)| {
+            let (cover, body) = c.young();
+            (c, r, lateral_mode(COARSE_SPACING, cover, body, LATERAL_DURATION, r))
+        })
+        .collect();
+    for c in [BodyCoverCase::A, BodyCoverCase::C] {
+        let mut lowest = f64::INFINITY;
+        for (_, r, m) in lateral.iter().filter(|(k, _, _)| *k == c) {
+            if let Ok(m) = m {
+                lowest = lowest.min(m.frequency);
+            }
+            out.push(mode_row(&format!("lateral mode, case {c:?}, {r:?} release"), m));
+        }
+        let r = lowest / get(&format!("{c:?}"));
+        out.push((
+            format!("  case {c:?}: lowest lateral mode / the fold mode (along the flow)"),
+            r,
+            format!("> {LATERAL_ABOVE} (the modes that open the glottis lie well above the one it vibrates in)"),
+            r > LATERAL_ABOVE,
+        ));
+    }
     let ordered = |a: &str, b: &str, c: &str, d: &str| get(a) < get(b) && get(b) < get(c) && get(c) < get(d);
     out.push((
         "  the seed's list as written rings in the seed's order A < C < B < D".into(),
@@ -255,6 +361,21 @@ mod tests {
         // the release excites the fold's lowest mode: the crossings and the spectrum agree
         for m in &modes {
             assert!((m.crossing_frequency / m.frequency - 1.0).abs() < 0.05, "{m:?}");
+        }
+    }
+
+    /// The modes that open and close the glottis lie well above the one the coupled glottis
+    /// vibrates in: case A's fold released across the flow, in phase and rocking, rings at more
+    /// than twice its lowest (along-the-flow) mode.
+    #[test]
+    fn the_folds_lateral_modes_lie_well_above_its_lowest_mode() {
+        let (cover, body) = BodyCoverCase::A.young();
+        let along = lowest_mode(COARSE_SPACING, cover, body, NARRATIVE_DURATION).expect("rings");
+        for release in [LateralRelease::InPhase, LateralRelease::Rocking] {
+            let m = lateral_mode(COARSE_SPACING, cover, body, 0.02, release).expect("rings");
+            eprintln!("case A: {release:?} {:.1} Hz ({} cycles), the lowest mode {:.1} Hz", m.frequency, m.cycles, along.frequency);
+            assert!(m.cycles >= MIN_CYCLES, "{release:?}: {} cycles", m.cycles);
+            assert!(m.frequency / along.frequency > LATERAL_ABOVE, "{release:?}: {} Hz against {} Hz", m.frequency, along.frequency);
         }
     }
 }

@@ -32,6 +32,8 @@ pub(super) struct NodeListKernel {
     /// The packed populations (`vals[k · nv + v]`).
     values: wgpu::Buffer,
     capacity: usize,
+    /// The staging buffer of the gather's reads, kept.
+    readback: crate::gpu::growing::Readback,
 }
 
 /// Which way a node-list kernel moves populations.
@@ -73,6 +75,7 @@ impl GpuFluid {
                 nodes: buffer("node list", 4 * capacity, U::STORAGE | U::COPY_DST),
                 values: buffer("node list populations", 4 * nv * capacity, values),
                 capacity,
+                readback: Default::default(),
             });
         }
         let g = slot.as_ref().expect("built above");
@@ -99,7 +102,7 @@ impl GpuFluid {
         let g = self.gather.as_ref().expect("built by prepare_node_list");
         self.submit_on_state(&g.pipeline, &[(0, &g.params), (1, &g.nodes), (2, &g.values)], nodes.len() as u32);
         // only the listed nodes' values (the buffer has room for up to twice as many)
-        let Some(raw) = crate::gpu::context::try_read_ranges(&self.device, &self.queue, &g.values, &[(0, 4 * (nodes.len() * nv) as u64)]) else { return false };
+        let Some(raw) = g.readback.read_parts(&self.device, &self.queue, &[(&g.values, 0, 4 * (nodes.len() * nv) as u64)]) else { return false };
         let vals: &[f32] = bytemuck::cast_slice(&raw);
         let mut node_vals = vec![0.0; nv];
         for (k, &node) in nodes.iter().enumerate() {
