@@ -285,8 +285,9 @@ pub fn cases() -> Vec<Case> {
         // the coarse 3D glottis, 1.5 ms from rest: 27 min on one core beside another run
         ("glottis_3d_coarse", super::glottis_3d::rows),
         ("glottis_seed_layer_list", super::glottis::seed_layer_list_rows),
-        // each case's fold ringing in vacuum (both readings of the seed's list) and the coupled
-        // case C against its fold: 12 min on 2 cores beside another run
+        // each case's fold ringing in vacuum (both readings of the seed's list), the lateral
+        // modes of cases A and C, and the coupled case C against its fold: ≈ 15 min on 2 cores
+        // beside another run (the lateral modes' four runs: ≈ 3 min on one core)
         ("glottis_fold_modes", super::glottis_modes::rows),
         ("glottis_speed_error", || {
             // Case C's f0 against resolution (×0.5, ×0.75, ×1 of the seed's lattice) and Mach
