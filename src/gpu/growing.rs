@@ -38,6 +38,8 @@ impl GrowingBuffer {
         GrowingBuffer { buffer, label, usage, made: 1 }
     }
 
+    /// The buffer as it is now (a bind group holding it must be remade when [`Self::write`] or
+    /// [`Self::reserve`] says a new one was made).
     pub fn buffer(&self) -> &wgpu::Buffer {
         &self.buffer
     }
@@ -101,5 +103,22 @@ impl Readback {
     /// Staging buffers made so far.
     pub fn made(&self) -> u64 {
         self.staging.lock().expect("the staging buffer's lock").as_ref().map_or(0, GrowingBuffer::made)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A buffer made for n bytes takes later contents of up to 1.5 n without a new buffer (the
+    /// coupled tables change size by a few per cent a step), in whole 256-byte blocks, and an
+    /// empty table still gets a binding's worth.
+    #[test]
+    fn a_buffer_has_half_again_the_room_of_its_contents() {
+        assert_eq!(room_for(0), MIN_BYTES);
+        for n in [4u64, 255, 256, 1000, 4096, 123_456, 10_000_000] {
+            let room = room_for(n);
+            assert!(room >= n + n / 2 && room % 256 == 0 && room < n + n / 2 + 256 + MIN_BYTES, "{n} bytes: room {room}");
+        }
     }
 }
