@@ -10,13 +10,14 @@
 //! spacing, 17,892 particles): converged, and equal to the coupled case C's f0 (358–362 Hz at
 //! every lattice tried). Case A rings at 115 Hz, the coupled case A at 117.7 Hz.
 //! `validate --case glottis_fold_modes` (2026-12-04, 720 s on 2 cores beside another run, 19
-//! rows pass): narrative A–D 115.0, 162.6, 358.5, 506.9 Hz; the list as written 50.1, 71.3,
+//! rows pass; 25 with the lateral modes below): narrative A–D 115.0, 162.6, 358.5, 506.9 Hz; the list as written 50.1, 71.3,
 //! 60.5, 85.9 Hz; case C at l₀/2 +0.36 %; f(B)/f(A) and f(D)/f(C) within 0.01 % of √2 (the
 //! list's 0.4–0.7 %); the coupled case C over 20 ms 361.0 Hz, 0.7 % above its fold's mode.
 //!
 //! The fold released across the flow ([`lateral_mode`]: in phase, or rocking — the upper
 //! margin out and the lower in) rings at the modes that open and close the glottis: case A's at
-//! 307 and 386 Hz (2026-12-05), 2.7 and 3.4 times the mode the coupled glottis vibrates in.
+//! 314 and 383 Hz (2026-12-05, 40 ms), 2.7 and 3.3 times the mode the coupled glottis vibrates
+//! in; `validate --case glottis_fold_modes`, 25 rows pass (1,033 s beside other runs).
 //!
 //! The rows also ring the folds of the seed's case list as written (body 1·10⁵, cover 10·10⁵ …
 //! 200·10⁵ dyn/cm²: the layers swapped against its narrative, see [`BodyCoverCase`]): the
@@ -194,8 +195,9 @@ const SPACING_BOUND: f64 = 0.01;
 const LATERAL_DURATION: f64 = 0.04;
 
 /// The claim of the lateral rows: the lowest lateral mode lies more than this many times above
-/// the fold's lowest mode (measured 2026-12-05, in phase and rocking: case A 307 and 386 Hz
-/// against 115.0 Hz, 2.67 and 3.36; case C 976 and 1,202 Hz against 358.5 Hz, 2.72 and 3.35).
+/// the fold's lowest mode (measured 2026-12-05 over [`LATERAL_DURATION`], in phase and
+/// rocking: case A 313.9 and 382.8 Hz against 115.0 Hz, 2.73 and 3.33; case C 975.6 and
+/// 1,201.7 Hz against 358.5 Hz, 2.72 and 3.35; the test's 20 ms of case A: 307.1 and 385.8 Hz).
 const LATERAL_ABOVE: f64 = 2.0;
 
 /// Simulated time (s) of the coupled case C: seven periods of its ≈ 360 Hz after the first
