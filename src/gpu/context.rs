@@ -189,14 +189,6 @@ pub fn try_read_ranges(device: &wgpu::Device, queue: &wgpu::Queue, b: &wgpu::Buf
     try_read_parts(device, queue, &parts)
 }
 
-/// Several whole buffers read in one trip (one staging buffer, one wait on the device instead of
-/// one per buffer), each as its own bytes, or None when the read fails.
-pub fn try_read_buffers(device: &wgpu::Device, queue: &wgpu::Queue, buffers: &[&wgpu::Buffer]) -> Option<Vec<Vec<u8>>> {
-    let parts: Vec<(&wgpu::Buffer, u64, u64)> = buffers.iter().map(|b| (*b, 0, b.size())).collect();
-    let all = try_read_parts(device, queue, &parts)?;
-    Some(split_read(&all, buffers.iter().map(|b| b.size())))
-}
-
 /// The bytes of one trip's read cut back into its parts of `lengths` bytes, in order.
 pub fn split_read(all: &[u8], lengths: impl IntoIterator<Item = u64>) -> Vec<Vec<u8>> {
     let mut at = 0;

@@ -328,18 +328,29 @@ impl GpuCoupled {
             self.time_part(1, t);
             return Ok(());
         };
-        let t = if walls.changes_nodes(&self.cpu.fluid.layout) {
-            let change = walls.change(&self.cpu.fluid.layout).clone();
-            let t = self.time_part(1, t);
-            self.bring_back(&change)?;
-            let t = self.time_part(2, t);
-            self.cpu.install_polygon_walls(walls);
-            let t = self.time_part(1, t);
-            self.send_up(&change);
-            self.time_part(2, t)
-        } else {
-            self.cpu.install_polygon_walls(walls);
-            self.time_part(1, t)
+        let change = walls.changes_nodes(&self.cpu.fluid.layout).then(|| walls.change(&self.cpu.fluid.layout).clone());
+        self.install_walls(t, change, |cpu| cpu.install_polygon_walls(walls))
+    }
+
+    /// The second half of either method's geometry stage, from the walls built at `t`: when
+    /// nodes change side (`change`), the populations the change reads come back first and the
+    /// fresh nodes go up after `install` (which puts the walls into the CPU mirror); then the
+    /// tables go to the device. Each part timed as [`GEOMETRY_PARTS`] says.
+    fn install_walls(&mut self, t: Instant, change: Option<LayoutChange>, install: impl FnOnce(&mut CoupledSolver)) -> Result<(), Instability> {
+        let t = self.time_part(1, t);
+        let t = match change {
+            Some(change) => {
+                self.bring_back(&change)?;
+                let t = self.time_part(2, t);
+                install(&mut self.cpu);
+                let t = self.time_part(1, t);
+                self.send_up(&change);
+                self.time_part(2, t)
+            }
+            None => {
+                install(&mut self.cpu);
+                self.time_part(1, t)
+            }
         };
         self.fluid.set_geometry(&self.cpu.fluid).map_err(|e| self.side_ghosts_outgrown(e))?;
         self.time_part(3, t);
@@ -430,22 +441,8 @@ impl GpuCoupled {
         self.download_particles(false)?;
         let t = self.time_part(0, t);
         let walls = self.cpu.next_level_set_walls()?;
-        let t = if walls.changes_nodes(&self.cpu.fluid.layout) {
-            let change = walls.change(&self.cpu.fluid.layout).clone();
-            let t = self.time_part(1, t);
-            self.bring_back(&change)?;
-            let t = self.time_part(2, t);
-            self.cpu.install_level_set_walls(walls);
-            let t = self.time_part(1, t);
-            self.send_up(&change);
-            self.time_part(2, t)
-        } else {
-            self.cpu.install_level_set_walls(walls);
-            self.time_part(1, t)
-        };
-        self.fluid.set_geometry(&self.cpu.fluid).map_err(|e| self.side_ghosts_outgrown(e))?;
-        self.time_part(3, t);
-        Ok(())
+        let change = walls.changes_nodes(&self.cpu.fluid.layout).then(|| walls.change(&self.cpu.fluid.layout).clone());
+        self.install_walls(t, change, |cpu| cpu.install_level_set_walls(walls))
     }
 
     /// One fluid step (with the face fluxes recorded for method 2), only submitted: its

@@ -89,6 +89,9 @@ fn workgroups(count: u32) -> u32 {
 enum Binding<'a> {
     /// These bytes, written into the binding's own buffer ([`Buffers`]).
     Data(&'a [u8]),
+    /// The binding's own buffer with room for this many bytes, which the call's kernels write
+    /// in full before anything reads them (nothing goes up).
+    Output(u64),
     /// The binding's own buffer as it is (the kernels of the call do not touch it).
     Unused,
     /// A buffer that lives on the device (the fluid's face-flux record, the scaled array).
@@ -214,8 +217,14 @@ impl CouplingKernels {
         let mut guard = self.buffers.lock().expect("the buffers' lock");
         let b = guard.get_or_insert_with(|| Buffers::new(device));
         for (buf, d) in b.data.iter_mut().zip(&data) {
-            if let Binding::Data(d) = d {
-                buf.write(device, queue, d);
+            match d {
+                Binding::Data(d) => {
+                    buf.write(device, queue, d);
+                }
+                Binding::Output(bytes) => {
+                    buf.reserve(device, *bytes);
+                }
+                Binding::Unused | Binding::Resident(_) => {}
             }
         }
         // each kernel's thread count goes in through its own copy of the parameters
@@ -253,6 +262,7 @@ impl CouplingKernels {
             .iter()
             .map(|&k| match &data[k - 1] {
                 Binding::Data(d) => d.len() as u64,
+                Binding::Output(bytes) => *bytes,
                 _ => bound[k].size(),
             })
             .collect();
@@ -269,14 +279,13 @@ impl CouplingKernels {
         let pts: Vec<[f32; 4]> = set.points.iter().map(|p| v4(*p)).collect();
         let vel: Vec<[f32; 4]> = set.velocities.iter().map(|p| v4(*p)).collect();
         let q: Vec<[f32; 4]> = queries.iter().map(|p| v4(*p)).collect();
-        let out = vec![[0f32; 4]; 2 * queries.len()];
         let data = [
             Binding::Data(bytemuck::cast_slice(&pts)),
             Binding::Data(bytemuck::cast_slice(&vel)),
             Binding::Data(bytemuck::cast_slice(start)),
             Binding::Data(bytemuck::cast_slice(order)),
             Binding::Data(bytemuck::cast_slice(&q)),
-            Binding::Data(bytemuck::cast_slice(&out)),
+            Binding::Output(32 * queries.len() as u64),
             Binding::Unused,
             Binding::Unused,
             Binding::Unused,
@@ -331,7 +340,6 @@ impl CouplingKernels {
         let (start, order) = set.bin_lists();
         let pts: Vec<[f32; 4]> = set.points.iter().map(|p| v4(*p)).collect();
         let vel: Vec<[f32; 4]> = set.velocities.iter().map(|p| v4(*p)).collect();
-        let force = vec![[0f32; 4]; pts.len()];
         // distinct nodes, so that no two threads of add_node_changes write one entry
         let mut merged: Vec<(usize, DVec4)> = changes.to_vec();
         merged.sort_by_key(|c| c.0);
@@ -358,7 +366,6 @@ impl CouplingKernels {
         p.padded = [grid.padded[0] as u32, grid.padded[1] as u32, grid.padded[2] as u32, 0];
         p.halo = [grid.halo[0] as u32, grid.halo[1] as u32, grid.halo[2] as u32, 0];
         p.factor = factor as f32;
-        let partials = vec![[0f32; 4]; 2 * workgroups(grid.len() as u32) as usize];
         let data = [
             Binding::Data(bytemuck::cast_slice(&pts)),
             Binding::Data(bytemuck::cast_slice(&vel)),
@@ -368,10 +375,11 @@ impl CouplingKernels {
             Binding::Unused,
             Binding::Resident(wall),
             Binding::Resident(scaled),
-            Binding::Data(bytemuck::cast_slice(&force)),
+            Binding::Output(16 * pts.len() as u64),
             Binding::Data(bytemuck::cast_slice(&change_momentum)),
             Binding::Data(bytemuck::cast_slice(&change_node)),
-            Binding::Data(bytemuck::cast_slice(&partials)),
+            // two vec4 per workgroup of `exchange_weights`
+            Binding::Output(32 * workgroups(grid.len() as u32) as u64),
         ];
         let mut kernels = Vec::new();
         if !merged.is_empty() {

@@ -18,6 +18,7 @@ mod face_fluxes;
 mod gather;
 mod geometry;
 mod readback;
+mod stage_groups;
 mod totals;
 mod traction;
 
@@ -28,7 +29,7 @@ use super::codegen::{self, Split, WORKGROUP};
 use super::context::{GpuContext, GpuError};
 use super::growing::GrowingBuffer;
 use crate::fluid::FluidSolver;
-use crate::stages::{FDLB_STEP, RkStage, Stage, StageKind};
+use crate::stages::{FDLB_STEP, Stage, StageKind};
 use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
@@ -380,81 +381,6 @@ impl GpuFluid {
         pass.set_pipeline(p);
         pass.set_bind_group(0, bg, &[]);
         pass.dispatch_workgroups(x, y, 1);
-    }
-
-    /// Records one stage of [`FDLB_STEP`] into `pass`.
-    /// The bind groups of one stage: (pipeline, bind group, threads) per dispatch, for fⁿ in
-    /// buffer `cur` (0 or 2). Built once per parity at upload ([`Self::stage_groups`]).
-    fn build_stage(&self, cur: usize, stage: &Stage) -> Vec<(usize, wgpu::BindGroup, u32)> {
-        let (fn_, f1, fnext) = (&self.f[cur], &self.f[1], &self.f[2 - cur]);
-        let k = match stage.rk {
-            RkStage::First => 0,
-            RkStage::Second => 1,
-        };
-        let params = &self.params_stage[k];
-        let g = self.split.groups() as u32;
-        match stage.kind {
-            StageKind::MomentsCollide => {
-                let (src, out) = if k == 0 { (fn_, f1) } else { (f1, fnext) };
-                let bg = self.bind(
-                    &self.pipelines[PIPE_MOMENTS],
-                    &[(0, params), (1, &self.kind), (2, &self.mac), (3, &self.status)],
-                    &[(10, src), (10 + g, fn_), (10 + 2 * g, &self.h), (10 + 3 * g, out)],
-                );
-                vec![(PIPE_MOMENTS, bg, self.interior)]
-            }
-            StageKind::Boundaries => {
-                let fv = if k == 0 { fn_ } else { f1 };
-                let arrays = [(10, fv), (10 + g, &self.h)];
-                vec![
-                    (
-                        PIPE_GHOST,
-                        self.bind(
-                            &self.pipelines[PIPE_GHOST],
-                            &[(0, &self.params_count[0]), (1, self.ghosts.0.buffer()), (2, self.ghosts.1.buffer()), (3, &self.mac)],
-                            &arrays,
-                        ),
-                        self.ghosts.2,
-                    ),
-                    (
-                        PIPE_FACE,
-                        self.bind(&self.pipelines[PIPE_FACE], &[(0, &self.params_count[1]), (1, self.faces.0.buffer()), (3, &self.mac)], &arrays),
-                        self.faces.1,
-                    ),
-                    (
-                        PIPE_PERIODIC,
-                        self.bind(&self.pipelines[PIPE_PERIODIC], &[(0, &self.params_count[2]), (4, self.periodic.0.buffer())], &[(10 + g, &self.h)]),
-                        self.periodic.1,
-                    ),
-                ]
-            }
-            StageKind::Advect => {
-                let out = if k == 0 { f1 } else { fnext };
-                let bg = self.bind(&self.pipelines[PIPE_ADVECT], &[(0, params), (1, &self.kind)], &[(10, &self.h), (10 + g, out)]);
-                let thin = self.bind(
-                    &self.pipelines[PIPE_THIN],
-                    &[(0, &self.thin.3[k]), (1, self.thin.0.buffer()), (2, self.thin.1.buffer())],
-                    &[(10, &self.h), (10 + g, out)],
-                );
-                vec![(PIPE_ADVECT, bg, self.interior), (PIPE_THIN, thin, self.thin.2)]
-            }
-        }
-    }
-
-    /// The boundary and thin-wall dispatches' thread counts set to the tables' current counts
-    /// (after [`Self::set_geometry`] rewrote the tables in place).
-    fn set_dispatch_counts(&mut self) {
-        let counts = [(PIPE_GHOST, self.ghosts.2), (PIPE_FACE, self.faces.1), (PIPE_PERIODIC, self.periodic.1), (PIPE_THIN, self.thin.2)];
-        for (p, _, threads) in self.groups.iter_mut().flatten().flatten() {
-            if let Some(&(_, c)) = counts.iter().find(|(q, _)| q == p) {
-                *threads = c;
-            }
-        }
-    }
-
-    /// Bind groups of every stage of [`FDLB_STEP`] for both placements of fⁿ.
-    fn stage_groups(&self) -> [Vec<Vec<(usize, wgpu::BindGroup, u32)>>; 2] {
-        [0, 2].map(|cur| FDLB_STEP.iter().map(|st| self.build_stage(cur, st)).collect())
     }
 
     /// Records one stage of [`FDLB_STEP`] (index `k`) into `pass`, and after an advection the
