@@ -26,19 +26,26 @@ pub struct Oscillation {
     pub spectral_peak: Option<f64>,
 }
 
+/// The times (from the first sample, `dt` apart) at which `x` rises through `level`, located by
+/// linear interpolation between the samples.
+pub fn upward_crossings(x: &[f64], level: f64, dt: f64) -> Vec<f64> {
+    let mut up = Vec::new();
+    for (k, w) in x.windows(2).enumerate() {
+        let (a, b) = (w[0] - level, w[1] - level);
+        if a < 0.0 && b >= 0.0 {
+            up.push((k as f64 + a / (a - b)) * dt);
+        }
+    }
+    up
+}
+
 /// The oscillation of `x` sampled every `dt`; `None` with fewer than two full cycles.
 pub fn oscillation(x: &[f64], dt: f64) -> Option<Oscillation> {
     if x.len() < 4 || !(dt > 0.0) || x.iter().any(|v| !v.is_finite()) {
         return None;
     }
     let mean = x.iter().sum::<f64>() / x.len() as f64;
-    let mut up = Vec::new();
-    for (k, w) in x.windows(2).enumerate() {
-        let (a, b) = (w[0] - mean, w[1] - mean);
-        if a < 0.0 && b >= 0.0 {
-            up.push((k as f64 + a / (a - b)) * dt);
-        }
-    }
+    let up = upward_crossings(x, mean, dt);
     if up.len() < 3 {
         return None;
     }

@@ -49,7 +49,15 @@ pub struct GlottalSample {
     /// Lateral (opening) displacement of the lower and upper margins, mean of both folds.
     pub lower_margin: f64,
     pub upper_margin: f64,
+    /// The power the air delivers to the two folds (erg/s), by where it acts:
+    /// [`AirPower`]'s inferior, medial and superior parts.
+    pub air_power: [f64; 3],
+    /// The two folds' kinetic energy, translation and rotation of their particles (erg).
+    pub kinetic_energy: f64,
 }
+
+/// Where on a fold's surface the air's power is booked ([`Glottis::air_power`]).
+pub const AIR_POWER_PARTS: [&str; 3] = ["inferior", "medial", "superior"];
 
 impl Glottis {
     /// The glottis between the bodies `left` and `right` of `c` about x = `mid_line`; the
@@ -89,7 +97,9 @@ impl Glottis {
         let u = &c.units;
         let g = &c.fluid.layout.grid;
         let fluid = |node: usize| c.fluid.layout.kind[node] == NodeKind::Fluid;
-        let mut sec = GlottalSection { sample: GlottalSample { lower_margin, upper_margin, ..Default::default() }, nodes: Vec::new(), flow_factors: [0.0; 3] };
+        let (air_power, kinetic_energy) = (self.air_power(c), self.kinetic_energy(c));
+        let sample = GlottalSample { lower_margin, upper_margin, air_power, kinetic_energy, ..Default::default() };
+        let mut sec = GlottalSection { sample, nodes: Vec::new(), flow_factors: [0.0; 3] };
         if g.dim == 3 {
             let sets = c.drawn_level_sets();
             let Some(s3) = section_3d(&sets[self.left], &sets[self.right], u.position_to_lattice(self.mid_line), [g.n[1], g.n[2]]) else {
@@ -129,6 +139,52 @@ impl Glottis {
         // Σ ρu_y Δx / ρ₀ in lattice units → cm²/s per unit length
         sec.flow_factors = [u.velocity, u.dx, self.length];
         sec
+    }
+
+    /// The factor that turns a 2D quantity per unit depth into the fold's (its `length`; 1 in 3D).
+    fn depth(&self, c: &CoupledSolver) -> f64 {
+        if c.solid.particles.dim == 2 { self.length } else { 1.0 }
+    }
+
+    /// The power the air delivers to the two folds now (erg/s; 2D: for the fold length),
+    /// P = Σ F_i · v_i over their surface particles, with F_i the air's force on particle i over
+    /// the last step ([`CoupledSolver::forces`]) and v_i its velocity: the aerodynamic energy
+    /// transfer of Thomson, Mongeau & Frankel (2005, JASA 118, 1689), whose integral over a
+    /// cycle is the work the flow does on the folds — positive where the air feeds the
+    /// vibration, negative where it damps it. Split by the particle's reference height against
+    /// the margins ([`AIR_POWER_PARTS`]): below the lower margin (the subglottal face), the
+    /// medial surface between the margins, above the upper margin (the supraglottal face).
+    pub fn air_power(&self, c: &CoupledSolver) -> [f64; 3] {
+        let p = &c.solid.particles;
+        // the right fold's margins; the left one's lie at the same heights (mirror images)
+        let (y_lower, y_upper) = (p.reference[self.lower_margin[1]].y, p.reference[self.upper_margin[1]].y);
+        let mut parts = [0.0; 3];
+        for body in [self.left, self.right] {
+            for &i in &c.bodies[body].surface.particles {
+                let y = p.reference[i].y;
+                let part = if y < y_lower {
+                    0
+                } else if y <= y_upper {
+                    1
+                } else {
+                    2
+                };
+                // no force before the first step
+                parts[part] += c.forces.force.get(i).map_or(0.0, |f| f.dot(p.velocity[i]));
+            }
+        }
+        parts.map(|w| w * self.depth(c))
+    }
+
+    /// The two folds' kinetic energy now (erg; 2D: for the fold length).
+    pub fn kinetic_energy(&self, c: &CoupledSolver) -> f64 {
+        let p = &c.solid.particles;
+        let bodies = [c.bodies[self.left].surface.body, c.bodies[self.right].surface.body];
+        let e: f64 = (0..p.len())
+            .filter(|&i| bodies.contains(&p.body[i]))
+            .map(|i| 0.5 * p.mass[i] * p.velocity[i].length_squared() + 0.5 * p.inertia[i] * p.spin[i].length_squared())
+            .sum();
+        e * self.depth(c)
     }
 
     /// Lateral (opening) displacement of the lower and upper margins, mean of both folds.

@@ -11,7 +11,8 @@
 //!   Chin. Phys. 11, 366 (2002), applied at the ghost-cell image point of Mittal et al.,
 //!   J. Comput. Phys. 227, 4825 (2008)).
 //! * **Pressure inlet**: fixed density and temperature (the lung pressure), velocity and
-//!   non-equilibrium part from the first interior node.
+//!   non-equilibrium part from the first interior node. A scene's `pressure_outlet` is the same
+//!   condition at the pressure the air leaves to.
 //! * **Velocity inlet**: fixed velocity and temperature, density and non-equilibrium part
 //!   from the first interior node.
 //! * **Outlet**: zero gradient of every population (copy of the first interior node).

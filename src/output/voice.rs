@@ -81,6 +81,63 @@ pub fn read_glottal_csv(path: &Path) -> anyhow::Result<GlottalSeries> {
     Ok(GlottalSeries { dt, flow: cols[u_col].clone(), columns })
 }
 
+/// The columns of the air's power on the folds start with this (then the part's name:
+/// `coupling::glottis::AIR_POWER_PARTS`, then `_erg_s`).
+pub const AIR_POWER_PREFIX: &str = "air_power_";
+/// The folds' kinetic energy column.
+pub const KINETIC_ENERGY_COLUMN: &str = "fold_kinetic_energy_erg";
+
+/// The air's work on the folds over the cycles of the measures' window: from one upward crossing
+/// of the glottal area's mean to the next ([`crate::analysis::energy::work_per_cycle`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct EnergyTransfer {
+    /// The parts of the folds' surface, as in the power columns' names.
+    pub parts: Vec<String>,
+    /// Mean work per cycle of each part (erg): positive where the air feeds the vibration. The
+    /// lung pressure's steady push on the inferior part does work too wherever the folds are not
+    /// where they were a cycle before: with the area back at its mean, a fold whose vibration
+    /// decays or grows still sits a little higher or lower.
+    pub work_per_period_erg: Vec<f64>,
+    /// Their sum (erg).
+    pub total_work_per_period_erg: f64,
+    /// Mean over the periods of the folds' largest kinetic energy in the period (erg).
+    pub peak_kinetic_energy_erg: f64,
+    /// total_work_per_period_erg / peak_kinetic_energy_erg: the fraction of the vibration's
+    /// energy the air adds (> 0) or takes (< 0) per period.
+    pub work_over_peak_kinetic_energy: f64,
+    pub per_period: Vec<crate::analysis::energy::PeriodWork>,
+}
+
+/// The air's work per cycle from the power columns of `s`, over the window of `m`; `None`
+/// when the series has no power or area columns or no whole cycle fits.
+fn energy_transfer(s: &GlottalSeries, m: &VoiceMeasures) -> Option<EnergyTransfer> {
+    let power: Vec<(&str, &[f64])> =
+        s.columns.iter().filter_map(|(n, v)| Some((n.strip_prefix(AIR_POWER_PREFIX)?.trim_end_matches("_erg_s"), v.as_slice()))).collect();
+    let ke = s.columns.iter().find(|(n, _)| n == KINETIC_ENERGY_COLUMN)?.1.as_slice();
+    let [a, b, c] = power.as_slice() else { return None };
+    let area = &s.columns.iter().find(|(n, _)| n == "area_cm2")?.1;
+    let start = ((m.window_s[0] / s.dt) as usize).min(area.len());
+    let window = &area[start..];
+    let mean = window.iter().sum::<f64>() / window.len().max(1) as f64;
+    let bounds: Vec<f64> = crate::analysis::oscillation::upward_crossings(window, mean, s.dt).iter().map(|t| t + start as f64 * s.dt).collect();
+    let w = crate::analysis::energy::work_per_cycle([a.1, b.1, c.1], ke, s.dt, &bounds);
+    if w.is_empty() {
+        return None;
+    }
+    let n = w.len() as f64;
+    let work_per_period_erg: Vec<f64> = (0..3).map(|k| w.iter().map(|p| p.work[k]).sum::<f64>() / n).collect();
+    let total: f64 = work_per_period_erg.iter().sum();
+    let peak = w.iter().map(|p| p.peak_kinetic_energy).sum::<f64>() / n;
+    Some(EnergyTransfer {
+        parts: [a.0, b.0, c.0].map(String::from).to_vec(),
+        work_per_period_erg,
+        total_work_per_period_erg: total,
+        peak_kinetic_energy_erg: peak,
+        work_over_peak_kinetic_energy: total / peak,
+        per_period: w,
+    })
+}
+
 /// How the sound files were made.
 #[derive(Clone, Debug, Serialize)]
 pub struct AudioNote {
@@ -97,6 +154,8 @@ pub struct VoiceReport {
     /// Why there are no measures (no oscillation, too short).
     pub no_voice: Option<String>,
     pub audio: AudioNote,
+    /// The air's work on the folds per period, when the series carries their power.
+    pub energy: Option<EnergyTransfer>,
     pub files: Vec<PathBuf>,
 }
 
@@ -121,9 +180,11 @@ pub fn write_voice_outputs(dir: &Path, s: &GlottalSeries, opts: &VoiceOptions, e
         files.push(path);
     }
     files.extend(plot_series(dir, s, &derivative, measures.as_ref(), opts.window_fraction)?);
+    let energy = measures.as_ref().and_then(|m| energy_transfer(s, m));
     let mut json = serde_json::json!({
         "oscillating": measures.is_some(),
         "measures": measures,
+        "aerodynamic_energy_transfer": energy,
         "no_voice": no_voice,
         "sample_rate_hz": 1.0 / s.dt,
         "samples": s.flow.len(),
@@ -137,7 +198,7 @@ pub fn write_voice_outputs(dir: &Path, s: &GlottalSeries, opts: &VoiceOptions, e
     let path = dir.join("voice.json");
     std::fs::write(&path, serde_json::to_string_pretty(&json)?)?;
     files.insert(0, path);
-    Ok(VoiceReport { measures, no_voice, audio, files })
+    Ok(VoiceReport { measures, no_voice, audio, energy, files })
 }
 
 /// The definitions the measures follow, written into voice.json (see `analysis::voice`).
@@ -145,7 +206,8 @@ pub const DEFINITIONS: &str = "APARAT-style: window = last window_fraction of th
 f0_spectrum by the Hann-windowed spectrum peak; pulses = flow maxima ≥ 0.7 T0 apart; opening at the rising 20 % crossing of the pulse's rise, \
 closure at the return to within 1 % of the closed-phase level; OQ = (t_c − t_o)/T0, SQ = (t_peak − t_o)/(t_c − t_peak), ClQ = (t_c − t_peak)/T0, \
 QOQ = time above 50 % of A_ac / T0; MFDR = −min dU/dt; NAQ = A_ac/(MFDR·T0); H1–H2 of dU/dt by projection over whole periods; \
-means over the pulses of the window";
+means over the pulses of the window; aerodynamic_energy_transfer = ∫ Σ F·v dt over the folds' surface particles per cycle \
+of the window, from one upward crossing of the glottal area's window mean to the next (Thomson, Mongeau & Frankel 2005), by part of the surface (below the lower margin, between the margins, above the upper one)";
 
 /// Write the two WAV files; the audio is the whole run when it lasts a second or more, else the
 /// last whole periods (between pulse peaks) repeated.

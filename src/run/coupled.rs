@@ -106,6 +106,10 @@ pub struct GlottisReport {
     /// Time (s) by which the lower margin's lateral motion leads the upper one's over the
     /// analysed window (positive: the lower margin opens and closes first).
     pub lower_margin_lead_s: Option<f64>,
+    /// The air's work on the folds per period over the voice window (erg) and its ratio to
+    /// their peak kinetic energy: > 0 where the flow feeds the vibration.
+    pub air_work_per_period: Option<f64>,
+    pub air_work_over_peak_kinetic_energy: Option<f64>,
     /// Why there are no voice measures (too short, steady, …).
     pub no_voice: Option<String>,
 }
@@ -119,15 +123,38 @@ struct GlottalRecord {
 }
 
 /// The columns of `glottal_flow.csv` after `t_s` (the flow first, as `phonation analyze` reads).
-const GLOTTAL_COLUMNS: [&str; 6] = ["flow_cm3_s", "area_cm2", "gap_cm", "narrowest_y_cm", "lower_margin_cm", "upper_margin_cm"];
+/// The air's power on the folds by part ([`crate::coupling::glottis::AIR_POWER_PARTS`]) and
+/// their kinetic energy come last: `voice::AIR_POWER_PREFIX`, `voice::KINETIC_ENERGY_COLUMN`.
+const GLOTTAL_COLUMNS: [&str; 10] = [
+    "flow_cm3_s",
+    "area_cm2",
+    "gap_cm",
+    "narrowest_y_cm",
+    "lower_margin_cm",
+    "upper_margin_cm",
+    "air_power_inferior_erg_s",
+    "air_power_medial_erg_s",
+    "air_power_superior_erg_s",
+    "fold_kinetic_energy_erg",
+];
 
-fn glottal_values(s: &GlottalSample) -> [f64; 6] {
-    [s.flow, s.area, s.gap, s.narrowest_y, s.lower_margin, s.upper_margin]
+fn glottal_values(s: &GlottalSample) -> [f64; 10] {
+    let [pi, pm, ps] = s.air_power;
+    [s.flow, s.area, s.gap, s.narrowest_y, s.lower_margin, s.upper_margin, pi, pm, ps, s.kinetic_energy]
 }
 
 /// The inverse of [`glottal_values`].
 fn glottal_from_values(v: &[f64]) -> GlottalSample {
-    GlottalSample { flow: v[0], area: v[1], gap: v[2], narrowest_y: v[3], lower_margin: v[4], upper_margin: v[5] }
+    GlottalSample {
+        flow: v[0],
+        area: v[1],
+        gap: v[2],
+        narrowest_y: v[3],
+        lower_margin: v[4],
+        upper_margin: v[5],
+        air_power: [v[6], v[7], v[8]],
+        kinetic_energy: v[9],
+    }
 }
 
 impl GlottalRecord {
@@ -263,6 +290,14 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
             files.extend(checkpoint::names(&r["files"]).into_iter().map(|n| dir.join(n)));
             if let Some(g) = &mut record_g {
                 let v = checkpoint::from_bits(&r["glottal_samples"], "glottal_samples")?;
+                // written before the air's power joined the record: 6 columns
+                let columns = r["glottal_columns"].as_u64().unwrap_or(6) as usize;
+                if columns != GLOTTAL_COLUMNS.len() {
+                    anyhow::bail!(
+                        "--resume: the checkpoint's glottal record has {columns} columns and this version writes {} (glottal_flow.csv gained the air's power on the folds); rerun the scene from its start",
+                        GLOTTAL_COLUMNS.len()
+                    );
+                }
                 g.samples = v.chunks_exact(GLOTTAL_COLUMNS.len()).map(glottal_from_values).collect();
             }
             (checkpoint::from_bits(&r["m0"], "m0")?[0], r["k_snap"].as_u64().unwrap_or(0))
@@ -339,7 +374,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
             let Ok(c) = e.state() else { return Ok(()) };
             let names = checkpoint::file_names(files[2..].iter().filter(|f| **f != glottal_path));
             let samples: Vec<f64> = record_g.iter().flat_map(|r| r.samples.iter().flat_map(glottal_values)).collect();
-            let record = serde_json::json!({"m0": checkpoint::bits(&[m0]), "k_snap": k_snap, "files": names, "glottal_samples": checkpoint::bits(&samples)});
+            let record = serde_json::json!({"m0": checkpoint::bits(&[m0]), "k_snap": k_snap, "files": names, "glottal_samples": checkpoint::bits(&samples), "glottal_columns": GLOTTAL_COLUMNS.len()});
             let mut outputs = vec!["coupling.csv", "probes.csv"];
             if record_g.is_some() {
                 outputs.push("glottal_flow.csv");
@@ -454,6 +489,8 @@ fn glottal_outputs(sc: &CoupledScene, dir: &Path, record: &GlottalRecord, files:
             let col = |k: usize| &series.columns[k].1[start.min(s.len())..];
             crate::analysis::lag::lead_time(col(3), col(4), series.dt, half_period)
         }),
+        air_work_per_period: voice.energy.as_ref().map(|e| e.total_work_per_period_erg),
+        air_work_over_peak_kinetic_energy: voice.energy.as_ref().map(|e| e.work_over_peak_kinetic_energy),
         no_voice: voice.no_voice.clone(),
     })
 }

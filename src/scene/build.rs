@@ -239,7 +239,7 @@ impl FluidScene {
                         };
                         FaceCondition::Wall { velocity: v.map(|x| units.velocity_to_lattice(x)), temperature: t }
                     }
-                    FaceSpec::PressureInlet { pressure, temperature_ratio } => {
+                    FaceSpec::PressureInlet { pressure, temperature_ratio } | FaceSpec::PressureOutlet { pressure, temperature_ratio } => {
                         if !pressure.is_finite() {
                             return err(format!("{field}.pressure"), "must be finite");
                         }

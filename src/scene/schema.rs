@@ -137,8 +137,20 @@ pub enum FaceSpec {
         #[serde(default)]
         profile: crate::fluid::boundary::InletProfile,
     },
-    /// Zero-gradient outflow.
+    /// Zero-gradient outflow: every population copied from the first interior node. Sound
+    /// leaves through it nearly unreflected, as into an endless duct of the domain's width.
     Outlet,
+    /// Constant pressure (gauge, default 0: the atmosphere) where the air leaves, the velocity
+    /// from the first interior node — the fixed-pressure outflow of most vocal-fold FSI models
+    /// (e.g. Thomson, Mongeau & Frankel 2005). Acoustically a pressure-release end: it reflects
+    /// sound back, so that the air between it and the folds is an inertance, not a radiation
+    /// resistance (README, "What the air takes from the folds").
+    PressureOutlet {
+        #[serde(default)]
+        pressure: f64,
+        #[serde(default = "one")]
+        temperature_ratio: f64,
+    },
     /// Free-slip wall (symmetry plane): no normal flow, no shear stress.
     Slip,
 }
