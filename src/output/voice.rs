@@ -3,7 +3,8 @@
 //! of U_g(t), dU_g/dt and the spectrum, and the sound: `glottal_flow.wav` (U_g, mean removed)
 //! and `radiated.wav` (dU_g/dt: the radiated pressure of a monopole at the lips is ∝ dU/dt, a
 //! first approximation with no vocal tract), 44.1 kHz 16-bit mono, normalised to 0.9 of full
-//! scale, at least one second long.
+//! scale, at least one second long. A coupled glottis's series also carries the air's power on
+//! the folds: `voice.json` then holds its work per cycle ([`EnergyTransfer`]).
 
 use crate::analysis::resample::resample;
 use crate::analysis::spectrum::amplitude_spectrum;

@@ -110,6 +110,10 @@ pub struct GlottisReport {
     /// their peak kinetic energy: > 0 where the flow feeds the vibration.
     pub air_work_per_period: Option<f64>,
     pub air_work_over_peak_kinetic_energy: Option<f64>,
+    /// The same work by part of the folds' surface (`coupling::glottis::AIR_POWER_PARTS`), and
+    /// the folds' peak kinetic energy per cycle it is compared with (erg).
+    pub air_work_by_part: Option<Vec<f64>>,
+    pub peak_kinetic_energy: Option<f64>,
     /// Why there are no voice measures (too short, steady, …).
     pub no_voice: Option<String>,
 }
@@ -491,6 +495,8 @@ fn glottal_outputs(sc: &CoupledScene, dir: &Path, record: &GlottalRecord, files:
         }),
         air_work_per_period: voice.energy.as_ref().map(|e| e.total_work_per_period_erg),
         air_work_over_peak_kinetic_energy: voice.energy.as_ref().map(|e| e.work_over_peak_kinetic_energy),
+        air_work_by_part: voice.energy.as_ref().map(|e| e.work_per_period_erg.clone()),
+        peak_kinetic_energy: voice.energy.as_ref().map(|e| e.peak_kinetic_energy_erg),
         no_voice: voice.no_voice.clone(),
     })
 }

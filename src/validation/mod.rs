@@ -14,6 +14,7 @@ pub mod fsi_plate;
 pub mod fsi_schafer_turek;
 pub mod glottis;
 pub mod glottis_3d;
+pub mod glottis_energy;
 pub mod glottis_modes;
 pub mod riemann;
 pub mod soak;

@@ -289,6 +289,9 @@ pub fn cases() -> Vec<Case> {
         // modes of cases A and C, and the coupled case C against its fold: ≈ 15 min on 2 cores
         // beside another run (the lateral modes' four runs: ≈ 3 min on one core)
         ("glottis_fold_modes", super::glottis_modes::rows),
+        // case A's air work per cycle with the zero-gradient outlet and a pressure outlet, 30 ms
+        // each: ≈ 6 min each on 2 cores
+        ("glottis_air_work", super::glottis_energy::rows),
         ("glottis_speed_error", || {
             // Case C's f0 against resolution (×0.5, ×0.75, ×1 of the seed's lattice) and Mach
             // scaling (real air, Mach 0.3), 40 ms each, with each run's wall time per simulated
@@ -518,7 +521,15 @@ mod tests {
         assert_eq!(picked(Some("glottis_2d")), ["glottis_2d"]);
         assert_eq!(
             picked(Some("glottis")),
-            ["glottis_2d", "glottis_real_air_closure", "glottis_3d_coarse", "glottis_seed_layer_list", "glottis_fold_modes", "glottis_speed_error"]
+            [
+                "glottis_2d",
+                "glottis_real_air_closure",
+                "glottis_3d_coarse",
+                "glottis_seed_layer_list",
+                "glottis_fold_modes",
+                "glottis_air_work",
+                "glottis_speed_error"
+            ]
         );
         assert_eq!(picked(Some("taylor_green")), ["taylor_green_2d", "taylor_green_3d"]);
         // the D = 20 channel (minutes) is not also the D = 40 one (an hour on 2 cores)
