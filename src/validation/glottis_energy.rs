@@ -11,7 +11,8 @@
 //! a sixth of the vibration's energy per cycle; a fixed-pressure outlet reflects it, and the loss
 //! goes. Measured (2026-12-05, 2 cores beside other runs): the superior face's work per cycle
 //! −25.9 erg (−17.6 % of the folds' peak kinetic energy, 147 erg) with the outlet, +3.6 erg
-//! (+1.7 % of 212 erg) with the pressure outlet; in all −21.7 % and −7.1 %.
+//! (+1.7 % of 212 erg) with the pressure outlet; in all −21.7 % and −7.1 %. `validate --case
+//! glottis_air_work`: 4 rows pass, 875 s (2026-12-05, beside another run).
 
 use crate::run::coupled::run_coupled_scene;
 use crate::scene::coupled::CoupledScene;
