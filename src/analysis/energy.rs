@@ -1,4 +1,4 @@
-//! The work a force does on an oscillating body, period by period: the aerodynamic energy
+//! The work a force does on an oscillating body, cycle by cycle: the aerodynamic energy
 //! transfer of a glottal flow to the folds (Thomson, Mongeau & Frankel 2005, JASA 118, 1689:
 //! the folds self-oscillate when the flow's work over a cycle exceeds what the tissue
 //! dissipates), read from a sampled power P(t).
@@ -7,7 +7,7 @@
 
 /// The work over one cycle and the body's largest kinetic energy in it.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct PeriodWork {
+pub struct CycleWork {
     /// Start and end of the cycle (s from the first sample).
     pub t_start: f64,
     pub t_end: f64,
@@ -27,7 +27,7 @@ pub struct PeriodWork {
 /// when the body is where it was. Bounds at the instants one displacement crosses its mean
 /// upward ([`super::oscillation::upward_crossings`]) make that so for the motion the
 /// displacement follows; what the rest of the body does between them is not constrained.
-pub fn work_per_cycle(power: [&[f64]; 3], kinetic_energy: &[f64], dt: f64, bounds: &[f64]) -> Vec<PeriodWork> {
+pub fn work_per_cycle(power: [&[f64]; 3], kinetic_energy: &[f64], dt: f64, bounds: &[f64]) -> Vec<CycleWork> {
     let n = power.iter().map(|p| p.len()).min().unwrap_or(0).min(kinetic_energy.len());
     if n < 2 || !(dt > 0.0) {
         return Vec::new();
@@ -55,7 +55,7 @@ pub fn work_per_cycle(power: [&[f64]; 3], kinetic_energy: &[f64], dt: f64, bound
             let work = [0, 1, 2].map(|k| at(&sums[k], t1) - at(&sums[k], t0));
             let (i0, i1) = ((t0 / dt).ceil() as usize, ((t1 / dt).floor() as usize).min(n - 1));
             let peak_kinetic_energy = kinetic_energy[i0.min(i1)..=i1].iter().copied().fold(0.0, f64::max);
-            PeriodWork { t_start: t0, t_end: t1, work, peak_kinetic_energy }
+            CycleWork { t_start: t0, t_end: t1, work, peak_kinetic_energy }
         })
         .collect()
 }

@@ -133,11 +133,11 @@ pub fn print_voice(r: &phonation::output::voice::VoiceReport) {
         None => println!("no voice: {}", r.no_voice.as_deref().unwrap_or("?")),
     }
     if let Some(e) = &r.energy {
-        let parts: Vec<String> = e.parts.iter().zip(&e.work_per_period_erg).map(|(p, w)| format!("{p} {w:.4e}")).collect();
+        let parts: Vec<String> = e.parts.iter().zip(&e.work_per_cycle_erg).map(|(p, w)| format!("{p} {w:.4e}")).collect();
         println!(
             "the air's work on the folds per cycle ({} cycles, from one upward crossing of the area's mean to the next): {:.4e} erg ({}), {:+.2} % of their peak kinetic energy {:.4e} erg",
-            e.per_period.len(),
-            e.total_work_per_period_erg,
+            e.per_cycle.len(),
+            e.total_work_per_cycle_erg,
             parts.join(", "),
             100.0 * e.work_over_peak_kinetic_energy,
             e.peak_kinetic_energy_erg

@@ -50,7 +50,7 @@ pub struct GlottalSample {
     pub lower_margin: f64,
     pub upper_margin: f64,
     /// The power the air delivers to the two folds (erg/s), by where it acts:
-    /// [`AirPower`]'s inferior, medial and superior parts.
+    /// the parts of [`AIR_POWER_PARTS`] (inferior, medial, superior; [`Glottis::air_power`]).
     pub air_power: [f64; 3],
     /// The two folds' kinetic energy, translation and rotation of their particles (erg).
     pub kinetic_energy: f64,

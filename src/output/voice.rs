@@ -98,15 +98,15 @@ pub struct EnergyTransfer {
     /// lung pressure's steady push on the inferior part does work too wherever the folds are not
     /// where they were a cycle before: with the area back at its mean, a fold whose vibration
     /// decays or grows still sits a little higher or lower.
-    pub work_per_period_erg: Vec<f64>,
+    pub work_per_cycle_erg: Vec<f64>,
     /// Their sum (erg).
-    pub total_work_per_period_erg: f64,
-    /// Mean over the periods of the folds' largest kinetic energy in the period (erg).
+    pub total_work_per_cycle_erg: f64,
+    /// Mean over the cycles of the folds' largest kinetic energy in the cycle (erg).
     pub peak_kinetic_energy_erg: f64,
-    /// total_work_per_period_erg / peak_kinetic_energy_erg: the fraction of the vibration's
-    /// energy the air adds (> 0) or takes (< 0) per period.
+    /// total_work_per_cycle_erg / peak_kinetic_energy_erg: the fraction of the vibration's
+    /// energy the air adds (> 0) or takes (< 0) per cycle.
     pub work_over_peak_kinetic_energy: f64,
-    pub per_period: Vec<crate::analysis::energy::PeriodWork>,
+    pub per_cycle: Vec<crate::analysis::energy::CycleWork>,
 }
 
 /// The air's work per cycle from the power columns of `s`, over the window of `m`; `None`
@@ -126,16 +126,16 @@ fn energy_transfer(s: &GlottalSeries, m: &VoiceMeasures) -> Option<EnergyTransfe
         return None;
     }
     let n = w.len() as f64;
-    let work_per_period_erg: Vec<f64> = (0..3).map(|k| w.iter().map(|p| p.work[k]).sum::<f64>() / n).collect();
-    let total: f64 = work_per_period_erg.iter().sum();
+    let work_per_cycle_erg: Vec<f64> = (0..3).map(|k| w.iter().map(|p| p.work[k]).sum::<f64>() / n).collect();
+    let total: f64 = work_per_cycle_erg.iter().sum();
     let peak = w.iter().map(|p| p.peak_kinetic_energy).sum::<f64>() / n;
     Some(EnergyTransfer {
         parts: [a.0, b.0, c.0].map(String::from).to_vec(),
-        work_per_period_erg,
-        total_work_per_period_erg: total,
+        work_per_cycle_erg,
+        total_work_per_cycle_erg: total,
         peak_kinetic_energy_erg: peak,
         work_over_peak_kinetic_energy: total / peak,
-        per_period: w,
+        per_cycle: w,
     })
 }
 
@@ -155,7 +155,7 @@ pub struct VoiceReport {
     /// Why there are no measures (no oscillation, too short).
     pub no_voice: Option<String>,
     pub audio: AudioNote,
-    /// The air's work on the folds per period, when the series carries their power.
+    /// The air's work on the folds per cycle, when the series carries their power.
     pub energy: Option<EnergyTransfer>,
     pub files: Vec<PathBuf>,
 }
@@ -336,7 +336,52 @@ pub fn analyze_dir(dir: &Path, opts: &VoiceOptions, extra: serde_json::Value) ->
 
 #[cfg(test)]
 mod tests {
-    use super::line_plot;
+    use super::*;
+
+    /// A glottal series carrying the air's power (a Rosenberg pulse train, the area following
+    /// the flow): voice.json's `aerodynamic_energy_transfer` integrates each part over the
+    /// cycles between the area's upward mean crossings — one per pulse — and divides by the
+    /// peak kinetic energy. Powers: inferior P₀ + B cos(2π f0 t) (work P₀T a cycle), medial 0,
+    /// superior −P₁ (work −P₁T); the kinetic energy K + K' sin²(π f0 t) (peak K + K').
+    #[test]
+    fn voice_json_holds_the_airs_work_per_cycle() {
+        let r = crate::analysis::synthetic::Rosenberg { f0: 125.0, opening: 0.0032, closing: 0.0016, amplitude: 300.0, baseline: 0.0 };
+        let (dt, n) = (2.0e-5, 4000);
+        let t0 = 1.0 / r.f0;
+        let (p0, b, p1, k, k2) = (3000.0, 40000.0, 1000.0, 150.0, 50.0);
+        let t = |i: usize| i as f64 * dt;
+        let flow = r.sample(dt, n);
+        let col = |name: &str, f: &dyn Fn(f64) -> f64| (name.to_string(), (0..n).map(|i| f(t(i))).collect::<Vec<f64>>());
+        let series = GlottalSeries {
+            dt,
+            flow: flow.clone(),
+            columns: vec![
+                ("area_cm2".into(), flow.iter().map(|u| u / 3000.0).collect()),
+                col("air_power_inferior_erg_s", &|t| p0 + b * (2.0 * std::f64::consts::PI * r.f0 * t).cos()),
+                col("air_power_medial_erg_s", &|_| 0.0),
+                col("air_power_superior_erg_s", &|_| -p1),
+                col(KINETIC_ENERGY_COLUMN, &|t| k + k2 * (std::f64::consts::PI * r.f0 * t).sin().powi(2)),
+            ],
+        };
+        let dir = std::env::temp_dir().join(format!("phonation_voice_energy_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let report = write_voice_outputs(&dir, &series, &VoiceOptions::default(), serde_json::json!({})).unwrap();
+        let e = report.energy.expect("an energy transfer");
+        // the last half of 80 ms at 125 Hz: five pulses, four cycles between their crossings
+        assert_eq!(e.per_cycle.len(), 4, "{:?}", e.per_cycle.iter().map(|c| (c.t_start, c.t_end)).collect::<Vec<_>>());
+        assert_eq!(e.parts, ["inferior", "medial", "superior"]);
+        for c in &e.per_cycle {
+            assert!(((c.t_end - c.t_start) / t0 - 1.0).abs() < 1e-6);
+        }
+        assert!((e.work_per_cycle_erg[0] / (p0 * t0) - 1.0).abs() < 1e-3, "{:?}", e.work_per_cycle_erg);
+        assert_eq!(e.work_per_cycle_erg[1], 0.0);
+        assert!((e.work_per_cycle_erg[2] / (-p1 * t0) - 1.0).abs() < 1e-9);
+        assert!((e.peak_kinetic_energy_erg / (k + k2) - 1.0).abs() < 1e-3);
+        assert!((e.work_over_peak_kinetic_energy / ((p0 - p1) * t0 / (k + k2)) - 1.0).abs() < 2e-3);
+        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("voice.json")).unwrap()).unwrap();
+        assert_eq!(json["aerodynamic_energy_transfer"]["total_work_per_cycle_erg"].as_f64(), Some(e.total_work_per_cycle_erg));
+        std::fs::remove_dir_all(&dir).ok();
+    }
 
     /// The SVG's axis labels of a closed glottis (U_g = 0 throughout) and of a flow derivative
     /// of 10⁶ cm³/s²: short, and zero printed as 0.

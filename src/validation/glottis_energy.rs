@@ -56,7 +56,7 @@ fn run(face: &str, name: &str) -> anyhow::Result<Work> {
     let opts = crate::analysis::voice::VoiceOptions { window_fraction: WINDOW, ..Default::default() };
     let v = crate::output::voice::analyze_dir(&dir, &opts, serde_json::json!({}))?;
     let e = v.energy.ok_or_else(|| anyhow::anyhow!("no whole cycle of the glottal area in the last {WINDOW} of the run"))?;
-    Ok(Work { by_part: e.work_per_period_erg, total: e.total_work_per_period_erg, peak_kinetic_energy: e.peak_kinetic_energy_erg })
+    Ok(Work { by_part: e.work_per_cycle_erg, total: e.total_work_per_cycle_erg, peak_kinetic_energy: e.peak_kinetic_energy_erg })
 }
 
 /// The rows of `validate --case glottis_air_work`.
