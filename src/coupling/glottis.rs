@@ -180,11 +180,7 @@ impl Glottis {
     pub fn kinetic_energy(&self, c: &CoupledSolver) -> f64 {
         let p = &c.solid.particles;
         let bodies = [c.bodies[self.left].surface.body, c.bodies[self.right].surface.body];
-        let e: f64 = (0..p.len())
-            .filter(|&i| bodies.contains(&p.body[i]))
-            .map(|i| 0.5 * p.mass[i] * p.velocity[i].length_squared() + 0.5 * p.inertia[i] * p.spin[i].length_squared())
-            .sum();
-        e * self.depth(c)
+        p.kinetic_energy_of(|i| bodies.contains(&p.body[i])) * self.depth(c)
     }
 
     /// Lateral (opening) displacement of the lower and upper margins, mean of both folds.

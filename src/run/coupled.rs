@@ -106,14 +106,9 @@ pub struct GlottisReport {
     /// Time (s) by which the lower margin's lateral motion leads the upper one's over the
     /// analysed window (positive: the lower margin opens and closes first).
     pub lower_margin_lead_s: Option<f64>,
-    /// The air's work on the folds per cycle over the voice window (erg) and its ratio to
-    /// their peak kinetic energy: > 0 where the flow feeds the vibration.
-    pub air_work_per_cycle: Option<f64>,
-    pub air_work_over_peak_kinetic_energy: Option<f64>,
-    /// The same work by part of the folds' surface (`coupling::glottis::AIR_POWER_PARTS`), and
-    /// the folds' peak kinetic energy per cycle it is compared with (erg).
-    pub air_work_by_part: Option<Vec<f64>>,
-    pub peak_kinetic_energy: Option<f64>,
+    /// The air's work on the folds per cycle over the voice window, by part and in all, against
+    /// their peak kinetic energy (as in voice.json).
+    pub aerodynamic_energy_transfer: Option<crate::output::voice::EnergyTransfer>,
     /// Why there are no voice measures (too short, steady, …).
     pub no_voice: Option<String>,
 }
@@ -493,10 +488,7 @@ fn glottal_outputs(sc: &CoupledScene, dir: &Path, record: &GlottalRecord, files:
             let col = |k: usize| &series.columns[k].1[start.min(s.len())..];
             crate::analysis::lag::lead_time(col(3), col(4), series.dt, half_period)
         }),
-        air_work_per_cycle: voice.energy.as_ref().map(|e| e.total_work_per_cycle_erg),
-        air_work_over_peak_kinetic_energy: voice.energy.as_ref().map(|e| e.work_over_peak_kinetic_energy),
-        air_work_by_part: voice.energy.as_ref().map(|e| e.work_per_cycle_erg.clone()),
-        peak_kinetic_energy: voice.energy.as_ref().map(|e| e.peak_kinetic_energy_erg),
+        aerodynamic_energy_transfer: voice.energy.clone(),
         no_voice: voice.no_voice.clone(),
     })
 }

@@ -83,7 +83,15 @@ impl Particles {
 
     /// Kinetic energy of translation and rotation.
     pub fn kinetic_energy(&self) -> f64 {
-        (0..self.len()).map(|i| 0.5 * self.mass[i] * self.velocity[i].length_squared() + 0.5 * self.inertia[i] * self.spin[i].length_squared()).sum()
+        self.kinetic_energy_of(|_| true)
+    }
+
+    /// Kinetic energy of translation and rotation of the particles `i` for which `of(i)` holds.
+    pub fn kinetic_energy_of(&self, of: impl Fn(usize) -> bool) -> f64 {
+        (0..self.len())
+            .filter(|&i| of(i))
+            .map(|i| 0.5 * self.mass[i] * self.velocity[i].length_squared() + 0.5 * self.inertia[i] * self.spin[i].length_squared())
+            .sum()
     }
 }
 

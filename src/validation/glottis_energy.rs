@@ -14,6 +14,7 @@
 //! (+1.7 % of 212 erg) with the pressure outlet; in all −21.7 % and −7.1 %. `validate --case
 //! glottis_air_work`: 4 rows pass, 875 s (2026-12-05, beside another run).
 
+use crate::output::voice::EnergyTransfer;
 use crate::run::coupled::run_coupled_scene;
 use crate::scene::coupled::CoupledScene;
 use std::path::PathBuf;
@@ -38,14 +39,8 @@ pub fn scene(face: &str) -> anyhow::Result<CoupledScene> {
     Ok(CoupledScene::parse(&text)?)
 }
 
-/// The air's work per cycle by part and in all, over the folds' peak kinetic energy, of one run.
-struct Work {
-    by_part: Vec<f64>,
-    total: f64,
-    peak_kinetic_energy: f64,
-}
-
-fn run(face: &str, name: &str) -> anyhow::Result<Work> {
+/// The air's work per cycle on the folds of one run, over the last [`WINDOW`] of it.
+fn run(face: &str, name: &str) -> anyhow::Result<EnergyTransfer> {
     let sc = scene(face)?;
     let dir = PathBuf::from("out/validate").join(name);
     let r = run_coupled_scene(&sc, &dir, &crate::run::RunOptions { show_progress: true, ..Default::default() })?;
@@ -55,8 +50,7 @@ fn run(face: &str, name: &str) -> anyhow::Result<Work> {
     // the run's own voice window is the measures' default (half the run): read the last 75 %
     let opts = crate::analysis::voice::VoiceOptions { window_fraction: WINDOW, ..Default::default() };
     let v = crate::output::voice::analyze_dir(&dir, &opts, serde_json::json!({}))?;
-    let e = v.energy.ok_or_else(|| anyhow::anyhow!("no whole cycle of the glottal area in the last {WINDOW} of the run"))?;
-    Ok(Work { by_part: e.work_per_cycle_erg, total: e.total_work_per_cycle_erg, peak_kinetic_energy: e.peak_kinetic_energy_erg })
+    v.energy.ok_or_else(|| anyhow::anyhow!("no whole cycle of the glottal area in the last {WINDOW} of the run"))
 }
 
 /// The rows of `validate --case glottis_air_work`.
@@ -75,8 +69,8 @@ pub fn rows() -> Vec<(String, f64, String, bool)> {
             return out;
         }
     };
-    let superior = |w: &Work| w.by_part[2] / w.peak_kinetic_energy;
-    let total = |w: &Work| w.total / w.peak_kinetic_energy;
+    let superior = |w: &EnergyTransfer| w.work_per_cycle_erg[2] / w.peak_kinetic_energy_erg;
+    let total = |w: &EnergyTransfer| w.work_over_peak_kinetic_energy;
     out.push(("outlet: superior face's work / peak KE".into(), superior(&o), "< −0.1 (radiated)".into(), superior(&o) < -0.1));
     out.push(("pressure outlet: superior face's work / peak KE".into(), superior(&p), "> −0.02 (reflected)".into(), superior(&p) > -0.02));
     out.push(("outlet: the air's work / peak KE".into(), total(&o), "< 0 (damps)".into(), total(&o) < 0.0));
