@@ -1,7 +1,8 @@
 //! Analysis of measured series (physics core: imports nothing above it): least-squares fits,
-//! spectra, the work a force does per period, f0, the glottal-flow (voice) measures, band-limited resampling and synthetic test
+//! spectra, the work a force does per period, where the glottis closes, f0, the glottal-flow (voice) measures, band-limited resampling and synthetic test
 //! signals with known answers.
 
+pub mod closure;
 pub mod energy;
 pub mod fit;
 pub mod lag;

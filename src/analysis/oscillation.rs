@@ -65,9 +65,59 @@ pub fn oscillation(x: &[f64], dt: f64) -> Option<Oscillation> {
     })
 }
 
+/// One cycle of a displacement: from one upward crossing of the level to the next, and its
+/// peak-to-peak excursion over the samples in between (units of the series; times from the
+/// first sample).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Swing {
+    pub t_start: f64,
+    pub t_end: f64,
+    pub peak_to_peak: f64,
+}
+
+/// The cycles of `x` between its successive upward crossings of its own mean, each with its
+/// peak-to-peak swing: how a vibration grows, holds or decays cycle by cycle (a fold's margin
+/// from rest to its limit cycle).
+pub fn swing_per_cycle(x: &[f64], dt: f64) -> Vec<Swing> {
+    let mean = x.iter().sum::<f64>() / x.len().max(1) as f64;
+    let up = upward_crossings(x, mean, dt);
+    up.windows(2)
+        .map(|w| {
+            // the samples strictly inside the cycle, plus the first one past its start
+            let (i0, i1) = ((w[0] / dt).ceil() as usize, ((w[1] / dt).floor() as usize).min(x.len() - 1));
+            let seg = &x[i0..=i1.max(i0)];
+            let hi = seg.iter().cloned().fold(f64::MIN, f64::max);
+            let lo = seg.iter().cloned().fold(f64::MAX, f64::min);
+            Swing { t_start: w[0], t_end: w[1], peak_to_peak: hi - lo }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A vibration that grows from rest and settles, A(t) = A∞ (1 − e^{−t/τ}) sin(2π f t): each
+    /// cycle's swing is 2 A(t) at its extrema to the sampling's accuracy, growing, then held.
+    #[test]
+    fn the_swing_per_cycle_follows_a_growing_then_settled_amplitude() {
+        let (f, dt, a_inf, tau) = (118.0, 2.0e-6, 0.05, 0.01);
+        let amp = |t: f64| a_inf * (1.0 - (-t / tau).exp());
+        let x: Vec<f64> = (0..60_000).map(|k| k as f64 * dt).map(|t| 0.04 + amp(t) * (std::f64::consts::TAU * f * t).sin()).collect();
+        let s = swing_per_cycle(&x, dt);
+        // 0.12 s at 118 Hz: 14 whole cycles between the first and last upward crossings
+        assert!((13..=14).contains(&s.len()), "{}", s.len());
+        for c in &s {
+            assert!(((c.t_end - c.t_start) * f - 1.0).abs() < 0.05, "{c:?}");
+            // the maximum at a quarter period past the crossing, the minimum at three quarters
+            let want = amp(c.t_start + 0.25 / f) + amp(c.t_start + 0.75 / f);
+            assert!((c.peak_to_peak / want - 1.0).abs() < 0.02, "{c:?} vs {want}");
+        }
+        assert!(s[1].peak_to_peak > 1.1 * s[0].peak_to_peak);
+        let last: Vec<f64> = s[s.len() - 5..].iter().map(|c| c.peak_to_peak).collect();
+        assert!(last.iter().all(|p| (p / (2.0 * a_inf) - 1.0).abs() < 0.01), "{last:?}");
+        assert!(swing_per_cycle(&[1.0; 100], dt).is_empty());
+    }
 
     #[test]
     fn a_sine_about_an_offset_gives_its_frequency_and_amplitude() {

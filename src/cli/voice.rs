@@ -143,6 +143,15 @@ pub fn print_voice(r: &phonation::output::voice::VoiceReport) {
             e.peak_kinetic_energy_erg
         );
     }
+    if let Some(c) = &r.closure {
+        println!(
+            "the glottis closes from below at {} of {} closures; lower − upper margin at closure {:+.3e} cm on average ({})",
+            (c.from_below * c.closures as f64).round(),
+            c.closures,
+            c.lower_minus_upper,
+            if c.lower_minus_upper < 0.0 { "divergent" } else { "convergent" }
+        );
+    }
     println!("sound: {:.2} s at {} Hz, {}", r.audio.seconds, r.audio.sample_rate_hz, r.audio.source);
 }
 

@@ -6,6 +6,7 @@
 //! scale, at least one second long. A coupled glottis's series also carries the air's power on
 //! the folds: `voice.json` then holds its work per cycle ([`EnergyTransfer`]).
 
+use crate::analysis::closure::ClosureShape;
 use crate::analysis::resample::resample;
 use crate::analysis::spectrum::amplitude_spectrum;
 use crate::analysis::voice::{VoiceMeasures, VoiceOptions, voice_measures};
@@ -85,6 +86,9 @@ pub fn read_glottal_csv(path: &Path) -> anyhow::Result<GlottalSeries> {
 /// The columns of the air's power on the folds start with this (then the part's name:
 /// `coupling::glottis::AIR_POWER_PARTS`, then `_erg_s`).
 pub const AIR_POWER_PREFIX: &str = "air_power_";
+/// The margins' lateral displacement columns (cm, positive away from the mid-line).
+pub const LOWER_MARGIN_COLUMN: &str = "lower_margin_cm";
+pub const UPPER_MARGIN_COLUMN: &str = "upper_margin_cm";
 /// The folds' kinetic energy column.
 pub const KINETIC_ENERGY_COLUMN: &str = "fold_kinetic_energy_erg";
 
@@ -139,6 +143,14 @@ fn energy_transfer(s: &GlottalSeries, m: &VoiceMeasures) -> Option<EnergyTransfe
     })
 }
 
+/// The medial surface's shape at the closures of the measures' pulses (their `t_close`), from
+/// the margins' columns ([`crate::analysis::closure::shape_at_closures`]); `None` without them.
+fn closure_shape(s: &GlottalSeries, m: &VoiceMeasures) -> Option<ClosureShape> {
+    let col = |name: &str| s.columns.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_slice());
+    let closures: Vec<f64> = m.pulse_list.iter().map(|p| p.t_close).collect();
+    crate::analysis::closure::shape_at_closures(col(LOWER_MARGIN_COLUMN)?, col(UPPER_MARGIN_COLUMN)?, s.dt, &closures)
+}
+
 /// How the sound files were made.
 #[derive(Clone, Debug, Serialize)]
 pub struct AudioNote {
@@ -157,6 +169,8 @@ pub struct VoiceReport {
     pub audio: AudioNote,
     /// The air's work on the folds per cycle, when the series carries their power.
     pub energy: Option<EnergyTransfer>,
+    /// Where the glottis closes, when the series carries the margins.
+    pub closure: Option<ClosureShape>,
     pub files: Vec<PathBuf>,
 }
 
@@ -182,10 +196,12 @@ pub fn write_voice_outputs(dir: &Path, s: &GlottalSeries, opts: &VoiceOptions, e
     }
     files.extend(plot_series(dir, s, &derivative, measures.as_ref(), opts.window_fraction)?);
     let energy = measures.as_ref().and_then(|m| energy_transfer(s, m));
+    let closure = measures.as_ref().and_then(|m| closure_shape(s, m));
     let mut json = serde_json::json!({
         "oscillating": measures.is_some(),
         "measures": measures,
         "aerodynamic_energy_transfer": energy,
+        "closure_shape": closure,
         "no_voice": no_voice,
         "sample_rate_hz": 1.0 / s.dt,
         "samples": s.flow.len(),
@@ -199,7 +215,7 @@ pub fn write_voice_outputs(dir: &Path, s: &GlottalSeries, opts: &VoiceOptions, e
     let path = dir.join("voice.json");
     std::fs::write(&path, serde_json::to_string_pretty(&json)?)?;
     files.insert(0, path);
-    Ok(VoiceReport { measures, no_voice, audio, energy, files })
+    Ok(VoiceReport { measures, no_voice, audio, energy, closure, files })
 }
 
 /// The definitions the measures follow, written into voice.json (see `analysis::voice`).
@@ -208,7 +224,8 @@ f0_spectrum by the Hann-windowed spectrum peak; pulses = flow maxima ≥ 0.7 T0 
 closure at the return to within 1 % of the closed-phase level; OQ = (t_c − t_o)/T0, SQ = (t_peak − t_o)/(t_c − t_peak), ClQ = (t_c − t_peak)/T0, \
 QOQ = time above 50 % of A_ac / T0; MFDR = −min dU/dt; NAQ = A_ac/(MFDR·T0); H1–H2 of dU/dt by projection over whole periods; \
 means over the pulses of the window; aerodynamic_energy_transfer = ∫ Σ F·v dt over the folds' surface particles per cycle \
-of the window, from one upward crossing of the glottal area's window mean to the next (Thomson, Mongeau & Frankel 2005), by part of the surface (below the lower margin, between the margins, above the upper one)";
+of the window, from one upward crossing of the glottal area's window mean to the next (Thomson, Mongeau & Frankel 2005), by part of the surface (below the lower margin, between the margins, above the upper one); \
+closure_shape = the margins' lateral displacements at each pulse's closure: lower − upper < 0 is a divergent glottis closing from below (the lower margin nearer the mid-line), > 0 a convergent one closing from above";
 
 /// Write the two WAV files; the audio is the whole run when it lasts a second or more, else the
 /// last whole periods (between pulse peaks) repeated.
@@ -342,7 +359,9 @@ mod tests {
     /// the flow): voice.json's `aerodynamic_energy_transfer` integrates each part over the
     /// cycles between the area's upward mean crossings — one per pulse — and divides by the
     /// peak kinetic energy. Powers: inferior P₀ + B cos(2π f0 t) (work P₀T a cycle), medial 0,
-    /// superior −P₁ (work −P₁T); the kinetic energy K + K' sin²(π f0 t) (peak K + K').
+    /// superior −P₁ (work −P₁T); the kinetic energy K + K' sin²(π f0 t) (peak K + K'). The
+    /// margins: the lower one 20 µm in, the upper one 10 µm out and drifting out at 0.01 cm/s,
+    /// so `closure_shape` reads −(0.003 + 0.01 t_c) cm at every pulse's closure t_c.
     #[test]
     fn voice_json_holds_the_airs_work_per_cycle() {
         let r = crate::analysis::synthetic::Rosenberg { f0: 125.0, opening: 0.0032, closing: 0.0016, amplitude: 300.0, baseline: 0.0 };
@@ -361,6 +380,8 @@ mod tests {
                 col("air_power_medial_erg_s", &|_| 0.0),
                 col("air_power_superior_erg_s", &|_| -p1),
                 col(KINETIC_ENERGY_COLUMN, &|t| k + k2 * (std::f64::consts::PI * r.f0 * t).sin().powi(2)),
+                col(LOWER_MARGIN_COLUMN, &|_| -0.002),
+                col(UPPER_MARGIN_COLUMN, &|t| 0.001 + 0.01 * t),
             ],
         };
         let dir = std::env::temp_dir().join(format!("phonation_voice_energy_{}", std::process::id()));
@@ -380,6 +401,14 @@ mod tests {
         assert!((e.work_over_peak_kinetic_energy / ((p0 - p1) * t0 / (k + k2)) - 1.0).abs() < 2e-3);
         let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("voice.json")).unwrap()).unwrap();
         assert_eq!(json["aerodynamic_energy_transfer"]["total_work_per_cycle_erg"].as_f64(), Some(e.total_work_per_cycle_erg));
+        let m = report.measures.expect("measures");
+        let c = report.closure.expect("a closure shape");
+        assert_eq!((c.closures, c.from_below), (m.pulse_list.len(), 1.0));
+        assert!(c.closures >= 3, "{} closures", c.closures);
+        for (d, p) in c.per_closure.iter().zip(&m.pulse_list) {
+            assert!((d + 0.003 + 0.01 * p.t_close).abs() < 1e-12, "{d} at {}", p.t_close);
+        }
+        assert_eq!(json["closure_shape"]["from_below"].as_f64(), Some(1.0));
         std::fs::remove_dir_all(&dir).ok();
     }
 

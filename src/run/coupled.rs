@@ -109,6 +109,9 @@ pub struct GlottisReport {
     /// The air's work on the folds per cycle over the voice window, by part and in all, against
     /// their peak kinetic energy (as in voice.json).
     pub aerodynamic_energy_transfer: Option<crate::output::voice::EnergyTransfer>,
+    /// The medial surface's shape at the pulses' closures (as in voice.json): from below when
+    /// the lower margin is the nearer to the mid-line.
+    pub closure_shape: Option<crate::analysis::closure::ClosureShape>,
     /// Why there are no voice measures (too short, steady, …).
     pub no_voice: Option<String>,
 }
@@ -123,18 +126,19 @@ struct GlottalRecord {
 
 /// The columns of `glottal_flow.csv` after `t_s` (the flow first, as `phonation analyze` reads).
 /// The air's power on the folds by part ([`crate::coupling::glottis::AIR_POWER_PARTS`]) and
-/// their kinetic energy come last: `voice::AIR_POWER_PREFIX`, `voice::KINETIC_ENERGY_COLUMN`.
+/// their kinetic energy come last: `voice::AIR_POWER_PREFIX`, `voice::KINETIC_ENERGY_COLUMN`; the
+/// margins are read by name too (`voice::LOWER_MARGIN_COLUMN`, `voice::UPPER_MARGIN_COLUMN`).
 const GLOTTAL_COLUMNS: [&str; 10] = [
     "flow_cm3_s",
     "area_cm2",
     "gap_cm",
     "narrowest_y_cm",
-    "lower_margin_cm",
-    "upper_margin_cm",
+    crate::output::voice::LOWER_MARGIN_COLUMN,
+    crate::output::voice::UPPER_MARGIN_COLUMN,
     "air_power_inferior_erg_s",
     "air_power_medial_erg_s",
     "air_power_superior_erg_s",
-    "fold_kinetic_energy_erg",
+    crate::output::voice::KINETIC_ENERGY_COLUMN,
 ];
 
 fn glottal_values(s: &GlottalSample) -> [f64; 10] {
@@ -489,6 +493,7 @@ fn glottal_outputs(sc: &CoupledScene, dir: &Path, record: &GlottalRecord, files:
             crate::analysis::lag::lead_time(col(3), col(4), series.dt, half_period)
         }),
         aerodynamic_energy_transfer: voice.energy.clone(),
+        closure_shape: voice.closure.clone(),
         no_voice: voice.no_voice.clone(),
     })
 }

@@ -20,9 +20,9 @@ use crate::scene::coupled::CoupledScene;
 use std::path::PathBuf;
 
 /// The coarse glottis's vocal-tract face, as built in.
-const OUTLET: &str = "y_max = { type = \"outlet\" }";
+pub(crate) const OUTLET: &str = "y_max = { type = \"outlet\" }";
 /// The same face held at the atmosphere's pressure.
-const PRESSURE_OUTLET: &str = "y_max = { type = \"pressure_outlet\" }";
+pub(crate) const PRESSURE_OUTLET: &str = "y_max = { type = \"pressure_outlet\" }";
 
 /// Simulated time (s): 3.5 cycles at ≈ 117 Hz, the last 75 % analysed (2 whole cycles).
 const DURATION: f64 = 0.03;

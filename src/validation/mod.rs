@@ -16,6 +16,7 @@ pub mod glottis;
 pub mod glottis_3d;
 pub mod glottis_energy;
 pub mod glottis_modes;
+pub mod glottis_self_oscillation;
 pub mod riemann;
 pub mod soak;
 pub mod sod;

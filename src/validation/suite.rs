@@ -292,6 +292,9 @@ pub fn cases() -> Vec<Case> {
         // case A's air work per cycle with the zero-gradient outlet and a pressure outlet, 30 ms
         // each: ≈ 6 min each on 2 cores
         ("glottis_air_work", super::glottis_energy::rows),
+        // case A with a pressure outlet at twice the seed's lung pressure, 135 ms from rest
+        // (600,000 steps): the folds self-oscillate and settle; ≈ 1 h on 2 cores
+        ("glottis_self_oscillation", super::glottis_self_oscillation::rows),
         ("glottis_speed_error", || {
             // Case C's f0 against resolution (×0.5, ×0.75, ×1 of the seed's lattice) and Mach
             // scaling (real air, Mach 0.3), 40 ms each, with each run's wall time per simulated
