@@ -140,6 +140,7 @@ pub fn rows() -> Vec<(String, f64, String, bool)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fluid::boundary::{Face, FaceCondition};
 
     /// The case's scene is the built-in coarse glottis with a pressure outlet, twice the lung
     /// pressure, the Mach scaling's reference speed ×√2 and 135 ms; nothing else moves.

@@ -531,6 +531,7 @@ mod tests {
                 "glottis_seed_layer_list",
                 "glottis_fold_modes",
                 "glottis_air_work",
+                "glottis_self_oscillation",
                 "glottis_speed_error"
             ]
         );
