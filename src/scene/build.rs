@@ -113,6 +113,36 @@ fn finite_positive(field: &str, v: f64) -> Result<f64, SceneError> {
     if v.is_finite() && v > 0.0 { Ok(v) } else { err(field, format!("must be positive and finite, got {v}")) }
 }
 
+/// The Mach scaling's reference speed (scene units): the number given, or for `"bernoulli"`
+/// √(2Δp/ρ₀) with Δp the largest gauge pressure difference between the pressure faces
+/// (`pressure_inlet`, `pressure_outlet`) and the initial state's gauge 0.
+fn reference_velocity(r: &ReferenceVelocity, faces: &FaceSpecs, rho0: f64) -> Result<f64, SceneError> {
+    const FIELD: &str = "numerics.mach_scaling.reference_velocity";
+    match r {
+        ReferenceVelocity::Speed(u) => finite_positive(FIELD, *u),
+        ReferenceVelocity::Named(name) if name == "bernoulli" => {
+            let pressures: Vec<f64> =
+                [Some(&faces.x_min), Some(&faces.x_max), Some(&faces.y_min), Some(&faces.y_max), faces.z_min.as_ref(), faces.z_max.as_ref()]
+                    .into_iter()
+                    .flatten()
+                    .filter_map(|f| match f {
+                        FaceSpec::PressureInlet { pressure, .. } | FaceSpec::PressureOutlet { pressure, .. } => Some(*pressure),
+                        _ => None,
+                    })
+                    .chain([0.0])
+                    .collect();
+            let hi = pressures.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+            let lo = pressures.iter().cloned().fold(f64::INFINITY, f64::min);
+            let dp = hi - lo;
+            if !(dp.is_finite() && dp > 0.0) {
+                return err(FIELD, "\"bernoulli\" needs a pressure face whose gauge pressure is not 0 (the jet speed comes from the pressure difference)");
+            }
+            Ok((2.0 * dp / rho0).sqrt())
+        }
+        ReferenceVelocity::Named(other) => err(FIELD, format!("a speed (scene units) or \"bernoulli\", got \"{other}\"")),
+    }
+}
+
 /// A `dim`-component vector of a scene file (z = 0 in 2D); `allow_empty`: [] means zero.
 pub(crate) fn vector(field: &str, v: &[f64], dim: usize, allow_empty: bool) -> Result<[f64; 3], SceneError> {
     if v.is_empty() && allow_empty {
@@ -187,7 +217,7 @@ impl FluidScene {
         }
         let (c_eff, mach_scaled, ref_mach) = match &nm.mach_scaling {
             Some(ms) => {
-                let u = finite_positive("numerics.mach_scaling.reference_velocity", ms.reference_velocity)?;
+                let u = reference_velocity(&ms.reference_velocity, &file.boundaries, rho0)?;
                 let ma = ms.mach;
                 if !(ma > 0.0 && ma <= 0.5) {
                     return err("numerics.mach_scaling.mach", format!("must be in (0, 0.5], got {ma}"));
@@ -465,5 +495,54 @@ impl FluidScene {
             real_mach: self.real_mach,
             mach_scaled: self.mach_scaled,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `reference_velocity = "bernoulli"` is the jet √(2Δp/ρ₀) of the scene's largest pressure
+    /// difference: the coarse glottis's 8000 dyn/cm² give the 3676 cm/s its file writes by hand
+    /// (to 2·10⁻⁵), twice the lung pressure √2 times that, and a lattice that has no pressure
+    /// face, or a name that is not "bernoulli", is refused naming the key.
+    #[test]
+    fn a_bernoulli_reference_velocity_follows_the_pressure_faces() {
+        let coarse = crate::scene::builtin("glottis_2d_coarse").unwrap();
+        let by_hand = "reference_velocity = 3676.0";
+        assert!(coarse.contains(by_hand));
+        let try_fluid_part = |text: &str| -> Result<FluidScene, SceneError> {
+            let mut t: toml::Table = toml::from_str(text).unwrap();
+            for k in ["solid", "coupling"] {
+                t.remove(k);
+            }
+            FluidScene::new(parse(&toml::to_string(&t).unwrap())?)
+        };
+        let fluid_part = |text: &str| try_fluid_part(text).unwrap();
+        let bernoulli = coarse.replace(by_hand, "reference_velocity = \"bernoulli\"");
+        let (hand, auto) = (fluid_part(coarse), fluid_part(&bernoulli));
+        let jet = (2.0 * 8000.0 / 1.184e-3f64).sqrt();
+        assert!((auto.units.velocity / hand.units.velocity - jet / 3676.0).abs() < 1e-12);
+        assert!((jet / 3676.0 - 1.0).abs() < 2e-5);
+        let doubled = crate::run::sweep::set_key(&bernoulli, "boundaries.y_min.pressure", 16000.0).unwrap();
+        assert!((fluid_part(&doubled).units.velocity / auto.units.velocity - 2f64.sqrt()).abs() < 1e-12);
+        // a pressure outlet below the atmosphere's pressure counts too: Δp is inlet − outlet
+        let below = bernoulli.replace("y_max = { type = \"outlet\" }", "y_max = { type = \"pressure_outlet\", pressure = -8000.0 }");
+        assert!((fluid_part(&below).units.velocity / auto.units.velocity - 2f64.sqrt()).abs() < 1e-12);
+
+        let cavity = crate::scene::builtin("lid_cavity").unwrap().to_string();
+        let mut t: toml::Table = toml::from_str(&cavity).unwrap();
+        let numerics = t.entry("numerics").or_insert(toml::Value::Table(Default::default())).as_table_mut().unwrap();
+        numerics.insert(
+            "mach_scaling".into(),
+            toml::Value::Table(toml::toml! { reference_velocity = "bernoulli"
+            mach = 0.1 }),
+        );
+        let e = FluidScene::new(parse(&toml::to_string(&t).unwrap()).unwrap()).unwrap_err();
+        assert_eq!(e.field, "numerics.mach_scaling.reference_velocity");
+        assert!(e.reason.contains("pressure face"), "{}", e.reason);
+        let e = try_fluid_part(&bernoulli.replace("\"bernoulli\"", "\"jet\"")).err().expect("refused");
+        assert_eq!(e.field, "numerics.mach_scaling.reference_velocity");
+        assert!(e.reason.contains("\"jet\""), "{}", e.reason);
     }
 }

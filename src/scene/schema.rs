@@ -97,8 +97,25 @@ pub enum PopulationStorage {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MachScaling {
-    pub reference_velocity: f64,
+    pub reference_velocity: ReferenceVelocity,
     pub mach: f64,
+}
+
+/// The speed a Mach-scaled scene runs at lattice Mach `mach`: a number (scene units), or
+/// `"bernoulli"`: the Bernoulli jet √(2Δp/ρ₀) of the largest pressure difference between the
+/// scene's pressure faces and the initial gauge pressure 0, so that a sweep over a face's
+/// pressure keeps the jet at the same lattice Mach number.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum ReferenceVelocity {
+    Speed(f64),
+    Named(String),
+}
+
+impl From<f64> for ReferenceVelocity {
+    fn from(v: f64) -> Self {
+        ReferenceVelocity::Speed(v)
+    }
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]

@@ -152,7 +152,10 @@ mod tests {
         assert_eq!(base.lung_pressure(), Some(LUNG_PRESSURE / 2.0));
         assert!(matches!(sc.fluid.boundaries.face(Face::YMax), FaceCondition::PressureInlet { .. }));
         assert_eq!(sc.fluid.file.run.duration, DURATION);
-        let reference = |s: &CoupledScene| s.fluid.file.numerics.mach_scaling.as_ref().unwrap().reference_velocity;
+        let reference = |s: &CoupledScene| match s.fluid.file.numerics.mach_scaling.as_ref().unwrap().reference_velocity {
+            crate::scene::schema::ReferenceVelocity::Speed(v) => v,
+            ref other => panic!("{other:?}"),
+        };
         assert!((reference(&sc) / reference(&base) - 2f64.sqrt()).abs() < 0.05 / reference(&base));
         assert_eq!(reference(&sc), 5198.6);
         // the same lattice and the same folds
