@@ -7,7 +7,10 @@
 //! surface is vertical between the margins (both at the half-gap G/2 from the mid-line), so the
 //! sign of (lower − upper) lateral displacement at a closure tells the shape: negative, the
 //! lower margin is the nearer to the mid-line (divergent: closing from below); positive, the
-//! upper one is (convergent: closing from above).
+//! upper one is (convergent: closing from above). The instants are the voice measures' closing
+//! instants ([`super::voice::Pulse::t_close`]): where the flow returns to its closed level, which
+//! is a closure only when the glottis closes; for a glottis that stays open it is the most closed
+//! instant of the cycle, and the shape read there is the narrowing glottis's.
 
 /// The medial surface's shape at the closures of a glottal cycle.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]

@@ -143,7 +143,8 @@ fn energy_transfer(s: &GlottalSeries, m: &VoiceMeasures) -> Option<EnergyTransfe
     })
 }
 
-/// The medial surface's shape at the closures of the measures' pulses (their `t_close`), from
+/// The medial surface's shape at the closing instants of the measures' pulses (their `t_close`:
+/// a closure, or where the flow of a glottis that stays open comes back to its cycle's minimum), from
 /// the margins' columns ([`crate::analysis::closure::shape_at_closures`]); `None` without them.
 fn closure_shape(s: &GlottalSeries, m: &VoiceMeasures) -> Option<ClosureShape> {
     let col = |name: &str| s.columns.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_slice());
@@ -225,7 +226,7 @@ closure at the return to within 1 % of the closed-phase level; OQ = (t_c − t_o
 QOQ = time above 50 % of A_ac / T0; MFDR = −min dU/dt; NAQ = A_ac/(MFDR·T0); H1–H2 of dU/dt by projection over whole periods; \
 means over the pulses of the window; aerodynamic_energy_transfer = ∫ Σ F·v dt over the folds' surface particles per cycle \
 of the window, from one upward crossing of the glottal area's window mean to the next (Thomson, Mongeau & Frankel 2005), by part of the surface (below the lower margin, between the margins, above the upper one); \
-closure_shape = the margins' lateral displacements at each pulse's closure: lower − upper < 0 is a divergent glottis closing from below (the lower margin nearer the mid-line), > 0 a convergent one closing from above";
+closure_shape = the margins' lateral displacements at each pulse's closure instant (as for OQ: a closure, or the most closed instant of a cycle whose glottis stays open): lower − upper < 0 is a divergent glottis closing from below (the lower margin nearer the mid-line), > 0 a convergent one closing from above";
 
 /// Write the two WAV files; the audio is the whole run when it lasts a second or more, else the
 /// last whole periods (between pulse peaks) repeated.

@@ -18,7 +18,9 @@
 //! Measured (2026-12-05, the run behind these rows, 600,000 steps): f0 118.65 Hz, the air's work
 //! +8.0 % of the peak kinetic energy a cycle, the last five pulses within 3.9 %, the upper
 //! margin's swing 911 µm in its first cycle and 983–1051 µm over the last five, 6 of 6 closures
-//! convergent (the upper margin 21 µm nearer the mid-line than the lower one).
+//! convergent (the upper margin 21 µm nearer the mid-line than the lower one). The case itself,
+//! run from rest (2026-12-05, one thread beside two other runs): 7 of 8 rows pass in 2,522 s, the
+//! closure from below failing.
 
 use crate::analysis::oscillation::swing_per_cycle;
 use crate::output::voice::{UPPER_MARGIN_COLUMN, read_glottal_csv};
