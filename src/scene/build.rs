@@ -520,6 +520,9 @@ mod tests {
         };
         let fluid_part = |text: &str| try_fluid_part(text).unwrap();
         let bernoulli = coarse.replace(by_hand, "reference_velocity = \"bernoulli\"");
+        // an integer speed is still a speed
+        let integer = fluid_part(&coarse.replace(by_hand, "reference_velocity = 3676"));
+        assert_eq!(integer.units.velocity, fluid_part(coarse).units.velocity);
         let (hand, auto) = (fluid_part(coarse), fluid_part(&bernoulli));
         let jet = (2.0 * 8000.0 / 1.184e-3f64).sqrt();
         assert!((auto.units.velocity / hand.units.velocity - jet / 3676.0).abs() < 1e-12);

@@ -112,12 +112,6 @@ pub enum ReferenceVelocity {
     Named(String),
 }
 
-impl From<f64> for ReferenceVelocity {
-    fn from(v: f64) -> Self {
-        ReferenceVelocity::Speed(v)
-    }
-}
-
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FaceSpecs {
