@@ -34,18 +34,18 @@ pub struct ClosureShape {
 /// when none is left.
 pub fn shape_at_closures(lower: &[f64], upper: &[f64], dt: f64, closures: &[f64]) -> Option<ClosureShape> {
     let n = lower.len().min(upper.len());
+    if n < 2 {
+        return None;
+    }
     let at = |x: &[f64], t: f64| -> Option<f64> {
         let s = t / dt;
         if !(s >= 0.0) || s > (n - 1) as f64 {
             return None;
         }
-        let k = (s.floor() as usize).min(n.saturating_sub(2));
+        let k = (s.floor() as usize).min(n - 2);
         let f = s - k as f64;
         Some(x[k] + f * (x[k + 1] - x[k]))
     };
-    if n < 2 {
-        return None;
-    }
     let per_closure: Vec<f64> = closures.iter().filter_map(|&t| Some(at(lower, t)? - at(upper, t)?)).collect();
     if per_closure.is_empty() {
         return None;
