@@ -14,7 +14,8 @@
 //! Why these settings (README, "What the air takes from the folds"): with the zero-gradient
 //! outlet the supraglottal face radiates a sixth of the vibration's energy per cycle and every
 //! lung pressure tried decays; with the pressure outlet the seed's 8000 dyn/cm² still decays
-//! by ~4 % a cycle, 1.5× by ~3 %, 3× by 9 %; 2× grows from 34 ms and settles from 51 ms.
+//! by ~4 % a cycle, 1.5× by ~3 %, 2.5× by ~2 %, 3× by 9 %; 1.75× holds its swing (120 ms) without
+//! growing from its first cycle; 2× grows from 34 ms and settles from 51 ms.
 //! Measured (2026-12-05, the run behind these rows, 600,000 steps): f0 118.65 Hz, the air's work
 //! +8.0 % of the peak kinetic energy a cycle, the last five pulses within 3.9 %, the upper
 //! margin's swing 911 µm in its first cycle and 983–1051 µm over the last five, 6 of 6 closures
