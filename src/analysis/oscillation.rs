@@ -83,7 +83,7 @@ pub fn swing_per_cycle(x: &[f64], dt: f64) -> Vec<Swing> {
     let up = upward_crossings(x, mean, dt);
     up.windows(2)
         .map(|w| {
-            // the samples strictly inside the cycle, plus the first one past its start
+            // the samples from the first at or after the cycle's start to the last at or before its end
             let (i0, i1) = ((w[0] / dt).ceil() as usize, ((w[1] / dt).floor() as usize).min(x.len() - 1));
             let seg = &x[i0..=i1.max(i0)];
             let hi = seg.iter().cloned().fold(f64::MIN, f64::max);

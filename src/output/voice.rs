@@ -33,6 +33,13 @@ pub struct GlottalSeries {
     pub columns: Vec<(String, Vec<f64>)>,
 }
 
+impl GlottalSeries {
+    /// The values of the column `name`, when the series has it.
+    pub fn column(&self, name: &str) -> Option<&[f64]> {
+        self.columns.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_slice())
+    }
+}
+
 /// Write `glottal_flow.csv`: `t_s,flow_cm3_s` and the extra columns.
 pub fn write_glottal_csv(dir: &Path, s: &GlottalSeries) -> anyhow::Result<PathBuf> {
     let path = dir.join("glottal_flow.csv");
@@ -118,9 +125,9 @@ pub struct EnergyTransfer {
 fn energy_transfer(s: &GlottalSeries, m: &VoiceMeasures) -> Option<EnergyTransfer> {
     let power: Vec<(&str, &[f64])> =
         s.columns.iter().filter_map(|(n, v)| Some((n.strip_prefix(AIR_POWER_PREFIX)?.trim_end_matches("_erg_s"), v.as_slice()))).collect();
-    let ke = s.columns.iter().find(|(n, _)| n == KINETIC_ENERGY_COLUMN)?.1.as_slice();
+    let ke = s.column(KINETIC_ENERGY_COLUMN)?;
     let [a, b, c] = power.as_slice() else { return None };
-    let area = &s.columns.iter().find(|(n, _)| n == "area_cm2")?.1;
+    let area = s.column("area_cm2")?;
     let start = ((m.window_s[0] / s.dt) as usize).min(area.len());
     let window = &area[start..];
     let mean = window.iter().sum::<f64>() / window.len().max(1) as f64;
@@ -147,9 +154,8 @@ fn energy_transfer(s: &GlottalSeries, m: &VoiceMeasures) -> Option<EnergyTransfe
 /// a closure, or where the flow of a glottis that stays open comes back to its cycle's minimum), from
 /// the margins' columns ([`crate::analysis::closure::shape_at_closures`]); `None` without them.
 fn closure_shape(s: &GlottalSeries, m: &VoiceMeasures) -> Option<ClosureShape> {
-    let col = |name: &str| s.columns.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_slice());
     let closures: Vec<f64> = m.pulse_list.iter().map(|p| p.t_close).collect();
-    crate::analysis::closure::shape_at_closures(col(LOWER_MARGIN_COLUMN)?, col(UPPER_MARGIN_COLUMN)?, s.dt, &closures)
+    crate::analysis::closure::shape_at_closures(s.column(LOWER_MARGIN_COLUMN)?, s.column(UPPER_MARGIN_COLUMN)?, s.dt, &closures)
 }
 
 /// How the sound files were made.
@@ -175,16 +181,35 @@ pub struct VoiceReport {
     pub files: Vec<PathBuf>,
 }
 
-/// Measure the series and write `voice.json` (with `extra` merged in: the scene, the two-mass
-/// yardstick, …), `pulses.csv`, the plots and the WAV files into `dir`.
-pub fn write_voice_outputs(dir: &Path, s: &GlottalSeries, opts: &VoiceOptions, extra: serde_json::Value) -> anyhow::Result<VoiceReport> {
-    let measured = voice_measures(&s.flow, s.dt, opts);
-    let derivative: Vec<f64> = s.flow.windows(2).map(|w| (w[1] - w[0]) / s.dt).collect();
-    let mut files = Vec::new();
-    let (measures, no_voice) = match measured {
+/// What [`glottal_measures`] reads from a series.
+pub struct GlottalMeasures {
+    pub measures: Option<VoiceMeasures>,
+    /// Why there are no measures (no oscillation, too short).
+    pub no_voice: Option<String>,
+    /// The air's work on the folds per cycle, when the series carries their power.
+    pub energy: Option<EnergyTransfer>,
+    /// Where the glottis closes, when the series carries the margins.
+    pub closure: Option<ClosureShape>,
+}
+
+/// The voice measures of `s` over the window of `opts`, with the air's work per cycle and the
+/// closure shape where the series has their columns: what voice.json holds, without writing.
+pub fn glottal_measures(s: &GlottalSeries, opts: &VoiceOptions) -> GlottalMeasures {
+    let (measures, no_voice) = match voice_measures(&s.flow, s.dt, opts) {
         Ok(m) => (Some(m), None),
         Err(e) => (None, Some(e.to_string())),
     };
+    let energy = measures.as_ref().and_then(|m| energy_transfer(s, m));
+    let closure = measures.as_ref().and_then(|m| closure_shape(s, m));
+    GlottalMeasures { measures, no_voice, energy, closure }
+}
+
+/// Measure the series and write `voice.json` (with `extra` merged in: the scene, the two-mass
+/// yardstick, …), `pulses.csv`, the plots and the WAV files into `dir`.
+pub fn write_voice_outputs(dir: &Path, s: &GlottalSeries, opts: &VoiceOptions, extra: serde_json::Value) -> anyhow::Result<VoiceReport> {
+    let GlottalMeasures { measures, no_voice, energy, closure } = glottal_measures(s, opts);
+    let derivative: Vec<f64> = s.flow.windows(2).map(|w| (w[1] - w[0]) / s.dt).collect();
+    let mut files = Vec::new();
     let audio = write_wavs(dir, s, &derivative, measures.as_ref(), &mut files)?;
     if let Some(m) = &measures {
         let path = dir.join("pulses.csv");
@@ -196,8 +221,6 @@ pub fn write_voice_outputs(dir: &Path, s: &GlottalSeries, opts: &VoiceOptions, e
         files.push(path);
     }
     files.extend(plot_series(dir, s, &derivative, measures.as_ref(), opts.window_fraction)?);
-    let energy = measures.as_ref().and_then(|m| energy_transfer(s, m));
-    let closure = measures.as_ref().and_then(|m| closure_shape(s, m));
     let mut json = serde_json::json!({
         "oscillating": measures.is_some(),
         "measures": measures,

@@ -489,8 +489,9 @@ fn glottal_outputs(sc: &CoupledScene, dir: &Path, record: &GlottalRecord, files:
             // over the voice window, lags up to half a period
             let start = (m.window_s[0] / series.dt) as usize;
             let half_period = (0.5 / m.f0_autocorrelation_hz / series.dt) as usize;
-            let col = |k: usize| &series.columns[k].1[start.min(s.len())..];
-            crate::analysis::lag::lead_time(col(3), col(4), series.dt, half_period)
+            let col = |name: &str| series.column(name).map(|v| &v[start.min(v.len())..]);
+            let (lower, upper) = (col(crate::output::voice::LOWER_MARGIN_COLUMN)?, col(crate::output::voice::UPPER_MARGIN_COLUMN)?);
+            crate::analysis::lag::lead_time(lower, upper, series.dt, half_period)
         }),
         aerodynamic_energy_transfer: voice.energy.clone(),
         closure_shape: voice.closure.clone(),

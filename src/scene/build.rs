@@ -121,20 +121,19 @@ fn reference_velocity(r: &ReferenceVelocity, faces: &FaceSpecs, rho0: f64) -> Re
     match r {
         ReferenceVelocity::Speed(u) => finite_positive(FIELD, *u),
         ReferenceVelocity::Named(name) if name == "bernoulli" => {
-            let pressures: Vec<f64> =
-                [Some(&faces.x_min), Some(&faces.x_max), Some(&faces.y_min), Some(&faces.y_max), faces.z_min.as_ref(), faces.z_max.as_ref()]
-                    .into_iter()
-                    .flatten()
-                    .filter_map(|f| match f {
-                        FaceSpec::PressureInlet { pressure, .. } | FaceSpec::PressureOutlet { pressure, .. } => Some(*pressure),
-                        _ => None,
-                    })
-                    .chain([0.0])
-                    .collect();
+            let mut pressures = vec![0.0];
+            for (face, spec) in faces.named() {
+                if let Some(FaceSpec::PressureInlet { pressure, .. } | FaceSpec::PressureOutlet { pressure, .. }) = spec {
+                    if !pressure.is_finite() {
+                        return err(format!("boundaries.{face}.pressure"), "must be finite");
+                    }
+                    pressures.push(*pressure);
+                }
+            }
             let hi = pressures.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
             let lo = pressures.iter().cloned().fold(f64::INFINITY, f64::min);
             let dp = hi - lo;
-            if !(dp.is_finite() && dp > 0.0) {
+            if dp <= 0.0 {
                 return err(FIELD, "\"bernoulli\" needs a pressure face whose gauge pressure is not 0 (the jet speed comes from the pressure difference)");
             }
             Ok((2.0 * dp / rho0).sqrt())
@@ -231,10 +230,7 @@ impl FluidScene {
 
         // Boundaries.
         let fs = &file.boundaries;
-        let mut faces: Vec<(&str, Option<&FaceSpec>)> =
-            vec![("x_min", Some(&fs.x_min)), ("x_max", Some(&fs.x_max)), ("y_min", Some(&fs.y_min)), ("y_max", Some(&fs.y_max))];
-        faces.push(("z_min", fs.z_min.as_ref()));
-        faces.push(("z_max", fs.z_max.as_ref()));
+        let faces = fs.named();
         let mut conds: Vec<FaceCondition> = Vec::new();
         let mut max_u: f64 = 0.0;
         // which field sets the largest speed (named when it is too fast for the lattice)

@@ -123,6 +123,21 @@ pub struct FaceSpecs {
     pub z_max: Option<FaceSpec>,
 }
 
+impl FaceSpecs {
+    /// The six faces with their keys, in axis order (x_min, x_max, y_min, …); the z faces are
+    /// `None` when the scene leaves them out.
+    pub fn named(&self) -> [(&'static str, Option<&FaceSpec>); 6] {
+        [
+            ("x_min", Some(&self.x_min)),
+            ("x_max", Some(&self.x_max)),
+            ("y_min", Some(&self.y_min)),
+            ("y_max", Some(&self.y_max)),
+            ("z_min", self.z_min.as_ref()),
+            ("z_max", self.z_max.as_ref()),
+        ]
+    }
+}
+
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum FaceSpec {

@@ -49,8 +49,10 @@ fn run(face: &str, name: &str) -> anyhow::Result<EnergyTransfer> {
     }
     // the run's own voice window is the measures' default (half the run): read the last 75 %
     let opts = crate::analysis::voice::VoiceOptions { window_fraction: WINDOW, ..Default::default() };
-    let v = crate::output::voice::analyze_dir(&dir, &opts, serde_json::json!({}))?;
-    v.energy.ok_or_else(|| anyhow::anyhow!("no whole cycle of the glottal area in the last {WINDOW} of the run"))
+    let series = crate::output::voice::read_glottal_csv(&dir.join("glottal_flow.csv"))?;
+    crate::output::voice::glottal_measures(&series, &opts)
+        .energy
+        .ok_or_else(|| anyhow::anyhow!("no whole cycle of the glottal area in the last {WINDOW} of the run"))
 }
 
 /// The rows of `validate --case glottis_air_work`.

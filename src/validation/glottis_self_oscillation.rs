@@ -24,7 +24,7 @@
 //! closure from below failing.
 
 use crate::analysis::oscillation::swing_per_cycle;
-use crate::output::voice::{UPPER_MARGIN_COLUMN, read_glottal_csv};
+use crate::output::voice::{UPPER_MARGIN_COLUMN, glottal_measures, read_glottal_csv};
 use crate::run::coupled::run_coupled_scene;
 use crate::scene::coupled::CoupledScene;
 use std::path::{Path, PathBuf};
@@ -48,12 +48,9 @@ pub fn scene_text() -> anyhow::Result<String> {
     let outlet = super::glottis_energy::OUTLET;
     anyhow::ensure!(text.contains(outlet), "glottis_2d_coarse's vocal-tract face is no longer `{outlet}`");
     let text = text.replace(outlet, super::glottis_energy::PRESSURE_OUTLET);
-    let table: toml::Table = toml::from_str(&text)?;
+    let table: toml::Value = toml::from_str(&text)?;
     let number = |path: &[&str]| -> anyhow::Result<f64> {
-        let mut v = &toml::Value::Table(table.clone());
-        for p in path {
-            v = v.get(p).ok_or_else(|| anyhow::anyhow!("glottis_2d_coarse has no `{}`", path.join(".")))?;
-        }
+        let v = path.iter().try_fold(&table, |v, p| v.get(p)).ok_or_else(|| anyhow::anyhow!("glottis_2d_coarse has no `{}`", path.join(".")))?;
         v.as_float().ok_or_else(|| anyhow::anyhow!("`{}` is not a number", path.join(".")))
     };
     let lung = number(&["boundaries", "y_min", "pressure"])?;
@@ -65,14 +62,14 @@ pub fn scene_text() -> anyhow::Result<String> {
     Ok(set_key(&text, "run.duration", DURATION)?)
 }
 
-/// The rows read from a finished run's outputs in `dir` (its `glottal_flow.csv`, analysed as
-/// `phonation analyze` does: the last half).
+/// The rows read from a finished run's outputs in `dir`: its `glottal_flow.csv`, measured as the
+/// run's own voice.json is (the last half), without rewriting that file.
 pub fn rows_from_outputs(dir: &Path) -> anyhow::Result<Vec<(String, f64, String, bool)>> {
-    let opts = crate::analysis::voice::VoiceOptions::default();
-    let v = crate::output::voice::analyze_dir(dir, &opts, serde_json::json!({}))?;
-    let m = v.measures.ok_or_else(|| anyhow::anyhow!("no voice: {}", v.no_voice.unwrap_or_default()))?;
     let series = read_glottal_csv(&dir.join("glottal_flow.csv"))?;
-    let upper = &series.columns.iter().find(|(n, _)| n == UPPER_MARGIN_COLUMN).ok_or_else(|| anyhow::anyhow!("no `{UPPER_MARGIN_COLUMN}` column"))?.1;
+    let opts = crate::analysis::voice::VoiceOptions::default();
+    let v = glottal_measures(&series, &opts);
+    let m = v.measures.ok_or_else(|| anyhow::anyhow!("no voice: {}", v.no_voice.unwrap_or_default()))?;
+    let upper = series.column(UPPER_MARGIN_COLUMN).ok_or_else(|| anyhow::anyhow!("no `{UPPER_MARGIN_COLUMN}` column"))?;
     let cycles = swing_per_cycle(upper, series.dt);
     let swings: Vec<f64> = cycles.iter().map(|s| s.peak_to_peak).collect();
     // the cycles of the analysed half in which no air passes at some instant (a closure in the
