@@ -117,11 +117,27 @@ pub struct LatticeSpeed {
     pub stage_fractions: Vec<(String, f64)>,
     /// Why the size could not run on this backend (too large for the device, …).
     pub skipped: Option<String>,
+    /// CPU: the memory hints the solver chose for this size ([`crate::fluid::solver::MemoryHints`]),
+    /// and, where it chose any, the best rate of blocks timed without them, interleaved with
+    /// the others in the same process.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub memory_hints: Option<HintsSpeed>,
     /// GPU: what a probe sample costs the run loop, in seconds and in steps of this lattice —
     /// the whole state brought back into the CPU mirror against the probes' nodes gathered on
     /// the device ([`crate::run::FluidEngine::state_at`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub readback: Option<ReadbackCost>,
+}
+
+/// The FDLB's memory hints on the CPU against none, on the same solver (see
+/// [`LatticeSpeed::memory_hints`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct HintsSpeed {
+    pub streaming_stores: bool,
+    pub prefetch_rows: bool,
+    /// Best and median node updates per second with no hint; `None` where none was chosen.
+    pub without_node_updates_per_s: Option<f64>,
+    pub without_median_node_updates_per_s: Option<f64>,
 }
 
 /// The cost of one probe sample of a GPU run (see [`LatticeSpeed::readback`]).
@@ -169,7 +185,7 @@ pub fn benchmark_solver_stored<S: Storage>(set: VelocitySetKind, n: [usize; 3]) 
 /// Bytes of a CPU fluid's arrays that a step sweeps: f, f¹, fⁿ⁺¹, h (of `S`) and the
 /// macroscopic fields (f64).
 pub fn fluid_footprint<S: Storage>(s: &FluidSolver<S>) -> usize {
-    s.layout.grid.len() * (4 * s.eq.values_per_node() * std::mem::size_of::<S>() + crate::fluid::equilibrium::MACRO_FIELDS * 8)
+    s.footprint_bytes()
 }
 
 /// f64 per array of the full benchmark's triad: 256 MiB, or the power of two at or above the
@@ -225,16 +241,40 @@ fn speed_row<S: Storage>(s: &FluidSolver<S>, set: VelocitySetKind, steps: u64, m
         bandwidth_fraction: fraction_of_bandwidth(ups * bytes, footprint, bandwidth),
         stage_fractions: s.timings.report().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
         skipped: None,
+        memory_hints: None,
         readback: None,
     }
 }
 
 /// CPU node updates per second of the benchmark problem: `repetitions` blocks of `steps` steps,
-/// the best, median and worst block (as the triad: [`triad`]).
+/// the best, median and worst block (as the triad: [`triad`]). Where the solver chose memory
+/// hints for this size, as many blocks without them alternate with those blocks.
 pub fn lattice_speed(set: VelocitySetKind, n: [usize; 3], steps: u64, repetitions: usize, bandwidth: f64) -> LatticeSpeed {
+    use crate::fluid::solver::MemoryHints;
     let mut s = warmed::<f64>(set, n);
-    let rates = (0..repetitions.max(1)).map(|_| timed_block(&mut s, steps)).collect();
-    speed_row(&s, set, steps, rates, bandwidth)
+    let chosen = s.memory_hints();
+    let none = MemoryHints { streaming_stores: false, prefetch_rows: false };
+    let (mut rates, mut without) = (Vec::new(), Vec::new());
+    for _ in 0..repetitions.max(1) {
+        rates.push(timed_block(&mut s, steps));
+        if chosen != none {
+            // the stage shares stay those of the blocks with the chosen hints
+            let kept = s.timings.clone();
+            s.set_memory_hints(none);
+            without.push(timed_block(&mut s, steps));
+            s.set_memory_hints(chosen);
+            s.timings = kept;
+        }
+    }
+    let mut row = speed_row(&s, set, steps, rates, bandwidth);
+    without.sort_by(|a, b| b.total_cmp(a));
+    row.memory_hints = Some(HintsSpeed {
+        streaming_stores: chosen.streaming_stores,
+        prefetch_rows: chosen.prefetch_rows,
+        without_node_updates_per_s: without.first().copied(),
+        without_median_node_updates_per_s: without.get(without.len() / 2).copied(),
+    });
+    row
 }
 
 /// The f32 storage option against f64 on one lattice, blocks interleaved in one process.

@@ -114,6 +114,20 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             );
             let st: Vec<String> = l.stage_fractions.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
             println!("         stages: {}", st.join(", "));
+            if let Some(h) = &l.memory_hints {
+                let chosen: Vec<&str> =
+                    [(h.streaming_stores, "streaming stores"), (h.prefetch_rows, "rows fetched ahead")].iter().filter(|c| c.0).map(|c| c.1).collect();
+                match (chosen.is_empty(), h.without_node_updates_per_s) {
+                    (true, _) | (_, None) => println!("         memory hints: none at this size"),
+                    (false, Some(w)) => println!(
+                        "         memory hints: {}; without them {:.3e} (median {:.3e}), blocks interleaved: {:.2}× with",
+                        chosen.join(", "),
+                        w,
+                        h.without_median_node_updates_per_s.unwrap_or(w),
+                        l.node_updates_per_s / w
+                    ),
+                }
+            }
             if l.repetitions > 1 {
                 println!(
                     "         best of {} blocks of {} steps; median {:.3e}, worst {:.3e}",

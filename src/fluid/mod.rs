@@ -11,6 +11,7 @@ mod ghost_wall;
 pub mod grid;
 pub mod kernel_level_set;
 pub mod layout;
+mod memory_hints;
 pub mod moving;
 pub mod observe;
 mod polygon;

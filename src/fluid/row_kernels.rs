@@ -239,8 +239,11 @@ pub(super) fn runs(kind: &[NodeKind]) -> impl Iterator<Item = Run> + '_ {
 /// force term F = f⁰ g·(c − u)/θ, h = k_f f + k_eq f⁰ (every node), and the local part of the
 /// RK stage, `out = f − Δt/τ (f − f⁰) + Δt F` (first stage) or
 /// `out = ½ (fⁿ + f − Δt/τ (f − f⁰) + Δt F)` (second stage), written at fluid nodes only.
+/// With `STREAM`, h and the output are written with streaming stores
+/// ([`super::memory_hints`]), and the caller ends its task with
+/// [`super::memory_hints::streaming_fence`].
 #[inline(always)]
-pub(super) fn collide_value<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool, S: Storage>(
+pub(super) fn collide_value<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool, const STREAM: bool, S: Storage>(
     r: &CollideRows<S>,
     k: CollideConstants,
     h: &mut [S],
@@ -248,15 +251,18 @@ pub(super) fn collide_value<const FORCE: bool, const SECOND: bool, const ROTATIO
 ) {
     for &(a, b, fluid) in r.runs {
         if fluid {
-            collide_run::<FORCE, SECOND, ROTATIONAL, true, S>(r, k, a, b, h, out);
+            collide_run::<FORCE, SECOND, ROTATIONAL, true, STREAM, S>(r, k, a, b, h, out);
         } else {
-            collide_run::<FORCE, SECOND, ROTATIONAL, false, S>(r, k, a, b, h, out);
+            collide_run::<FORCE, SECOND, ROTATIONAL, false, STREAM, S>(r, k, a, b, h, out);
         }
     }
 }
 
+/// Nodes per chunk of the streaming path: computed into the stack, then streamed out.
+const STREAM_CHUNK: usize = 32;
+
 #[inline(always)]
-fn collide_run<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool, const FLUID: bool, S: Storage>(
+fn collide_run<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool, const FLUID: bool, const STREAM: bool, S: Storage>(
     r: &CollideRows<S>,
     k: CollideConstants,
     a: usize,
@@ -270,7 +276,8 @@ fn collide_run<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool, co
     let f_n = if SECOND { &r.f_n[a..b] } else { &r.f_n[..0] };
     let (h, out) = (&mut h[a..b], if FLUID { &mut out[a..b] } else { &mut out[..0] });
     let (c, sv) = (r.c, r.shift);
-    for x in 0..n {
+    // h and the stage output of node x
+    let node = |x: usize| -> (S, S) {
         let xi = (c[0] * u0[x] + c[1] * u1[x] + c[2] * u2[x]) * inv[x];
         let bx = base[x];
         let poly = bx + xi * (bx + xi * (0.5 + xi * (1.0 / 6.0)));
@@ -279,10 +286,32 @@ fn collide_run<const FORCE: bool, const SECOND: bool, const ROTATIONAL: bool, co
             fe *= rot[x];
         }
         let fx = f[x].decode(sv);
-        h[x] = S::encode(k.k_f * fx + k.k_eq * fe, sv);
+        let hx = S::encode(k.k_f * fx + k.k_eq * fe, sv);
+        if !FLUID {
+            return (hx, S::default());
+        }
+        let src = if FORCE { k.dt * fe * (r.gc - gu[x]) * inv[x] } else { 0.0 };
+        (hx, S::encode(if SECOND { 0.5 * (f_n[x].decode(sv) + fx - k.dt_tau * (fx - fe) + src) } else { fx - k.dt_tau * (fx - fe) + src }, sv))
+    };
+    if !STREAM {
+        for x in 0..n {
+            let (hx, ox) = node(x);
+            h[x] = hx;
+            if FLUID {
+                out[x] = ox;
+            }
+        }
+        return;
+    }
+    let (mut hb, mut ob) = ([S::default(); STREAM_CHUNK], [S::default(); STREAM_CHUNK]);
+    for start in (0..n).step_by(STREAM_CHUNK) {
+        let m = STREAM_CHUNK.min(n - start);
+        for j in 0..m {
+            (hb[j], ob[j]) = node(start + j);
+        }
+        S::copy_streaming(&mut h[start..start + m], &hb[..m]);
         if FLUID {
-            let src = if FORCE { k.dt * fe * (r.gc - gu[x]) * inv[x] } else { 0.0 };
-            out[x] = S::encode(if SECOND { 0.5 * (f_n[x].decode(sv) + fx - k.dt_tau * (fx - fe) + src) } else { fx - k.dt_tau * (fx - fe) + src }, sv);
+            S::copy_streaming(&mut out[start..start + m], &ob[..m]);
         }
     }
 }

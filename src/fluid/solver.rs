@@ -15,6 +15,8 @@ use super::equilibrium::{Equilibrium, MACRO_FIELDS, Macro};
 use super::geometry::Obstacle;
 use super::grid::Grid;
 use super::layout::{Layout, NodeKind};
+pub use super::memory_hints::MemoryHints;
+use super::memory_hints::{prefetch_bytes, streaming_fence};
 use super::row_kernels::{CollideConstants, CollideRows, RowScratch, advect_value, collide_value, runs};
 use super::storage::{RowBlocked, Storage, recode_into, rest_shift, shift_of};
 use super::thin_wall::advect_thin_taps;
@@ -64,6 +66,9 @@ pub struct FluidSolver<S: Storage = f64> {
     /// The padded rows in the advection's sweep order ([`advect_order`]).
     advect_order: Vec<u32>,
     window: (f64, f64),
+    /// Streaming stores and rows fetched ahead ([`MemoryHints`]): chosen from the arrays' size
+    /// against the last-level cache.
+    hints: MemoryHints,
     pub step_count: u64,
     pub time: f64,
     pub timings: StageTimings,
@@ -129,12 +134,38 @@ impl<S: Storage> FluidSolver<S> {
             stencil,
             advect_order,
             window,
+            hints: MemoryHints { streaming_stores: false, prefetch_rows: false },
             step_count: 0,
             time: 0.0,
             timings: StageTimings::default(),
         };
+        s.hints = MemoryHints::choose(s.footprint_bytes(), s.pop.px, crate::machine::last_level_cache_bytes());
         s.initialise(init);
         s
+    }
+
+    /// f¹, fⁿ⁺¹ and h as stored (tests).
+    #[cfg(test)]
+    fn stage_arrays_stored(&self) -> [&[S]; 3] {
+        [&self.f1, &self.f2, &self.h]
+    }
+
+    /// Bytes of the solver's per-node arrays: the four population arrays (fⁿ, f¹, fⁿ⁺¹, h) and
+    /// the macroscopic fields.
+    pub fn footprint_bytes(&self) -> usize {
+        self.layout.grid.len() * (4 * self.eq.values_per_node() * std::mem::size_of::<S>() + MACRO_FIELDS * 8)
+    }
+
+    /// How the passes move their bytes (chosen at construction from [`Self::footprint_bytes`]
+    /// against the last-level cache: [`MemoryHints::choose`]).
+    pub fn memory_hints(&self) -> MemoryHints {
+        self.hints
+    }
+
+    /// Chooses how the passes move their bytes (benchmarks and tests: the results are the same
+    /// bits either way).
+    pub fn set_memory_hints(&mut self, hints: MemoryHints) {
+        self.hints = hints;
     }
 
     /// The same solver with its populations stored as `T`, every value rounded once (exact from
@@ -165,6 +196,11 @@ impl<S: Storage> FluidSolver<S> {
             stencil: self.stencil.clone(),
             advect_order: self.advect_order.clone(),
             window: self.window,
+            hints: MemoryHints::choose(
+                self.layout.grid.len() * (4 * self.eq.values_per_node() * std::mem::size_of::<T>() + MACRO_FIELDS * 8),
+                self.pop.px,
+                crate::machine::last_level_cache_bytes(),
+            ),
             step_count: self.step_count,
             time: self.time,
             timings: self.timings.clone(),
@@ -302,6 +338,7 @@ impl<S: Storage> FluidSolver<S> {
             g: self.body_force,
             pop: self.pop,
             shift: &self.shift,
+            hints: self.hints,
         };
         match stage.kind {
             StageKind::MomentsCollide => {
@@ -361,6 +398,21 @@ impl<S: Storage> FluidSolver<S> {
     }
 }
 
+/// [`collide_value`] for (body force, second RK stage, rotational-energy value).
+#[inline(always)]
+fn collide_value_of<const STREAM: bool, S: Storage>(kinds: (bool, bool, bool), rows: &CollideRows<S>, k: CollideConstants, h: &mut [S], out: &mut [S]) {
+    match kinds {
+        (false, false, false) => collide_value::<false, false, false, STREAM, S>(rows, k, h, out),
+        (false, false, true) => collide_value::<false, false, true, STREAM, S>(rows, k, h, out),
+        (false, true, false) => collide_value::<false, true, false, STREAM, S>(rows, k, h, out),
+        (false, true, true) => collide_value::<false, true, true, STREAM, S>(rows, k, h, out),
+        (true, false, false) => collide_value::<true, false, false, STREAM, S>(rows, k, h, out),
+        (true, false, true) => collide_value::<true, false, true, STREAM, S>(rows, k, h, out),
+        (true, true, false) => collide_value::<true, true, false, STREAM, S>(rows, k, h, out),
+        (true, true, true) => collide_value::<true, true, true, STREAM, S>(rows, k, h, out),
+    }
+}
+
 /// Rows per rayon task so that a task updates at least ~16k values (small grids would otherwise
 /// drown in scheduling overhead).
 fn rows_per_task(values_per_row: usize) -> usize {
@@ -410,6 +462,7 @@ struct Kernels<'a> {
     pop: RowBlocked,
     /// The shift of each value (empty when unshifted: [`Storage`]).
     shift: &'a [f64],
+    hints: MemoryHints,
 }
 
 impl Kernels<'_> {
@@ -447,6 +500,7 @@ impl Kernels<'_> {
         let edh = eq.energy_dof_half;
         let g = self.g;
         let has_force = g.iter().any(|g| *g != 0.0);
+        let (prefetch, stream) = (self.hints.prefetch_rows, self.hints.streaming_stores);
         h.par_chunks_mut(px * nv)
             .zip(mac.par_chunks_mut(px * MACRO_FIELDS))
             .zip(out.par_chunks_mut(px * nv))
@@ -479,7 +533,15 @@ impl Kernels<'_> {
                     s.runs.clear();
                     s.runs.extend(runs(&kind_row[x0..x1]));
                     let consts = CollideConstants { k_f, k_eq, dt, dt_tau };
+                    let next_f = f.get((r + 1) * px * nv..(r + 2) * px * nv).filter(|_| prefetch);
+                    let next_base = base.and_then(|b| b.get((r + 1) * px * nv..(r + 2) * px * nv)).filter(|_| prefetch);
                     for v in 0..nv {
+                        if let Some(nf) = next_f {
+                            prefetch_bytes(nf[v * px..].as_ptr() as usize, px * std::mem::size_of::<S>());
+                        }
+                        if let Some(nb) = next_base {
+                            prefetch_bytes(nb[v * px..].as_ptr() as usize, px * std::mem::size_of::<S>());
+                        }
                         let i = if v < q { v } else { v - q };
                         let ci = eq.cf[i];
                         let gc = g[0] * ci[0] + g[1] * ci[1] + g[2] * ci[2];
@@ -500,20 +562,19 @@ impl Kernels<'_> {
                             shift: shift_of(self.shift, v),
                         };
                         let (hv, ov) = (&mut h_row[range.clone()], &mut out_row[range]);
-                        match (has_force, base.is_some(), v >= q) {
-                            (false, false, false) => collide_value::<false, false, false, S>(&rows, consts, hv, ov),
-                            (false, false, true) => collide_value::<false, false, true, S>(&rows, consts, hv, ov),
-                            (false, true, false) => collide_value::<false, true, false, S>(&rows, consts, hv, ov),
-                            (false, true, true) => collide_value::<false, true, true, S>(&rows, consts, hv, ov),
-                            (true, false, false) => collide_value::<true, false, false, S>(&rows, consts, hv, ov),
-                            (true, false, true) => collide_value::<true, false, true, S>(&rows, consts, hv, ov),
-                            (true, true, false) => collide_value::<true, true, false, S>(&rows, consts, hv, ov),
-                            (true, true, true) => collide_value::<true, true, true, S>(&rows, consts, hv, ov),
+                        let kinds = (has_force, base.is_some(), v >= q);
+                        if stream {
+                            collide_value_of::<true, S>(kinds, &rows, consts, hv, ov);
+                        } else {
+                            collide_value_of::<false, S>(kinds, &rows, consts, hv, ov);
                         }
                     }
                     let fields = [&s.rho, &s.u[0], &s.u[1], &s.u[2], &s.theta];
                     for (k, fld) in fields.iter().enumerate() {
                         mac_row[k * px + x0..k * px + x1].copy_from_slice(&fld[x0..x1]);
+                    }
+                    if stream {
+                        streaming_fence();
                     }
                     None
                 },
@@ -536,13 +597,31 @@ impl Kernels<'_> {
         let kind = &self.layout.kind;
         let k = factor * self.params.dt;
         // rows in y-slab order ([`advect_order`])
-        let mut slots: Vec<Option<&mut [S]>> = out.chunks_mut(px * nv).map(Some).collect();
-        let rows: Vec<(usize, &mut [S])> = self.advect_order.iter().map(|&r| (r as usize, slots[r as usize].take().expect("each row once"))).collect();
-        rows.into_par_iter().with_min_len(rows_per_task(px * nv)).for_each_init(Vec::new, |row_runs, (r, out_row)| {
+        let row_len = px * nv;
+        let out_addr = out.as_ptr() as usize;
+        let g = &self.layout.grid;
+        // the row whose h the next row's taps reach first: two planes on (3D), two rows on (2D)
+        let ahead = if g.dim == 3 { 2 * g.padded[1] } else { 2 };
+        let prefetch = self.hints.prefetch_rows;
+        let mut slots: Vec<Option<&mut [S]>> = out.chunks_mut(row_len).map(Some).collect();
+        let order = self.advect_order;
+        let rows: Vec<(usize, usize, &mut [S])> = order
+            .iter()
+            .enumerate()
+            .map(|(i, &r)| (r as usize, order.get(i + 1).map_or(r as usize, |&n| n as usize), slots[r as usize].take().expect("each row once")))
+            .collect();
+        rows.into_par_iter().with_min_len(rows_per_task(row_len)).for_each_init(Vec::new, |row_runs, (r, next, out_row)| {
             let Some((x0, x1)) = self.interior(r) else { return };
             row_runs.clear();
             row_runs.extend(runs(&kind[r * px + x0..r * px + x1]));
             for v in 0..nv {
+                if prefetch {
+                    let seg = std::mem::size_of::<S>() * px;
+                    prefetch_bytes(out_addr + (next * row_len + v * px) * std::mem::size_of::<S>(), seg);
+                    if let Some(hn) = h.get((next + ahead) * row_len + v * px..(next + ahead) * row_len + (v + 1) * px) {
+                        prefetch_bytes(hn.as_ptr() as usize, seg);
+                    }
+                }
                 let i = if v < q { v } else { v - q };
                 let (centre, taps) = &self.stencil[i];
                 let base = (r * nv + v) * px;
@@ -581,7 +660,61 @@ impl<S: Storage> crate::step::Solver for FluidSolver<S> {
 
 #[cfg(test)]
 mod tests {
-    use super::advect_order;
+    use super::{MemoryHints, advect_order};
+    use crate::fluid::boundary::{Boundaries, FaceCondition};
+    use crate::fluid::storage::Storage;
+    use crate::fluid::{Equilibrium, FluidSolver, GasModel, Grid, Macro, Obstacle, Shape, VelocitySet, VelocitySetKind, timestep};
+
+    /// A small lattice with walls, a moving lid, an obstacle, a body force and a diatomic gas,
+    /// its populations stored as `S`, the collision's stores streaming or not.
+    fn busy_scene<S: Storage>(kind: VelocitySetKind, n: [usize; 3], hints: MemoryHints) -> FluidSolver<S> {
+        let vs = VelocitySet::new(kind);
+        let dim = vs.dim;
+        let params = timestep::choose(0.02, 0.6, vs.max_l1_speed(), None, 0.8).unwrap();
+        let mut b = Boundaries::periodic();
+        b.faces[2] = FaceCondition::Wall { velocity: [0.0; 3], temperature: Some(0.6) };
+        b.faces[3] = FaceCondition::Wall { velocity: [0.04, 0.0, 0.01], temperature: None };
+        let centre = [4.2, 4.3, if dim == 3 { 2.6 } else { 0.0 }];
+        let shape = if dim == 3 { Shape::Sphere { center: centre, radius: 1.7 } } else { Shape::Cylinder { center: centre, radius: 1.7 } };
+        let obstacle = Obstacle { shape, velocity: [0.0; 3], temperature: None };
+        let k = 2.0 * std::f64::consts::PI / n[0] as f64;
+        let mut s = FluidSolver::<S>::with_storage(Equilibrium::new(vs, GasModel::Diatomic), Grid::new(dim, n), b, &[obstacle], params, move |x| Macro {
+            rho: 1.0 + 0.01 * (k * x[0]).sin(),
+            u: [0.03 * (0.5 * x[1]).cos(), 0.02 * (k * x[0]).sin(), 0.01 * (k * x[2]).cos()],
+            theta: 0.6,
+        });
+        s.body_force = [2e-5, 0.0, -1e-5];
+        assert_eq!(s.memory_hints(), MemoryHints { streaming_stores: false, prefetch_rows: false }, "a lattice this small fits the cache");
+        s.set_memory_hints(hints);
+        s
+    }
+
+    /// The streaming stores of the moments–collision pass and the rows fetched ahead change
+    /// when bytes move, not what they are: 12 steps with and without them leave fⁿ,
+    /// the stage arrays and the macroscopic fields the same to the bit (2D and 3D, f64 and f32
+    /// storage; rows of 18–40 values, so the streaming path's head, 16-byte and tail stores all
+    /// run).
+    #[test]
+    fn the_memory_hints_change_no_bit() {
+        fn same<S: Storage>(kind: VelocitySetKind, n: [usize; 3]) {
+            let plain = MemoryHints { streaming_stores: false, prefetch_rows: false };
+            let (mut plain, mut streamed) =
+                (busy_scene::<S>(kind, n, plain), busy_scene::<S>(kind, n, MemoryHints { streaming_stores: true, prefetch_rows: true }));
+            plain.run(12).unwrap();
+            streamed.run(12).unwrap();
+            let bits = |a: &[S], b: &[S]| a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.load().to_bits() == y.load().to_bits());
+            assert!(bits(&plain.f, &streamed.f), "{kind:?}: fⁿ");
+            for (k, (a, b)) in plain.stage_arrays_stored().into_iter().zip(streamed.stage_arrays_stored()).enumerate() {
+                assert!(bits(a, b), "{kind:?}: stage array {k} (f¹, fⁿ⁺¹, h)");
+            }
+            assert!(plain.mac.iter().zip(&streamed.mac).all(|(a, b)| a.to_bits() == b.to_bits()), "{kind:?}: macroscopic fields");
+            assert!(plain.f.iter().any(|x| x.load() != 0.0));
+        }
+        same::<f64>(VelocitySetKind::D2q21, [15, 10, 1]);
+        same::<f64>(VelocitySetKind::D3q39, [9, 8, 6]);
+        same::<f32>(VelocitySetKind::D2q21, [15, 10, 1]);
+        same::<f32>(VelocitySetKind::D3q39, [9, 8, 6]);
+    }
 
     #[test]
     fn the_advection_sweeps_every_row_once_in_slabs() {

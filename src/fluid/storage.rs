@@ -47,6 +47,14 @@ pub trait Storage: Copy + Default + PartialEq + Send + Sync + std::fmt::Debug + 
     fn store_departure(d: f64, s: f64) -> Self {
         if Self::SHIFTED && d.abs() < s.abs() * DEPARTURE_FLOOR { Self::store(0.0) } else { Self::store(d) }
     }
+
+    /// `dst.copy_from_slice(src)` with streaming stores ([`super::memory_hints`]): for values
+    /// written now and read only by a later pass. The writing task ends with
+    /// [`super::memory_hints::streaming_fence`].
+    #[inline(always)]
+    fn copy_streaming(dst: &mut [Self], src: &[Self]) {
+        dst.copy_from_slice(src)
+    }
 }
 
 /// Departures below this fraction of their shift are stored as 0 ([`Storage`]): with the
@@ -63,6 +71,11 @@ impl Storage for f64 {
     fn store(x: f64) -> Self {
         x
     }
+
+    #[inline(always)]
+    fn copy_streaming(dst: &mut [f64], src: &[f64]) {
+        super::memory_hints::copy_streaming_f64(dst, src)
+    }
 }
 
 impl Storage for f32 {
@@ -74,6 +87,11 @@ impl Storage for f32 {
     #[inline(always)]
     fn store(x: f64) -> Self {
         x as f32
+    }
+
+    #[inline(always)]
+    fn copy_streaming(dst: &mut [f32], src: &[f32]) {
+        super::memory_hints::copy_streaming_f32(dst, src)
     }
 }
 

@@ -75,6 +75,7 @@ pub fn lattice_speed(ctx: &GpuContext, set: VelocitySetKind, n: [usize; 3], step
         bandwidth_fraction: None,
         skipped: None,
         stage_fractions: Vec::new(),
+        memory_hints: None,
         readback: None,
     };
     let mut gpu = match GpuFluid::from_solver(ctx, &cpu) {
