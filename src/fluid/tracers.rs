@@ -11,8 +11,9 @@
 //! Units: positions in interior lattice coordinates (cells; z = 0 in 2D), velocities in lattice
 //! units, time in the fluid's lattice time (a fluid step is `StepParams::dt`).
 
+use super::boundary::FaceCondition;
 use super::grid::Grid;
-use super::layout::NodeKind;
+use super::layout::{Layout, NodeKind};
 use super::solver::FluidSolver;
 use crate::hash::mix32;
 use glam::DVec3;
@@ -76,6 +77,27 @@ impl VelocityField {
         }
         Some(u)
     }
+}
+
+/// Where tracers are born on `layout`'s lattice (lower and upper corner, interior lattice
+/// coordinates; z = 0 in 2D): a slab two cells thick inside the first inflow face — a velocity
+/// or pressure inlet, looked for in the order x_min, x_max, y_min, y_max, z_min, z_max — kept a
+/// cell off the faces across it; or, where the air has no inlet (periodic boxes, cavities), the
+/// whole interior, so that tracers stay spread over a flow that nothing feeds.
+pub fn birth_box(layout: &Layout) -> (DVec3, DVec3) {
+    let g = &layout.grid;
+    let top = |a: usize| (g.n[a] as f64 - 1.0).max(0.0);
+    let (mut lo, mut hi) = (DVec3::ZERO, DVec3::ZERO);
+    let inflow = (0..2 * g.dim).find(|&f| matches!(layout.boundaries.faces[f], FaceCondition::PressureInlet { .. } | FaceCondition::VelocityInlet { .. }));
+    for a in 0..g.dim {
+        (lo[a], hi[a]) = match inflow {
+            Some(f) if f / 2 == a && f % 2 == 0 => (0.5, 2.5),
+            Some(f) if f / 2 == a => (top(a) - 2.5, top(a) - 0.5),
+            Some(_) => (1.0, top(a) - 1.0),
+            None => (0.5, top(a) - 0.5),
+        };
+    }
+    (lo, hi)
 }
 
 /// A number in [0, 1) from (tracer, generation, axis) by the lowbias32 hash, exact in f32.
@@ -178,6 +200,31 @@ mod tests {
             // and back where it started after one revolution (phase error ∝ (ω dt)²)
             assert!((*p - *a).length() < 1e-2 * r, "{a} → {p}");
         }
+    }
+
+    #[test]
+    fn tracers_are_born_along_the_first_inflow_face_or_everywhere_without_one() {
+        use crate::fluid::boundary::{Boundaries, FaceCondition, InletProfile};
+        let inlet = FaceCondition::VelocityInlet { velocity: [0.05, 0.0, 0.0], theta: 0.6, profile: InletProfile::Uniform };
+        let pressure = FaceCondition::PressureInlet { rho: 1.01, theta: 0.6 };
+        let layout = |dim: usize, faces: &[(usize, FaceCondition)]| {
+            let mut b = Boundaries::periodic();
+            for (f, c) in faces {
+                b.faces[*f] = c.clone();
+            }
+            Layout::new(Grid::new(dim, [30, 20, 12]), b, &[])
+        };
+        let v = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+        // the glottis: lungs at y_min (n = 30 × 20: interior coordinates 0 … 29, 0 … 19)
+        assert_eq!(birth_box(&layout(2, &[(2, pressure.clone())])), (v(1.0, 0.5, 0.0), v(28.0, 2.5, 0.0)));
+        // a channel: x_min before y_min
+        assert_eq!(birth_box(&layout(2, &[(0, inlet.clone()), (2, pressure.clone())])), (v(0.5, 1.0, 0.0), v(2.5, 18.0, 0.0)));
+        // air fed from x_max, and from z_max in 3D
+        assert_eq!(birth_box(&layout(2, &[(1, inlet.clone())])), (v(26.5, 1.0, 0.0), v(28.5, 18.0, 0.0)));
+        assert_eq!(birth_box(&layout(3, &[(5, pressure)])), (v(1.0, 1.0, 8.5), v(28.0, 18.0, 10.5)));
+        // no inlet: the whole interior
+        assert_eq!(birth_box(&layout(3, &[])), (v(0.5, 0.5, 0.5), v(28.5, 18.5, 10.5)));
+        assert_eq!(birth_box(&layout(2, &[])), (v(0.5, 0.5, 0.0), v(28.5, 18.5, 0.0)));
     }
 
     #[test]

@@ -1,13 +1,14 @@
 //! Tracers in the air of every [`CoupledSimulation`] (and [`FluidSimulation`]): born in a thin
-//! box along the inlet face (y_min, the tracheal side of a glottis; x_min for a channel),
+//! box along the first inflow face (y_min, the tracheal side of a glottis; x_min for a channel;
+//! anywhere in the air of a flow with no inlet: [`birth_box`]),
 //! carried by the frame's simulated time through the velocity of the last step
 //! ([`crate::fluid::tracers`], RK2, sub-stepped so that no tracer moves more than half a cell
 //! per sub-step), drawn as streaks from where they were to where they are, coloured by speed.
 //! A GPU-stepped fluid's tracers are advected and drawn on the GPU ([`super::gpu_tracers`]).
 
 use super::{DrawSettings, DrawSystems};
-use crate::fluid::tracers::{Tracers, VelocityField};
-use crate::fluid::{FaceCondition, FluidSolver};
+use crate::fluid::FluidSolver;
+use crate::fluid::tracers::{Tracers, VelocityField, birth_box};
 use crate::plugin::{CoupledSimulation, FluidSimulation, StepsThisFrame};
 use bevy::prelude::*;
 use glam::DVec3;
@@ -22,18 +23,13 @@ pub struct FlowTracers {
 }
 
 impl FlowTracers {
-    /// `count` tracers spread over the domain of `s`, born again along its inlet (the first inlet
-    /// face: y_min, else x_min).
+    /// `count` tracers spread over the domain of `s`, born again along its first inflow face
+    /// (or anywhere in the air where it has none: [`birth_box`]).
     pub fn at_inlet(s: &FluidSolver, count: usize) -> Self {
         let g = &s.layout.grid;
         let n = |a: usize| (g.n[a] as f64 - 1.0).max(0.0);
-        let inlet = |f: usize| matches!(s.layout.boundaries.faces[f], FaceCondition::PressureInlet { .. } | FaceCondition::VelocityInlet { .. });
         let z = if g.dim == 3 { (1.0, n(2) - 1.0) } else { (0.0, 0.0) };
-        let seed = if inlet(2) && !inlet(0) {
-            (DVec3::new(1.0, 0.5, z.0), DVec3::new(n(0) - 1.0, 2.5, z.1))
-        } else {
-            (DVec3::new(0.5, 1.0, z.0), DVec3::new(2.5, n(1) - 1.0, z.1))
-        };
+        let seed = birth_box(&s.layout);
         let mut tracers = Tracers::new(count, seed);
         // the first generation spread over the whole domain (those in a body are born again
         // at the inlet on the first step), so that the air is seen at once
