@@ -292,7 +292,7 @@ mod tests {
     use super::*;
     use crate::fluid::layout::{HaloReach, NodeKind};
     use crate::fluid::upwind::stencils;
-    use crate::fluid::{FluidSolver, GasModel, Grid, Obstacle, Shape, VelocitySet, VelocitySetKind, timestep};
+    use crate::fluid::{FluidSolver, GasModel, Grid, VelocitySet, VelocitySetKind, timestep};
     use std::collections::HashSet;
     use std::f64::consts::PI;
 
@@ -348,26 +348,7 @@ mod tests {
     #[test]
     fn the_unread_periodic_halo_values_are_never_read() {
         for (kind, n) in [(VelocitySetKind::D2q21, [14, 10, 1]), (VelocitySetKind::D3q39, [9, 8, 6])] {
-            let scene = || {
-                let vs = VelocitySet::new(kind);
-                let dim = vs.dim;
-                let l1 = vs.max_l1_speed();
-                let params = timestep::choose(0.02, 0.6, l1, None, 0.8).unwrap();
-                let mut b = Boundaries::periodic();
-                b.faces[2] = FaceCondition::Wall { velocity: [0.0; 3], temperature: Some(0.6) };
-                b.faces[3] = FaceCondition::Wall { velocity: [0.04, 0.0, 0.01], temperature: None };
-                let centre = [0.8, 4.3, if dim == 3 { 2.6 } else { 0.0 }];
-                let shape = if dim == 3 { Shape::Sphere { center: centre, radius: 1.7 } } else { Shape::Cylinder { center: centre, radius: 1.7 } };
-                let obstacle = Obstacle { shape, velocity: [0.0; 3], temperature: None };
-                let k = 2.0 * PI / n[0] as f64;
-                let mut s = FluidSolver::new(Equilibrium::new(vs, GasModel::Diatomic), Grid::new(dim, n), b, &[obstacle], params, move |x| Macro {
-                    rho: 1.0 + 0.01 * (k * x[0]).sin(),
-                    u: [0.03 * (0.5 * x[1]).cos(), 0.02 * (k * x[0]).sin(), 0.01 * (k * x[2]).cos()],
-                    theta: 0.6,
-                });
-                s.body_force = [2e-5, 0.0, -1e-5];
-                s
-            };
+            let scene = || crate::fluid::solver::tests::busy_scene::<f64>(kind, n, 0.8);
             let (mut plain, mut poisoned) = (scene(), scene());
             // the x–z edges of the 3D halo are read by no stencil (in 2D the corners are walls')
             assert_eq!(plain.layout.periodic.iter().any(|r| r.reach == HaloReach::Unread), kind == VelocitySetKind::D3q39);

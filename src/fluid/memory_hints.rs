@@ -61,7 +61,7 @@ pub fn prefetch_bytes(addr: usize, bytes: usize) {
     let _ = (addr, bytes);
 }
 
-/// Orders this thread's streaming stores ([`copy_streaming_f64`], [`copy_streaming_f32`]) before
+/// Orders this thread's streaming stores ([`copy_streaming`]) before
 /// its later stores: called by every task that used them, before the task ends (so before any
 /// other thread can read what they wrote).
 #[inline(always)]
@@ -73,60 +73,42 @@ pub fn streaming_fence() {
     }
 }
 
-/// `dst.copy_from_slice(src)` with streaming stores (16-byte stores once `dst` is 16-byte
-/// aligned, 8-byte ones before and after). The caller calls [`streaming_fence`] before another
-/// thread may read `dst`.
+/// `dst.copy_from_slice(src)` with streaming stores, for elements of 4 or 8 bytes (f32, f64):
+/// 16-byte stores once `dst` is 16-byte aligned, one element at a time before and after. The
+/// caller calls [`streaming_fence`] before another thread may read `dst`.
 #[inline(always)]
-pub fn copy_streaming_f64(dst: &mut [f64], src: &[f64]) {
+pub fn copy_streaming<T: Copy>(dst: &mut [T], src: &[T]) {
     assert_eq!(dst.len(), src.len());
     #[cfg(target_arch = "x86_64")]
     {
-        use std::arch::x86_64::{_mm_loadu_pd, _mm_stream_pd, _mm_stream_si64};
+        use std::arch::x86_64::{__m128i, _mm_loadu_si128, _mm_stream_si32, _mm_stream_si64, _mm_stream_si128};
+        let size = std::mem::size_of::<T>();
+        assert!(size == 4 || size == 8, "streaming copies of 4- or 8-byte elements");
         let (n, d, s) = (dst.len(), dst.as_mut_ptr(), src.as_ptr());
+        // SAFETY: `i < n` for the element at i, the length of both slices; T is 4 or 8 bytes of
+        // plain data (f32, f64), read and written whole.
+        let one = |i: usize| unsafe {
+            if size == 8 {
+                _mm_stream_si64(d.add(i) as *mut i64, *(s.add(i) as *const i64));
+            } else {
+                _mm_stream_si32(d.add(i) as *mut i32, *(s.add(i) as *const i32));
+            }
+        };
+        let per_block = 16 / size;
         let mut i = 0;
-        // SAFETY: every index is below n, the length of both slices; the 16-byte stores start
-        // at a 16-byte aligned address (f64 is 8-byte aligned, so one 8-byte store reaches it).
-        unsafe {
-            while i < n && !(d.add(i) as usize).is_multiple_of(16) {
-                _mm_stream_si64(d.add(i) as *mut i64, (*s.add(i)).to_bits() as i64);
-                i += 1;
-            }
-            while i + 2 <= n {
-                _mm_stream_pd(d.add(i), _mm_loadu_pd(s.add(i)));
-                i += 2;
-            }
-            if i < n {
-                _mm_stream_si64(d.add(i) as *mut i64, (*s.add(i)).to_bits() as i64);
-            }
+        while i < n && !(d.wrapping_add(i) as usize).is_multiple_of(16) {
+            one(i);
+            i += 1;
         }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    dst.copy_from_slice(src);
-}
-
-/// [`copy_streaming_f64`] for f32 (16-byte stores of four, 4-byte ones before and after).
-#[inline(always)]
-pub fn copy_streaming_f32(dst: &mut [f32], src: &[f32]) {
-    assert_eq!(dst.len(), src.len());
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_loadu_ps, _mm_stream_ps, _mm_stream_si32};
-        let (n, d, s) = (dst.len(), dst.as_mut_ptr(), src.as_ptr());
-        let mut i = 0;
-        // SAFETY: as in copy_streaming_f64, with 4-byte elements.
-        unsafe {
-            while i < n && !(d.add(i) as usize).is_multiple_of(16) {
-                _mm_stream_si32(d.add(i) as *mut i32, (*s.add(i)).to_bits() as i32);
-                i += 1;
-            }
-            while i + 4 <= n {
-                _mm_stream_ps(d.add(i), _mm_loadu_ps(s.add(i)));
-                i += 4;
-            }
-            while i < n {
-                _mm_stream_si32(d.add(i) as *mut i32, (*s.add(i)).to_bits() as i32);
-                i += 1;
-            }
+        while i + per_block <= n {
+            // SAFETY: the 16 bytes from element i lie inside both slices; the store's address is
+            // 16-byte aligned (reached above), the load takes any alignment.
+            unsafe { _mm_stream_si128(d.add(i) as *mut __m128i, _mm_loadu_si128(s.add(i) as *const __m128i)) };
+            i += per_block;
+        }
+        while i < n {
+            one(i);
+            i += 1;
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -144,12 +126,12 @@ mod tests {
         for start in 0..5 {
             for len in [0, 1, 2, 3, 5, 8, 17, 32] {
                 let mut d64 = [f64::NAN; 40];
-                copy_streaming_f64(&mut d64[start..start + len], &src64[..len]);
+                copy_streaming(&mut d64[start..start + len], &src64[..len]);
                 streaming_fence();
                 assert_eq!(&d64[start..start + len], &src64[..len], "f64 at {start}, {len}");
                 assert!(d64[..start].iter().chain(&d64[start + len..]).all(|x| x.is_nan()), "f64 outside the range untouched");
                 let mut d32 = [f32::NAN; 40];
-                copy_streaming_f32(&mut d32[start..start + len], &src32[..len]);
+                copy_streaming(&mut d32[start..start + len], &src32[..len]);
                 streaming_fence();
                 assert_eq!(&d32[start..start + len], &src32[..len], "f32 at {start}, {len}");
                 assert!(d32[..start].iter().chain(&d32[start + len..]).all(|x| x.is_nan()), "f32 outside the range untouched");

@@ -74,7 +74,7 @@ impl Storage for f64 {
 
     #[inline(always)]
     fn copy_streaming(dst: &mut [f64], src: &[f64]) {
-        super::memory_hints::copy_streaming_f64(dst, src)
+        super::memory_hints::copy_streaming(dst, src)
     }
 }
 
@@ -91,7 +91,7 @@ impl Storage for f32 {
 
     #[inline(always)]
     fn copy_streaming(dst: &mut [f32], src: &[f32]) {
-        super::memory_hints::copy_streaming_f32(dst, src)
+        super::memory_hints::copy_streaming(dst, src)
     }
 }
 
