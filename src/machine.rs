@@ -1,10 +1,15 @@
-//! Facts about the machine the benchmarks need below the run layer (the physics modules' own
-//! benchmarks use them): the last-level cache, and when a measured rate may be called a fraction
-//! of the memory bandwidth.
+//! Facts about the machine that the physics core and the benchmarks need below the run layer:
+//! the last-level cache (the benchmarks' sizes, the fluid's memory hints), and when a measured
+//! rate may be called a fraction of the memory bandwidth.
 
-/// The last-level cache of this CPU in bytes (Linux sysfs: the largest cache of cpu0), 32 MiB
-/// when it cannot be read.
+/// The last-level cache of this CPU in bytes (Linux sysfs: the largest cache of cpu0, read once
+/// per process), 32 MiB when it cannot be read.
 pub fn last_level_cache_bytes() -> usize {
+    static LLC: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+    *LLC.get_or_init(read_last_level_cache)
+}
+
+fn read_last_level_cache() -> usize {
     let parse = |s: &str| -> Option<usize> {
         let s = s.trim();
         let (num, unit) = s.split_at(s.find(|c: char| !c.is_ascii_digit()).unwrap_or(s.len()));

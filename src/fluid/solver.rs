@@ -178,7 +178,7 @@ impl<S: Storage> FluidSolver<S> {
             recode_into(self.pop, a, &self.shift, &shift, &mut out);
             out
         };
-        FluidSolver {
+        let mut converted = FluidSolver {
             eq: self.eq.clone(),
             layout: self.layout.clone(),
             params: self.params,
@@ -196,15 +196,14 @@ impl<S: Storage> FluidSolver<S> {
             stencil: self.stencil.clone(),
             advect_order: self.advect_order.clone(),
             window: self.window,
-            hints: MemoryHints::choose(
-                self.layout.grid.len() * (4 * self.eq.values_per_node() * std::mem::size_of::<T>() + MACRO_FIELDS * 8),
-                self.pop.px,
-                crate::machine::last_level_cache_bytes(),
-            ),
+            hints: self.hints,
             step_count: self.step_count,
             time: self.time,
             timings: self.timings.clone(),
-        }
+        };
+        // its own footprint against the cache (f32 arrays are half the f64 ones)
+        converted.hints = MemoryHints::choose(converted.footprint_bytes(), converted.pop.px, crate::machine::last_level_cache_bytes());
+        converted
     }
 
     /// Copies the state a step starts from — the populations fⁿ, the step counter, the time —
