@@ -1853,8 +1853,11 @@ fn a_change_of_layout_moves_only_the_nodes_it_reads_and_writes() {
 
 /// A running coupled step makes nothing on the device: its tables are rewritten in their
 /// buffers (which hold half as much again as at the upload), the hand-over's and the traction's
-/// buffers and bind groups are kept, and the particles come back through one kept staging
-/// buffer. Over 100 steps of the small flap after 20 that warm it up, for both methods, with
+/// buffers and bind groups are kept, the particles come back through one kept staging
+/// buffer, and so do the populations of the nodes that change side (the gather's and the
+/// scatter's buffers and bind groups are kept too), the air's totals and method 1's piece
+/// forces that output rows read. Over 100 steps of the small flap after 20 that warm it up, for
+/// both methods, with the totals and the piece forces read every 10 steps, with
 /// the boundary tables changing size on many of them (the steps that made new buffers and bind
 /// groups before) and nodes changing side, `device_objects_made` moves only when a table
 /// outgrows its room, and not at all over the last 50.
@@ -1868,12 +1871,22 @@ fn a_coupled_step_makes_no_buffers_once_running() {
         let Some(ctx) = context() else { return };
         let mut gpu = GpuCoupled::new(ctx, sc.build().unwrap()).unwrap();
         gpu.run(20).unwrap();
+        // what a run's output rows read: the air's totals (summed on the device) and method 1's
+        // piece forces — their kernels', bind groups' and staging buffers' first ones here
+        let read_outputs = |g: &mut GpuCoupled| {
+            assert!(g.fluid.totals().is_some_and(|t| t.mass > 0.0), "{method}: the totals");
+            assert!(g.fluid.download_piece_forces().is_some(), "{method}: the piece forces");
+        };
+        read_outputs(&mut gpu);
         let (made, trips) = (gpu.device_objects_made(), gpu.round_trips);
         let table_sizes = |g: &GpuCoupled| (g.cpu.fluid.layout.ghosts.len(), g.cpu.fluid.layout.thin_taps.len());
         let mut sizes = table_sizes(&gpu);
         let (mut resized, mut half) = (0, 0);
         for k in 0..100 {
             gpu.step().unwrap();
+            if k % 10 == 9 {
+                read_outputs(&mut gpu);
+            }
             if k == 49 {
                 half = gpu.device_objects_made();
             }

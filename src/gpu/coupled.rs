@@ -241,8 +241,9 @@ impl GpuCoupled {
     /// tables' buffers and the stage bind groups remade when a table outgrew its buffer
     /// ([`GpuFluid::step_objects_made`], [`GpuFluid::geometry_rebinds`]), method 1's traction
     /// buffers and bind groups, method 2's hand-over buffers and bind groups, the particles'
-    /// staging buffer. (The population round trips of steps where nodes change side keep their
-    /// buffers and staging buffer too; they make their kernels' two bind groups.) Constant over steps
+    /// staging buffer, and the buffers, bind groups and staging buffers of the population round
+    /// trips of steps where nodes change side, of the fluid's totals and of the piece forces'
+    /// reads (made once, and again only when a round trip outgrows them). Constant over steps
     /// that made none: the steady state of a coupled run (test
     /// `a_coupled_step_makes_no_buffers_once_running` in tests/gpu.rs).
     pub fn device_objects_made(&self) -> u64 {

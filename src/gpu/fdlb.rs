@@ -124,6 +124,14 @@ pub struct GpuFluid {
     /// Buffers and bind groups method 1's traction kernels have made (their buffers when they
     /// outgrow them, the bind groups once per placement of fⁿ and buffer set).
     traction_objects_made: u64,
+    /// Buffers and bind groups the node-list (gather, scatter) and totals kernels have made:
+    /// with their buffers, when those are made or outgrown.
+    state_objects_made: u64,
+    /// The staging buffers, kept, of the gather's reads, the totals' partial sums and method
+    /// 1's piece forces.
+    node_readback: crate::gpu::growing::Readback,
+    totals_readback: crate::gpu::growing::Readback,
+    piece_readback: crate::gpu::growing::Readback,
     status: wgpu::Buffer,
     /// The flag's own staging buffer, made once: reading the flag after an advance allocates
     /// nothing on the device (a read that needed memory would fail where the device's memory
@@ -327,6 +335,10 @@ impl GpuFluid {
             kind_host: t.kind.clone(),
             geometry_rebinds: 0,
             traction_objects_made: 0,
+            state_objects_made: 0,
+            node_readback: Default::default(),
+            totals_readback: Default::default(),
+            piece_readback: Default::default(),
             status,
             status_staging,
             params_stage,
@@ -361,14 +373,20 @@ impl GpuFluid {
         self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries })
     }
 
-    /// Submits one dispatch of `p` over `threads` threads on its own, with the buffers `whole`
-    /// and the state array fⁿ bound from binding 10 (the node-list and totals kernels).
-    fn submit_on_state(&self, p: &wgpu::ComputePipeline, whole: &[(u32, &wgpu::Buffer)], threads: u32) {
-        let bg = self.bind(p, whole, &[(10, &self.f[self.cur])]);
+    /// The bind groups of `p` with the buffers `whole` and the state array fⁿ from binding 10,
+    /// one per placement of fⁿ (buffer 0 or 2: index `cur / 2`): the node-list and totals
+    /// kernels make them once with their buffers, so that a running coupled step makes none.
+    fn state_groups(&self, p: &wgpu::ComputePipeline, whole: &[(u32, &wgpu::Buffer)]) -> [wgpu::BindGroup; 2] {
+        [0, 2].map(|c| self.bind(p, whole, &[(10, &self.f[c])]))
+    }
+
+    /// Submits one dispatch of `p` over `threads` threads on its own, with the bind group of
+    /// fⁿ's placement among `groups` ([`Self::state_groups`]).
+    fn submit_on_state(&self, p: &wgpu::ComputePipeline, groups: &[wgpu::BindGroup; 2], threads: u32) {
         let mut enc = self.device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
-            Self::dispatch(&mut pass, p, &bg, threads);
+            Self::dispatch(&mut pass, p, &groups[self.cur / 2], threads);
         }
         self.queue.submit([enc.finish()]);
     }

@@ -89,6 +89,16 @@ impl Readback {
         Some(super::context::split_read(&all, buffers.iter().map(|b| b.size())))
     }
 
+    /// Makes the staging buffer (or grows it) with room for reads of up to `bytes`, so that
+    /// those make none: a reader whose reads vary in size (the gather's node lists) sizes it
+    /// with its own buffers.
+    pub fn reserve(&self, device: &wgpu::Device, bytes: u64) {
+        let mut guard = self.staging.lock().expect("the staging buffer's lock");
+        guard
+            .get_or_insert_with(|| GrowingBuffer::with_room(device, "readback", wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, bytes))
+            .reserve(device, bytes);
+    }
+
     /// The byte ranges (buffer, offset, length; multiples of 4) one after the other, read in
     /// one trip, or None when the read fails.
     pub fn read_parts(&self, device: &wgpu::Device, queue: &wgpu::Queue, parts: &[(&wgpu::Buffer, u64, u64)]) -> Option<Vec<u8>> {

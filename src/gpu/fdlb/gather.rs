@@ -23,8 +23,8 @@ pub(super) struct GatherParams {
     _p1: u32,
 }
 
-/// A node-list kernel (gather or scatter) with buffers for up to `capacity` nodes (grown by
-/// powers of two).
+/// A node-list kernel (gather or scatter) with buffers for up to `capacity` nodes (at least
+/// [`NODE_LIST_ROOM`], grown by powers of two) and its bind groups, made with them.
 pub(super) struct NodeListKernel {
     pipeline: wgpu::ComputePipeline,
     params: wgpu::Buffer,
@@ -32,9 +32,15 @@ pub(super) struct NodeListKernel {
     /// The packed populations (`vals[k · nv + v]`).
     values: wgpu::Buffer,
     capacity: usize,
-    /// The staging buffer of the gather's reads, kept.
-    readback: crate::gpu::growing::Readback,
+    /// One per placement of fⁿ ([`GpuFluid::state_groups`]).
+    groups: [wgpu::BindGroup; 2],
 }
+
+/// Nodes the node-list kernels have room for when they are first made: a moving body's change
+/// of layout reads tens to a few hundred nodes a step (the test flap: 180 of 93,600), so that
+/// their buffers are made once and not again as the changes grow (4 KiB of node indices and
+/// 4·nv KiB of populations: 84–160 KiB).
+pub(super) const NODE_LIST_ROOM: usize = 1024;
 
 /// Which way a node-list kernel moves populations.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -53,8 +59,9 @@ impl GpuFluid {
             Way::Scatter => &mut self.scatter,
         };
         if slot.as_ref().is_none_or(|g| g.capacity < count) {
-            let capacity = count.next_power_of_two();
-            let pipeline = match slot.take() {
+            let old = slot.take();
+            let capacity = count.next_power_of_two().max(NODE_LIST_ROOM);
+            let pipeline = match old {
                 Some(g) => g.pipeline,
                 None => match way {
                     Way::Gather => pipeline_of(&self.device, "gather", &codegen::gather_populations(&self.eq, self.split), "main"),
@@ -65,20 +72,31 @@ impl GpuFluid {
                 self.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: size as u64, usage, mapped_at_creation: false })
             };
             use wgpu::BufferUsages as U;
-            let values = match way {
+            let values_usage = match way {
                 Way::Gather => U::STORAGE | U::COPY_SRC,
                 Way::Scatter => U::STORAGE | U::COPY_DST,
             };
-            *slot = Some(NodeListKernel {
-                pipeline,
-                params: buffer("node list params", size_of::<GatherParams>(), U::UNIFORM | U::COPY_DST),
-                nodes: buffer("node list", 4 * capacity, U::STORAGE | U::COPY_DST),
-                values: buffer("node list populations", 4 * nv * capacity, values),
-                capacity,
-                readback: Default::default(),
-            });
+            let params = buffer("node list params", size_of::<GatherParams>(), U::UNIFORM | U::COPY_DST);
+            let list = buffer("node list", 4 * capacity, U::STORAGE | U::COPY_DST);
+            let values = buffer("node list populations", 4 * nv * capacity, values_usage);
+            let groups = self.state_groups(&pipeline, &[(0, &params), (1, &list), (2, &values)]);
+            // three buffers and the two bind groups; the gather's reads get a staging buffer
+            // with room for as many nodes (`node_readback` counts it)
+            self.state_objects_made += 5;
+            if way == Way::Gather {
+                self.node_readback.reserve(&self.device, values.size());
+            }
+            let kernel = Some(NodeListKernel { pipeline, params, nodes: list, values, capacity, groups });
+            match way {
+                Way::Gather => self.gather = kernel,
+                Way::Scatter => self.scatter = kernel,
+            }
         }
-        let g = slot.as_ref().expect("built above");
+        let g = match way {
+            Way::Gather => self.gather.as_ref(),
+            Way::Scatter => self.scatter.as_ref(),
+        }
+        .expect("built above");
         let words: Vec<u32> = nodes.iter().map(|&n| n as u32).collect();
         self.queue.write_buffer(&g.nodes, 0, bytemuck::cast_slice(&words));
         let params = GatherParams { count: count as u32, n_nodes: self.stride as u32, _p0: 0, _p1: 0 };
@@ -100,9 +118,9 @@ impl GpuFluid {
         let nv = self.nv;
         self.prepare_node_list(Way::Gather, nodes);
         let g = self.gather.as_ref().expect("built by prepare_node_list");
-        self.submit_on_state(&g.pipeline, &[(0, &g.params), (1, &g.nodes), (2, &g.values)], nodes.len() as u32);
-        // only the listed nodes' values (the buffer has room for up to twice as many)
-        let Some(raw) = g.readback.read_parts(&self.device, &self.queue, &[(&g.values, 0, 4 * (nodes.len() * nv) as u64)]) else { return false };
+        self.submit_on_state(&g.pipeline, &g.groups, nodes.len() as u32);
+        // only the listed nodes' values (the buffer has room for more)
+        let Some(raw) = self.node_readback.read_parts(&self.device, &self.queue, &[(&g.values, 0, 4 * (nodes.len() * nv) as u64)]) else { return false };
         let vals: &[f32] = bytemuck::cast_slice(&raw);
         let mut node_vals = vec![0.0; nv];
         for (k, &node) in nodes.iter().enumerate() {
@@ -135,7 +153,7 @@ impl GpuFluid {
         self.prepare_node_list(Way::Scatter, nodes);
         let k = self.scatter.as_ref().expect("built by prepare_node_list");
         self.queue.write_buffer(&k.values, 0, bytemuck::cast_slice(&vals));
-        self.submit_on_state(&k.pipeline, &[(0, &k.params), (1, &k.nodes), (2, &k.values)], nodes.len() as u32);
+        self.submit_on_state(&k.pipeline, &k.groups, nodes.len() as u32);
     }
 }
 

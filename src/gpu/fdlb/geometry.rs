@@ -161,11 +161,18 @@ impl GpuFluid {
 
     /// Buffers and bind groups made for a coupled run's per-step work since the upload, the
     /// first ones included: the boundary tables' and the thin-wall flux tables' buffers (more
-    /// only when a table outgrew its buffer) and method 1's traction kernels' buffers and bind
-    /// groups. The stage bind groups remade with the tables are [`Self::geometry_rebinds`].
+    /// only when a table outgrew its buffer), method 1's traction kernels' buffers and bind
+    /// groups, the node-list (gather, scatter) and totals kernels' buffers and bind groups, and
+    /// the staging buffers of the gather's, the totals' and the piece forces' reads. The stage
+    /// bind groups remade with the tables are [`Self::geometry_rebinds`].
     pub fn step_objects_made(&self) -> u64 {
         let tables = [&self.ghosts.0, &self.ghosts.1, &self.faces.0, &self.periodic.0, &self.thin.0, &self.thin.1];
-        tables.iter().map(|b| b.made()).sum::<u64>() + self.face_fluxes.as_ref().map_or(0, |ff| ff.thin_tables_made()) + self.traction_objects_made
+        let staging = [&self.node_readback, &self.totals_readback, &self.piece_readback];
+        tables.iter().map(|b| b.made()).sum::<u64>()
+            + self.face_fluxes.as_ref().map_or(0, |ff| ff.thin_tables_made())
+            + self.traction_objects_made
+            + self.state_objects_made
+            + staging.iter().map(|r| r.made()).sum::<u64>()
     }
 
     /// Writes the populations of `s` (a solver of the same lattice) as the state fⁿ.

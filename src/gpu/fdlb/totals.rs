@@ -20,12 +20,15 @@ pub(super) struct TotalsParams {
     _p1: u32,
 }
 
-/// The kernel, its uniform and its partial sums (built at the first use).
+/// The kernel, its uniform, its partial sums and its bind groups (built at the first use).
 pub(super) struct TotalsKernel {
     pipeline: wgpu::ComputePipeline,
-    params: wgpu::Buffer,
+    /// The uniform, written once; held with the bind groups that read it.
+    _params: wgpu::Buffer,
     out: wgpu::Buffer,
     groups: u32,
+    /// One per placement of fⁿ ([`GpuFluid::state_groups`]).
+    bind: [wgpu::BindGroup; 2],
 }
 
 impl GpuFluid {
@@ -50,11 +53,14 @@ impl GpuFluid {
             let p = TotalsParams { n_nodes: self.stride as u32, groups, _p0: 0, _p1: 0 };
             self.queue.write_buffer(&params, 0, bytemuck::bytes_of(&p));
             let out = buffer("totals partial sums", 20 * groups as u64, U::STORAGE | U::COPY_SRC);
-            self.totals = Some(TotalsKernel { pipeline, params, out, groups });
+            let bind = self.state_groups(&pipeline, &[(0, &params), (1, &self.kind), (2, &out)]);
+            // two buffers and the two bind groups
+            self.state_objects_made += 4;
+            self.totals = Some(TotalsKernel { pipeline, _params: params, out, groups, bind });
         }
         let k = self.totals.as_ref().expect("built above");
-        self.submit_on_state(&k.pipeline, &[(0, &k.params), (1, &self.kind), (2, &k.out)], k.groups * WORKGROUP);
-        let raw = crate::gpu::context::try_read_buffer(&self.device, &self.queue, &k.out)?;
+        self.submit_on_state(&k.pipeline, &k.bind, k.groups * WORKGROUP);
+        let raw = self.totals_readback.read(&self.device, &self.queue, &[&k.out])?.pop().expect("one buffer read");
         let partial: &[f32] = bytemuck::cast_slice(&raw);
         let mut t = [0.0f64; 5];
         for p in partial.chunks_exact(5) {

@@ -146,7 +146,7 @@ impl GpuFluid {
     /// depth, f32 → f64), or None when the read fails.
     pub fn download_piece_forces(&self) -> Option<Vec<DVec3>> {
         let Some(k) = self.traction.as_ref().filter(|k| k.count > 0) else { return Some(Vec::new()) };
-        let raw = crate::gpu::context::try_read_ranges(&self.device, &self.queue, &k.piece_force, &[(0, 16 * k.count as u64)])?;
+        let raw = self.piece_readback.read_parts(&self.device, &self.queue, &[(&k.piece_force, 0, 16 * k.count as u64)])?;
         let v: &[[f32; 4]] = bytemuck::cast_slice(&raw);
         Some(v.iter().map(|f| DVec3::new(f[0] as f64, f[1] as f64, f[2] as f64)).collect())
     }
