@@ -36,6 +36,7 @@ use crate::fluid::layout::{Layout, NodeKind};
 use crate::fluid::{KernelLevelSet, LayoutChange, Macro, Shape};
 use crate::step::{Instability, Site};
 use glam::{DVec3, DVec4};
+use std::sync::Arc;
 
 /// Options of the momentum-conserving coupling.
 #[derive(Clone, Copy, Debug)]
@@ -61,7 +62,7 @@ impl Default for ConservingOptions {
 pub struct LevelSetWalls {
     /// The fluid's layout with the bodies' level-set walls and the rigid obstacles.
     pub layout: Layout,
-    sets: Vec<KernelLevelSet>,
+    sets: Vec<Arc<KernelLevelSet>>,
     /// The particles' positions (cells) the walls are built from.
     points: Vec<DVec3>,
     change: std::cell::OnceCell<LayoutChange>,
@@ -95,8 +96,8 @@ pub struct Exchange {
     /// The nodes the geometry stage booked momentum to in `wall` since the last exchange.
     changed: Vec<usize>,
     /// The level sets the walls of the current step were built from (the particles do not move
-    /// before the exchange hands them the momentum).
-    sets: Vec<KernelLevelSet>,
+    /// before the exchange hands them the momentum), shared with the layout's walls.
+    sets: Vec<Arc<KernelLevelSet>>,
     /// Particle positions (cells) the geometry was last built from.
     pub(super) built: Option<Vec<DVec3>>,
     /// Momentum handed over the run to walls that are no coupled body (rigid obstacles, face
@@ -128,7 +129,7 @@ impl Exchange {
 
     /// The level sets of the current step's walls, one per coupled body (its particles in
     /// index order).
-    pub fn sets(&self) -> &[KernelLevelSet] {
+    pub fn sets(&self) -> &[Arc<KernelLevelSet>] {
         &self.sets
     }
 
@@ -269,7 +270,7 @@ impl CoupledSolver {
                 return Err(self.moved_too_far(Site::Particle(i), "particle displacement in one step (cells)", d, o.max_cells_per_step));
             }
         }
-        let sets = self.level_sets();
+        let sets: Vec<Arc<KernelLevelSet>> = self.level_sets().into_iter().map(Arc::new).collect();
         let mut all = self.obstacles.clone();
         all.extend(self.body_walls(sets.iter().cloned().map(Shape::KernelLevelSet)));
         Ok(LevelSetWalls { layout: self.fluid.layout_with(&all), sets, points, change: Default::default() })

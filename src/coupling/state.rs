@@ -80,7 +80,7 @@ impl SaveState for CoupledSolver {
             };
             // The level sets at the positions of the last build (the wall velocities are set
             // again by the next step's geometry stage, before the air sees them).
-            all.extend(self.body_walls(self.level_sets_at(&pts).into_iter().map(Shape::KernelLevelSet)));
+            all.extend(self.body_walls(self.level_sets_at(&pts).into_iter().map(|s| Shape::KernelLevelSet(std::sync::Arc::new(s)))));
             let ex = self.exchange.as_mut().expect("method 2 has its exchange state");
             ex.built = Some(pts);
             ex.walls = DVec3::new(wx, wy, wz);

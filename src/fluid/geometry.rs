@@ -20,8 +20,9 @@ pub enum Shape {
     /// deforming body: the wall seen by the fluid in the coupled solver ([`crate::coupling`]).
     Polygon(Polygon),
     /// The level set of a body's particles (seed 2.124): the wall of the momentum-conserving
-    /// coupling ([`crate::coupling::conserving`]).
-    KernelLevelSet(KernelLevelSet),
+    /// coupling ([`crate::coupling::conserving`]), shared with the coupling's exchange (a body's
+    /// particles and bins are built once a step, not copied into the layout).
+    KernelLevelSet(std::sync::Arc<KernelLevelSet>),
 }
 
 impl Shape {

@@ -149,7 +149,11 @@ mod tests {
             }
         }
         let n = pts.len();
-        Obstacle { shape: Shape::KernelLevelSet(KernelLevelSet::new(pts, vec![v; n], 1.5, 0.75, 6.0)), velocity: [0.0; 3], temperature: None }
+        Obstacle {
+            shape: Shape::KernelLevelSet(std::sync::Arc::new(KernelLevelSet::new(pts, vec![v; n], 1.5, 0.75, 6.0))),
+            velocity: [0.0; 3],
+            temperature: None,
+        }
     }
 
     /// Walls that move a fraction of a cell per step (level sets and a polygon, next to a

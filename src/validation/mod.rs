@@ -17,6 +17,7 @@ pub mod glottis_3d;
 pub mod glottis_energy;
 pub mod glottis_modes;
 pub mod glottis_self_oscillation;
+pub mod glottis_stiffness;
 pub mod riemann;
 pub mod soak;
 pub mod sod;

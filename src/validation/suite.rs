@@ -295,6 +295,9 @@ pub fn cases() -> Vec<Case> {
         // case A with a pressure outlet at twice the seed's lung pressure, 135 ms from rest
         // (600,000 steps): the folds self-oscillate and settle; ≈ 1 h on 2 cores
         ("glottis_self_oscillation", super::glottis_self_oscillation::rows),
+        // the hard cases of stiffness: body/cover 100 (case C) and 1000, Poisson 0.97, the lung
+        // pressure switched on abruptly, 40 ms each, side by side: ≈ 20 min on 2 cores
+        ("glottis_stiffness_ratio", super::glottis_stiffness::rows),
         ("glottis_speed_error", || {
             // Case C's f0 against resolution (×0.5, ×0.75, ×1 of the seed's lattice) and Mach
             // scaling (real air, Mach 0.3), 40 ms each, with each run's wall time per simulated
@@ -532,6 +535,7 @@ mod tests {
                 "glottis_fold_modes",
                 "glottis_air_work",
                 "glottis_self_oscillation",
+                "glottis_stiffness_ratio",
                 "glottis_speed_error"
             ]
         );

@@ -37,9 +37,9 @@ pub(super) struct NodeListKernel {
 }
 
 /// Nodes the node-list kernels have room for when they are first made: a moving body's change
-/// of layout reads tens to a few hundred nodes a step (the test flap: 180 of 93,600), so that
-/// their buffers are made once and not again as the changes grow (4 KiB of node indices and
-/// 4·nv KiB of populations: 84–160 KiB).
+/// of layout reads tens to hundreds of nodes on the steps where nodes change side, so that their
+/// buffers are made once and not again as the changes vary (4 KiB of node indices and 4·nv KiB
+/// of populations, nv values per node).
 pub(super) const NODE_LIST_ROOM: usize = 1024;
 
 /// Which way a node-list kernel moves populations.
