@@ -54,6 +54,20 @@ pub fn autocorrelation(x: &[f64], max_lag: usize) -> Vec<f64> {
 /// 2/N |Σ xₙ e^{−2πi k f0 n dt}| over the N samples, which should span whole periods (a
 /// pitch-synchronous DFT). Exact for a periodic signal sampled over an integer number of periods.
 pub fn harmonic_amplitude(x: &[f64], dt: f64, f0: f64, k: usize) -> f64 {
+    let (re, im) = projection(x, dt, f0, k);
+    2.0 * (re * re + im * im).sqrt() / x.len() as f64
+}
+
+/// Phase (rad, in (−π, π]) of harmonic `k` of `f0` in `x`: φ of x ≈ A cos(2π k f0 t + φ), t from
+/// the first sample, by the same projection as [`harmonic_amplitude`]; `None` where the
+/// projection is zero (no such component).
+pub fn harmonic_phase(x: &[f64], dt: f64, f0: f64, k: usize) -> Option<f64> {
+    let (re, im) = projection(x, dt, f0, k);
+    (re != 0.0 || im != 0.0).then(|| im.atan2(re))
+}
+
+/// Σ xₙ e^{−2πi k f0 n dt} as (real, imaginary).
+fn projection(x: &[f64], dt: f64, f0: f64, k: usize) -> (f64, f64) {
     let w = 2.0 * std::f64::consts::PI * k as f64 * f0 * dt;
     let (mut re, mut im) = (0.0, 0.0);
     for (n, v) in x.iter().enumerate() {
@@ -61,7 +75,7 @@ pub fn harmonic_amplitude(x: &[f64], dt: f64, f0: f64, k: usize) -> f64 {
         re += v * c;
         im -= v * s;
     }
-    2.0 * (re * re + im * im).sqrt() / x.len() as f64
+    (re, im)
 }
 
 /// Sub-sample position of the extremum of the parabola through (−1, a), (0, b), (1, c), in

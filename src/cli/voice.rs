@@ -152,6 +152,12 @@ pub fn print_voice(r: &phonation::output::voice::VoiceReport) {
             if c.lower_minus_upper < 0.0 { "divergent" } else { "convergent" }
         );
     }
+    if let Some(v) = &r.vertical_phase {
+        println!(
+            "vertical phase difference: the lower margin {:+.1}° ({:+.3e} s) ahead of the upper at f0, over {} periods (fundamentals {:.3e} and {:.3e} cm)",
+            v.degrees, v.lead_s, v.periods, v.amplitudes[0], v.amplitudes[1]
+        );
+    }
     println!("sound: {:.2} s at {} Hz, {}", r.audio.seconds, r.audio.sample_rate_hz, r.audio.source);
 }
 

@@ -158,6 +158,16 @@ fn closure_shape(s: &GlottalSeries, m: &VoiceMeasures) -> Option<ClosureShape> {
     crate::analysis::closure::shape_at_closures(s.column(LOWER_MARGIN_COLUMN)?, s.column(UPPER_MARGIN_COLUMN)?, s.dt, &closures)
 }
 
+/// The vertical phase difference of the margins over the voice window: the lower margin's
+/// fundamental against the upper one's at f0 ([`crate::analysis::lag::phase_lead`]; positive
+/// when the lower margin moves first, as in a mucosal wave); `None` without the margins'
+/// columns or where they do not move at f0.
+fn vertical_phase(s: &GlottalSeries, m: &VoiceMeasures) -> Option<crate::analysis::lag::PhaseLead> {
+    let start = ((m.window_s[0] / s.dt).round() as usize).min(s.flow.len());
+    let (lower, upper) = (s.column(LOWER_MARGIN_COLUMN)?, s.column(UPPER_MARGIN_COLUMN)?);
+    crate::analysis::lag::phase_lead(lower.get(start..)?, upper.get(start..)?, s.dt, m.f0_autocorrelation_hz)
+}
+
 /// How the sound files were made.
 #[derive(Clone, Debug, Serialize)]
 pub struct AudioNote {
@@ -178,6 +188,8 @@ pub struct VoiceReport {
     pub energy: Option<EnergyTransfer>,
     /// Where the glottis closes, when the series carries the margins.
     pub closure: Option<ClosureShape>,
+    /// The margins' vertical phase difference, when the series carries them.
+    pub vertical_phase: Option<crate::analysis::lag::PhaseLead>,
     pub files: Vec<PathBuf>,
 }
 
@@ -190,6 +202,8 @@ pub struct GlottalMeasures {
     pub energy: Option<EnergyTransfer>,
     /// Where the glottis closes, when the series carries the margins.
     pub closure: Option<ClosureShape>,
+    /// The margins' vertical phase difference, when the series carries them.
+    pub vertical_phase: Option<crate::analysis::lag::PhaseLead>,
 }
 
 /// The voice measures of `s` over the window of `opts`, with the air's work per cycle and the
@@ -201,13 +215,14 @@ pub fn glottal_measures(s: &GlottalSeries, opts: &VoiceOptions) -> GlottalMeasur
     };
     let energy = measures.as_ref().and_then(|m| energy_transfer(s, m));
     let closure = measures.as_ref().and_then(|m| closure_shape(s, m));
-    GlottalMeasures { measures, no_voice, energy, closure }
+    let vertical_phase = measures.as_ref().and_then(|m| vertical_phase(s, m));
+    GlottalMeasures { measures, no_voice, energy, closure, vertical_phase }
 }
 
 /// Measure the series and write `voice.json` (with `extra` merged in: the scene, the two-mass
 /// yardstick, …), `pulses.csv`, the plots and the WAV files into `dir`.
 pub fn write_voice_outputs(dir: &Path, s: &GlottalSeries, opts: &VoiceOptions, extra: serde_json::Value) -> anyhow::Result<VoiceReport> {
-    let GlottalMeasures { measures, no_voice, energy, closure } = glottal_measures(s, opts);
+    let GlottalMeasures { measures, no_voice, energy, closure, vertical_phase } = glottal_measures(s, opts);
     let derivative: Vec<f64> = s.flow.windows(2).map(|w| (w[1] - w[0]) / s.dt).collect();
     let mut files = Vec::new();
     let audio = write_wavs(dir, s, &derivative, measures.as_ref(), &mut files)?;
@@ -226,6 +241,7 @@ pub fn write_voice_outputs(dir: &Path, s: &GlottalSeries, opts: &VoiceOptions, e
         "measures": measures,
         "aerodynamic_energy_transfer": energy,
         "closure_shape": closure,
+        "vertical_phase": vertical_phase,
         "no_voice": no_voice,
         "sample_rate_hz": 1.0 / s.dt,
         "samples": s.flow.len(),
@@ -239,7 +255,7 @@ pub fn write_voice_outputs(dir: &Path, s: &GlottalSeries, opts: &VoiceOptions, e
     let path = dir.join("voice.json");
     std::fs::write(&path, serde_json::to_string_pretty(&json)?)?;
     files.insert(0, path);
-    Ok(VoiceReport { measures, no_voice, audio, energy, closure, files })
+    Ok(VoiceReport { measures, no_voice, audio, energy, closure, vertical_phase, files })
 }
 
 /// The definitions the measures follow, written into voice.json (see `analysis::voice`).
@@ -433,6 +449,40 @@ mod tests {
             assert!((d + 0.003 + 0.01 * p.t_close).abs() < 1e-12, "{d} at {}", p.t_close);
         }
         assert_eq!(json["closure_shape"]["from_below"].as_f64(), Some(1.0));
+        // a lower margin that does not move has no phase
+        assert!(report.vertical_phase.is_none());
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// Margins that swing at f0, the lower one 60° ahead of the upper one (a mucosal wave):
+    /// voice.json's `vertical_phase` reads 60° within 1 % over the voice window's whole periods,
+    /// the lead 60/360 of a period and the two fundamentals' amplitudes.
+    #[test]
+    fn voice_json_holds_the_margins_vertical_phase() {
+        let r = crate::analysis::synthetic::Rosenberg { f0: 125.0, opening: 0.0032, closing: 0.0016, amplitude: 300.0, baseline: 0.0 };
+        let (dt, n) = (2.0e-5, 4000);
+        let w = 2.0 * std::f64::consts::PI * r.f0;
+        let flow = r.sample(dt, n);
+        let col = |name: &str, f: &dyn Fn(f64) -> f64| (name.to_string(), (0..n).map(|i| f(i as f64 * dt)).collect::<Vec<f64>>());
+        let series = GlottalSeries {
+            dt,
+            flow,
+            columns: vec![
+                col(LOWER_MARGIN_COLUMN, &|t| 0.002 * (w * t + 60f64.to_radians()).cos()),
+                col(UPPER_MARGIN_COLUMN, &|t| 0.004 * (w * t).cos() + 0.001),
+            ],
+        };
+        let dir = std::env::temp_dir().join(format!("phonation_voice_phase_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let report = write_voice_outputs(&dir, &series, &VoiceOptions::default(), serde_json::json!({})).unwrap();
+        let m = report.measures.expect("measures");
+        let v = report.vertical_phase.expect("a vertical phase");
+        assert!((v.degrees - 60.0).abs() < 0.6, "{} degrees", v.degrees);
+        assert!((v.lead_s - v.degrees / 360.0 / m.f0_autocorrelation_hz).abs() < 1e-15);
+        assert!((v.amplitudes[0] - 0.002).abs() < 2e-5 && (v.amplitudes[1] - 0.004).abs() < 4e-5, "{:?}", v.amplitudes);
+        assert!(v.periods >= 4, "{} periods", v.periods);
+        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("voice.json")).unwrap()).unwrap();
+        assert_eq!(json["vertical_phase"]["degrees"].as_f64(), Some(v.degrees));
         std::fs::remove_dir_all(&dir).ok();
     }
 

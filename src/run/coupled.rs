@@ -104,8 +104,12 @@ pub struct GlottisReport {
     /// (max − min)/mean AC flow of the last five pulses: ≤ 0.1 for a settled oscillation.
     pub amplitude_spread_last5: Option<f64>,
     /// Time (s) by which the lower margin's lateral motion leads the upper one's over the
-    /// analysed window (positive: the lower margin opens and closes first).
+    /// analysed window (positive: the lower margin opens and closes first): the lag of the
+    /// margins' best cross-correlation.
     pub lower_margin_lead_s: Option<f64>,
+    /// The margins' vertical phase difference at f0 (as in voice.json): the lower margin's
+    /// fundamental ahead of the upper one's, in degrees and seconds.
+    pub vertical_phase: Option<crate::analysis::lag::PhaseLead>,
     /// The air's work on the folds per cycle over the voice window, by part and in all, against
     /// their peak kinetic energy (as in voice.json).
     pub aerodynamic_energy_transfer: Option<crate::output::voice::EnergyTransfer>,
@@ -495,6 +499,7 @@ fn glottal_outputs(sc: &CoupledScene, dir: &Path, record: &GlottalRecord, files:
         }),
         aerodynamic_energy_transfer: voice.energy.clone(),
         closure_shape: voice.closure.clone(),
+        vertical_phase: voice.vertical_phase,
         no_voice: voice.no_voice.clone(),
     })
 }
