@@ -91,7 +91,13 @@ fn analyze_particle_probes(dir: &std::path::Path, window: f64) -> anyhow::Result
     }
     for l in &leads {
         match l.lead_s {
-            Some(s) => println!("{} leads {} by {:.4e} s", l.leading, l.following, s),
+            Some(s) => println!(
+                "{} leads {} by {:.4e} s (cross-correlation); their fundamentals' phase: {}",
+                l.leading,
+                l.following,
+                s,
+                l.phase_deg.map_or("n/a".to_string(), |d| format!("{d:+.1}°"))
+            ),
             None => println!("{} against {}: no lead (one of them does not oscillate)", l.leading, l.following),
         }
     }

@@ -102,6 +102,9 @@ pub struct ProbeLead {
     pub leading: String,
     pub following: String,
     pub lead_s: Option<f64>,
+    /// The phase difference of their dx at `leading`'s frequency (degrees, positive: `leading`
+    /// ahead; [`crate::analysis::lag::phase_lead`], the fundamentals alone).
+    pub phase_deg: Option<f64>,
 }
 
 /// What `phonation analyze` reads from a run's particle probes (`coupling.csv`'s `time_s` and
@@ -127,13 +130,15 @@ pub fn probe_motion_from_csv(path: &Path, fraction: f64) -> anyhow::Result<(Vec<
         .collect();
     let mut leads = Vec::new();
     for a in 0..names.len() {
-        let period = paths[a].oscillation_dx.as_ref().map(|o| o.spectral_peak.unwrap_or(o.frequency)).filter(|f| *f > 0.0).map(|f| 1.0 / f);
+        let frequency = paths[a].oscillation_dx.as_ref().map(|o| o.spectral_peak.unwrap_or(o.frequency)).filter(|f| *f > 0.0);
         for b in a + 1..names.len() {
-            let lead_s = period.filter(|_| paths[b].oscillation_dx.is_some()).and_then(|p| {
-                let max_lag = ((0.5 * p / dt).round() as usize).clamp(1, window.len() / 3);
+            let both = frequency.filter(|_| paths[b].oscillation_dx.is_some());
+            let lead_s = both.and_then(|f| {
+                let max_lag = ((0.5 / f / dt).round() as usize).clamp(1, window.len() / 3);
                 lead_time(&xy[a].0, &xy[b].0, dt, max_lag)
             });
-            leads.push(ProbeLead { leading: names[a].clone(), following: names[b].clone(), lead_s });
+            let phase_deg = both.and_then(|f| crate::analysis::lag::phase_lead(&xy[a].0, &xy[b].0, dt, f)).map(|p| p.degrees);
+            leads.push(ProbeLead { leading: names[a].clone(), following: names[b].clone(), lead_s, phase_deg });
         }
     }
     Ok((reports, paths, leads))
@@ -264,6 +269,9 @@ mod tests {
         assert_eq!(leads.len(), 1);
         let lead = leads[0].lead_s.unwrap();
         assert!((lead / lag - 1.0).abs() < 0.02, "lead {lead} s, expected {lag}");
+        // 0.2 ms of a 360 Hz cycle: 25.92°
+        let phase = leads[0].phase_deg.unwrap();
+        assert!((phase / (360.0 * f * lag) - 1.0).abs() < 0.01, "phase {phase}°, expected {}", 360.0 * f * lag);
         std::fs::remove_dir_all(&dir).ok();
     }
 }
