@@ -7,7 +7,10 @@ use super::spectrum::{harmonic_amplitude, harmonic_phase, parabolic_peak};
 
 /// Time (units of `dt`) by which `a` leads `b`: the τ ∈ [−max_lag, max_lag] that maximises
 /// Σ a(t) b(t + τ). Positive when `a` happens first. `None` for signals without variation or
-/// shorter than three lags.
+/// shorter than three lags. Each lag sums over its overlap (n − |τ| terms), which pulls the
+/// peak of periodic signals towards zero lag by ≈ 1/(ω²(n − τ)) samples (ω per sample): a few
+/// per cent of the lead over a handful of periods; [`phase_lead`] reads the fundamentals
+/// without that bias.
 pub fn lead_time(a: &[f64], b: &[f64], dt: f64, max_lag: usize) -> Option<f64> {
     let n = a.len().min(b.len());
     if n < 3 * max_lag.max(1) {
