@@ -2094,26 +2094,8 @@ fn the_traction_kernels_match_their_cpu_twin() {
 fn the_periodic_fill_copies_what_the_advection_reads() {
     let Some(ctx) = context() else { return };
     for dim3 in [false, true] {
-        let scene = || {
-            let (kind, n) = if dim3 { (VelocitySetKind::D3q39, [10, 9, 7]) } else { (VelocitySetKind::D2q21, [16, 12, 1]) };
-            let vs = VelocitySet::new(kind);
-            let dim = vs.dim;
-            let params = timestep::choose(0.02, 0.6, vs.max_l1_speed(), None, 0.8).unwrap();
-            let mut b = Boundaries::periodic();
-            b.faces[2] = FaceCondition::Wall { velocity: [0.0; 3], temperature: Some(0.6) };
-            b.faces[3] = FaceCondition::Wall { velocity: [0.04, 0.0, 0.01], temperature: None };
-            let centre = [0.8, 4.3, if dim == 3 { 2.6 } else { 0.0 }];
-            let shape = if dim == 3 { Shape::Sphere { center: centre, radius: 1.7 } } else { Shape::Cylinder { center: centre, radius: 1.7 } };
-            let obstacle = Obstacle { shape, velocity: [0.0; 3], temperature: None };
-            let k = 2.0 * std::f64::consts::PI / n[0] as f64;
-            let mut s = FluidSolver::new(Equilibrium::new(vs, GasModel::Diatomic), Grid::new(dim, n), b, &[obstacle], params, move |x| Macro {
-                rho: 1.0 + 0.01 * (k * x[0]).sin(),
-                u: [0.03 * (0.5 * x[1]).cos(), 0.02 * (k * x[0]).sin(), 0.01 * (k * x[2]).cos()],
-                theta: 0.6,
-            });
-            s.body_force = [2e-5, 0.0, -1e-5];
-            s
-        };
+        let (kind, n) = if dim3 { (VelocitySetKind::D3q39, [10, 9, 7]) } else { (VelocitySetKind::D2q21, [16, 12, 1]) };
+        let scene = || phonation::fluid::fixtures::busy_lattice::<f64>(kind, n, 0.8);
         let mut cpu = scene();
         let mut poisoned = scene();
         let nan = vec![f64::NAN; cpu.pop.nv];

@@ -348,7 +348,7 @@ mod tests {
     #[test]
     fn the_unread_periodic_halo_values_are_never_read() {
         for (kind, n) in [(VelocitySetKind::D2q21, [14, 10, 1]), (VelocitySetKind::D3q39, [9, 8, 6])] {
-            let scene = || crate::fluid::solver::tests::busy_scene::<f64>(kind, n, 0.8);
+            let scene = || crate::fluid::fixtures::busy_lattice::<f64>(kind, n, 0.8);
             let (mut plain, mut poisoned) = (scene(), scene());
             // the x–z edges of the 3D halo are read by no stencil (in 2D the corners are walls')
             assert_eq!(plain.layout.periodic.iter().any(|r| r.reach == HaloReach::Unread), kind == VelocitySetKind::D3q39);

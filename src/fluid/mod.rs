@@ -6,6 +6,7 @@
 pub mod boundary;
 mod bracket;
 pub mod equilibrium;
+pub mod fixtures;
 pub mod geometry;
 mod ghost_wall;
 pub mod grid;

@@ -659,4 +659,4 @@ impl<S: Storage> crate::step::Solver for FluidSolver<S> {
 
 #[cfg(test)]
 #[path = "solver_tests.rs"]
-pub(crate) mod tests;
+mod tests;

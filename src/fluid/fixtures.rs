@@ -1,0 +1,29 @@
+//! Small lattices shared by the fluid's tests and the GPU parity tests (tests/gpu.rs): one
+//! definition, so that a CPU test and its GPU twin step the same scene.
+
+use crate::fluid::boundary::{Boundaries, FaceCondition};
+use crate::fluid::storage::Storage;
+use crate::fluid::{Equilibrium, FluidSolver, GasModel, Grid, Macro, Obstacle, Shape, VelocitySet, VelocitySetKind, timestep};
+
+/// A small lattice with walls (y), a moving lid, an obstacle centred at x = `obstacle_x`, a body
+/// force and a diatomic gas, periodic along x (and z), its populations stored as `S`: every kind
+/// of node the step fills (ghosts, face halos, periodic copies) in a few hundred nodes.
+pub fn busy_lattice<S: Storage>(kind: VelocitySetKind, n: [usize; 3], obstacle_x: f64) -> FluidSolver<S> {
+    let vs = VelocitySet::new(kind);
+    let dim = vs.dim;
+    let params = timestep::choose(0.02, 0.6, vs.max_l1_speed(), None, 0.8).unwrap();
+    let mut b = Boundaries::periodic();
+    b.faces[2] = FaceCondition::Wall { velocity: [0.0; 3], temperature: Some(0.6) };
+    b.faces[3] = FaceCondition::Wall { velocity: [0.04, 0.0, 0.01], temperature: None };
+    let centre = [obstacle_x, 4.3, if dim == 3 { 2.6 } else { 0.0 }];
+    let shape = if dim == 3 { Shape::Sphere { center: centre, radius: 1.7 } } else { Shape::Cylinder { center: centre, radius: 1.7 } };
+    let obstacle = Obstacle { shape, velocity: [0.0; 3], temperature: None };
+    let k = 2.0 * std::f64::consts::PI / n[0] as f64;
+    let mut s = FluidSolver::<S>::with_storage(Equilibrium::new(vs, GasModel::Diatomic), Grid::new(dim, n), b, &[obstacle], params, move |x| Macro {
+        rho: 1.0 + 0.01 * (k * x[0]).sin(),
+        u: [0.03 * (0.5 * x[1]).cos(), 0.02 * (k * x[0]).sin(), 0.01 * (k * x[2]).cos()],
+        theta: 0.6,
+    });
+    s.body_force = [2e-5, 0.0, -1e-5];
+    s
+}
