@@ -61,9 +61,9 @@ impl KernelLevelSet {
             if dir == [0.0; 3] {
                 continue;
             }
-            if let Some(t) = self.first_crossing(p, l, dir, reach)
-                && best.is_none_or(|(b, _)| t < b - NEWTON_TIE)
-            {
+            // a search wins only below this: it stops as soon as it cannot
+            let cutoff = best.map_or(f64::INFINITY, |(b, _)| b - NEWTON_TIE);
+            if let Some(t) = self.first_crossing(p, l, dir, reach, cutoff) {
                 best = Some((t, dir));
             }
         }
@@ -77,7 +77,16 @@ impl KernelLevelSet {
     /// of regula falsi; the bracket's outer end starts at `end` and moves out by half cells up
     /// to [`SEARCH_REACH`]. `None` when L stays positive that far. The returned t is the
     /// bracket's outer end (L ≤ 0 there).
-    fn first_crossing(&self, p: [f64; 3], l_p: f64, dir: [f64; 3], end: f64) -> Option<f64> {
+    ///
+    /// Only a t below `cutoff` (the distance a search must beat, [`Self::ghost_wall`]) is
+    /// returned, and the search stops as soon as the bracket's inner end reaches it: that end
+    /// only moves out and t lies beyond it, so the search would end at t ≥ `cutoff`. Where it
+    /// does not stop early the evaluations are the full search's, so t is the same bit for bit
+    /// (test `a_cut_off_search_ends_where_the_full_one_does`).
+    fn first_crossing(&self, p: [f64; 3], l_p: f64, dir: [f64; 3], end: f64, cutoff: f64) -> Option<f64> {
+        if 0.0 >= cutoff {
+            return None;
+        }
         let l_at = |t: f64| self.level_value([p[0] + t * dir[0], p[1] + t * dir[1], p[2] + t * dir[2]]);
         let (mut a, mut fa) = (0.0, l_p);
         let mut b = end.min(SEARCH_REACH);
@@ -87,11 +96,14 @@ impl KernelLevelSet {
                 return None;
             }
             (a, fa) = (b, fb);
+            if a >= cutoff {
+                return None;
+            }
             b = (b + 0.5).min(SEARCH_REACH);
             fb = l_at(b);
         }
-        let (_, _, b, _) = illinois(l_at, (a, fa), (b, fb), 100, |_, a, b| b - a < CROSSING_TOLERANCE);
-        Some(b)
+        let (a, _, b, _) = illinois(l_at, (a, fa), (b, fb), 100, |_, a, b| b - a < CROSSING_TOLERANCE || a >= cutoff);
+        (b < cutoff).then_some(b)
     }
 }
 
@@ -224,6 +236,56 @@ mod tests {
             );
             assert!(searched >= 10 && kept >= 10 && gave_up >= 10, "{dim}D: every path exercised: {kept} kept, {searched} searched, {gave_up} gave up");
             assert!(worst < 0.08, "{dim}D: {worst} cells from the nearest contour point");
+        }
+    }
+    /// The searches' cut-off changes nothing but the work: on the thick disc and ball, for every
+    /// ghost-like node and both search directions, a search cut off at Newton's distance less the
+    /// tie (as [`KernelLevelSet::ghost_wall`] runs it), at half of it and at a tenth of the full
+    /// search's own distance, at that distance and just above it, returns the full search's
+    /// distance bit for bit where that is below the cut-off, and `None` where it is not.
+    #[test]
+    fn a_cut_off_search_ends_where_the_full_one_does() {
+        for dim in [2usize, 3] {
+            let (c, radius) = if dim == 2 { ([20.13, 19.71, 0.0], 7.0) } else { ([12.13, 11.71, 12.37], 5.0) };
+            let s = thick_body(dim, c, radius);
+            let span = radius as i64 + 3;
+            let lo = [c[0] as i64 - span, c[1] as i64 - span, if dim == 3 { c[2] as i64 - span } else { 0 }];
+            let hi = [c[0] as i64 + span, c[1] as i64 + span, if dim == 3 { c[2] as i64 + span } else { 0 }];
+            let (mut checked, mut won, mut cut) = (0, 0, 0);
+            for (p, q) in ghosts(&s, dim, lo, hi) {
+                let (l, g) = s.level(p);
+                let to = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+                let reach = length(to);
+                for dir in [s.mass_outward(p, MASS_RADIUS), to.map(|x| x / reach)] {
+                    if dir == [0.0; 3] {
+                        continue;
+                    }
+                    let full = s.first_crossing(p, l, dir, reach, f64::INFINITY);
+                    let mut cutoffs = vec![];
+                    if let Some(d) = s.depth(p, (l, g)) {
+                        cutoffs.push(d - NEWTON_TIE);
+                    }
+                    if let Some(t) = full {
+                        cutoffs.extend([0.5 * t, 0.1 * t, t, t + 1e-12]);
+                    }
+                    for cutoff in cutoffs {
+                        let got = s.first_crossing(p, l, dir, reach, cutoff);
+                        match full {
+                            Some(t) if t < cutoff => {
+                                assert_eq!(got.map(f64::to_bits), Some(t.to_bits()), "{p:?} {dir:?}: cut off at {cutoff}");
+                                won += 1;
+                            }
+                            _ => {
+                                assert_eq!(got, None, "{p:?} {dir:?}: cut off at {cutoff}, full {full:?}");
+                                cut += 1;
+                            }
+                        }
+                        checked += 1;
+                    }
+                }
+            }
+            println!("{dim}D: {checked} cut-off searches, {won} reach the full one's distance, {cut} stop short");
+            assert!(won >= 10 && cut >= 10, "{dim}D: both outcomes exercised: {won} reached, {cut} stopped");
         }
     }
 }
