@@ -28,7 +28,7 @@
 //! | [`validation`] | analytic references and validation cases (Taylor–Green, Sod, …) |
 //! | [`bench`](mod@bench) | memory bandwidth and cells/s measurements, cost per update against size |
 //! | [`machine`] | the last-level cache, and when a rate is a fraction of the memory bandwidth |
-//! | [`gpu`] | wgpu compute twins of the core (no Bevy): the generated FDLB kernels, the solid, the lattice gas, the coupling kernels (method 1's traction, method 2's level set and hand-over) and the coupled step ([`gpu::coupled`]), marching cubes, tracers; each kernel checked against its CPU twin (tests/gpu.rs) |
+//! | [`gpu`] | wgpu compute twins of the core (no Bevy): the generated FDLB kernels, the solid, the lattice gas, the coupling kernels (method 1's traction, method 2's level set and hand-over) and the coupled step ([`gpu::coupled`]), marching cubes, tracers; each kernel checked against its CPU twin (tests/gpu/) |
 //! | `plugin` | Bevy plugin that steps simulations (feature `bevy`) |
 //! | `render` | drawing in Bevy (feature `render`, on by default): `render::PhonationPlugins`, the fold mesh, tracers, slices, the egui panel |
 

@@ -289,7 +289,7 @@ fn a_solid_stepped_in_the_render_world_matches_the_gpu_backend() {
     assert_eq!(d.steps, step);
     assert!(d.energies.kinetic > 0.0 && d.energies.elastic > 0.0);
     // the CPU reference: within 1e-3 of the largest displacement, the bound of the GPU solid's
-    // own parity test (tests/gpu.rs `solid_whole_steps_match_the_cpu_backend`: f32 state)
+    // own parity test (tests/gpu/solid.rs `solid_whole_steps_match_the_cpu_backend`: f32 state)
     let mut cpu = sc.build().unwrap();
     cpu.advance(step).unwrap();
     let p = &sim.solver.particles;
@@ -461,7 +461,7 @@ fn a_coupled_glottis_stepped_in_the_render_world_matches_the_gpu_backend() {
     assert_eq!(readback.totals, Some(totals), "the air's totals differ from the GPU backend's");
     assert_eq!(voice.area.to_bits(), g.sample(c).area.to_bits());
 
-    // and the CPU reference, step by step. The populations' f32 parity bound (1e-4, tests/gpu.rs)
+    // and the CPU reference, step by step. The populations' f32 parity bound (1e-4, tests/gpu/)
     // carries to the section's flux ρu_y as 1e-4 × c/u_jet ≈ 6e-4 (u_jet ≈ 0.17 of the lattice
     // speed): once the jet is established (flow ≥ ¼ of the largest) the flow is held to 1e-3 of
     // the largest (measured on lavapipe: 1.6e-4). While the folds part (steps ~120–220, the
@@ -1037,7 +1037,7 @@ fn the_fold_mesh_made_on_the_gpu_draws_the_cpu_meshs_folds() {
         b.iter().filter(|x| **x).count()
     );
     // the same triangles: a node's L within f32 rounding (1e-5 measured) of 0 could change a
-    // cell's case; none does on the glottis (tests/gpu.rs), so the counts agree to 1 %
+    // cell's case; none does on the glottis (tests/gpu/), so the counts agree to 1 %
     let t = fm.triangles.expect("the count read back");
     assert_eq!(
         phonation::render::panel::fold_surface_line(None, Some(&fm)).unwrap(),
@@ -1130,7 +1130,7 @@ fn gpu_tracers_are_advected_and_drawn_on_the_device() {
     assert_eq!(app.world().get::<FluidSimulation>(e).unwrap().solver.step_count, 0);
     assert!(app.world().get::<phonation::render::tracers::FlowTracers>(e).is_none());
     // the slice is made on the device (render::gpu_slice; its kernels' parity with the CPU slice
-    // is tests/gpu.rs `the_slice_on_the_gpu_matches_its_cpu_twin`), not from the CPU mirror:
+    // is tests/gpu/drawing.rs `the_slice_on_the_gpu_matches_its_cpu_twin`), not from the CPU mirror:
     // the speed in the channel fills the lattice's rectangle with more than a few colours, and
     // its range comes back for the legend
     use phonation::render::gpu_slice::GpuSliceOf;

@@ -523,7 +523,7 @@ mod fuzz {
 /// refused with a field or changes the solver's state after two steps (its state hash) — or is
 /// one of the keys that shape the outputs and the run's length only or whose effect two steps
 /// cannot show (`common::left_out`, with where each is shown). The same walk on the GPU
-/// backends: tests/gpu.rs `every_scene_key_changes_the_gpu_state_or_is_refused`.
+/// backends: tests/gpu/runs.rs `every_scene_key_changes_the_gpu_state_or_is_refused`.
 #[test]
 fn every_scene_key_changes_the_state_or_is_refused() {
     use phonation::scene::Scene;

@@ -1,4 +1,4 @@
-//! Small lattices shared by the fluid's tests and the GPU parity tests (tests/gpu.rs): one
+//! Small lattices shared by the fluid's tests and the GPU parity tests (tests/gpu/): one
 //! definition, so that a CPU test and its GPU twin step the same scene.
 
 use crate::fluid::boundary::{Boundaries, FaceCondition};

@@ -102,7 +102,7 @@ impl KernelLevelSet {
             b = (b + 0.5).min(SEARCH_REACH);
             fb = l_at(b);
         }
-        let (a, _, b, _) = illinois(l_at, (a, fa), (b, fb), 100, |_, a, b| b - a < CROSSING_TOLERANCE || a >= cutoff);
+        let (_, _, b, _) = illinois(l_at, (a, fa), (b, fb), 100, |_, a, b| b - a < CROSSING_TOLERANCE || a >= cutoff);
         (b < cutoff).then_some(b)
     }
 }

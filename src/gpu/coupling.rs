@@ -5,7 +5,7 @@
 //! (2.127–2.128; CPU twin: the `momentum_exchange` stage of `coupling::conserving`) as two
 //! gathers — per node the weights' sum, per particle its shares — deterministic, no atomics.
 //!
-//! These kernels are checked against their twins (tests/gpu.rs). The face-flux record of the
+//! These kernels are checked against their twins (tests/gpu/). The face-flux record of the
 //! fluid step (what each wall node takes out of the air, 2.122–2.123) is a kernel of the GPU
 //! fluid ([`super::GpuFluid::record_face_fluxes`]). The coupled step that strings them together
 //! is [`super::coupled::GpuCoupled`].

@@ -1,6 +1,6 @@
 //! GPU backend (wgpu compute, no Bevy needed): a headless device ([`context`]), kernels generated
 //! from the velocity set ([`codegen`]) and the FDLB runner that records the stage list
-//! ([`fdlb`]). Every kernel has a CPU twin in [`crate::fluid`]; `tests/gpu.rs` checks parity.
+//! ([`fdlb`]). Every kernel has a CPU twin in [`crate::fluid`]; `tests/gpu/` checks parity.
 
 pub mod bench;
 pub mod codegen;

@@ -3,7 +3,7 @@
 //! wrote — no readback of the mesh. The CPU builds each body's level set L (seed 000 2.124:
 //! the particles and their bins, O(N), [`SurfaceSource`]); the render world samples L on a grid
 //! and runs marching cubes on the device ([`GpuFoldSurface`], the twin of
-//! [`crate::mesh::particle_field::body_surfaces`], checked against it in tests/gpu.rs) into
+//! [`crate::mesh::particle_field::body_surfaces`], checked against it in tests/gpu/) into
 //! storage buffers that a material ([`FoldSurfaceMaterial`], shaders/fold_surface_draw.wgsl)
 //! draws, one colour per body. The buffers have room for twice the triangles of the first
 //! surface; the triangle count comes back (4 bytes, through Bevy's `Readback`) for the panel

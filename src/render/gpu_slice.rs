@@ -2,7 +2,7 @@
 //! [`crate::plugin::GpuAir`]) made on the device in the
 //! render world after the frame's steps, with no round trip of the field: the plane's moments
 //! from the populations, the values in scene units, the colour scale's range and the pixels
-//! ([`GpuSlice`], shaders/slice.wgsl, the twin of the CPU slice checked in tests/gpu.rs), the
+//! ([`GpuSlice`], shaders/slice.wgsl, the twin of the CPU slice checked in tests/gpu/), the
 //! pixels copied into the slice's texture. Only the range comes back (8 bytes, through Bevy's
 //! `Readback`) for the panel's legend ([`SliceView::range`]). CPU-stepped simulations keep the
 //! CPU slice ([`super::slice`]).

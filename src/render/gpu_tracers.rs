@@ -1,7 +1,7 @@
 //! Tracers of a GPU-stepped fluid or coupled simulation ([`crate::plugin::GpuStepping`],
 //! [`crate::plugin::GpuAir`]) advected and drawn on the GPU,
 //! with no round trip through the CPU: the tracer kernel ([`crate::gpu::tracers::GpuTracers`],
-//! RK2 through the GPU fluid's macro buffer, checked against its CPU twin in tests/gpu.rs) runs
+//! RK2 through the GPU fluid's macro buffer, checked against its CPU twin in tests/gpu/) runs
 //! in the render world right after the frame's fluid steps, its positions are copied (device to
 //! device) into a storage buffer that a line material ([`TracerLineMaterial`],
 //! shaders/tracer_lines.wgsl) reads in its vertex shader, one streak per tracer from where it

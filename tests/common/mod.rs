@@ -1,5 +1,5 @@
 //! Helpers shared by the test binaries: the walk over a scene's keys of "no setting silently
-//! ignored" (tests/scenes.rs on the CPU, tests/gpu.rs on the GPU).
+//! ignored" (tests/scenes.rs on the CPU, tests/gpu/ on the GPU).
 
 #![allow(dead_code)] // each test binary uses its part
 
