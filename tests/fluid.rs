@@ -154,8 +154,8 @@ fn equilibrium_moments_equal_the_maxwellian() {
                     // Macroscopic moments (2.79–2.81) are recovered exactly.
                     let back = eq.moments(&f);
                     assert!((back.rho - rho).abs() < 1e-12 && (back.theta - t).abs() < 1e-12);
-                    for a in 0..3 {
-                        assert!((back.u[a] - u[a]).abs() < 1e-12);
+                    for (b, w) in back.u.iter().zip(u) {
+                        assert!((b - w).abs() < 1e-12);
                     }
                     // Orders 0–3 equal the Maxwellian's; order 4 up to the u⁴ term the
                     // third-order expansion leaves out. D3Q39 is 6th-order isotropic only at

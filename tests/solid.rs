@@ -339,7 +339,7 @@ fn solid_scenes_validate_and_bad_input_names_the_field() {
         let sc = SolidScene::parse(text).unwrap_or_else(|e| panic!("{name}: {e}"));
         let s = sc.build().unwrap_or_else(|e| panic!("{name}: {e}"));
         println!("{name}: {} particles (estimated {}), Δt {:.3e}, explicit limit {:.3e}", s.particles.len(), sc.estimated_particles, s.dt, s.explicit_limit);
-        assert_eq!(s.particles.len() >= sc.estimated_particles, true);
+        assert!(s.particles.len() >= sc.estimated_particles);
     }
     let base = phonation::scene::builtin("two_blocks").unwrap();
     let cases = [

@@ -118,6 +118,58 @@ pub fn normal(grid: &Grid, l: &[f64], x: [i64; 3]) -> DVec3 {
     if n > 0.0 { -g / n } else { DVec3::ZERO }
 }
 
+/// The level set of each body of `p` (bodies in increasing order), for drawing a solid that
+/// has no lattice: coordinates in units of the particle spacing l₀, r_e = 2 l₀, r clamped at
+/// r_e/2 as the coupling does, φ calibrated on the body's sampled surface
+/// ([`super::surface::ReferenceShape::Sampled`]: the mean kernel sum at the face points, as
+/// [`surface_level`] takes for the coupling over all its surface points);
+/// where that surface cannot be built (a 2D section that is no simple polygon seen from its
+/// centre), half the largest kernel sum at the body's particles (the contour where the
+/// particle density halves).
+pub fn body_level_sets(p: &crate::solid::Particles) -> Vec<crate::fluid::KernelLevelSet> {
+    let (re, r_min) = (2.0, 1.0);
+    let mut bodies: Vec<u16> = p.body.clone();
+    bodies.sort_unstable();
+    bodies.dedup();
+    let scale = 1.0 / p.spacing;
+    bodies
+        .into_iter()
+        .map(|b| {
+            let members: Vec<usize> = (0..p.len()).filter(|&i| p.body[i] == b).collect();
+            let at = |x: DVec3| x * scale;
+            // the kernel sum in the reference configuration (binned: the surface is large)
+            let reference = crate::fluid::KernelLevelSet::new(
+                members.iter().map(|&i| at(p.reference[i]).to_array()).collect(),
+                vec![[0.0; 3]; members.len()],
+                re,
+                r_min,
+                0.0,
+            );
+            let sum = |x: DVec3| reference.level(x.to_array()).0;
+            let phi = match super::surface::BodySurface::build(p, b, &super::surface::ReferenceShape::Sampled) {
+                Ok(s) => {
+                    // the points on faces (offset along one axis): at edges and corners the
+                    // kernel sum is lower, and with them in the mean a small body's faces
+                    // bulge out by a third of a spacing
+                    let all = s.reference_points(p);
+                    let faces: Vec<DVec3> =
+                        all.iter().zip(&s.offsets).filter(|(_, o)| o.to_array().iter().filter(|c| **c != 0.0).count() == 1).map(|(x, _)| *x).collect();
+                    let pts = if faces.is_empty() { all } else { faces };
+                    pts.iter().map(|x| sum(at(*x))).sum::<f64>() / pts.len() as f64
+                }
+                Err(_) => 0.5 * reference.points.iter().map(|x| sum(DVec3::from_array(*x))).fold(0.0, f64::max),
+            };
+            crate::fluid::KernelLevelSet::new(
+                members.iter().map(|&i| at(p.position[i]).to_array()).collect(),
+                members.iter().map(|&i| (p.velocity[i] * scale).to_array()).collect(),
+                re,
+                r_min,
+                phi,
+            )
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -222,56 +274,4 @@ mod tests {
         let p = crossing(DVec3::ZERO, -1.0, DVec3::X, 3.0);
         assert!((p.x - 0.25).abs() < 1e-15);
     }
-}
-
-/// The level set of each body of `p` (bodies in increasing order), for drawing a solid that
-/// has no lattice: coordinates in units of the particle spacing l₀, r_e = 2 l₀, r clamped at
-/// r_e/2 as the coupling does, φ calibrated on the body's sampled surface
-/// ([`super::surface::ReferenceShape::Sampled`]: the mean kernel sum at the face points, as
-/// [`surface_level`] takes for the coupling over all its surface points);
-/// where that surface cannot be built (a 2D section that is no simple polygon seen from its
-/// centre), half the largest kernel sum at the body's particles (the contour where the
-/// particle density halves).
-pub fn body_level_sets(p: &crate::solid::Particles) -> Vec<crate::fluid::KernelLevelSet> {
-    let (re, r_min) = (2.0, 1.0);
-    let mut bodies: Vec<u16> = p.body.clone();
-    bodies.sort_unstable();
-    bodies.dedup();
-    let scale = 1.0 / p.spacing;
-    bodies
-        .into_iter()
-        .map(|b| {
-            let members: Vec<usize> = (0..p.len()).filter(|&i| p.body[i] == b).collect();
-            let at = |x: DVec3| x * scale;
-            // the kernel sum in the reference configuration (binned: the surface is large)
-            let reference = crate::fluid::KernelLevelSet::new(
-                members.iter().map(|&i| at(p.reference[i]).to_array()).collect(),
-                vec![[0.0; 3]; members.len()],
-                re,
-                r_min,
-                0.0,
-            );
-            let sum = |x: DVec3| reference.level(x.to_array()).0;
-            let phi = match super::surface::BodySurface::build(p, b, &super::surface::ReferenceShape::Sampled) {
-                Ok(s) => {
-                    // the points on faces (offset along one axis): at edges and corners the
-                    // kernel sum is lower, and with them in the mean a small body's faces
-                    // bulge out by a third of a spacing
-                    let all = s.reference_points(p);
-                    let faces: Vec<DVec3> =
-                        all.iter().zip(&s.offsets).filter(|(_, o)| o.to_array().iter().filter(|c| **c != 0.0).count() == 1).map(|(x, _)| *x).collect();
-                    let pts = if faces.is_empty() { all } else { faces };
-                    pts.iter().map(|x| sum(at(*x))).sum::<f64>() / pts.len() as f64
-                }
-                Err(_) => 0.5 * reference.points.iter().map(|x| sum(DVec3::from_array(*x))).fold(0.0, f64::max),
-            };
-            crate::fluid::KernelLevelSet::new(
-                members.iter().map(|&i| at(p.position[i]).to_array()).collect(),
-                members.iter().map(|&i| (p.velocity[i] * scale).to_array()).collect(),
-                re,
-                r_min,
-                phi,
-            )
-        })
-        .collect()
 }

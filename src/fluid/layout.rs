@@ -370,7 +370,7 @@ impl Layout {
             periodic.extend(p.periodic.iter().flat_map(|r| (0..r.len).map(move |k| (r.dst + k, r.src + k))).filter(|&(d, _)| outside(d)));
             periodic.sort_unstable();
         }
-        debug_assert!(HALO >= 2);
+        const { assert!(HALO >= 2) };
         // Merge consecutive pairs along a row that the same stencils read into runs.
         let px = grid.padded[0];
         let mut runs: Vec<PeriodicRun> = Vec::new();

@@ -128,7 +128,7 @@ mod tests {
         assert_eq!(room_for(0), MIN_BYTES);
         for n in [4u64, 255, 256, 1000, 4096, 123_456, 10_000_000] {
             let room = room_for(n);
-            assert!(room >= n + n / 2 && room % 256 == 0 && room < n + n / 2 + 256 + MIN_BYTES, "{n} bytes: room {room}");
+            assert!(room >= n + n / 2 && room.is_multiple_of(256) && room < n + n / 2 + 256 + MIN_BYTES, "{n} bytes: room {room}");
         }
     }
 }

@@ -118,11 +118,15 @@ pub const fn complementary_sides(k: usize) -> [(u16, u16, usize, usize); 2] {
     [(vertex_mask(p, false, q, false), vertex_mask(p, true, q, true), p, q), (vertex_mask(p, false, q, true), vertex_mask(p, true, q, false), p, q)]
 }
 
+/// One exchange of the interference operation on a lane: the vertex masks of its two sides
+/// (A, B) and the two axes that pair them.
+pub type Exchange = (u16, u16, usize, usize);
+
 /// Per velocity k, the exchange of [`interfere_lane`]: (side A, side B, the axes a, b of c_k) —
 /// a table, for loops whose k is not a constant.
-pub const OWN_PLANE_EXCHANGES: [(u16, u16, usize, usize); Q] = own_plane_exchanges();
+pub const OWN_PLANE_EXCHANGES: [Exchange; Q] = own_plane_exchanges();
 
-const fn own_plane_exchanges() -> [(u16, u16, usize, usize); Q] {
+const fn own_plane_exchanges() -> [Exchange; Q] {
     let mut t = [(0, 0, 0, 0); Q];
     let mut k = 0;
     while k < Q {
@@ -161,7 +165,7 @@ pub fn exchange_lane(w: u16, mask_a: u16, mask_b: u16, a: usize, b: usize) -> u1
 /// The exchanges one interference pass applies to velocity k's word, in order: (side A, side B,
 /// the two axes that pair them) — c_k's own-plane diagonal, then with
 /// [`Diagonals::AllPerpendicular`] the two of [`complementary_sides`].
-pub fn exchanges(k: usize, diagonals: Diagonals) -> Vec<(u16, u16, usize, usize)> {
+pub fn exchanges(k: usize, diagonals: Diagonals) -> Vec<Exchange> {
     let ((a, _), (b, _)) = axes(k);
     let (mask_a, mask_b) = interference_sides(k);
     let mut out = vec![(mask_a, mask_b, a, b)];

@@ -106,6 +106,7 @@ pub fn sample(g: &LatticeGas, block: usize) -> RestSample {
 /// A periodic box of n³ cells filled at rest with density d per link and interference
 /// probability p, sampled (blocks of `block`³ cells) at step 0 and every `every` steps up to
 /// `steps`.
+#[allow(clippy::too_many_arguments, reason = "each is a parameter of the experiment, named at every call")]
 pub fn rest_history(density: f64, interference: f64, diagonals: Diagonals, n: usize, block: usize, steps: u32, every: u32, seed: u32) -> Vec<RestSample> {
     let table = CollisionTable::shared();
     let mut g = LatticeGas::new([n, n, n], seed, interference);

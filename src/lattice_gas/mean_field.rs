@@ -24,7 +24,7 @@
 //! and Y–R velocities add two diagonals each in their complementary planes X–R and X–Z (S = 20):
 //! Δν = −5 p K / 48.
 
-use super::bits::{displacement, exchange_lane, exchanges};
+use super::bits::{Exchange, displacement, exchange_lane, exchanges};
 use super::lattice::Diagonals;
 use super::velocities::{Q, VELOCITIES};
 
@@ -75,7 +75,7 @@ pub fn transfer_response(n: f64) -> f64 {
 /// the exchanges share sites, so with more than one per velocity their effects do not simply add.
 pub fn expected_layer_shift(k: usize, occupation: [f64; 2], p: f64, diagonals: Diagonals) -> f64 {
     let ex = exchanges(k, diagonals);
-    let subsets: Vec<(f64, Vec<(u16, u16, usize, usize)>)> = (0..1u32 << ex.len())
+    let subsets: Vec<(f64, Vec<Exchange>)> = (0..1u32 << ex.len())
         .map(|s| {
             let n = s.count_ones() as i32;
             (p.powi(n) * (1.0 - p).powi(ex.len() as i32 - n), ex.iter().enumerate().filter(|(i, _)| s >> i & 1 == 1).map(|(_, e)| *e).collect())

@@ -281,7 +281,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
     let mut csv = std::io::BufWriter::new(checkpoint::output_file(&files[0], resumed)?);
     let mut probes = ProbeWriter::open(&files[1], &c.fluid, &fluid_scene.probes, resumed)?;
     let snaps = fluid_scene.file.output.snapshots;
-    let snap_every = if snaps > 0 { (total / snaps).max(1) } else { u64::MAX };
+    let snap_every = total.checked_div(snaps).map_or(u64::MAX, |k| k.max(1));
     let probe_every = fluid_scene.file.output.probe_every.max(1);
     let glottis = sc.glottis(c);
     let glottal_path = dir.join("glottal_flow.csv");

@@ -33,7 +33,7 @@ pub struct CoupledEngine {
 
 /// Where the coupled solver runs.
 enum CoupledOn {
-    Cpu(CoupledSolver),
+    Cpu(Box<CoupledSolver>),
     Gpu(Box<GpuCoupled>),
 }
 
@@ -47,13 +47,13 @@ impl CoupledEngine {
         let (ctx, name) = pick_gpu(backend)?;
         let step = solver.step_count;
         let engine = |on, health, name| Self { on, health, name, mirror: Mirror::new(step), solid_at: step };
-        let Some(ctx) = ctx else { return Ok(engine(CoupledOn::Cpu(solver), None, name)) };
+        let Some(ctx) = ctx else { return Ok(engine(CoupledOn::Cpu(Box::new(solver)), None, name)) };
         if let Err(why) = GpuCoupled::supports(&solver) {
             if backend == Backend::Gpu {
                 return Err(why.into());
             }
             let name = format!("cpu ({} threads; the GPU backend does not run this scene: {why})", rayon::current_num_threads());
-            return Ok(engine(CoupledOn::Cpu(solver), None, name));
+            return Ok(engine(CoupledOn::Cpu(Box::new(solver)), None, name));
         }
         Self::on_device(ctx, name, solver, cg_tolerance)
     }

@@ -125,7 +125,7 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
     let mut probes = ProbeWriter::open(&files[0], engine.mirror(), &scene.probes, resumed)?;
     let probe_nodes = probes.nodes();
     let snaps = scene.file.output.snapshots;
-    let snap_every = if snaps > 0 { (total / snaps).max(1) } else { u64::MAX };
+    let snap_every = total.checked_div(snaps).map_or(u64::MAX, |k| k.max(1));
     let (m0, mut k_snap) = match &record {
         Some(r) => {
             files.extend(checkpoint::names(&r["files"]).into_iter().map(|n| dir.join(n)));

@@ -155,10 +155,13 @@ fn whole_cycles(x: &[f64]) -> std::ops::Range<usize> {
     }
 }
 
+/// One row of a probe file: the time (s) and each probe's (dx, dy) (cm).
+type ProbeRow = (f64, Vec<[f64; 2]>);
+
 /// The probes' names and samples (time, [dx, dy] per probe) of a run's `coupling.csv`, checked:
 /// `fraction` in (0, 1], a `time_s` column, at least one probe (`<probe>_dx`, `<probe>_dy`), a
 /// number in every cell, at least four rows.
-fn read_probes(path: &Path, fraction: f64) -> anyhow::Result<(Vec<String>, Vec<(f64, Vec<[f64; 2]>)>)> {
+fn read_probes(path: &Path, fraction: f64) -> anyhow::Result<(Vec<String>, Vec<ProbeRow>)> {
     if !(fraction > 0.0 && fraction <= 1.0) {
         bail!("window: {fraction} must lie in (0, 1]");
     }

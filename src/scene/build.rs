@@ -540,7 +540,7 @@ mod tests {
         let e = FluidScene::new(parse(&toml::to_string(&t).unwrap()).unwrap()).unwrap_err();
         assert_eq!(e.field, "numerics.mach_scaling.reference_velocity");
         assert!(e.reason.contains("pressure face"), "{}", e.reason);
-        let e = try_fluid_part(&bernoulli.replace("\"bernoulli\"", "\"jet\"")).err().expect("refused");
+        let e = try_fluid_part(&bernoulli.replace("\"bernoulli\"", "\"jet\"")).expect_err("refused");
         assert_eq!(e.field, "numerics.mach_scaling.reference_velocity");
         assert!(e.reason.contains("\"jet\""), "{}", e.reason);
     }

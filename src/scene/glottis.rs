@@ -129,7 +129,7 @@ mod tests {
         assert!((r_out * t_out / p0 - 1.0).abs() < 1e-12, "{r_out} {t_out} {p0}");
         assert!(r_in * t_in > p0 && t_in == t_out);
         let bad = text.replace(outlet, "y_max = { type = \"pressure_outlet\", pressure = -2.0e9 }");
-        let e = CoupledScene::parse(&bad).err().expect("refused").to_string();
+        let e = CoupledScene::parse(&bad).expect_err("refused").to_string();
         assert!(e.contains("boundaries.y_max.pressure") && e.contains("non-positive absolute pressure"), "{e}");
     }
 
@@ -358,7 +358,7 @@ mod tests {
         // faces 0.021–0.051 cm inside); a 3D fold shorter than the domain along z
         let wide = base.replace("size = [1.513671875, 1.5625]", "size = [1.5625, 1.5625]").replace("cells = [62, 64]", "cells = [64, 64]");
         assert_ne!(wide, base);
-        let e = CoupledScene::parse(&wide).err().expect("a fold short of its wall accepted");
+        let e = CoupledScene::parse(&wide).expect_err("a fold short of its wall accepted");
         assert_eq!(e.field, "solid.bodies[1].fold.origin", "{e}");
         assert!(e.reason.contains("0.0252") && e.reason.contains("around the glottis"), "{e}");
         let first = base3
@@ -366,11 +366,11 @@ mod tests {
             .replace("cells = [34, 32, 32]", "cells = [38, 32, 32]")
             .replace("0.74375", "0.83125");
         assert_ne!(first, base3);
-        let e = CoupledScene::parse(&first).err().expect("the first coarse 3D glottis accepted");
+        let e = CoupledScene::parse(&first).expect_err("the first coarse 3D glottis accepted");
         assert_eq!(e.field, "solid.bodies[0].fold.origin", "{e}");
         let short = base3.replacen("opening = 0.06,", "opening = 0.06, section = { length = 1.2 },", 1);
         assert_ne!(short, base3);
-        let e = CoupledScene::parse(&short).err().expect("a 3D fold shorter than the domain accepted");
+        let e = CoupledScene::parse(&short).expect_err("a 3D fold shorter than the domain accepted");
         assert_eq!(e.field, "solid.bodies[0].fold.section.length", "{e}");
         // particles coarser than the cover layer (≈ 0.02 cm)
         let e = CoupledScene::parse(&base.replace("spacing = 0.01220703125", "spacing = 0.024")).err().unwrap();

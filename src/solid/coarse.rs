@@ -54,7 +54,7 @@ enum CoarseSolve {
     /// Lower Cholesky factor of the dense A_c, row-major, unknowns².
     Dense(Vec<f64>),
     /// Block-sparse A_c solved by inner conjugate gradients with a third level.
-    Sparse(SparseCoarse),
+    Sparse(Box<SparseCoarse>),
 }
 
 /// Mode k of an aggregate of side `side` at `rel` from its centre — the affine motions:
@@ -326,7 +326,7 @@ impl CoarseSpace {
             Storage::Sparse(mut a) => {
                 a.symmetrise();
                 let groups = third_level(reference, &grid, &grid_of, &members, &centre, &basis);
-                CoarseSolve::Sparse(SparseCoarse::new(a, groups)?)
+                CoarseSolve::Sparse(Box::new(SparseCoarse::new(a, groups)?))
             }
         };
         Some(Self { aggregate, offset, solve, side, vectors, start })

@@ -25,9 +25,9 @@ fn marching_cubes_matches_its_cpu_twin() {
         for (t, g) in gpu.iter().enumerate() {
             assert_eq!((g.cell, g.rank), (cpu.cells[t], (t - cpu.cells.partition_point(|c| *c < g.cell)) as u32), "{label}: triangle {t}");
             let idx = cpu.triangles[t];
-            for k in 0..3 {
-                dp = dp.max((g.positions[k] - cpu.positions[idx[k] as usize]).length());
-                dn = dn.max((g.normals[k] - cpu.normals[idx[k] as usize]).length());
+            for (k, &i) in idx.iter().enumerate() {
+                dp = dp.max((g.positions[k] - cpu.positions[i as usize]).length());
+                dn = dn.max((g.normals[k] - cpu.normals[i as usize]).length());
             }
         }
         eprintln!("{label}: {n} triangles, vertices within {:.2e} of the extent {extent}, normals within {dn:.2e}", dp / extent);
