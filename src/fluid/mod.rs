@@ -19,6 +19,7 @@ mod polygon;
 mod rebuild;
 mod row_kernels;
 pub mod solver;
+mod stage_passes;
 pub mod state;
 pub mod steady;
 pub mod storage;
