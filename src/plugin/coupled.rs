@@ -70,11 +70,10 @@ pub(super) fn build(app: &mut App) {
     app.add_systems(Update, (step_coupled, coupled_diagnostics).chain().in_set(PhonationSystems::CoupledStep));
 }
 
-pub(super) fn step_coupled(
-    steps: Res<StepsThisFrame>,
-    mut sims: Query<(Entity, &mut CoupledSimulation, Option<&mut CoupledGlottis>, Option<&CoupledStatus>), super::gpu_coupled::CpuStepped>,
-    mut commands: Commands,
-) {
+/// What [`step_coupled`] reads and writes of a coupled simulation's entity.
+type CoupledStepData<'a> = (Entity, &'a mut CoupledSimulation, Option<&'a mut CoupledGlottis>, Option<&'a CoupledStatus>);
+
+pub(super) fn step_coupled(steps: Res<StepsThisFrame>, mut sims: Query<CoupledStepData, super::gpu_coupled::CpuStepped>, mut commands: Commands) {
     if steps.0 == 0 {
         return;
     }

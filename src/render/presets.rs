@@ -45,10 +45,13 @@ fn coupling_choices(preset: &str) -> Option<(WallHeat, Option<&'static str>)> {
     Some((walls, method))
 }
 
+/// A coupled preset's wall model and coupling method name, as [`coupling_choices`] reads them.
+type CouplingChoices = (WallHeat, Option<&'static str>);
+
 /// [`coupling_choices`] of `preset`: read once per panel preset (the panel asks every frame),
 /// parsed on demand for any other built-in scene.
-fn preset_choices(preset: &str) -> Option<(WallHeat, Option<&'static str>)> {
-    static PANEL: std::sync::OnceLock<Vec<Option<(WallHeat, Option<&'static str>)>>> = std::sync::OnceLock::new();
+fn preset_choices(preset: &str) -> Option<CouplingChoices> {
+    static PANEL: std::sync::OnceLock<Vec<Option<CouplingChoices>>> = std::sync::OnceLock::new();
     match PRESETS.iter().position(|p| *p == preset) {
         Some(i) => PANEL.get_or_init(|| PRESETS.iter().map(|p| coupling_choices(p)).collect())[i],
         None => coupling_choices(preset),

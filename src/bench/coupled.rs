@@ -1,0 +1,137 @@
+//! The coupled and voice benches: the glottis scenes' coupled steps per second from rest, the
+//! two-mass model's cost against its error, and the coupled cylinder at three resolutions.
+
+use super::*;
+
+/// Speed of a glottis scene from rest (the first steps: the pressure wave has not yet reached
+/// the folds, so the fluid geometry is rebuilt only where it changes).
+#[derive(Clone, Debug, Serialize)]
+pub struct GlottisSpeed {
+    pub scene: String,
+    pub nodes: usize,
+    pub particles: usize,
+    /// Coupled (= fluid) step (s).
+    pub dt: f64,
+    pub coupled_steps_per_s: f64,
+    /// Wall seconds per simulated millisecond.
+    pub wall_per_simulated_ms: f64,
+    pub stage_shares: Vec<(String, f64)>,
+}
+
+/// `steps` coupled steps of each built-in glottis scene of `names`.
+pub fn glottis_speed(names: &[&str], steps: u64) -> Vec<GlottisSpeed> {
+    names
+        .iter()
+        .map(|name| {
+            let sc = crate::scene::coupled::CoupledScene::parse(crate::scene::builtin(name).expect("built in")).expect("valid");
+            let mut c = sc.build().expect("builds");
+            let t = Instant::now();
+            c.run(steps).expect("stable from rest");
+            let wall = t.elapsed().as_secs_f64();
+            let n = c.fluid.layout.grid.n;
+            GlottisSpeed {
+                scene: name.to_string(),
+                nodes: n[0] * n[1] * n[2],
+                particles: c.solid.particles.len(),
+                dt: c.dt(),
+                coupled_steps_per_s: steps as f64 / wall,
+                wall_per_simulated_ms: wall / (steps as f64 * c.dt() * 1e3),
+                stage_shares: c.stage_shares().into_iter().map(|(n, f)| (n.to_string(), f)).collect(),
+            }
+        })
+        .collect()
+}
+
+/// One RK4 rate of the two-mass speed-vs-error table.
+#[derive(Clone, Debug, Serialize)]
+pub struct TwoMassSpeed {
+    /// RK4 steps per second of simulated time (Hz).
+    pub rate_hz: f64,
+    pub steps_per_s: f64,
+    /// Wall seconds per simulated second.
+    pub wall_per_simulated_s: f64,
+    pub f0_hz: f64,
+    /// |f0 − f0(finest)| / f0(finest) and the same for the peak flow.
+    pub f0_error: f64,
+    pub peak_flow_error: f64,
+}
+
+/// The two-mass rows: 0.4 s at 8 cmH₂O with RK4 at 1, 2, 4, 8 × 44.1 kHz against 32 × 44.1 kHz.
+pub fn two_mass_speed_vs_error() -> Vec<TwoMassSpeed> {
+    use crate::analysis::voice::{VoiceOptions, voice_measures};
+    use crate::two_mass::{CM_H2O, TwoMassParams, simulate};
+    let runs: Vec<(f64, f64, crate::analysis::voice::VoiceMeasures)> = [1.0, 2.0, 4.0, 8.0, 32.0]
+        .iter()
+        .map(|k| {
+            let rate = 44_100.0 * k;
+            let steps = (0.4 * rate) as usize;
+            let t = Instant::now();
+            let run = simulate(&TwoMassParams::default(), 8.0 * CM_H2O, 1.0 / rate, steps);
+            let wall = t.elapsed().as_secs_f64();
+            (rate, wall, voice_measures(&run.flow, 1.0 / rate, &VoiceOptions::default()).expect("the standard model oscillates at 8 cmH2O"))
+        })
+        .collect();
+    let (_, _, fine) = runs.last().expect("five rates").clone();
+    runs.iter()
+        .map(|(rate, wall, m)| TwoMassSpeed {
+            rate_hz: *rate,
+            steps_per_s: 0.4 * rate / wall,
+            wall_per_simulated_s: wall / 0.4,
+            f0_hz: m.f0_autocorrelation_hz,
+            f0_error: (m.f0_autocorrelation_hz / fine.f0_autocorrelation_hz - 1.0).abs(),
+            peak_flow_error: (m.peak_flow / fine.peak_flow - 1.0).abs(),
+        })
+        .collect()
+}
+
+/// One resolution of the coupled speed-vs-error table.
+#[derive(Clone, Debug, Serialize)]
+pub struct CoupledSpeed {
+    /// "method 1" (weak) or "method 2" (momentum-conserving).
+    pub method: &'static str,
+    pub cells_per_diameter: usize,
+    pub nodes: usize,
+    pub particles: usize,
+    pub solid_substeps: u32,
+    pub coupled_steps_per_s: f64,
+    /// Wall seconds per simulated second.
+    pub wall_per_simulated_s: f64,
+    /// C_D averaged over the last quarter of the run.
+    pub drag_coefficient: f64,
+    /// |C_D − C_D(finest)| / C_D(finest) (0 for the finest).
+    pub error_vs_finest: f64,
+    /// |C_D − 5.5795| / 5.5795 (the steady reference; short runs are still settling).
+    pub error_vs_reference: f64,
+    pub stage_shares: Vec<(String, f64)>,
+}
+
+/// The coupled rows: D = 10, 20, 30 cells (quick: 10, 20) for `duration` simulated seconds,
+/// method 1 then method 2 (each against its own finest run).
+pub fn coupled_speed_vs_error(quick: bool) -> Vec<CoupledSpeed> {
+    use crate::coupling::TractionModel;
+    use crate::validation::fsi::CylinderBody;
+    let (sizes, duration): (&[usize], f64) = if quick { (&[10, 20], 0.1) } else { (&[10, 20, 30], 1.0) };
+    let methods = [("method 1", CylinderBody::WeakCoupled(TractionModel::PressureAndShear)), ("method 2", CylinderBody::ConservingCoupled)];
+    methods.into_iter().flat_map(|(name, body)| coupled_rows(name, body, sizes, duration)).collect()
+}
+
+pub(super) fn coupled_rows(method: &'static str, body: crate::validation::fsi::CylinderBody, sizes: &[usize], duration: f64) -> Vec<CoupledSpeed> {
+    use crate::validation::fsi::{ChannelStart, ST_2D1_DRAG, schafer_turek_2d1};
+    let runs: Vec<_> = sizes.iter().map(|&d| (d, schafer_turek_2d1(d, 0.1, ChannelStart::Impulsive, duration, body))).collect();
+    let finest = runs.last().map(|(_, r)| r.drag_coefficient).unwrap_or(f64::NAN);
+    runs.into_iter()
+        .map(|(d, r)| CoupledSpeed {
+            method,
+            cells_per_diameter: d,
+            nodes: (22 * d) * (41 * d / 10),
+            particles: r.particles,
+            solid_substeps: r.substeps,
+            coupled_steps_per_s: r.steps as f64 / r.wall_s,
+            wall_per_simulated_s: r.wall_s / r.simulated_s,
+            drag_coefficient: r.drag_coefficient,
+            error_vs_finest: (r.drag_coefficient - finest).abs() / finest,
+            error_vs_reference: (r.drag_coefficient - ST_2D1_DRAG).abs() / ST_2D1_DRAG,
+            stage_shares: r.stage_shares,
+        })
+        .collect()
+}
