@@ -238,11 +238,12 @@ mod tests {
             assert!(worst < 0.08, "{dim}D: {worst} cells from the nearest contour point");
         }
     }
+
     /// The searches' cut-off changes nothing but the work: on the thick disc and ball, for every
     /// ghost-like node and both search directions, a search cut off at Newton's distance less the
-    /// tie (as [`KernelLevelSet::ghost_wall`] runs it), at half of it and at a tenth of the full
-    /// search's own distance, at that distance and just above it, returns the full search's
-    /// distance bit for bit where that is below the cut-off, and `None` where it is not.
+    /// tie (as [`KernelLevelSet::ghost_wall`] runs it), and at 0.1, 0.5 and 1 times the full
+    /// search's own distance and just above it, returns the full search's distance bit for bit
+    /// where that is below the cut-off, and `None` where it is not.
     #[test]
     fn a_cut_off_search_ends_where_the_full_one_does() {
         for dim in [2usize, 3] {
