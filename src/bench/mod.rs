@@ -2,6 +2,10 @@
 //! (a STREAM-like triad) and the FDLB node updates per second measured in the same process, the
 //! bytes moved per node update and the fraction of bandwidth achieved; and speed-vs-error tables
 //! (Taylor–Green at three resolutions; the coupled Schäfer–Turek cylinder at three resolutions).
+//!
+//! By what they measure: [`roofline`] the machine's own rates (triad, FMA peak), [`fluid`] the
+//! FDLB, [`coupled`] the coupled, glottis and two-mass rows, [`scaling`] cost against size; this
+//! module the report and the suites `phonation bench` runs.
 
 mod coupled;
 mod fluid;
