@@ -17,7 +17,7 @@ pub struct CycleWork {
     pub peak_kinetic_energy: f64,
 }
 
-/// ∫ P dt over each cycle [bounds[k], bounds[k + 1]] (s) inside the series, for the three
+/// ∫ P dt over each cycle \[bounds\[k\], bounds\[k + 1\]\] (s) inside the series, for the three
 /// power series `power` (uniform samples `dt` s apart, the first at t = 0), with the largest
 /// sample of `kinetic_energy` in each cycle. The integral is the trapezoid rule's, its running
 /// sum interpolated linearly at the bounds (which need not fall on samples).

@@ -3,8 +3,8 @@
 //! bytes moved per node update and the fraction of bandwidth achieved; and speed-vs-error tables
 //! (Taylor–Green at three resolutions; the coupled Schäfer–Turek cylinder at three resolutions).
 //!
-//! By what they measure: [`roofline`] the machine's own rates (triad, FMA peak), [`fluid`] the
-//! FDLB, [`coupled`] the coupled, glottis and two-mass rows, [`scaling`] cost against size; this
+//! By what they measure: `roofline` the machine's own rates (triad, FMA peak), `fluid` the
+//! FDLB, `coupled` the coupled, glottis and two-mass rows, [`scaling`] cost against size; this
 //! module the report and the suites `phonation bench` runs.
 
 mod coupled;

@@ -42,7 +42,7 @@ fn outward(g: [f64; 3]) -> [f64; 3] {
 impl KernelLevelSet {
     /// The ghost node `p`'s signed distance to the wall (cells, negative inside, as
     /// [`Self::sdf`]) and the outward unit normal n along which its wall point p − d·n lies,
-    /// given `outside`, a point where L ≤ 0 within [`SEARCH_REACH`] of `p` (the fluid node
+    /// given `outside`, a point where L ≤ 0 within `SEARCH_REACH` of `p` (the fluid node
     /// that makes `p` a ghost). Outside, and inside wherever Newton's point is the nearest of
     /// the candidates (the module's doc), (`sdf(p)`, `normal(p)`) bit for bit; else the nearer
     /// search's point of the contour and its direction. Falls back to `sdf` and `normal` when

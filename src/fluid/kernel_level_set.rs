@@ -195,8 +195,8 @@ impl KernelLevelSet {
         })
     }
 
-    /// L(p) and ∇L(p) (per cell). The particles of [`Self::candidates`] in the same order (the
-    /// sums are the same bit for bit), read from [`Self::sorted`] as one run per row of bins;
+    /// L(p) and ∇L(p) (per cell). The particles of `Self::candidates` in the same order (the
+    /// sums are the same bit for bit), read from `Self::sorted` as one run per row of bins;
     /// those beyond r_e by more than round-off are passed over before the square root.
     pub fn level(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
         self.sums::<true, false>(p).expect("runs to the end")
@@ -268,7 +268,7 @@ impl KernelLevelSet {
     /// `None` inside (L > 0, where [`Self::sdf`] would run its Newton steps), else
     /// `Some(sdf(p))` — the same value, bit for bit — from one evaluation of L and ∇L: the
     /// layout classifies every node by this and asks for the depth of its ghost nodes only.
-    /// Inside, the sum stops at the first row of bins after which L > 0 ([`Self::sums`]).
+    /// Inside, the sum stops at the first row of bins after which L > 0 (`Self::sums`).
     pub fn outside_distance(&self, p: [f64; 3]) -> Option<f64> {
         let (l, g) = self.sums::<true, true>(p)?;
         (!(l > 0.0)).then(|| -l / (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt().max(FLAT))

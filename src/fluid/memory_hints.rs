@@ -36,7 +36,7 @@ impl MemoryHints {
     /// - streaming stores when the arrays are at least twice the cache. A lattice that fits the
     ///   cache reads its next pass from it, and streaming stores would send it to memory
     ///   instead: D2Q21 at 128²–512² and D3Q39 at 32³ ran 1.4–1.7× slower with them;
-    /// - rows fetched ahead when they are short (at most [`PREFETCH_MAX_PX`] nodes) and the
+    /// - rows fetched ahead when they are short (at most `PREFETCH_MAX_PX` nodes) and the
     ///   arrays at least half the cache: D3Q39 at 64³ (386 MB) 3.9 → 5.0·10⁶ node updates per
     ///   second, at 32³ (57 MB, read from the cache) 2–3 % slower with them.
     pub fn choose(footprint: usize, px: usize, llc: usize) -> Self {

@@ -48,9 +48,9 @@ pub trait Storage: Copy + Default + PartialEq + Send + Sync + std::fmt::Debug + 
         if Self::SHIFTED && d.abs() < s.abs() * DEPARTURE_FLOOR { Self::store(0.0) } else { Self::store(d) }
     }
 
-    /// `dst.copy_from_slice(src)` with streaming stores ([`super::memory_hints`]): for values
+    /// `dst.copy_from_slice(src)` with streaming stores (`fluid::memory_hints`): for values
     /// written now and read only by a later pass. The writing task ends with
-    /// [`super::memory_hints::streaming_fence`].
+    /// `fluid::memory_hints::streaming_fence`.
     #[inline(always)]
     fn copy_streaming(dst: &mut [Self], src: &[Self]) {
         dst.copy_from_slice(src)

@@ -145,7 +145,7 @@ impl Buffers {
 }
 
 /// The compiled kernels (one pipeline layout, pipelines indexed by `Kernel`) and the buffers
-/// their calls reuse ([`Buffers`]; with the per-node scaled momentum): a hand-over of a
+/// their calls reuse (`Buffers`; with the per-node scaled momentum): a hand-over of a
 /// running coupled scene makes no buffer or bind group ([`Self::objects_made`]).
 pub struct CouplingKernels {
     pipelines: [wgpu::ComputePipeline; 4],

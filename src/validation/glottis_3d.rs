@@ -20,7 +20,7 @@ const DURATION: f64 = 0.0015;
 /// sums' round-off on asymmetric orders; 3.1·10⁻⁴ over the first 1.2 ms (2026-12-04).
 const MIRROR_BOUND: f64 = 1e-3;
 
-/// The rows: stable for [`DURATION`], the lateral forces mirror images to [`MIRROR_BOUND`],
+/// The rows: stable for `DURATION`, the lateral forces mirror images to `MIRROR_BOUND`,
 /// air through the glottis (mean flow > 10 cm³/s; 46 cm³/s measured over 1.2 ms) and the upper
 /// margin pushed outward (the lung pressure opens the glottis).
 pub fn rows() -> Vec<(String, f64, String, bool)> {

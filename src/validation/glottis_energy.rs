@@ -30,7 +30,7 @@ const DURATION: f64 = 0.03;
 /// Analysed fraction of the run (the voice window).
 const WINDOW: f64 = 0.75;
 
-/// `glottis_2d_coarse` with its vocal-tract face `face` and the run's duration [`DURATION`].
+/// `glottis_2d_coarse` with its vocal-tract face `face` and the run's duration `DURATION`.
 pub fn scene(face: &str) -> anyhow::Result<CoupledScene> {
     let text = crate::scene::builtin("glottis_2d_coarse").expect("built in");
     anyhow::ensure!(text.contains(OUTLET), "glottis_2d_coarse's vocal-tract face is no longer `{OUTLET}`");

@@ -82,7 +82,7 @@ pub fn fold_in_vacuum(spacing: f64, cover: f64, body: f64, duration: f64) -> any
 }
 
 /// The lowest mode of [`fold_in_vacuum`]: its run for `duration` s, the medial strip's mean
-/// vertical displacement sampled every [`SAMPLE_EVERY`] steps.
+/// vertical displacement sampled every `SAMPLE_EVERY` steps.
 pub fn lowest_mode(spacing: f64, cover: f64, body: f64, duration: f64) -> anyhow::Result<FoldMode> {
     let sc = fold_in_vacuum(spacing, cover, body, duration)?;
     let mut s = sc.build()?;

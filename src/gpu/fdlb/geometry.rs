@@ -109,7 +109,7 @@ impl GpuFluid {
     /// steps); the boundary tables (ghost depths and wall velocities change every step) are
     /// rewritten in their buffers, and the fills' thread counts with them. New buffers and bind
     /// groups are made only when a table outgrows its buffer (which holds half as much again as
-    /// when it was made, [`crate::gpu::growing::GrowingBuffer`]; counted by
+    /// when it was made, `gpu::growing::GrowingBuffer`; counted by
     /// [`Self::geometry_rebinds`]), so that the steady state of a coupled run makes none. The
     /// populations are untouched.
     /// Refused, changing nothing, when the new walls need more side ghosts than the arrays have
