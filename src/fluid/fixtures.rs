@@ -3,7 +3,7 @@
 
 use crate::fluid::boundary::{Boundaries, FaceCondition};
 use crate::fluid::storage::Storage;
-use crate::fluid::{Equilibrium, FluidSolver, GasModel, Grid, Macro, Obstacle, Shape, VelocitySet, VelocitySetKind, timestep};
+use crate::fluid::{Equilibrium, FluidSolver, GasModel, Grid, Macro, Obstacle, Polygon, Shape, VelocitySet, VelocitySetKind, timestep};
 
 /// A small lattice with walls (y), a moving lid, an obstacle centred at x = `obstacle_x`, a body
 /// force and a diatomic gas, periodic along x (and z), its populations stored as `S`: every kind
@@ -26,4 +26,23 @@ pub fn busy_lattice<S: Storage>(kind: VelocitySetKind, n: [usize; 3], obstacle_x
     });
     s.body_force = [2e-5, 0.0, -1e-5];
     s
+}
+
+/// A 24 × 32 D2Q21 channel at rest (pressure inlet at y = 0 at 5 % over the rest density, outlet
+/// at the top, side walls) closed by a plate of `thickness` cells across its whole width, centred
+/// between the node rows 16 and 17 (thickness 2: both rows solid) or on row 16 (thickness 1),
+/// with `more` obstacles besides: the thin walls' leak tests and their GPU twin.
+pub fn closed_channel(gas: GasModel, thickness: usize, more: &[Obstacle]) -> FluidSolver {
+    let eq = Equilibrium::new(VelocitySet::new(VelocitySetKind::D2q21), gas);
+    let params = timestep::choose(0.05, 0.6, eq.set.max_l1_speed(), None, timestep::DEFAULT_COURANT_SAFETY).unwrap();
+    let mut b = Boundaries::periodic();
+    b.faces[0] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
+    b.faces[1] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
+    b.faces[2] = FaceCondition::PressureInlet { rho: 1.05, theta: 0.6 };
+    b.faces[3] = FaceCondition::Outlet;
+    let (y0, y1) = if thickness == 2 { (15.6, 17.4) } else { (15.6, 16.4) };
+    let plate = Polygon::new(vec![[-5.0, y0], [30.0, y0], [30.0, y1], [-5.0, y1]], vec![[0.0; 3]; 4]);
+    let mut obstacles = vec![Obstacle { shape: Shape::Polygon(plate), velocity: [0.0; 3], temperature: None }];
+    obstacles.extend_from_slice(more);
+    FluidSolver::new(eq, Grid::new(2, [24, 32, 1]), b, &obstacles, params, |_| Macro { rho: 1.0, u: [0.0; 3], theta: 0.6 })
 }

@@ -379,21 +379,10 @@ mod leak_tests {
     use super::side_ghost_count;
     use crate::fluid::*;
 
-    /// A channel (pressure inlet at y = 0 at 5 % over the rest density, outlet at the top, side
-    /// walls) closed by a plate of `thickness` cells across its whole width, centred between
-    /// the node rows 16 and 17 (thickness 2: both rows solid) or on row 16 (thickness 1).
+    /// The closed channel of [`crate::fluid::fixtures::closed_channel`] (monatomic gas, no other
+    /// obstacle).
     fn closed_channel(thickness: usize) -> FluidSolver {
-        let eq = Equilibrium::new(VelocitySet::new(VelocitySetKind::D2q21), GasModel::Monatomic);
-        let params = timestep::choose(0.05, 0.6, eq.set.max_l1_speed(), None, timestep::DEFAULT_COURANT_SAFETY).unwrap();
-        let mut b = Boundaries::periodic();
-        b.faces[0] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
-        b.faces[1] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
-        b.faces[2] = FaceCondition::PressureInlet { rho: 1.05, theta: 0.6 };
-        b.faces[3] = FaceCondition::Outlet;
-        let (y0, y1) = if thickness == 2 { (15.6, 17.4) } else { (15.6, 16.4) };
-        let plate = Polygon::new(vec![[-5.0, y0], [30.0, y0], [30.0, y1], [-5.0, y1]], vec![[0.0; 3]; 4]);
-        let o = Obstacle { shape: Shape::Polygon(plate), velocity: [0.0; 3], temperature: None };
-        FluidSolver::new(eq, Grid::new(2, [24, 32, 1]), b, &[o], params, |_| Macro { rho: 1.0, u: [0.0; 3], theta: 0.6 })
+        crate::fluid::fixtures::closed_channel(GasModel::Monatomic, thickness, &[])
     }
 
     /// Largest |ρ − 1| above the plate after `steps` steps, and the mean density below it.
