@@ -70,6 +70,10 @@ enum Command {
         /// Also write the outcomes as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
+        /// List the cases (those --case selects) with what each checks and roughly what it
+        /// costs, without running any.
+        #[arg(long)]
+        list: bool,
     },
 }
 
@@ -100,7 +104,10 @@ fn main() -> anyhow::Result<()> {
         Command::Viscosity(a) => cli::lattice_gas::viscosity(a)?,
         Command::Isotropy(a) => cli::lattice_gas::isotropy(a)?,
         Command::Bench(a) => cli::bench::bench(a)?,
-        Command::Validate { case, json } => {
+        Command::Validate { case, list: true, .. } => {
+            print!("{}", phonation::validation::suite::listing(&phonation::validation::suite::select(case.as_deref())?));
+        }
+        Command::Validate { case, json, list: false } => {
             let outcomes = phonation::validation::suite::run(case.as_deref())?;
             let mut failed = 0;
             for o in &outcomes {
