@@ -23,7 +23,8 @@ pub struct BenchArgs {
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Only one suite: fdlb, storage (f32 against f64 populations), solid, crossover (the implicit-against-explicit table of the solid suite alone), lattice_gas, coupled, two_mass, glottis, drawing or scaling
-    /// (cost per update against size: only when asked for, it takes minutes).
+    /// (cost per update against size, on the CPU and with --backend gpu the device: only when
+    /// asked for, it takes minutes).
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(phonation::bench::SUITES))]
     pub only: Option<String>,
 }
@@ -489,13 +490,40 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                 }
             }
         }
+        let (gpu_scaling, gpu_scaling_skipped) = if only.as_deref() == Some("scaling") { gpu_scaling_table(&ctx, quick, bw) } else { (Vec::new(), Vec::new()) };
         report.insert(
             "gpu".into(),
-            serde_json::json!({ "adapter": ctx.describe(), "copy_bandwidth_gb_s": bw / 1e9, "lattices": gpu, "solid": gpu_solid, "lattice_gas": gpu_gas, "lattice_gas_readback": gpu_gas_readback, "coupled": gpu_coupled }),
+            serde_json::json!({ "adapter": ctx.describe(), "copy_bandwidth_gb_s": bw / 1e9, "lattices": gpu, "solid": gpu_solid, "lattice_gas": gpu_gas, "lattice_gas_readback": gpu_gas_readback, "coupled": gpu_coupled, "scaling": gpu_scaling, "scaling_skipped": gpu_scaling_skipped }),
         );
     }
     if let Some(p) = json {
         std::fs::write(p, serde_json::to_string_pretty(&report)?)?;
     }
     Ok(())
+}
+
+/// The device's cost per update against size (`--only scaling --backend gpu`), printed as the
+/// CPU's table is, with each row's fraction of the copy kernel's bandwidth `bw`.
+fn gpu_scaling_table(ctx: &phonation::gpu::GpuContext, quick: bool, bw: f64) -> (Vec<phonation::gpu::scaling::GpuScalingRow>, Vec<String>) {
+    use phonation::gpu::scaling::{ScalingSizes, scaling_table};
+    let sizes = if quick { ScalingSizes::quick() } else { ScalingSizes::full() };
+    println!("cost per update against size (GPU; flat ns/update once the device is filled = linear cost):");
+    let (rows, skipped) = scaling_table(ctx, &sizes, if quick { 0.05 } else { 0.3 }, bw);
+    println!("{:>18} {:>12} {:>8} {:>14} {:>12} {:>10} {:>12}", "kernel", "size", "steps", "updates/s", "ns/update", "B/update", "of copy b/w");
+    for r in &rows {
+        println!(
+            "{:>18} {:>12} {:>8} {:>14.3e} {:>12.3} {:>10.0} {:>11.1}%",
+            r.kernel,
+            r.size,
+            r.steps,
+            r.updates_per_s,
+            r.ns_per_update,
+            r.bytes_per_update,
+            100.0 * r.bandwidth_fraction
+        );
+    }
+    for s in &skipped {
+        println!("{:>18} skipped: {s}", "");
+    }
+    (rows, skipped)
 }

@@ -13,6 +13,7 @@ pub(crate) mod growing;
 pub mod lattice_gas;
 pub mod lattice_gas_codegen;
 pub mod marching_cubes;
+pub mod scaling;
 pub mod slice;
 pub mod solid;
 mod thin_wall;

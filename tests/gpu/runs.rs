@@ -459,3 +459,46 @@ fn every_scene_key_changes_the_gpu_state_or_is_refused() {
     assert!(checked > 40);
     assert!(ignored.is_empty(), "keys with no effect on the GPU state after two steps and not refused: {ignored:#?}");
 }
+
+/// Issue 16's scaling table on the device (`bench --only scaling --backend gpu`): every kernel
+/// at every size, each row's byte count the same as its own bench's (FDLB `lattice_speed`, the
+/// solid `solid_speed`, the lattice gas's 12 B a site), its rate and fraction consistent, and a
+/// size the device cannot hold left out with the reason while the rest of the table comes back.
+#[test]
+fn the_gpu_scaling_table_times_every_kernel_and_leaves_out_what_does_not_fit() {
+    use phonation::gpu::scaling::{ScalingSizes, scaling_table};
+    let Some(ctx) = context() else { return };
+    let bw = phonation::gpu::bench::copy_bandwidth(&ctx, 1 << 20, 2);
+    // a device whose buffers (700 KiB) hold a 32² D2Q21 lattice's populations and an 8³ D3Q39 one's, not a 96² D2Q21 one's (870,912 B)
+    let small = context().unwrap().with_buffer_limit(700 << 10);
+    let sizes = ScalingSizes { d2q21: vec![32, 96], d3q39: vec![8], solid_sides: vec![6, 8], gas_cells: vec![[16, 8, 8], [32, 16, 8]] };
+    let (rows, skipped) = scaling_table(&small, &sizes, 0.01, bw);
+    let got: Vec<(&str, usize)> = rows.iter().map(|r| (r.kernel.as_str(), r.size)).collect();
+    assert_eq!(
+        got,
+        [
+            ("D2Q21", 32 * 32),
+            ("D3Q39", 8 * 8 * 8),
+            ("solid (explicit)", 6 * 6 * 6),
+            ("solid (explicit)", 8 * 8 * 8),
+            ("lattice gas", 16 * 16 * 8 * 8),
+            ("lattice gas", 16 * 32 * 16 * 8)
+        ]
+    );
+    assert_eq!(skipped.len(), 1, "{skipped:?}");
+    assert_eq!(skipped[0], "D2Q21 [96, 96, 1]: one population array needs 870912 bytes, more than the adapter's max_buffer_size of 716800");
+    let fdlb = |set, n| phonation::gpu::bench::lattice_speed(&ctx, set, n, 3, bw).bytes_per_node_update;
+    let solid = |side| phonation::gpu::solid::solid_speed(&ctx, side, Integrator::Explicit, Default::default(), 3, bw).unwrap().bytes_per_update;
+    for r in &rows {
+        let bytes = match r.kernel.as_str() {
+            "D2Q21" => fdlb(VelocitySetKind::D2q21, [32, 32, 1]),
+            "D3Q39" => fdlb(VelocitySetKind::D3q39, [8, 8, 8]),
+            "lattice gas" => 12.0,
+            _ => solid((r.size as f64).cbrt().round() as usize),
+        };
+        assert_eq!(r.bytes_per_update, bytes, "{r:?}");
+        assert!(r.steps >= 3 && r.updates_per_s.is_finite() && r.updates_per_s > 0.0, "{r:?}");
+        assert!((r.ns_per_update * r.updates_per_s / 1e9 - 1.0).abs() < 1e-12, "{r:?}");
+        assert!((r.bandwidth_fraction * bw / (r.updates_per_s * r.bytes_per_update) - 1.0).abs() < 1e-12, "{r:?}");
+    }
+}
