@@ -97,6 +97,12 @@ pub struct CoupledSolver {
     pub(super) exchange: Option<Exchange>,
 }
 
+/// Solid sub-steps per coupled step of `dt` (s) for a solid whose own step is `solid_dt` (s): the
+/// fewest equal parts of `dt` none longer than `solid_dt` (at least one).
+pub fn solid_substeps(dt: f64, solid_dt: f64) -> u32 {
+    (dt / solid_dt).ceil().max(1.0) as u32
+}
+
 impl CoupledSolver {
     /// Couples `fluid` (with its rigid `obstacles`, lattice units) and `solid` through the
     /// `bodies` by `method`. The solid's sub-step is the largest that divides the fluid's step
@@ -119,7 +125,7 @@ impl CoupledSolver {
             return Err(CouplingSetupError::WeakIn3d);
         }
         let dt = fluid.params.dt * units.time();
-        let substeps = (dt / solid.dt).ceil().max(1.0) as u32;
+        let substeps = solid_substeps(dt, solid.dt);
         solid.dt = dt / substeps as f64;
         for b in &bodies {
             if let Some(m) = &b.motion {

@@ -22,6 +22,7 @@ use super::build::{FluidScene, SceneError};
 use super::schema::{PopulationStorage, SceneFile};
 use super::solid::{BodySpec, SolidRun, SolidScene, SolidSceneFile, SolidSpec, vec3};
 use crate::coupling::{BodySurface, ConservingOptions, CoupledBody, CoupledSolver, Method, Motion, ReferenceShape, TractionModel, WeakOptions};
+use crate::solid::SolidSolver;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
@@ -87,6 +88,18 @@ pub const MAX_DENSITY_RATIO: f64 = 5.0;
 pub const MAX_DENSITY_RATIO_CONSERVING: f64 = 1.0e3;
 
 pub const SPACING_RATIO: (f64, f64) = (0.1, 2.0);
+
+/// A coupled scene resolved without its lattice ([`CoupledScene::resolve`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CoupledResolved {
+    pub particles: usize,
+    /// Each body's surface points (method 1's surface particles; the level set's are all).
+    pub surface_points: Vec<usize>,
+    /// Solid sub-steps per coupled step.
+    pub solid_substeps: u32,
+    /// The coupled step (s).
+    pub dt: f64,
+}
 
 /// A validated coupled scene.
 #[derive(Clone, Debug)]
@@ -296,8 +309,6 @@ impl CoupledScene {
         Ok(CoupledScene { fluid, solid, coupling })
     }
 
-    /// Builds the coupled solver: samples the particles, checks that no free particle lies in
-    /// a rigid obstacle, builds each body's surface, allocates the fluid.
     /// The particles whose reference position lies in particle probe `k`'s box.
     pub fn probe_particles(&self, p: &crate::solid::Particles, k: usize) -> Vec<usize> {
         let pr = &self.coupling.probes[k];
@@ -306,7 +317,44 @@ impl CoupledScene {
         (0..p.len()).filter(|&i| crate::scene::solid::inside(p.reference[i], lo, hi, p.dim)).collect()
     }
 
+    /// Builds the coupled solver: [`Self::solid_and_bodies`], then the fluid's lattice.
     pub fn build(&self) -> Result<CoupledSolver, SceneError> {
+        let (solid, bodies) = self.solid_and_bodies()?;
+        let fluid = self.fluid.build_solver();
+        let c = &self.coupling;
+        let method = match c.method {
+            CouplingMethod::Weak => {
+                Method::Weak(WeakOptions { traction: c.traction.unwrap_or_default(), piece_length: c.piece_length.unwrap_or(1.0), ..Default::default() })
+            }
+            CouplingMethod::MomentumConserving => {
+                let d = ConservingOptions::default();
+                Method::Conserving(ConservingOptions { kernel_radius: c.kernel_radius.unwrap_or(d.kernel_radius), ..d })
+            }
+        };
+        CoupledSolver::new(fluid, solid, self.fluid.units, bodies, self.fluid.obstacles.clone(), method)
+            .map_err(|e| SceneError { field: "coupling".into(), reason: e.to_string() })
+    }
+
+    /// What `phonation check` reports of a coupled scene, with every check of [`Self::build`]
+    /// that the particles need, without allocating the air's lattice (for `glottis_3d`, 2.3·10⁶
+    /// D3Q39 nodes: gigabytes and most of a build's time): the particles, each body's surface
+    /// points, the coupled step and the solid's sub-steps in it (as [`CoupledSolver::new`] sets
+    /// them).
+    pub fn resolve(&self) -> Result<CoupledResolved, SceneError> {
+        let (solid, bodies) = self.solid_and_bodies()?;
+        let dt = self.fluid.params.dt * self.fluid.units.time();
+        Ok(CoupledResolved {
+            particles: solid.particles.len(),
+            surface_points: bodies.iter().map(|b| b.surface.particles.len()).collect(),
+            solid_substeps: crate::coupling::solid_substeps(dt, solid.dt),
+            dt,
+        })
+    }
+
+    /// The solid and its coupled bodies (each body's surface, motion and wall temperature),
+    /// checked: no free particle in a rigid obstacle, every particle probe holding a particle,
+    /// every body's surface built.
+    fn solid_and_bodies(&self) -> Result<(SolidSolver, Vec<CoupledBody>), SceneError> {
         let solid = self.solid.build()?;
         let p = &solid.particles;
         let units = self.fluid.units;
@@ -335,19 +383,7 @@ impl CoupledScene {
             let motion = self.coupling.motions.iter().find(|m| m.body == k).map(|m| m.motion.clone());
             bodies.push(CoupledBody { surface, motion, wall_temperature });
         }
-        let fluid = self.fluid.build_solver();
-        let c = &self.coupling;
-        let method = match c.method {
-            CouplingMethod::Weak => {
-                Method::Weak(WeakOptions { traction: c.traction.unwrap_or_default(), piece_length: c.piece_length.unwrap_or(1.0), ..Default::default() })
-            }
-            CouplingMethod::MomentumConserving => {
-                let d = ConservingOptions::default();
-                Method::Conserving(ConservingOptions { kernel_radius: c.kernel_radius.unwrap_or(d.kernel_radius), ..d })
-            }
-        };
-        CoupledSolver::new(fluid, solid, units, bodies, self.fluid.obstacles.clone(), method)
-            .map_err(|e| SceneError { field: "coupling".into(), reason: e.to_string() })
+        Ok((solid, bodies))
     }
 }
 
@@ -430,6 +466,35 @@ mod tests {
         let text = builtin().replacen("[run]", "[[obstacles]]\nshape = \"cylinder\"\ncenter = [0.2, 0.2]\nradius = 0.08\n\n[run]", 1);
         let e = CoupledScene::parse(&text).unwrap().build().err().expect("overlap refused");
         assert_eq!(e.field, "solid.bodies[0]", "{e}");
+        // …and by `check` (which allocates no lattice), with the same field and reason
+        let r = CoupledScene::parse(&text).unwrap().resolve().err().expect("overlap refused");
+        assert_eq!(r, e);
+    }
+
+    /// `phonation check` resolves a coupled scene without its lattice: the same particles,
+    /// surface points, coupled step and solid sub-steps as the built solver, for both methods,
+    /// a prescribed motion and the 2D glottis's two folds.
+    #[test]
+    fn resolving_a_scene_gives_what_its_build_gives() {
+        let towed = builtin().replacen(
+            "output_every = 10",
+            "output_every = 10\nmotions = [{ body = 0, motion = { kind = \"translation\", velocity = [0.01, 0.0] } }]",
+            1,
+        );
+        let texts = ["fsi_cylinder", "fsi_cylinder_conserving", "glottis_2d_coarse"].map(|n| (n, crate::scene::builtin(n).unwrap().to_string()));
+        for (name, text) in texts.into_iter().chain([("towed fsi_cylinder", towed)]) {
+            let sc = CoupledScene::parse(&text).unwrap();
+            assert_eq!(sc.coupling.motions.len(), usize::from(name.starts_with("towed")));
+            let r = sc.resolve().unwrap();
+            let c = sc.build().unwrap();
+            let built = CoupledResolved {
+                particles: c.solid.particles.len(),
+                surface_points: c.bodies.iter().map(|b| b.surface.particles.len()).collect(),
+                solid_substeps: c.substeps,
+                dt: c.dt(),
+            };
+            assert_eq!(r, built, "{name}");
+        }
     }
 
     /// `wall_temperature_ratio` makes the bodies' walls isothermal, and only theirs: every ghost

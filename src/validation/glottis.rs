@@ -196,7 +196,7 @@ pub struct StudyPoint {
 /// real air and Mach-scaled ([`STUDY_MACH`]), 40 ms each from rest, in
 /// `out/validate/glottis_speed_error/{real_air,mach_0.3}/`, and the speed-against-error table
 /// and plot (`speed_error.csv`, `speed_error.svg`) beside them. Hours on a CPU: the real air at
-/// the seed's lattice is ≈ 4.3 h on 2 cores.
+/// the seed's lattice is ≈ 1.6 h on 2 cores (2026-12-05; ≈ 4.3 h on the AMD machine of 2026-11-30).
 pub fn speed_error_study(root: &std::path::Path) -> anyhow::Result<Vec<StudyPoint>> {
     use crate::run::sweep;
     let mut points = Vec::new();

@@ -421,11 +421,11 @@ pub fn cases() -> Vec<Case> {
         case(
             "glottis_speed_error",
             "case C's f0 against lattice resolution (×0.5, ×0.75, ×1) and Mach scaling (real air, Mach 0.3), 40 ms each, with each run's wall time per simulated ms",
-            "hours (the real air at ×1 alone ≈ 4.3 h)",
+            "hours (the real air at ×1 alone ≈ 1.6 h at 122 steps/s)",
             || {
                 // Case C's f0 against resolution (×0.5, ×0.75, ×1 of the seed's lattice) and Mach
                 // scaling (real air, Mach 0.3), 40 ms each, with each run's wall time per simulated
-                // ms: hours (the real air at ×1 is ≈ 4.3 h on 2 cores); the sweeps' directories keep
+                // ms: hours (the real air at ×1 is ≈ 1.6 h on 2 cores); the sweeps' directories keep
                 // every job, so `phonation sweep --collect` re-reads a study cut short.
                 super::glottis::speed_error_rows()
             },
