@@ -317,7 +317,8 @@ impl CoupledScene {
         (0..p.len()).filter(|&i| crate::scene::solid::inside(p.reference[i], lo, hi, p.dim)).collect()
     }
 
-    /// Builds the coupled solver: [`Self::solid_and_bodies`], then the fluid's lattice.
+    /// Builds the coupled solver: the solid and its bodies, checked (`solid_and_bodies`), then the
+    /// fluid's lattice.
     pub fn build(&self) -> Result<CoupledSolver, SceneError> {
         let (solid, bodies) = self.solid_and_bodies()?;
         let fluid = self.fluid.build_solver();

@@ -12,6 +12,10 @@ use super::grid::{Periods, SearchGrid};
 use super::material::Voigt6;
 use super::particles::Particles;
 use glam::{DMat3, DVec3};
+use rayon::prelude::*;
+
+/// Particles whose neighbour lists [`build`] holds at once (≈ 100 MB of lists in 3D).
+const NEIGHBOUR_BLOCK: usize = 1 << 16;
 
 #[derive(Clone, Debug, Default)]
 pub struct Bonds {
@@ -96,9 +100,10 @@ pub fn build(p: &Particles, re: f64, periods: Periods, pair_modulus: &[f64], vis
     let lap = 2.0 * d / (kappa * n0);
     let mut b = Bonds { radius: re, n0, kappa, offset: Vec::with_capacity(n + 1), ..Default::default() };
     b.offset.push(0);
-    let mut list: Vec<(usize, DVec3)> = Vec::new();
-    for i in 0..n {
-        list.clear();
+    // each particle's neighbours, sorted: found on the pool's threads a block of particles at a
+    // time (the lists of one block at once, not of all), appended in particle order
+    let neighbours = |i: usize| {
+        let mut list: Vec<(usize, DVec3)> = Vec::new();
         grid.for_each_within(p.reference[i], re, &p.reference, |j, r| {
             // bonds join particles of the same body only (bodies interact through contact)
             if j != i && r.length_squared() > 0.0 && p.body[j] == p.body[i] {
@@ -106,7 +111,14 @@ pub fn build(p: &Particles, re: f64, periods: Periods, pair_modulus: &[f64], vis
             }
         });
         list.sort_by_key(|(j, _)| *j);
-        for &(j, r) in &list {
+        list
+    };
+    let mut block: Vec<Vec<(usize, DVec3)>> = Vec::new();
+    for i in 0..n {
+        if i % NEIGHBOUR_BLOCK == 0 {
+            (i..n.min(i + NEIGHBOUR_BLOCK)).into_par_iter().with_min_len(256).map(neighbours).collect_into_vec(&mut block);
+        }
+        for &(j, r) in &block[i % NEIGHBOUR_BLOCK] {
             let len = r.length();
             let w = weight(len, re);
             let shift = r - (p.reference[j] - p.reference[i]);
@@ -121,8 +133,11 @@ pub fn build(p: &Particles, re: f64, periods: Periods, pair_modulus: &[f64], vis
         }
         b.offset.push(b.neighbour.len() as u32);
     }
+    // (on the pool's threads; rayon's collect keeps the particles' order)
     b.reverse = (0..n)
-        .flat_map(|i| {
+        .into_par_iter()
+        .with_min_len(256)
+        .flat_map_iter(|i| {
             let b = &b;
             b.of(i).map(move |k| {
                 let j = b.neighbour[k] as usize;
@@ -130,7 +145,7 @@ pub fn build(p: &Particles, re: f64, periods: Periods, pair_modulus: &[f64], vis
             })
         })
         .collect();
-    b.grad = (0..n).flat_map(|i| second_order_weights(&b, i, p.dim)).collect();
+    b.grad = (0..n).into_par_iter().with_min_len(256).flat_map_iter(|i| second_order_weights(&b, i, p.dim)).collect();
     b.grad_reverse = b.reverse.iter().map(|&r| b.grad[r as usize]).collect();
     b
 }

@@ -359,10 +359,10 @@ pub fn cases() -> Vec<Case> {
         case(
             "glottis_2d",
             "cases A–D on glottis_2d_coarse, 40 ms each: stable, f0 against the seed's (±20 %), the ordering A < C < B < D, case C's settling and closure from below",
-            "≈ 80 min (20 min per case)",
+            "≈ 35 min (2,075 s on 2026-12-05, beside builds)",
             || {
                 // Cases A–D on glottis_2d_coarse (62 × 64 cells, Mach-scaled air), 40 ms each:
-                // ~20 min per case on 2 cores.
+                // 2,075 s for the four on 2 cores (2026-12-05, beside builds).
                 super::glottis::rows()
             },
         ),
