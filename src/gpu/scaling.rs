@@ -94,34 +94,48 @@ fn row(kernel: &str, size: usize, (steps, wall): (u64, f64), bytes_per_update: f
     }
 }
 
+/// Most steps timed at one size.
+const MAX_STEPS: u64 = 100_000;
+
+/// The rows, and the sizes left out, as a table is filled.
+struct Table {
+    rows: Vec<GpuScalingRow>,
+    skipped: Vec<String>,
+    target_s: f64,
+    bandwidth: f64,
+}
+
+impl Table {
+    /// Times the kernel `made` (`step(g, k)`: k steps of it, waited for) as `kernel` at `size`
+    /// updates a step and `bytes` per update; one the device cannot hold (`what`) is left out
+    /// with the reason.
+    fn time<G>(&mut self, what: String, made: Result<G, GpuError>, mut step: impl FnMut(&mut G, u64), kernel: &str, size: usize, bytes: f64) {
+        match made {
+            Ok(mut g) => {
+                let t = timed(|k| step(&mut g, k), self.target_s, MAX_STEPS);
+                self.rows.push(row(kernel, size, t, bytes, self.bandwidth));
+            }
+            Err(e @ GpuError::TooLarge { .. }) => self.skipped.push(format!("{what}: {e}")),
+            Err(e) => panic!("{what}: {e}"),
+        }
+    }
+}
+
 /// The table at `sizes`, about `target_s` of timed steps per size, against the copy kernel's
 /// `bandwidth` (bytes/s). A size the device cannot hold is left out and said in the second
 /// list ("kernel size: why"), so that the rest of the table still comes back.
 pub fn scaling_table(ctx: &GpuContext, sizes: &ScalingSizes, target_s: f64, bandwidth: f64) -> (Vec<GpuScalingRow>, Vec<String>) {
-    let (mut rows, mut skipped) = (Vec::new(), Vec::new());
-    let mut too_large = |what: String, e: GpuError| match e {
-        GpuError::TooLarge { .. } => skipped.push(format!("{what}: {e}")),
-        e => panic!("{what}: {e}"),
-    };
+    let mut t = Table { rows: Vec::new(), skipped: Vec::new(), target_s, bandwidth };
     for (set, sides, name) in [(VelocitySetKind::D2q21, &sizes.d2q21, "D2Q21"), (VelocitySetKind::D3q39, &sizes.d3q39, "D3Q39")] {
         for &n in sides {
             let dims = if set == VelocitySetKind::D2q21 { [n, n, 1] } else { [n, n, n] };
             let cpu = benchmark_solver(set, dims);
             let bytes = 4.0 * (13.0 * cpu.eq.values_per_node() as f64 + 10.0);
-            match GpuFluid::from_solver(ctx, &cpu) {
-                Ok(mut gpu) => {
-                    let t = timed(
-                        |k| {
-                            gpu.run(k);
-                            gpu.wait();
-                        },
-                        target_s,
-                        100_000,
-                    );
-                    rows.push(row(name, cpu.layout.fluid_count, t, bytes, bandwidth));
-                }
-                Err(e) => too_large(format!("{name} {dims:?}"), e),
-            }
+            let run = |g: &mut GpuFluid, k| {
+                g.run(k);
+                g.wait();
+            };
+            t.time(format!("{name} {dims:?}"), GpuFluid::from_solver(ctx, &cpu), run, name, cpu.layout.fluid_count, bytes);
         }
     }
     for &side in &sizes.solid_sides {
@@ -129,38 +143,20 @@ pub fn scaling_table(ctx: &GpuContext, sizes: &ScalingSizes, target_s: f64, band
         let n = s.particles.len();
         // the byte count of the CPU's table (bonds both ways, the particles' state)
         let bytes = crate::solid::bench::speed_of(false, &s, 1, 1.0, 0, 0.0, Vec::new(), bandwidth).bytes_per_update;
-        match GpuSolid::from_solver(ctx, &mut s) {
-            Ok(mut g) => {
-                let t = timed(
-                    |k| {
-                        g.run(k);
-                        g.wait();
-                    },
-                    target_s,
-                    100_000,
-                );
-                rows.push(row("solid (explicit)", n, t, bytes, bandwidth));
-            }
-            Err(e) => too_large(format!("solid {side}³"), e),
-        }
+        let run = |g: &mut GpuSolid, k| {
+            g.run(k);
+            g.wait();
+        };
+        t.time(format!("solid {side}³"), GpuSolid::from_solver(ctx, &mut s), run, "solid (explicit)", n, bytes);
     }
     let table = CollisionTable::shared();
     for &cells in &sizes.gas_cells {
         let g = benchmark_gas(cells);
-        match GpuLatticeGas::new(ctx, &g, table) {
-            Ok(mut gpu) => {
-                let t = timed(
-                    |k| {
-                        gpu.advance(k);
-                        gpu.wait();
-                    },
-                    target_s,
-                    100_000,
-                );
-                rows.push(row("lattice gas", 16 * g.cells(), t, BYTES_PER_SITE_UPDATE, bandwidth));
-            }
-            Err(e) => too_large(format!("lattice gas {cells:?}"), e),
-        }
+        let run = |gpu: &mut GpuLatticeGas, k| {
+            gpu.advance(k);
+            gpu.wait();
+        };
+        t.time(format!("lattice gas {cells:?}"), GpuLatticeGas::new(ctx, &g, table), run, "lattice gas", 16 * g.cells(), BYTES_PER_SITE_UPDATE);
     }
-    (rows, skipped)
+    (t.rows, t.skipped)
 }

@@ -468,7 +468,7 @@ mod tests {
         let e = CoupledScene::parse(&text).unwrap().build().err().expect("overlap refused");
         assert_eq!(e.field, "solid.bodies[0]", "{e}");
         // …and by `check` (which allocates no lattice), with the same field and reason
-        let r = CoupledScene::parse(&text).unwrap().resolve().err().expect("overlap refused");
+        let r = CoupledScene::parse(&text).unwrap().resolve().expect_err("overlap refused");
         assert_eq!(r, e);
     }
 
