@@ -128,8 +128,8 @@ impl TractionPlan {
     /// no fluid within reach.
     pub fn piece_forces(&self, fluid: &FluidSolver) -> Vec<DVec3> {
         // Each sampled node's moments once: neighbouring pieces' stencils share most of their
-        // nodes (on the 2D glottis scenes 2,242 stencil entries read 430 nodes, 4,762 read 868), and a node's moments are the same
-        // values however often they are asked for.
+        // nodes (on the 2D glottis scenes 2,242 stencil entries read 430 nodes, 4,762 read 868),
+        // and a node's moments are the same values however often they are asked for.
         let mut nodes: Vec<u32> = self.stencil.iter().map(|&(n, _)| n).collect();
         nodes.sort_unstable();
         nodes.dedup();
