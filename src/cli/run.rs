@@ -208,8 +208,11 @@ pub fn check(name: String) -> anyhow::Result<()> {
         Scene::TwoMass(sc) => serde_json::to_value(&sc)?,
         Scene::Coupled(sc) => {
             // every check of a build but the air's lattice, which it does not allocate
-            let r = sc.resolve()?;
-            serde_json::json!({"name": sc.fluid.file.name, "fluid": sc.fluid.summary(), "particles": r.particles, "surface_points": r.surface_points, "solid_substeps": r.solid_substeps, "dt": r.dt, "method": sc.coupling.method})
+            let mut v = serde_json::to_value(sc.resolve()?)?;
+            v["name"] = serde_json::to_value(&sc.fluid.file.name)?;
+            v["fluid"] = serde_json::to_value(sc.fluid.summary())?;
+            v["method"] = serde_json::to_value(sc.coupling.method)?;
+            v
         }
         Scene::LatticeGas(sc) => {
             let lg = &sc.file.lattice_gas;

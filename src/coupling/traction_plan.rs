@@ -121,6 +121,15 @@ impl TractionPlan {
         plan
     }
 
+    /// The fluid nodes the stencils read, ascending, each once (what
+    /// [`super::traction::sampled_nodes`] lists, without finding the stencils again).
+    pub fn read_nodes(&self) -> Vec<u32> {
+        let mut nodes: Vec<u32> = self.stencil.iter().map(|&(n, _)| n).collect();
+        nodes.sort_unstable();
+        nodes.dedup();
+        nodes
+    }
+
     /// Each piece's force (physical units per unit depth) from the air of `fluid` (the solver
     /// the plan was made for): the samples at one and two cells along N (the stencils' weighted
     /// moments), the wall values extrapolated from them and the traction of [`Self::model`]
@@ -130,9 +139,7 @@ impl TractionPlan {
         // Each sampled node's moments once: neighbouring pieces' stencils share most of their
         // nodes (on the 2D glottis scenes 2,242 stencil entries read 430 nodes, 4,762 read 868),
         // and a node's moments are the same values however often they are asked for.
-        let mut nodes: Vec<u32> = self.stencil.iter().map(|&(n, _)| n).collect();
-        nodes.sort_unstable();
-        nodes.dedup();
+        let nodes = self.read_nodes();
         let moments: Vec<Macro> = nodes.iter().map(|&n| fluid.macro_at(n as usize)).collect();
         let sample = |r: Range<u32>| {
             let mut m = Macro::default();
@@ -237,9 +244,7 @@ mod tests {
         for model in [TractionModel::PressureAndShear, TractionModel::SeedPressure] {
             let plan = TractionPlan::new(&fluid, &units, std::slice::from_ref(&surface), &p, model, 1.0);
             assert!(plan.pieces.len() > 100 && plan.pieces_without_fluid == 0, "{} pieces", plan.pieces.len());
-            let mut read: Vec<usize> = plan.stencil.iter().map(|&(n, _)| n as usize).collect();
-            read.sort_unstable();
-            read.dedup();
+            let read: Vec<usize> = plan.read_nodes().into_iter().map(|n| n as usize).collect();
             assert_eq!(read, sampled_nodes(&fluid, &units, std::slice::from_ref(&surface), &p, 1.0));
             assert_eq!(plan.targets.len(), surface.particles.len());
             assert!(plan.targets.iter().all(|(_, r)| r.end - r.start >= 2), "each surface particle shares two edges' pieces");

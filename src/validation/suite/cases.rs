@@ -1,58 +1,12 @@
-//! The validation suite run by `phonation validate`: every case, its figure, its reference and
-//! its tolerance. The fast cases are also asserted by `cargo test` (tests/fluid.rs); the slow
-//! ones (cavity, cylinder, the coupled Schäfer–Turek and towed-cylinder cases) run only here.
+//! Every case of the validation suite ([`super`]): its name, what it checks against which
+//! reference, its wall time here, and its runner — the data `phonation validate` runs and
+//! `--list` prints.
 
-use super::{cavity, channel, cylinder, fsi, sod, sound, taylor_green::TaylorGreenCase};
+use super::{Case, Row};
 use crate::coupling::TractionModel;
 use crate::fluid::{GasModel, VelocitySetKind};
-use serde::Serialize;
-use std::fmt;
+use crate::validation::{cavity, channel, cylinder, fsi, sod, sound, taylor_green::TaylorGreenCase};
 use std::time::Instant;
-
-#[derive(Clone, Debug, Serialize)]
-pub struct Outcome {
-    pub case: String,
-    pub figure: String,
-    pub measured: f64,
-    pub reference: String,
-    pub pass: bool,
-    pub wall_s: f64,
-}
-
-impl fmt::Display for Outcome {
-    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
-        // small figures (differences, offsets) in scientific notation, so that none reads 0.00000
-        let m = self.measured;
-        let measured = if m != 0.0 && m.abs() < 1e-3 { format!("{m:>12.3e}") } else { format!("{m:>12.5}") };
-        write!(
-            f,
-            "[{}] {:28} {:34} = {measured}  (reference {}; {:.1} s)",
-            if self.pass { "pass" } else { "FAIL" },
-            self.case,
-            self.figure,
-            self.reference,
-            self.wall_s
-        )
-    }
-}
-
-/// One row of a case: (figure, measured, reference text, pass).
-pub type Row = (String, f64, String, bool);
-
-/// One validation case: its name, what it checks against which reference, what it roughly
-/// costs, and its runner.
-#[derive(Clone, Copy, Debug)]
-pub struct Case {
-    /// What `--case` names it by.
-    pub name: &'static str,
-    /// What the case measures and against which reference, with its bounds.
-    pub checks: &'static str,
-    /// Its wall time, measured (or, where it says so, estimated) on the 2-core development
-    /// machine of the README's figures: the release build, nothing else running unless stated.
-    pub cost: &'static str,
-    /// Runs the case: its rows.
-    pub run: fn() -> Vec<Row>,
-}
 
 fn case(name: &'static str, checks: &'static str, cost: &'static str, run: fn() -> Vec<Row>) -> Case {
     Case { name, checks, cost, run }
@@ -295,8 +249,8 @@ pub fn cases() -> Vec<Case> {
                 // The Wall flap, both methods, 3 s each at D = 20 cells and lattice Mach 0.1
                 // (fsi_flap::VALIDATION_MACH; 160,800 coupled steps, ~5 h each on one core here,
                 // GPU-sized).
-                let mut out = super::fsi_flap::rows("wall_flap", "method 1");
-                out.extend(super::fsi_flap::rows("wall_flap_conserving", "method 2"));
+                let mut out = crate::validation::fsi_flap::rows("wall_flap", "method 1");
+                out.extend(crate::validation::fsi_flap::rows("wall_flap_conserving", "method 2"));
                 out
             },
         ),
@@ -308,7 +262,7 @@ pub fn cases() -> Vec<Case> {
                 // The flap's cross-section as a rigid plate at zero incidence, moved across the node
                 // rows: the lift a wall 1.2 cells thick would feel were its far side not held by
                 // side ghosts (fsi_plate; 10 runs of 5,400 steps, 563–624 s on 2 cores here).
-                super::fsi_plate::rows()
+                crate::validation::fsi_plate::rows()
             },
         ),
         case(
@@ -321,7 +275,7 @@ pub fn cases() -> Vec<Case> {
                 let machs = [0.1, 0.2, 0.3, 0.4, 0.5];
                 let mut out = Vec::new();
                 for (scene, label) in [("wall_flap", "method 1"), ("wall_flap_conserving", "method 2")] {
-                    match super::fsi_flap::time_step_ladder(scene, &machs, 1000) {
+                    match crate::validation::fsi_flap::time_step_ladder(scene, &machs, 1000) {
                         Ok(rungs) => {
                             for r in &rungs {
                                 println!(
@@ -347,10 +301,10 @@ pub fn cases() -> Vec<Case> {
             "≈ 12 min",
             || {
                 // a closed box with a vibrating elastic disc, weak coupling, 10⁵ steps
-                match super::soak::soak(super::soak::SOAK_STEPS) {
+                match crate::validation::soak::soak(crate::validation::soak::SOAK_STEPS) {
                     Ok(r) => {
                         println!("soak: {}", serde_json::to_string(&r).unwrap_or_default());
-                        super::soak::rows(&r, super::soak::fluid_nodes())
+                        crate::validation::soak::rows(&r, crate::validation::soak::fluid_nodes())
                     }
                     Err(e) => vec![(format!("soak: {e}"), f64::NAN, "runs".into(), false)],
                 }
@@ -363,27 +317,27 @@ pub fn cases() -> Vec<Case> {
             || {
                 // Cases A–D on glottis_2d_coarse (62 × 64 cells, Mach-scaled air), 40 ms each:
                 // 2,075 s for the four on 2 cores (2026-12-05, beside builds).
-                super::glottis::rows()
+                crate::validation::glottis::rows()
             },
         ),
         case(
             "glottis_real_air_closure",
             "the coarse glottis in real air (not Mach-scaled), 4 ms: stable, closed ≥ 20 % of the samples, flowing again at the end",
             "≈ 9 min",
-            super::glottis::real_air_closure_rows,
+            crate::validation::glottis::real_air_closure_rows,
         ),
         // the coarse 3D glottis, 1.5 ms from rest: 27 min on one core beside another run
         case(
             "glottis_3d_coarse",
             "the coarse 3D glottis (case C, method 2), 1.5 ms from rest: stable, the mirror folds' lateral forces equal and opposite, air passing, the folds pushed apart",
             "≈ 27 min (one core)",
-            super::glottis_3d::rows,
+            crate::validation::glottis_3d::rows,
         ),
         case(
             "glottis_seed_layer_list",
             "the seed's case list as written (layers swapped against its narrative), A and C 20 ms side by side: whether it gives the seed's f0",
             "≈ 29 min",
-            super::glottis::seed_layer_list_rows,
+            crate::validation::glottis::seed_layer_list_rows,
         ),
         // each case's fold ringing in vacuum (both readings of the seed's list), the lateral
         // modes of cases A and C, and the coupled case C against its fold: ≈ 15 min on 2 cores
@@ -392,7 +346,7 @@ pub fn cases() -> Vec<Case> {
             "glottis_fold_modes",
             "each case's fold ringing in vacuum (both readings of the seed's list), the lateral modes of cases A and C, and the coupled case C against its fold",
             "≈ 15 min",
-            super::glottis_modes::rows,
+            crate::validation::glottis_modes::rows,
         ),
         // case A's air work per cycle with the zero-gradient outlet and a pressure outlet, 30 ms
         // each: ≈ 6 min each on 2 cores
@@ -400,7 +354,7 @@ pub fn cases() -> Vec<Case> {
             "glottis_air_work",
             "case A's air work on the folds per cycle, zero-gradient outlet against a pressure outlet, 30 ms each",
             "≈ 12 min",
-            super::glottis_energy::rows,
+            crate::validation::glottis_energy::rows,
         ),
         // case A with a pressure outlet at twice the seed's lung pressure, 135 ms from rest
         // (600,000 steps): the folds self-oscillate and settle; ≈ 1 h on 2 cores
@@ -408,7 +362,7 @@ pub fn cases() -> Vec<Case> {
             "glottis_self_oscillation",
             "case A with a pressure outlet at twice the seed's lung pressure, 135 ms from rest: self-oscillation that settles (f0, air work > 0, swing and pulses within 10 %, closure every cycle, closure from below)",
             "≈ 45–60 min",
-            super::glottis_self_oscillation::rows,
+            crate::validation::glottis_self_oscillation::rows,
         ),
         // the hard cases of stiffness: body/cover 100 (case C) and 1000, Poisson 0.97, the lung
         // pressure switched on abruptly, 40 ms each, side by side: ≈ 20 min on 2 cores
@@ -416,7 +370,7 @@ pub fn cases() -> Vec<Case> {
             "glottis_stiffness_ratio",
             "body/cover stiffness 100 and 1000 with Poisson 0.97, the lung pressure switched on abruptly, 40 ms each side by side: finite ≥ 10⁴ steps, mass and energy drift bounded",
             "≈ 20 min",
-            super::glottis_stiffness::rows,
+            crate::validation::glottis_stiffness::rows,
         ),
         case(
             "glottis_speed_error",
@@ -427,7 +381,7 @@ pub fn cases() -> Vec<Case> {
                 // scaling (real air, Mach 0.3), 40 ms each, with each run's wall time per simulated
                 // ms: hours (the real air at ×1 is ≈ 1.6 h on 2 cores); the sweeps' directories keep
                 // every job, so `phonation sweep --collect` re-reads a study cut short.
-                super::glottis::speed_error_rows()
+                crate::validation::glottis::speed_error_rows()
             },
         ),
         case(
@@ -623,140 +577,4 @@ fn schafer_turek_rows(
 fn methods() -> [(&'static str, crate::coupling::Method); 2] {
     use crate::coupling::{ConservingOptions, Method, WeakOptions};
     [("method 1", Method::Weak(WeakOptions::default())), ("method 2", Method::Conserving(ConservingOptions::default()))]
-}
-
-/// Which cases `filter` names: the one case called exactly that, else every case whose name
-/// contains it (`glottis_2d` is one case, `glottis` all of them; none: every case).
-pub fn selects(names: &[&str], filter: Option<&str>, name: &str) -> bool {
-    match filter {
-        None => true,
-        Some(p) if names.contains(&p) => name == p,
-        Some(p) => name.contains(p),
-    }
-}
-
-/// A `--case` filter that selects no case: the error lists every case's name.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("--case: '{filter}' names no validation case (a case's name or part of it: {})", .names.join(", "))]
-pub struct NoSuchCase {
-    pub filter: String,
-    pub names: Vec<&'static str>,
-}
-
-/// The cases `filter` selects ([`selects`]), in the suite's order; a filter that selects none
-/// is refused, the error listing every case.
-pub fn select(filter: Option<&str>) -> Result<Vec<Case>, NoSuchCase> {
-    let all = cases();
-    let names: Vec<&'static str> = all.iter().map(|c| c.name).collect();
-    let picked: Vec<Case> = all.iter().copied().filter(|c| selects(&names, filter, c.name)).collect();
-    match filter {
-        Some(f) if picked.is_empty() => Err(NoSuchCase { filter: f.to_string(), names }),
-        _ => Ok(picked),
-    }
-}
-
-/// What `phonation validate --list` prints for `cases`: each case's name and cost on one line,
-/// what it checks on the next.
-pub fn listing(cases: &[Case]) -> String {
-    let width = cases.iter().map(|c| c.name.chars().count()).max().unwrap_or(0);
-    let mut out = String::new();
-    for c in cases {
-        out.push_str(&format!("{:width$}  {}\n{:width$}  {}\n", c.name, c.cost, "", c.checks));
-    }
-    out
-}
-
-/// Runs the cases `filter` selects ([`select`]); a filter that selects none is refused before
-/// anything runs.
-pub fn run(filter: Option<&str>) -> Result<Vec<Outcome>, NoSuchCase> {
-    let mut out = Vec::new();
-    for Case { name, run, .. } in select(filter)? {
-        let t = Instant::now();
-        let rows = run();
-        let wall = t.elapsed().as_secs_f64();
-        for (figure, measured, reference, pass) in rows {
-            out.push(Outcome { case: name.to_string(), figure, measured, reference, pass, wall_s: wall });
-        }
-    }
-    Ok(out)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A case's exact name runs that case alone (`glottis_2d` is not also
-    /// `glottis_speed_error`, hours apart); part of a name runs every case that contains it.
-    #[test]
-    fn a_case_named_exactly_runs_alone_and_a_part_selects_all_that_contain_it() {
-        let all = cases();
-        let names: Vec<&str> = all.iter().map(|c| c.name).collect();
-        let picked = |f: Option<&str>| -> Vec<&str> { names.iter().copied().filter(|n| selects(&names, f, n)).collect() };
-        assert_eq!(picked(Some("glottis_2d")), ["glottis_2d"]);
-        assert_eq!(
-            picked(Some("glottis")),
-            [
-                "glottis_2d",
-                "glottis_real_air_closure",
-                "glottis_3d_coarse",
-                "glottis_seed_layer_list",
-                "glottis_fold_modes",
-                "glottis_air_work",
-                "glottis_self_oscillation",
-                "glottis_stiffness_ratio",
-                "glottis_speed_error"
-            ]
-        );
-        assert_eq!(picked(Some("taylor_green")), ["taylor_green_2d", "taylor_green_3d"]);
-        // the D = 20 channel (minutes) is not also the D = 40 one (an hour on 2 cores)
-        assert_eq!(picked(Some("fsi_schafer_turek_2d1")), ["fsi_schafer_turek_2d1"]);
-        assert_eq!(
-            picked(Some("schafer_turek")),
-            [
-                "fsi_schafer_turek_2d1",
-                "fsi_schafer_turek_2d1_d40",
-                "fsi_schafer_turek_2d1_d30_air_at_rho0",
-                "fsi_schafer_turek_2d1_d30_air_at_rho0_10s",
-                "fsi_schafer_turek_2d1_d30_air_at_rho0_weak",
-                "fsi_schafer_turek_2d1_d30_air_at_rho0_weak_10s",
-                "fsi_schafer_turek_2d1_outlet_level"
-            ]
-        );
-        assert!(picked(Some("fsi_")).len() >= 8);
-        assert_eq!(picked(None).len(), names.len());
-        assert!(picked(Some("no_such_case")).is_empty());
-        // …and `run` refuses it before running anything, listing the cases.
-        let e = run(Some("no_such_case")).unwrap_err();
-        assert_eq!(e.names, names);
-        let msg = e.to_string();
-        assert!(msg.starts_with("--case: 'no_such_case' names no validation case"), "{msg}");
-        assert!(msg.contains("glottis_2d, ") && msg.contains("taylor_green_2d"), "{msg}");
-    }
-
-    /// `validate --list`: every case says what it checks and what it costs, each listed once
-    /// under its own name, and a filter lists what it would run.
-    #[test]
-    fn every_case_says_what_it_checks_and_what_it_costs() {
-        let all = cases();
-        let mut names: Vec<&str> = all.iter().map(|c| c.name).collect();
-        names.sort_unstable();
-        names.dedup();
-        assert_eq!(names.len(), all.len(), "case names must be unique");
-        for c in &all {
-            assert!(c.checks.chars().count() >= 40, "{}: '{}' says too little", c.name, c.checks);
-            let timed = [" s", " min", " h", "hours"].iter().any(|u| c.cost.contains(u));
-            assert!(timed && c.cost.chars().any(|ch| ch.is_ascii_digit()), "{}: cost '{}' names no time", c.name, c.cost);
-        }
-        let text = listing(&all);
-        assert_eq!(text.lines().count(), 2 * all.len());
-        for c in &all {
-            let line = text.lines().find(|l| l.split_whitespace().next() == Some(c.name)).unwrap_or_else(|| panic!("{} not listed", c.name));
-            assert!(line.ends_with(c.cost), "{line}");
-            assert!(text.contains(c.checks));
-        }
-        let glottis: Vec<&str> = select(Some("glottis_2d")).unwrap().iter().map(|c| c.name).collect();
-        assert_eq!(glottis, ["glottis_2d"]);
-        assert_eq!(select(None).unwrap().len(), all.len());
-        assert!(select(Some("no_such_case")).is_err());
-    }
 }
