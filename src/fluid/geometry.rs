@@ -5,6 +5,29 @@
 pub use super::kernel_level_set::KernelLevelSet;
 pub use super::polygon::Polygon;
 
+/// Where a point lies against a shape, as [`Shape::outside_distance_below`] answers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Outside {
+    /// Inside the solid (`sdf < 0`).
+    Inside,
+    /// Outside, at this signed distance (cells; the value of [`Shape::outside_distance`], bit
+    /// for bit), below the limit asked for.
+    Within(f64),
+    /// Outside, at the limit asked for or farther.
+    Beyond,
+}
+
+impl Outside {
+    /// The answer for a distance `d` from [`Shape::outside_distance`] (None inside).
+    pub fn of(d: Option<f64>, limit: f64) -> Self {
+        match d {
+            None => Outside::Inside,
+            Some(d) if d < limit => Outside::Within(d),
+            Some(_) => Outside::Beyond,
+        }
+    }
+}
+
 /// A solid shape. Signed distance `sdf` > 0 in the fluid, < 0 inside the solid.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Shape {
@@ -65,6 +88,18 @@ impl Shape {
         }
     }
 
+    /// [`Self::outside_distance`] for a caller that needs the distance only below `limit`
+    /// (the layout's pinch test, [`super::layout::PINCH`]): [`Outside::Within`] with the same
+    /// value bit for bit where it is below `limit`, [`Outside::Beyond`] where it is not. A
+    /// polygon then searches its edges only within `limit` of the point
+    /// ([`Polygon::outside_distance_below`]) instead of out to its nearest edge, however far.
+    pub fn outside_distance_below(&self, p: [f64; 3], limit: f64) -> Outside {
+        match self {
+            Shape::Polygon(poly) => poly.outside_distance_below([p[0], p[1]], limit),
+            _ => Outside::of(self.outside_distance(p), limit),
+        }
+    }
+
     /// A function with the sign and the zero contour of [`Self::sdf`] (positive in the fluid),
     /// cheaper where that is dear: a kernel level set's −L (one evaluation, where the depth
     /// inside takes Newton steps), the signed distance for the other shapes. For finding where
@@ -93,6 +128,15 @@ impl Shape {
                 Some(([p.bounds()[0] - 1.0, p.bounds()[1] - 1.0, f64::NEG_INFINITY], [p.bounds()[2] + 1.0, p.bounds()[3] + 1.0, f64::INFINITY]))
             }
             _ => None,
+        }
+    }
+
+    /// [`Self::sdf`] and [`Self::normal`] at `p` (the same values, bit for bit), a polygon's
+    /// from one search of its edges ([`Polygon::sdf_and_normal`]).
+    pub fn sdf_and_normal(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
+        match self {
+            Shape::Polygon(poly) => poly.sdf_and_normal([p[0], p[1]]),
+            _ => (self.sdf(p), self.normal(p)),
         }
     }
 

@@ -6,6 +6,8 @@
 //! the edges near the point instead of all of them — with the same answer, bit for bit, as the
 //! plain loop over every edge (the test below compares them).
 
+use super::geometry::Outside;
+
 /// A closed, simple polygon in the x–y plane (lattice units), counter-clockwise, with a wall
 /// velocity (c units) at every vertex, linear along each edge. Immutable once built: a moving
 /// wall is a new polygon each step.
@@ -87,7 +89,7 @@ impl Polygon {
     /// Closest point of the boundary to `p`: (edge index, parameter t ∈ [0, 1] along it, squared
     /// distance); of several edges equally near, the lowest index.
     pub fn closest(&self, p: [f64; 2]) -> (usize, f64, f64) {
-        if let Some(best) = self.bins.as_ref().and_then(|b| b.closest(self, p)) {
+        if let Some(best) = self.bins.as_ref().and_then(|b| b.closest(self, p, None)) {
             return best;
         }
         self.closest_by_every_edge(p)
@@ -164,6 +166,26 @@ impl Polygon {
         Some(self.sdf(p))
     }
 
+    /// [`Self::outside_distance`] where it is below `limit` (bit for bit), else
+    /// [`Outside::Beyond`]: outside, the bins are searched only in the rings that reach `limit`
+    /// ([`EdgeBins::closest`] `within` it), not out to the nearest edge — for a point in the
+    /// polygon's box but far from its boundary (a concave outline's gap, the air between two
+    /// folds) the full search visits most of the bins.
+    pub(super) fn outside_distance_below(&self, p: [f64; 2], limit: f64) -> Outside {
+        let b = self.bounds;
+        let outside_box = p[0] < b[0] || p[0] > b[2] || p[1] < b[1] || p[1] > b[3];
+        if outside_box {
+            return Outside::of(Some(self.sdf(p)), limit);
+        }
+        if self.contains(p) {
+            return Outside::of(self.on_boundary(p).then_some(-0.0), limit);
+        }
+        match self.bins.as_ref().and_then(|bins| bins.closest(self, p, Some(limit))) {
+            Some((_, _, d2)) => Outside::of(Some(d2.sqrt()), limit),
+            None => Outside::of(Some(self.sdf(p)), limit),
+        }
+    }
+
     /// Whether an edge passes exactly through `p` (squared distance 0, as [`Self::closest`]
     /// computes it).
     fn on_boundary(&self, p: [f64; 2]) -> bool {
@@ -176,10 +198,30 @@ impl Polygon {
     /// Unit normal pointing out of the polygon at the boundary point closest to `p`.
     pub(super) fn normal(&self, p: [f64; 2]) -> [f64; 3] {
         let (k, t, d2) = self.closest(p);
+        self.normal_from(p, (k, t, d2), || self.contains(p))
+    }
+
+    /// [`Self::sdf`] and [`Self::normal`] at `p`, bit for bit, from one nearest-edge search and
+    /// one crossing number (each of the two alone takes both): a ghost node's wall.
+    pub(super) fn sdf_and_normal(&self, p: [f64; 2]) -> (f64, [f64; 3]) {
+        let b = self.bounds;
+        let q = [(b[0] - p[0]).max(p[0] - b[2]).max(0.0), (b[1] - p[1]).max(p[1] - b[3]).max(0.0)];
+        if q[0] > 0.0 || q[1] > 0.0 {
+            return (self.sdf(p), self.normal(p));
+        }
+        let best = self.closest(p);
+        let inside = self.contains(p);
+        let d = best.2.sqrt();
+        (if inside { -d } else { d }, self.normal_from(p, best, || inside))
+    }
+
+    /// The normal of [`Self::normal`] from `p`'s closest boundary point `(k, t, d2)`
+    /// ([`Self::closest`]) and whether `p` lies inside (asked only off the boundary).
+    fn normal_from(&self, p: [f64; 2], (k, t, d2): (usize, f64, f64), inside: impl FnOnce() -> bool) -> [f64; 3] {
         let (a, b) = self.edge(k);
         let c = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
         if d2 > 1e-20 {
-            let s = if self.contains(p) { -1.0 } else { 1.0 };
+            let s = if inside() { -1.0 } else { 1.0 };
             let d = d2.sqrt();
             return [s * (p[0] - c[0]) / d, s * (p[1] - c[1]) / d, 0.0];
         }
@@ -262,7 +304,12 @@ impl EdgeBins {
     /// [`Polygon::closest`] from the bins in rings around `p`'s bin: after ring r every edge not
     /// yet seen lies at least r bin sides away, so the search stops once the best squared
     /// distance is below (r·side)². None when `p` lies outside the grid.
-    fn closest(&self, poly: &Polygon, p: [f64; 2]) -> Option<(usize, f64, f64)> {
+    ///
+    /// With `within`, the search also stops after the first ring r whose r·side exceeds it
+    /// (by a relative 10⁻⁹, far above the rounding of a squared distance): what it returns is
+    /// then the closest edge wherever that lies nearer than `within`, and otherwise an edge at
+    /// `within` or farther, not necessarily the closest.
+    fn closest(&self, poly: &Polygon, p: [f64; 2], within: Option<f64>) -> Option<(usize, f64, f64)> {
         let [ci, cj] = self.bin_of(p)?;
         let mut best = (0usize, 0.0, f64::INFINITY);
         let reach = ci.max(self.dims[0] - 1 - ci).max(cj).max(self.dims[1] - 1 - cj);
@@ -287,7 +334,7 @@ impl EdgeBins {
                 }
             }
             let seen = r as f64 * self.side;
-            if best.2 < seen * seen {
+            if best.2 < seen * seen || within.is_some_and(|l| seen > l * (1.0 + 1e-9)) {
                 break;
             }
         }
@@ -335,7 +382,7 @@ mod tests {
     fn the_binned_queries_answer_as_every_edge_does_bit_for_bit() {
         let poly = wavy(400);
         assert!(poly.bins.is_some());
-        let (mut inside, mut points) = (0, 0);
+        let (mut inside, mut points, mut beyond, mut within) = (0, 0, 0, 0);
         // every node of the box and 3 cells around it, and points between nodes
         for j in -40..=200 {
             for i in -40..=280 {
@@ -346,14 +393,28 @@ mod tests {
                 let c = poly.contains(p);
                 assert_eq!(c, poly.contains_by_every_edge(p), "contains at {p:?}");
                 let sdf = poly.sdf(p);
+                let (d, n) = poly.sdf_and_normal(p);
+                assert_eq!((d.to_bits(), n.map(f64::to_bits)), (sdf.to_bits(), poly.normal(p).map(f64::to_bits)), "sdf and normal at {p:?}");
                 let expected = if sdf < 0.0 { None } else { Some(sdf.to_bits()) };
                 assert_eq!(poly.outside_distance(p).map(f64::to_bits), expected, "outside distance at {p:?}");
+                for limit in [0.5, 1.7, 6.0] {
+                    let below = poly.outside_distance_below(p, limit);
+                    match (below, poly.outside_distance(p)) {
+                        (Outside::Inside, None) | (Outside::Beyond, Some(_)) if sdf >= limit || sdf < 0.0 => {}
+                        (Outside::Within(d), Some(e)) => assert_eq!(d.to_bits(), e.to_bits(), "distance below {limit} at {p:?}"),
+                        (b, e) => panic!("below {limit} at {p:?}: {b:?}, outside distance {e:?}"),
+                    }
+                    beyond += (below == Outside::Beyond) as usize;
+                    within += matches!(below, Outside::Within(_)) as usize;
+                }
                 inside += c as usize;
             }
         }
         // the points inside, 16 per unit area, measure the polygon's area (both answers exercised)
         let area = poly.signed_area();
         assert!((inside as f64 / 16.0 / area - 1.0).abs() < 0.02, "{inside} of {points} points inside, area {area}");
+        // the limited search was asked both near the outline and far from it
+        assert!(within > 1000 && beyond > 10_000, "{within} answers within a limit, {beyond} beyond");
         // vertices themselves (distance exactly 0, two edges equally near: the lower index)
         for (k, v) in poly.vertices().iter().enumerate() {
             let (e, _, d2) = poly.closest(*v);
