@@ -36,6 +36,7 @@ use crate::fluid::layout::{Layout, NodeKind};
 use crate::fluid::{KernelLevelSet, LayoutChange, Macro, Shape};
 use crate::step::{Instability, Site};
 use glam::{DVec3, DVec4};
+use rayon::prelude::*;
 use std::sync::Arc;
 
 /// Options of the momentum-conserving coupling.
@@ -209,8 +210,8 @@ impl CoupledSolver {
     /// (method 2; φ = 0 under method 1, which has no calibration).
     pub fn level_sets(&self) -> Vec<KernelLevelSet> {
         let p = &self.solid.particles;
-        let x: Vec<[f64; 3]> = p.position.iter().map(|x| self.to_lattice(*x)).collect();
-        let v: Vec<[f64; 3]> = p.velocity.iter().map(|v| (*v / self.units.velocity).to_array()).collect();
+        let x: Vec<[f64; 3]> = p.position.par_iter().with_min_len(4096).map(|x| self.to_lattice(*x)).collect();
+        let v: Vec<[f64; 3]> = p.velocity.par_iter().with_min_len(4096).map(|v| (*v / self.units.velocity).to_array()).collect();
         self.level_sets_of(&x, &v)
     }
 
@@ -235,8 +236,9 @@ impl CoupledSolver {
 
     fn level_sets_of(&self, x: &[[f64; 3]], v: &[[f64; 3]]) -> Vec<KernelLevelSet> {
         let p = &self.solid.particles;
+        // the bodies' sets built side by side on the pool (each set's own loops share it too)
         self.bodies
-            .iter()
+            .par_iter()
             .enumerate()
             .map(|(k, b)| {
                 let phi = self.surface_levels().get(k).copied().unwrap_or(0.0);

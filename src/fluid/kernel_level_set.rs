@@ -13,6 +13,8 @@
 //!
 //! Units: lattice cells for positions and lengths, c for velocities.
 
+use rayon::prelude::*;
+
 /// The particles of one body and the level set they define.
 #[derive(Clone, Debug, PartialEq)]
 pub struct KernelLevelSet {
@@ -41,6 +43,9 @@ pub struct KernelLevelSet {
     bin_sums: Vec<[f64; 4]>,
 }
 
+/// Points per task of [`KernelLevelSet::new`]'s parallel loops.
+const PAR_POINTS: usize = 4096;
+
 /// Smallest |∇L| (per cell) used in −L/|∇L|: deep inside a body, or far outside it, where L is
 /// flat, the estimate becomes large with the right sign instead of infinite.
 pub(super) const FLAT: f64 = 1e-6;
@@ -54,16 +59,27 @@ pub(super) const FLAT: f64 = 1e-6;
 const NEWTON_STEPS: usize = 8;
 
 impl KernelLevelSet {
+    /// The level set of `points` (with their `velocities`), binned. Built once a step for every
+    /// body (and, on the GPU backend, once more for all bodies' particles together), so the
+    /// per-point work runs on the pool's threads: the box (a minimum and maximum, the same
+    /// whatever the order), each point's bin, the points gathered in bin order and each bin's
+    /// sums (each bin's own points in their order) — the same bins and sums bit for bit as one
+    /// by one; only the counting sort's two passes are serial.
     pub fn new(points: Vec<[f64; 3]>, velocities: Vec<[f64; 3]>, re: f64, r_min: f64, phi: f64) -> Self {
         assert_eq!(points.len(), velocities.len(), "one velocity per particle");
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in &points {
+        let grow = |(mut lo, mut hi): ([f64; 3], [f64; 3]), p: &[f64; 3]| {
             for a in 0..3 {
                 lo[a] = lo[a].min(p[a] - re);
                 hi[a] = hi[a].max(p[a] + re);
             }
-        }
+            (lo, hi)
+        };
+        let empty = || ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        let (lo, hi) = points
+            .par_iter()
+            .with_min_len(PAR_POINTS)
+            .fold(empty, grow)
+            .reduce(empty, |a, b| (std::array::from_fn(|k| a.0[k].min(b.0[k])), std::array::from_fn(|k| a.1[k].max(b.1[k]))));
         let bins: [usize; 3] = std::array::from_fn(|a| if points.is_empty() { 1 } else { (((hi[a] - lo[a]) / re).ceil() as usize).max(1) });
         let mut s = KernelLevelSet {
             points,
@@ -79,7 +95,7 @@ impl KernelLevelSet {
             bin_sums: Vec::new(),
         };
         let n_bins = bins[0] * bins[1] * bins[2];
-        let key: Vec<usize> = s.points.iter().map(|p| s.bin_of(*p).expect("a point lies in its own box")).collect();
+        let key: Vec<usize> = s.points.par_iter().with_min_len(PAR_POINTS).map(|p| s.bin_of(*p).expect("a point lies in its own box")).collect();
         let mut count = vec![0u32; n_bins + 1];
         for &k in &key {
             count[k + 1] += 1;
@@ -93,8 +109,10 @@ impl KernelLevelSet {
             order[fill[k] as usize] = j as u32;
             fill[k] += 1;
         }
-        s.sorted = order.iter().map(|&j| s.points[j as usize]).collect();
+        s.sorted = order.par_iter().with_min_len(PAR_POINTS).map(|&j| s.points[j as usize]).collect();
         s.bin_sums = (0..n_bins)
+            .into_par_iter()
+            .with_min_len(PAR_POINTS / 8)
             .map(|b| {
                 let run = &s.sorted[count[b] as usize..count[b + 1] as usize];
                 let mut sum = [0.0, 0.0, 0.0, run.len() as f64];
