@@ -182,12 +182,13 @@ fn exchange_weights(
     }
 }
 
-// Second half: each particle gathers w_ij · scaled_j from the lattice nodes within r_e of it.
+// Second half: each particle gathers w_ij · scaled_j from the lattice nodes within r_e of it
+// (its position from `points`, the set's own: nothing else goes up for it).
 @compute @workgroup_size(64)
 fn exchange_gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = thread_index(gid, nwg);
     if (i >= P.count) { return; }
-    let x = queries[i].xyz;
+    let x = points[i].xyz;
     let h = vec3<i32>(P.halo.xyz);
     let n = vec3<i32>(P.padded.xyz) - h;
     let lo = max(vec3<i32>(ceil(x - vec3<f32>(P.re))), -h);

@@ -324,7 +324,8 @@ impl CouplingKernels {
     /// [`super::GpuFluid::face_flux_buffer`]); the geometry stage's node changes `changes`
     /// (node, momentum and mass, lattice units) are added to it, each node's momentum goes to
     /// the particles of `set` within r_e with normalised kernel weights, and `wall` is cleared for
-    /// the next step. Only the node changes go up and the particles' forces (×`factor`) come back,
+    /// the next step. The set (its points, velocities and bins) and the node changes go up, and
+    /// the particles' forces (×`factor`) come back,
     /// with the nodes' contributions to the exchange's run sums (summed per workgroup on the
     /// device, 32 B per 64 nodes, and over the workgroups here in f64).
     pub fn hand_over(
@@ -371,7 +372,8 @@ impl CouplingKernels {
             Binding::Data(bytemuck::cast_slice(&vel)),
             Binding::Data(bytemuck::cast_slice(start)),
             Binding::Data(bytemuck::cast_slice(order)),
-            Binding::Data(bytemuck::cast_slice(&pts)),
+            // the gather reads the particles' positions from `points` (binding 1)
+            Binding::Unused,
             Binding::Unused,
             Binding::Resident(wall),
             Binding::Resident(scaled),
