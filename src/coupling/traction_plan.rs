@@ -79,7 +79,8 @@ impl TractionPlan {
             force_unit: units.pressure_unit() * units.dx,
             ..Default::default()
         };
-        let mut per_particle: Vec<Vec<(u32, f64)>> = vec![Vec::new(); p.len()];
+        // (particle, piece, weight) in the pieces' order: grouped by particle below
+        let mut loads: Vec<(u32, u32, f64)> = Vec::new();
         for s in surfaces {
             let first = plan.pieces.len();
             let x = lattice_points(s, p, units);
@@ -107,16 +108,19 @@ impl TractionPlan {
                     area: piece.area,
                     stencil: bounds,
                 });
-                per_particle[s.particles[ka]].push((k, 1.0 - t));
-                per_particle[s.particles[kb]].push((k, t));
+                loads.push((s.particles[ka] as u32, k, 1.0 - t));
+                loads.push((s.particles[kb] as u32, k, t));
             }
             plan.surfaces.push(first..plan.pieces.len());
         }
         plan.particles = p.len();
-        for (i, list) in per_particle.into_iter().enumerate().filter(|(_, l)| !l.is_empty()) {
+        // by particle, ascending; a stable sort keeps each particle's shares in the pieces'
+        // order (as pushed)
+        loads.sort_by_key(|l| l.0);
+        for run in loads.chunk_by(|a, b| a.0 == b.0) {
             let from = plan.shares.len() as u32;
-            plan.shares.extend(list);
-            plan.targets.push((i as u32, from..plan.shares.len() as u32));
+            plan.shares.extend(run.iter().map(|&(_, k, w)| (k, w)));
+            plan.targets.push((run[0].0, from..plan.shares.len() as u32));
         }
         plan
     }
