@@ -91,8 +91,8 @@ impl Shape {
     /// [`Self::outside_distance`] for a caller that needs the distance only below `limit`
     /// (the layout's pinch test, [`super::layout::PINCH`]): [`Outside::Within`] with the same
     /// value bit for bit where it is below `limit`, [`Outside::Beyond`] where it is not. A
-    /// polygon then searches its edges only within `limit` of the point
-    /// ([`Polygon::outside_distance_below`]) instead of out to its nearest edge, however far.
+    /// polygon ([`Polygon`]) then searches its edges only within `limit` of the point instead
+    /// of out to its nearest edge, however far.
     pub fn outside_distance_below(&self, p: [f64; 3], limit: f64) -> Outside {
         match self {
             Shape::Polygon(poly) => poly.outside_distance_below([p[0], p[1]], limit),
@@ -132,7 +132,7 @@ impl Shape {
     }
 
     /// [`Self::sdf`] and [`Self::normal`] at `p` (the same values, bit for bit), a polygon's
-    /// from one search of its edges ([`Polygon::sdf_and_normal`]).
+    /// ([`Polygon`]) from one search of its edges and one crossing number.
     pub fn sdf_and_normal(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
         match self {
             Shape::Polygon(poly) => poly.sdf_and_normal([p[0], p[1]]),
