@@ -144,13 +144,19 @@ impl Polygon {
     /// the box, a lower bound of the true distance with the right sign (the layout only uses
     /// the value inside a solid).
     pub(super) fn sdf(&self, p: [f64; 2]) -> f64 {
-        let b = self.bounds;
-        let q = [(b[0] - p[0]).max(p[0] - b[2]).max(0.0), (b[1] - p[1]).max(p[1] - b[3]).max(0.0)];
-        if q[0] > 0.0 || q[1] > 0.0 {
-            return (q[0] * q[0] + q[1] * q[1]).sqrt();
+        if let Some(d) = self.box_distance(p) {
+            return d;
         }
         let d = self.closest(p).2.sqrt();
         if self.contains(p) { -d } else { d }
+    }
+
+    /// The distance from `p` to the bounding box where `p` lies outside it ([`Self::sdf`]
+    /// there), None inside the box.
+    fn box_distance(&self, p: [f64; 2]) -> Option<f64> {
+        let b = self.bounds;
+        let q = [(b[0] - p[0]).max(p[0] - b[2]).max(0.0), (b[1] - p[1]).max(p[1] - b[3]).max(0.0)];
+        (q[0] > 0.0 || q[1] > 0.0).then(|| (q[0] * q[0] + q[1] * q[1]).sqrt())
     }
 
     /// `None` where `p` is inside (`sdf(p) < 0`), else `Some(sdf(p))`, bit for bit: a point inside
@@ -158,12 +164,7 @@ impl Polygon {
     /// `sdf` is −0), not the distance to the wall, which for a point deep inside a fold is the
     /// costly part of [`Self::sdf`].
     pub(super) fn outside_distance(&self, p: [f64; 2]) -> Option<f64> {
-        let b = self.bounds;
-        let outside_box = p[0] < b[0] || p[0] > b[2] || p[1] < b[1] || p[1] > b[3];
-        if !outside_box && self.contains(p) {
-            return self.on_boundary(p).then_some(-0.0);
-        }
-        Some(self.sdf(p))
+        self.outside_distance_within(p, None)
     }
 
     /// [`Self::outside_distance`] where it is below `limit` (bit for bit), else
@@ -172,18 +173,20 @@ impl Polygon {
     /// polygon's box but far from its boundary (a concave outline's gap, the air between two
     /// folds) the full search visits most of the bins.
     pub(super) fn outside_distance_below(&self, p: [f64; 2], limit: f64) -> Outside {
-        let b = self.bounds;
-        let outside_box = p[0] < b[0] || p[0] > b[2] || p[1] < b[1] || p[1] > b[3];
-        if outside_box {
-            return Outside::of(Some(self.sdf(p)), limit);
+        Outside::of(self.outside_distance_within(p, Some(limit)), limit)
+    }
+
+    /// [`Self::outside_distance`], its value exact wherever it lies below `within` (when given);
+    /// at or beyond it, a distance at least that large.
+    fn outside_distance_within(&self, p: [f64; 2], within: Option<f64>) -> Option<f64> {
+        if let Some(d) = self.box_distance(p) {
+            return Some(d);
         }
         if self.contains(p) {
-            return Outside::of(self.on_boundary(p).then_some(-0.0), limit);
+            return self.on_boundary(p).then_some(-0.0);
         }
-        match self.bins.as_ref().and_then(|bins| bins.closest(self, p, Some(limit))) {
-            Some((_, _, d2)) => Outside::of(Some(d2.sqrt()), limit),
-            None => Outside::of(Some(self.sdf(p)), limit),
-        }
+        let (_, _, d2) = self.bins.as_ref().and_then(|b| b.closest(self, p, within)).unwrap_or_else(|| self.closest_by_every_edge(p));
+        Some(d2.sqrt())
     }
 
     /// Whether an edge passes exactly through `p` (squared distance 0, as [`Self::closest`]
@@ -204,10 +207,8 @@ impl Polygon {
     /// [`Self::sdf`] and [`Self::normal`] at `p`, bit for bit, from one nearest-edge search and
     /// one crossing number (each of the two alone takes both): a ghost node's wall.
     pub(super) fn sdf_and_normal(&self, p: [f64; 2]) -> (f64, [f64; 3]) {
-        let b = self.bounds;
-        let q = [(b[0] - p[0]).max(p[0] - b[2]).max(0.0), (b[1] - p[1]).max(p[1] - b[3]).max(0.0)];
-        if q[0] > 0.0 || q[1] > 0.0 {
-            return (self.sdf(p), self.normal(p));
+        if let Some(d) = self.box_distance(p) {
+            return (d, self.normal(p));
         }
         let best = self.closest(p);
         let inside = self.contains(p);
