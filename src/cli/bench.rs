@@ -451,12 +451,15 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         if wants("glottis") {
             // the coupled 2D glottis (method 1, as the seed): the coarse scene and the seed's lattice
             coupled_scenes.push(("glottis_2d_coarse", phonation::scene::builtin("glottis_2d_coarse").expect("built in").to_string()));
+            // the coarse 3D glottis (method 2): thick folds, whose ghosts' wall points the
+            // geometry spends most of its time on
+            coupled_scenes.push(("glottis_3d_coarse", phonation::scene::builtin("glottis_3d_coarse").expect("built in").to_string()));
             if !quick {
                 coupled_scenes.push(("glottis_2d_c", phonation::scene::builtin("glottis_2d_c").expect("built in").to_string()));
             }
         }
         if !coupled_scenes.is_empty() {
-            println!("GPU coupled step against the CPU in the same process (the Wall flap: method 2; the glottis: method 1):");
+            println!("GPU coupled step against the CPU in the same process (the Wall flap and the 3D glottis: method 2; the 2D glottis: method 1):");
             for (label, text) in coupled_scenes {
                 let sc = phonation::scene::coupled::CoupledScene::parse(&text)?;
                 let steps = if quick { 5 } else { 50 };
@@ -484,6 +487,14 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                             parts.join(", "),
                             v.gpu_device_objects_made
                         );
+                        if let Some(host) = v.gpu_steps_per_s_cpu_ghost_walls {
+                            println!(
+                                "{:>30} ghost walls on the device: {:.2} steps/s against {host:.2} with them on the CPU ({:.2}×)",
+                                "",
+                                v.gpu_steps_per_s,
+                                v.gpu_steps_per_s / host
+                            );
+                        }
                         gpu_coupled.push(v);
                     }
                     Err(e) => println!("{label} skipped: {e}"),

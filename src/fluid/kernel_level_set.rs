@@ -137,6 +137,13 @@ impl KernelLevelSet {
         (&self.start, &self.order)
     }
 
+    /// The points in bin order (bin b's are `start[b]..start[b + 1]` of these, in the order
+    /// the sums visit them) and each bin's sum of coordinates and count: what a device's twin
+    /// of [`Self::ghost_wall`] reads.
+    pub fn binned_points(&self) -> (&[[f64; 3]], &[[f64; 4]]) {
+        (&self.sorted, &self.bin_sums)
+    }
+
     fn near(&self, p: [f64; 3]) -> bool {
         let (lo, hi) = self.bounds;
         (0..3).all(|a| p[a] >= lo[a] && p[a] <= hi[a])

@@ -4,6 +4,7 @@
 
 use super::boundary::{Boundaries, Face, FaceCondition};
 use super::geometry::{Obstacle, Outside, Shape, dot};
+use super::ghost_wall::{GhostQuery, GhostWalls, OnThePool};
 use super::grid::{Grid, HALO};
 use super::rebuild::Region;
 use super::thin_wall::{ThinTap, WallGeometry, thin_taps};
@@ -144,13 +145,20 @@ pub const PINCH: f64 = 0.5;
 
 impl Layout {
     pub fn new(grid: Grid, boundaries: Boundaries, user_obstacles: &[Obstacle]) -> Self {
-        Self::build(grid, boundaries, user_obstacles, None)
+        Self::build(grid, boundaries, user_obstacles, None, &OnThePool)
     }
 
     /// [`Self::new`], or with `previous`: only the nodes of the region recomputed (it stays
     /// three cells clear of the periodic faces, and takes in the halo of any other face it
-    /// reaches), the rest copied.
-    pub(super) fn build(grid: Grid, boundaries: Boundaries, user_obstacles: &[Obstacle], previous: Option<(&Layout, Region)>) -> Self {
+    /// reaches), the rest copied. The wall points of ghosts inside kernel level sets come from
+    /// `ghost_walls`, one call per set ([`GhostWalls`]).
+    pub(super) fn build(
+        grid: Grid,
+        boundaries: Boundaries,
+        user_obstacles: &[Obstacle],
+        previous: Option<(&Layout, Region)>,
+        ghost_walls: &dyn GhostWalls,
+    ) -> Self {
         let mut obstacles = Vec::new();
         for face in Face::ALL {
             let a = face.axis();
@@ -299,25 +307,47 @@ impl Layout {
         };
         let fluid_at = |x: [i64; 3]| fluid_node(&grid, &kind, &periodic_axis, x);
 
-        // each ghost's wall point, image stencil and wall velocity from the level sets, on the
-        // pool's threads, collected in node order
-        let mut ghosts: Vec<Ghost> = todo
-            .par_iter()
+        // the ghosts (node, obstacle) in node order
+        let ghost_of: Vec<(usize, usize)> = todo
+            .iter()
             .zip(&owner)
-            .with_min_len(PAR_NODES / 8)
             .filter(|&(&idx, _)| kind[idx] == NodeKind::Ghost)
-            .map(|(&idx, owner)| {
+            .map(|(&idx, owner)| (idx, owner.expect("ghost is inside (or pinched by) a solid")))
+            .collect();
+        // a level set's wall point: the nearest of Newton's and two searches', one toward the
+        // fluid node that makes the node a ghost (`fluid::ghost_wall`), asked of `ghost_walls` one
+        // set at a time
+        let mut level_set_wall: Vec<Option<(f64, [f64; 3])>> = vec![None; ghost_of.len()];
+        for (k, o) in obstacles.iter().enumerate() {
+            let Shape::KernelLevelSet(ls) = &o.shape else { continue };
+            let (at, queries): (Vec<usize>, Vec<GhostQuery>) = ghost_of
+                .par_iter()
+                .enumerate()
+                .with_min_len(PAR_NODES)
+                .filter(|(_, g)| g.1 == k)
+                .filter_map(|(i, &(idx, _))| nearest_fluid(&grid, &kind, grid.coords(idx)).map(|q| (i, (pos(grid.coords(idx)), pos(q)))))
+                .unzip();
+            if queries.is_empty() {
+                continue;
+            }
+            for (i, w) in at.into_iter().zip(ghost_walls.ghost_walls(ls, &queries)) {
+                level_set_wall[i] = Some(w);
+            }
+        }
+        // each ghost's image stencil and wall velocity, on the pool's threads, collected in
+        // node order
+        let mut ghosts: Vec<Ghost> = ghost_of
+            .par_iter()
+            .zip(&level_set_wall)
+            .with_min_len(PAR_NODES / 8)
+            .map(|(&(idx, k), found)| {
                 let p = pos(grid.coords(idx));
-                let k = owner.expect("ghost is inside (or pinched by) a solid");
                 let o = &obstacles[k];
-                let (d, nrm) = match &o.shape {
-                    // a level set's wall point: the nearest of Newton's and two searches',
-                    // one toward the fluid node that makes this node a ghost (`fluid::ghost_wall`)
-                    Shape::KernelLevelSet(ls) => match nearest_fluid(&grid, &kind, grid.coords(idx)) {
-                        Some(q) => ls.ghost_wall(p, pos(q)),
-                        None => (o.shape.sdf(p), o.shape.normal(p)),
-                    },
-                    shape => shape.sdf_and_normal(p),
+                let (d, nrm) = match (&o.shape, found) {
+                    (_, Some(w)) => *w,
+                    // a level set's ghost with no fluid node within two cells along an axis
+                    (Shape::KernelLevelSet(_), None) => (o.shape.sdf(p), o.shape.normal(p)),
+                    (shape, None) => shape.sdf_and_normal(p),
                 };
                 let wall = [p[0] - d * nrm[0], p[1] - d * nrm[1], p[2] - d * nrm[2]];
                 let d_img = (-d).max(1.0);

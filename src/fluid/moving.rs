@@ -113,6 +113,12 @@ impl<S: Storage> FluidSolver<S> {
         self.layout.rebuilt(obstacles)
     }
 
+    /// [`Self::layout_with`], the wall points of ghosts inside kernel level sets found by
+    /// `walls` (a device's twin of [`super::KernelLevelSet::ghost_wall`]).
+    pub fn layout_with_walls(&self, obstacles: &[Obstacle], walls: &dyn super::GhostWalls) -> Layout {
+        self.layout.rebuilt_with(obstacles, walls)
+    }
+
     /// Installs `new` (a layout of the same lattice, [`Self::layout_with`]) and initialises
     /// uncovered nodes from the populations of their fluid neighbours. It reads the populations
     /// of [`LayoutChange::reads`] only and writes those of the fresh nodes

@@ -4,6 +4,7 @@
 
 use super::boundary::{Face, FaceCondition};
 use super::geometry::Obstacle;
+use super::ghost_wall::{GhostWalls, OnThePool};
 use super::layout::Layout;
 
 /// The interior nodes (inclusive box, interior coordinates) that [`Layout::rebuilt`] recomputes;
@@ -46,6 +47,12 @@ impl Layout {
     /// A full rebuild when an obstacle of unbounded influence changed, when the obstacle count
     /// changed or when the region comes within reach of the domain's faces.
     pub fn rebuilt(&self, user_obstacles: &[Obstacle]) -> Self {
+        self.rebuilt_with(user_obstacles, &OnThePool)
+    }
+
+    /// [`Self::rebuilt`] with the wall points of ghosts inside kernel level sets from `walls`
+    /// (a device's twin of [`super::KernelLevelSet::ghost_wall`]).
+    pub fn rebuilt_with(&self, user_obstacles: &[Obstacle], walls: &dyn GhostWalls) -> Self {
         match self.rebuild_plan(user_obstacles) {
             Rebuild::Same => {
                 let mut same = self.clone();
@@ -53,8 +60,8 @@ impl Layout {
                 same.obstacles.extend_from_slice(user_obstacles);
                 same
             }
-            Rebuild::Local(region) => Self::build(self.grid.clone(), self.boundaries.clone(), user_obstacles, Some((self, region))),
-            Rebuild::Full => Self::new(self.grid.clone(), self.boundaries.clone(), user_obstacles),
+            Rebuild::Local(region) => Self::build(self.grid.clone(), self.boundaries.clone(), user_obstacles, Some((self, region)), walls),
+            Rebuild::Full => Self::build(self.grid.clone(), self.boundaries.clone(), user_obstacles, None, walls),
         }
     }
 

@@ -256,6 +256,10 @@ pub struct CoupledGpuSpeed {
     /// Buffers and bind-group sets the timed GPU steps made for their per-step work
     /// ([`super::coupled::GpuCoupled::device_objects_made`]; 0 in the steady state).
     pub gpu_device_objects_made: u64,
+    /// Method 2 on a device with f64 in shaders: the GPU steps per second with the ghosts' wall
+    /// points found on the CPU instead ([`super::coupled::GpuCoupled::device_ghost_walls`] off),
+    /// timed in the same process after the run above; None where they are found on the CPU anyway.
+    pub gpu_steps_per_s_cpu_ghost_walls: Option<f64>,
 }
 
 /// Times `steps` coupled steps of the solver `build` makes, on the GPU (a device of its own,
@@ -280,6 +284,17 @@ pub fn coupled_speed(scene: &str, build: impl Fn() -> crate::coupling::CoupledSo
     if !(cpu_ok && gpu_ok) {
         return Err(GpuError::Failed(format!("{scene}: the coupled run went unstable within {steps} steps (cpu ok: {cpu_ok}, gpu ok: {gpu_ok})")));
     }
+    // the same steps with the ghosts' wall points on the CPU, where the device finds them
+    let cpu_ghost_walls = if g.ghost_walls_on_device() {
+        let mut h = super::coupled::GpuCoupled::new(GpuContext::new()?, build())?;
+        h.device_ghost_walls = false;
+        let warm = h.run(2).is_ok();
+        let t = Instant::now();
+        let ok = warm && h.run(steps).is_ok();
+        ok.then(|| steps as f64 / t.elapsed().as_secs_f64())
+    } else {
+        None
+    };
     let shares: Vec<(String, f64)> = g.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
     let coupling = shares.iter().filter(|(n, _)| matches!(n.as_str(), "fluid_geometry" | "momentum_exchange" | "surface_traction")).map(|(_, s)| s).sum();
     Ok(CoupledGpuSpeed {
@@ -297,5 +312,6 @@ pub fn coupled_speed(scene: &str, build: impl Fn() -> crate::coupling::CoupledSo
         nodes_per_round_trip: (g.round_trip_nodes - trip_nodes) as f64 / (g.round_trips - trips).max(1) as f64,
         gpu_geometry_parts: g.geometry_part_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect(),
         gpu_device_objects_made: g.device_objects_made() - objects,
+        gpu_steps_per_s_cpu_ghost_walls: cpu_ghost_walls,
     })
 }

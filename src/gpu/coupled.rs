@@ -6,7 +6,7 @@
 //!
 //! | stage | where it runs |
 //! |---|---|
-//! | `fluid_geometry` | the particles' positions and velocities come back (16 B each); the level sets' layout (ghost depths, normals, wall velocities, 2.124–2.126, 2.130) is built on the CPU ([`CoupledSolver::next_level_set_walls`]) and its tables uploaded ([`GpuFluid::set_geometry`]); on a step where nodes change side, the populations of the nodes the change reads (those that change side and the fresh ones' neighbours, [`LayoutChange::reads`]) come back by the `gather` kernel so that covered nodes book their momentum and fresh ones take their neighbours' mean on the CPU, and the fresh nodes go up by the `scatter` kernel ([`GpuCoupled::round_trips`], [`GpuCoupled::round_trip_nodes`] count them) |
+//! | `fluid_geometry` | the particles' positions and velocities come back (16 B each); the level sets' layout (ghost depths, normals, wall velocities, 2.124–2.126, 2.130) is built on the CPU ([`CoupledSolver::next_level_set_walls`]) — the ghosts' wall points, its costliest part, on the device where it has f64 ([`GhostWallKernel`], one trip per body) — and its tables uploaded ([`GpuFluid::set_geometry`]); on a step where nodes change side, the populations of the nodes the change reads (those that change side and the fresh ones' neighbours, [`LayoutChange::reads`]) come back by the `gather` kernel so that covered nodes book their momentum and fresh ones take their neighbours' mean on the CPU, and the fresh nodes go up by the `scatter` kernel ([`GpuCoupled::round_trips`], [`GpuCoupled::round_trip_nodes`] count them) |
 //! | `fluid` | one FDLB step on the GPU with the walls' face fluxes recorded after each advection (2.122–2.123, [`GpuFluid::record_face_fluxes`]) |
 //! | `momentum_exchange` | the geometry stage's node changes (a short list, on steps where nodes change side) added to the face-flux record on the device; each wall node's momentum handed to the particles within r_e with normalised kernel weights (2.127–2.128) by the gather kernels of [`CouplingKernels::hand_over`] (deterministic, no atomics), the record cleared there; only the particles' forces come back, as their loads, with the exchange's run sums per workgroup |
 //! | `solid` | the solid's sub-steps on the GPU ([`GpuSolid`]) with those loads and the air's added mass (2.129) |
@@ -48,6 +48,7 @@
 use super::context::{GpuContext, GpuError};
 use super::coupling::CouplingKernels;
 use super::fdlb::GpuFluid;
+use super::ghost_wall::GhostWallKernel;
 use super::solid::GpuSolid;
 use crate::coupling::{CoupledSolver, Method, WeakOptions};
 use crate::fluid::LayoutChange;
@@ -63,8 +64,11 @@ pub const TIMING_EVERY: u64 = 16;
 /// ([`GpuCoupled::geometry_parts`]): the wait for the particles (and the fluid's flag of the
 /// step before), the walls built on the CPU (level sets or polygons, the layout near the bodies),
 /// the populations of the nodes that change side across the bus (steps with changes only), and
-/// the boundary tables made from the layout and written to the device.
-pub const GEOMETRY_PARTS: [&str; 4] = ["particles back", "walls built on the CPU", "changed nodes across the bus", "tables written"];
+/// the boundary tables made from the layout and written to the device; and (method 2), of the
+/// walls, the ghosts' wall points found on the device ([`GhostWallKernel`]: the upload, the
+/// kernel and the read back), not counted in the second part.
+pub const GEOMETRY_PARTS: [&str; 5] =
+    ["particles back", "walls built on the CPU", "changed nodes across the bus", "tables written", "ghost walls on the device"];
 
 /// Fluid and solid of a coupled scene on the GPU (either coupling method).
 pub struct GpuCoupled {
@@ -108,7 +112,13 @@ pub struct GpuCoupled {
     fluid_unchecked: Option<(u64, f64)>,
     /// Wall time of each of [`GEOMETRY_PARTS`] over the timed steps (a part of the
     /// `fluid_geometry` entry of [`Self::timings`]).
-    pub geometry_parts: [Duration; 4],
+    pub geometry_parts: [Duration; 5],
+    /// Method 2's ghost wall points on the device, where it has f64 in shaders.
+    ghost_walls: Option<GhostWallKernel>,
+    /// Whether method 2's ghost wall points are found on the device (when it can: see
+    /// [`Self::ghost_walls_on_device`]); true by default, false to find them on the CPU as the
+    /// CPU backend does (tests compare the two).
+    pub device_ghost_walls: bool,
     /// Whether the step under way is one of the timed ones.
     timing_now: bool,
 }
@@ -124,6 +134,7 @@ impl GpuCoupled {
         }
         let solid = GpuSolid::from_solver(&ctx, &mut cpu.solid)?;
         let kernels = CouplingKernels::new(&ctx);
+        let ghost_walls = matches!(cpu.method, Method::Conserving(_)).then(|| GhostWallKernel::new(&ctx)).flatten();
         let timings = vec![Duration::ZERO; cpu.stages().len()];
         let prescribed = {
             let p = &cpu.solid.particles;
@@ -146,7 +157,9 @@ impl GpuCoupled {
             traction_plan: None,
             forces_stale: false,
             fluid_unchecked: None,
-            geometry_parts: [Duration::ZERO; 4],
+            geometry_parts: [Duration::ZERO; 5],
+            ghost_walls,
+            device_ghost_walls: true,
             timing_now: false,
         })
     }
@@ -247,7 +260,23 @@ impl GpuCoupled {
     /// that made none: the steady state of a coupled run (test
     /// `a_coupled_step_makes_no_buffers_once_running` in tests/gpu/coupling.rs).
     pub fn device_objects_made(&self) -> u64 {
-        self.fluid.geometry_rebinds + self.fluid.step_objects_made() + self.kernels.objects_made() + self.solid.readback_buffers_made()
+        self.fluid.geometry_rebinds
+            + self.fluid.step_objects_made()
+            + self.kernels.objects_made()
+            + self.solid.readback_buffers_made()
+            + self.ghost_walls.as_ref().map_or(0, GhostWallKernel::objects_made)
+    }
+
+    /// Whether method 2's ghost wall points are found on the device: a method-2 scene on a
+    /// device with f64 in shaders, unless [`Self::device_ghost_walls`] is off.
+    pub fn ghost_walls_on_device(&self) -> bool {
+        self.ghost_walls.is_some() && self.device_ghost_walls
+    }
+
+    /// What finding the ghost wall points on the device has cost so far (None where they are
+    /// found on the CPU).
+    pub fn ghost_wall_work(&self) -> Option<super::ghost_wall::GhostWallWork> {
+        self.ghost_walls.as_ref().map(GhostWallKernel::work)
     }
 
     /// Adds the time since `t0` to geometry part `k` on a timed step, and returns now.
@@ -441,9 +470,21 @@ impl GpuCoupled {
         let t = Instant::now();
         self.download_particles(false)?;
         let t = self.time_part(0, t);
-        let walls = self.cpu.next_level_set_walls()?;
+        let device = self.ghost_walls.as_ref().filter(|_| self.device_ghost_walls);
+        let on_device = device.map_or(Duration::ZERO, |k| k.work().time);
+        let walls = match device {
+            Some(k) => self.cpu.next_level_set_walls_with(k)?,
+            None => self.cpu.next_level_set_walls()?,
+        };
+        let spent = device.map_or(Duration::ZERO, |k| k.work().time) - on_device;
         let change = walls.changes_nodes(&self.cpu.fluid.layout).then(|| walls.change(&self.cpu.fluid.layout).clone());
-        self.install_walls(t, change, |cpu| cpu.install_level_set_walls(walls))
+        let done = self.install_walls(t, change, |cpu| cpu.install_level_set_walls(walls));
+        if self.timing_now {
+            // the device's share of the walls (timed with them) as a part of its own
+            self.geometry_parts[4] += spent;
+            self.geometry_parts[1] = self.geometry_parts[1].saturating_sub(spent);
+        }
+        done
     }
 
     /// One fluid step (with the face fluxes recorded for method 2), only submitted: its

@@ -9,6 +9,7 @@ pub mod coupled;
 pub mod coupling;
 pub mod fdlb;
 pub mod fold_surface;
+pub mod ghost_wall;
 pub(crate) mod growing;
 pub mod lattice_gas;
 pub mod lattice_gas_codegen;

@@ -173,8 +173,156 @@ fn coupling_kernels_match_their_cpu_twins() {
     exchange("fsi_cylinder_conserving, one step's wall momenta", &set, &grid, &wall, factor, &cpu);
 }
 
+/// Method 2's ghost wall points on the device (shaders/ghost_wall.wgsl, f64) against their CPU
+/// twin `KernelLevelSet::ghost_wall`, on the ghosts of thick bodies (a disc of radius 6 cells
+/// and a ball of radius 4, particles 0.4 cells apart jittered by ±0.08, r_e = 1 cell: the coarse
+/// 3D glottis's kernel over a body many kernels thick, where Newton's steps, the search away
+/// from the body's mass and the search toward the fluid node all decide some ghosts) and of a
+/// thin one (a plate 0.8 cells thick). The kernel writes the CPU's operations in the CPU's
+/// order; only a driver's contraction of a product and a sum can part them, so each distance is
+/// held to the CPU's own definition of it, the searches' bracket width (1e-9 cells), and each
+/// normal to the same: a ghost whose wall came from another candidate (Newton's instead of a
+/// search's) would be off by far more.
+#[test]
+fn ghost_walls_on_the_device_match_the_cpu() {
+    use phonation::fluid::KernelLevelSet;
+    use phonation::gpu::ghost_wall::GhostWallKernel;
+    let Some(ctx) = context() else { return };
+    let Some(kernel) = GhostWallKernel::new(&ctx) else {
+        eprintln!("{}: no f64 in shaders, the ghost walls stay on the CPU", ctx.describe());
+        return;
+    };
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut rand = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    // particles 0.4 cells apart inside `inside` (relative to the centre), jittered
+    let mut body = |dim: usize, centre: [f64; 3], reach: f64, inside: &dyn Fn([f64; 3]) -> bool| {
+        let m = (reach / 0.4).ceil() as i64 + 1;
+        let mut pts = Vec::new();
+        for k in if dim == 3 { -m..=m } else { 0..=0 } {
+            for j in -m..=m {
+                for i in -m..=m {
+                    let x = [i as f64 * 0.4, j as f64 * 0.4, k as f64 * 0.4];
+                    if inside(x) {
+                        let jit = |r: f64| 0.16 * (r - 0.5);
+                        let z = if dim == 3 { centre[2] + x[2] + jit(rand()) } else { 0.0 };
+                        pts.push([centre[0] + x[0] + jit(rand()), centre[1] + x[1] + jit(rand()), z]);
+                    }
+                }
+            }
+        }
+        let n = pts.len();
+        let mut s = KernelLevelSet::new(pts, vec![[0.0; 3]; n], 1.0, 0.5, 0.0);
+        s.phi = 0.5 * s.level(centre).0;
+        s
+    };
+    // the lattice nodes inside with a node outside within two cells along an axis (±1 before
+    // ±2, x before y before z, as the layout picks it)
+    let ghosts = |s: &KernelLevelSet, dim: usize, c: [f64; 3], reach: f64| {
+        let pos = |x: [i64; 3]| [x[0] as f64, x[1] as f64, x[2] as f64];
+        let inside = |x: [i64; 3]| s.level(pos(x)).0 > 0.0;
+        let r = reach.ceil() as i64 + 2;
+        let mut out = Vec::new();
+        let zs = if dim == 3 { c[2] as i64 - r..=c[2] as i64 + r } else { 0..=0 };
+        for z in zs {
+            for y in c[1] as i64 - r..=c[1] as i64 + r {
+                for x in c[0] as i64 - r..=c[0] as i64 + r {
+                    let p = [x, y, z];
+                    if !inside(p) {
+                        continue;
+                    }
+                    let q = [1i64, 2].iter().find_map(|&d| {
+                        (0..dim).flat_map(|a| [-d, d].map(move |sh| (a, sh))).find_map(|(a, sh)| {
+                            let mut q = p;
+                            q[a] += sh;
+                            (!inside(q)).then_some(q)
+                        })
+                    });
+                    if let Some(q) = q {
+                        out.push((pos(p), pos(q)));
+                    }
+                }
+            }
+        }
+        out
+    };
+    let disc = body(2, [40.3, 37.6, 0.0], 6.0, &|x| x[0] * x[0] + x[1] * x[1] <= 36.0);
+    let ball = body(3, [30.2, 28.7, 26.1], 4.0, &|x| x[0] * x[0] + x[1] * x[1] + x[2] * x[2] <= 16.0);
+    let plate = body(2, [30.5, 20.2, 0.0], 12.0, &|x| x[0].abs() <= 12.0 && x[1].abs() <= 0.4);
+    for (label, set, dim, c, reach) in
+        [("disc", &disc, 2, [40.3, 37.6, 0.0], 6.0), ("ball", &ball, 3, [30.2, 28.7, 26.1], 4.0), ("plate", &plate, 2, [30.5, 20.2, 0.0], 12.0)]
+    {
+        let queries = ghosts(set, dim, c, reach);
+        let gpu = kernel.try_ghost_walls(set, &queries).expect("the device answers");
+        let (mut dd, mut dn, mut deep) = (0f64, 0f64, 0);
+        for (&(p, q), (d, n)) in queries.iter().zip(&gpu) {
+            let (dc, nc) = set.ghost_wall(p, q);
+            dd = dd.max((d - dc).abs());
+            dn = dn.max((0..3).map(|a| (n[a] - nc[a]).abs()).fold(0.0, f64::max));
+            deep += (dc < -1.0) as usize;
+            assert!(d.is_finite() && *d < 0.0, "{label}: a ghost at {p:?} is inside: {d}");
+        }
+        eprintln!("{label}: {} ghosts ({deep} deeper than a cell): distance {dd:.2e} cells, normal {dn:.2e}", queries.len());
+        assert!(queries.len() > 20, "{label}: {} ghosts", queries.len());
+        assert!(dd <= 1e-9 && dn <= 1e-9, "{label}: distance {dd:e}, normal {dn:e}");
+    }
+    let w = kernel.work();
+    assert_eq!((w.calls, w.failed), (3, 0));
+}
+
+/// The coupled step with method 2's ghost wall points found on the device builds the layout
+/// the CPU's ghost walls give, step by step: two runs of the small flap on the GPU, one with the
+/// walls on the device (the default where it has f64) and one with them on the CPU, over 30
+/// steps of the flap bending — the same node kinds, the same ghosts with the same image
+/// stencils' nodes, the ghosts' extrapolation ratios and wall velocities to the kernel's bound
+/// against its twin (1e-9, `ghost_walls_on_the_device_match_the_cpu`), every ghost of the
+/// flap's level set answered on the device (one call a step) and none of the other run's.
+#[test]
+fn a_coupled_step_with_ghost_walls_on_the_device_builds_the_cpus_layout() {
+    use phonation::gpu::coupled::GpuCoupled;
+    use phonation::scene::coupled::CoupledScene;
+    let sc = CoupledScene::parse(SMALL_FLAP).unwrap();
+    let Some(ctx) = context() else { return };
+    let mut dev = GpuCoupled::new(ctx, sc.build().unwrap()).unwrap();
+    if !dev.ghost_walls_on_device() {
+        eprintln!("no f64 in shaders: the ghost walls stay on the CPU");
+        return;
+    }
+    let mut host = GpuCoupled::new(context().unwrap(), sc.build().unwrap()).unwrap();
+    host.device_ghost_walls = false;
+    assert!(!host.ghost_walls_on_device());
+    let steps = 30;
+    let (mut ghosts, mut dr, mut dv) = (0, 0f64, 0f64);
+    for step in 0..steps {
+        dev.step().unwrap();
+        host.step().unwrap();
+        let (a, b) = (&dev.cpu.fluid.layout, &host.cpu.fluid.layout);
+        assert!(a.kind == b.kind, "step {step}: node kinds");
+        assert_eq!(a.ghosts.len(), b.ghosts.len(), "step {step}: ghosts");
+        for (g, h) in a.ghosts.iter().zip(&b.ghosts) {
+            assert_eq!(g.node, h.node, "step {step}: ghost nodes");
+            let nodes = |x: &phonation::fluid::layout::Ghost| x.image.iter().map(|t| t.0).collect::<Vec<_>>();
+            assert_eq!(nodes(g), nodes(h), "step {step}: the image stencil of ghost {}", g.node);
+            dr = dr.max((g.ratio - h.ratio).abs());
+            dv = dv.max((0..3).map(|k| (g.wall_velocity[k] - h.wall_velocity[k]).abs()).fold(0.0, f64::max));
+        }
+        ghosts += a.ghosts.len();
+    }
+    dev.check_fluid().unwrap();
+    let (w, none) = (dev.ghost_wall_work().unwrap(), host.ghost_wall_work().unwrap());
+    eprintln!("{steps} steps: {} ghost walls on the device in {} calls ({:?}); ratio {dr:.2e}, wall velocity {dv:.2e} c", w.ghosts, w.calls, w.time);
+    assert_eq!((w.calls, w.failed, none.calls), (steps, 0, 0));
+    assert!(w.ghosts > 0 && w.ghosts as usize <= ghosts, "{} of {ghosts} ghosts", w.ghosts);
+    assert!(dr <= 1e-9 && dv <= 1e-9, "ratio {dr:e}, wall velocity {dv:e}");
+}
+
 /// Method 2's coupled step on the GPU (`GpuCoupled`: fluid, face fluxes, momentum exchange and
-/// solid on the device; the level-set geometry built on the CPU each step) against the CPU
+/// solid on the device; the level-set geometry built on the CPU each step, its ghosts' wall
+/// points on the device where it has f64) against the CPU
 /// solver over 200 steps (5000 solid sub-steps) of a moving flap that uncovers and covers
 /// nodes. The geometry must agree exactly: the same nodes changed side. Bounds: the fluid alone
 /// carries 4e-5 to 6e-5 of f32 round-off after 200 steps and is held to 1e-4
