@@ -487,9 +487,9 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                             parts.join(", "),
                             v.gpu_device_objects_made
                         );
-                        if let Some(host) = v.gpu_steps_per_s_cpu_ghost_walls {
+                        if let Some(host) = v.gpu_steps_per_s_cpu_level_sets {
                             println!(
-                                "{:>30} ghost walls on the device: {:.2} steps/s against {host:.2} with them on the CPU ({:.2}×)",
+                                "{:>30} level sets on the device: {:.2} steps/s against {host:.2} with them on the CPU ({:.2}×)",
                                 "",
                                 v.gpu_steps_per_s,
                                 v.gpu_steps_per_s / host

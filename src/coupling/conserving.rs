@@ -266,9 +266,10 @@ impl CoupledSolver {
         self.next_level_set_walls_with(&crate::fluid::OnThePool)
     }
 
-    /// [`Self::next_level_set_walls`] with the ghosts' wall points found by `walls` (a device's
-    /// twin of [`KernelLevelSet::ghost_wall`], one call per body).
-    pub fn next_level_set_walls_with(&self, walls: &dyn crate::fluid::GhostWalls) -> Result<LevelSetWalls, Instability> {
+    /// [`Self::next_level_set_walls`] with the level sets' questions (the nodes' sides, the
+    /// ghosts' wall points) answered by `queries` (a device's twin, one call per body and
+    /// question: [`crate::fluid::LevelSetQueries`]).
+    pub fn next_level_set_walls_with(&self, queries: &dyn crate::fluid::LevelSetQueries) -> Result<LevelSetWalls, Instability> {
         let super::solver::Method::Conserving(o) = self.method else { panic!("level-set walls are method 2's") };
         let points: Vec<DVec3> = self.solid.particles.position.iter().map(|x| DVec3::from_array(self.to_lattice(*x))).collect();
         let ex = self.exchange.as_ref().expect("method 2 has its exchange state");
@@ -281,7 +282,7 @@ impl CoupledSolver {
         let sets: Vec<Arc<KernelLevelSet>> = self.level_sets().into_iter().map(Arc::new).collect();
         let mut all = self.obstacles.clone();
         all.extend(self.body_walls(sets.iter().cloned().map(Shape::KernelLevelSet)));
-        Ok(LevelSetWalls { layout: self.fluid.layout_with_walls(&all, walls), sets, points, change: Default::default() })
+        Ok(LevelSetWalls { layout: self.fluid.layout_with_level_sets(&all, queries), sets, points, change: Default::default() })
     }
 
     /// The second half of method 2's fluid_geometry stage: installs `walls` in the fluid

@@ -19,31 +19,6 @@
 use super::bracket::illinois;
 use super::geometry::norm as length;
 use super::kernel_level_set::{FLAT, KernelLevelSet};
-use super::layout::PAR_NODES;
-use rayon::prelude::*;
-
-/// A ghost node inside a kernel level set and the fluid node that makes it a ghost (lattice
-/// coordinates): what [`KernelLevelSet::ghost_wall`] is asked.
-pub type GhostQuery = ([f64; 3], [f64; 3]);
-
-/// Who finds the wall points of the ghost nodes inside a kernel level set: the layout
-/// ([`super::layout::Layout`]) asks for each set's ghosts at once, so that a backend can answer
-/// them all in one trip (the GPU's twin, `gpu::ghost_wall`). Each answer is
-/// [`KernelLevelSet::ghost_wall`]'s (signed distance, outward normal), to round-off.
-pub trait GhostWalls: Sync {
-    /// The wall of each of `queries` in `set`, in order.
-    fn ghost_walls(&self, set: &KernelLevelSet, queries: &[GhostQuery]) -> Vec<(f64, [f64; 3])>;
-}
-
-/// [`KernelLevelSet::ghost_wall`] on the pool's threads: the CPU's answer, bit for bit.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct OnThePool;
-
-impl GhostWalls for OnThePool {
-    fn ghost_walls(&self, set: &KernelLevelSet, queries: &[GhostQuery]) -> Vec<(f64, [f64; 3])> {
-        queries.par_iter().with_min_len(PAR_NODES / 8).map(|&(p, q)| set.ghost_wall(p, q)).collect()
-    }
-}
 
 /// Radius (cells) over which [`KernelLevelSet::mass_outward`] looks for the surface: beyond the
 /// two cells a ghost lies from the fluid.

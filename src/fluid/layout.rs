@@ -4,8 +4,8 @@
 
 use super::boundary::{Boundaries, Face, FaceCondition};
 use super::geometry::{Obstacle, Outside, Shape, dot};
-use super::ghost_wall::{GhostQuery, GhostWalls, OnThePool};
 use super::grid::{Grid, HALO};
+use super::level_set_queries::{GhostQuery, LevelSetQueries, OnThePool};
 use super::rebuild::Region;
 use super::thin_wall::{ThinTap, WallGeometry, thin_taps};
 use rayon::prelude::*;
@@ -150,14 +150,15 @@ impl Layout {
 
     /// [`Self::new`], or with `previous`: only the nodes of the region recomputed (it stays
     /// three cells clear of the periodic faces, and takes in the halo of any other face it
-    /// reaches), the rest copied. The wall points of ghosts inside kernel level sets come from
-    /// `ghost_walls`, one call per set ([`GhostWalls`]).
+    /// reaches), the rest copied. What the kernel level sets among the obstacles are asked — the
+    /// nodes' sides, the ghosts' wall points — `level_sets` answers, one call per set and
+    /// question ([`LevelSetQueries`]).
     pub(super) fn build(
         grid: Grid,
         boundaries: Boundaries,
         user_obstacles: &[Obstacle],
         previous: Option<(&Layout, Region)>,
-        ghost_walls: &dyn GhostWalls,
+        level_sets: &dyn LevelSetQueries,
     ) -> Self {
         let mut obstacles = Vec::new();
         for face in Face::ALL {
@@ -192,12 +193,47 @@ impl Layout {
         // `Shape::outside_distance_below` (one evaluation of a level set; a polygon's edges
         // within `PINCH` of the node); the depths, which a level
         // set finds by Newton steps, only where two obstacles contain the node.
-        let containing = |p: [f64; 3]| -> Option<usize> {
+        // the nodes recomputed: all, or the region's (the others keep their kinds, ghost
+        // entries and thin taps)
+        let todo: Vec<usize> = match previous {
+            None => (0..n).collect(),
+            Some((_, r)) => {
+                let mut v = Vec::new();
+                for z in r.lo[2]..=r.hi[2] {
+                    for y in r.lo[1]..=r.hi[1] {
+                        for x in r.lo[0]..=r.hi[0] {
+                            v.push(grid.index([x, y, z]));
+                        }
+                    }
+                }
+                v
+            }
+        };
+        let mut kind = match previous {
+            None => vec![NodeKind::Inactive; n],
+            Some((p, _)) => p.kind.clone(),
+        };
+        // each kernel level set's side of every recomputed node (`KernelLevelSet::outside_distance`:
+        // one evaluation of L, the sum stopped as soon as it is positive), asked of `level_sets`
+        // for all the nodes at once
+        let points: Vec<[f64; 3]> = todo.par_iter().with_min_len(PAR_NODES).map(|&idx| pos(grid.coords(idx))).collect();
+        let level_set_side: Vec<Option<Vec<Option<f64>>>> = obstacles
+            .iter()
+            .map(|o| match &o.shape {
+                Shape::KernelLevelSet(ls) => Some(level_sets.outside_distances(ls, &points)),
+                _ => None,
+            })
+            .collect();
+        let containing = |i: usize, p: [f64; 3]| -> Option<usize> {
             let mut inside: Option<usize> = None;
             let mut several = false;
             let mut near: [Option<(usize, f64)>; 2] = [None, None];
             for (k, o) in obstacles.iter().enumerate() {
-                match o.shape.outside_distance_below(p, PINCH) {
+                let side = match &level_set_side[k] {
+                    Some(d) => Outside::of(d[i], PINCH),
+                    None => o.shape.outside_distance_below(p, PINCH),
+                };
+                match side {
                     Outside::Inside => {
                         several |= inside.is_some();
                         inside = inside.or(Some(k));
@@ -226,30 +262,10 @@ impl Layout {
             inside.or(if near[1].is_some() { near[0].map(|(k, _)| k) } else { None })
         };
 
-        // the nodes recomputed: all, or the region's (the others keep their kinds, ghost
-        // entries and thin taps)
-        let todo: Vec<usize> = match previous {
-            None => (0..n).collect(),
-            Some((_, r)) => {
-                let mut v = Vec::new();
-                for z in r.lo[2]..=r.hi[2] {
-                    for y in r.lo[1]..=r.hi[1] {
-                        for x in r.lo[0]..=r.hi[0] {
-                            v.push(grid.index([x, y, z]));
-                        }
-                    }
-                }
-                v
-            }
-        };
-        let mut kind = match previous {
-            None => vec![NodeKind::Inactive; n],
-            Some((p, _)) => p.kind.clone(),
-        };
-        // which nodes lie in (or are pinched by) an obstacle: one level-set evaluation per node
-        // and obstacle, independent of the others, so evaluated on the pool's threads (in order:
-        // the same answers as one by one); kept for the ghosts below
-        let owner: Vec<Option<usize>> = todo.par_iter().with_min_len(PAR_NODES).map(|&idx| containing(pos(grid.coords(idx)))).collect();
+        // which nodes lie in (or are pinched by) an obstacle: independent of each other, so
+        // found on the pool's threads (in order: the same answers as one by one); kept for the
+        // ghosts below
+        let owner: Vec<Option<usize>> = points.par_iter().enumerate().with_min_len(PAR_NODES).map(|(i, &p)| containing(i, p)).collect();
         // each recomputed node's kind from its obstacle and its place (on the pool's threads)
         let side = |idx: usize, owner: &Option<usize>| -> NodeKind {
             if owner.is_some() {
@@ -315,7 +331,7 @@ impl Layout {
             .map(|(&idx, owner)| (idx, owner.expect("ghost is inside (or pinched by) a solid")))
             .collect();
         // a level set's wall point: the nearest of Newton's and two searches', one toward the
-        // fluid node that makes the node a ghost (`fluid::ghost_wall`), asked of `ghost_walls` one
+        // fluid node that makes the node a ghost (`fluid::ghost_wall`), asked of `level_sets` one
         // set at a time
         let mut level_set_wall: Vec<Option<(f64, [f64; 3])>> = vec![None; ghost_of.len()];
         for (k, o) in obstacles.iter().enumerate() {
@@ -330,7 +346,7 @@ impl Layout {
             if queries.is_empty() {
                 continue;
             }
-            for (i, w) in at.into_iter().zip(ghost_walls.ghost_walls(ls, &queries)) {
+            for (i, w) in at.into_iter().zip(level_sets.ghost_walls(ls, &queries)) {
                 level_set_wall[i] = Some(w);
             }
         }

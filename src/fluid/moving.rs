@@ -113,10 +113,10 @@ impl<S: Storage> FluidSolver<S> {
         self.layout.rebuilt(obstacles)
     }
 
-    /// [`Self::layout_with`], the wall points of ghosts inside kernel level sets found by
-    /// `walls` (a device's twin of [`super::KernelLevelSet::ghost_wall`]).
-    pub fn layout_with_walls(&self, obstacles: &[Obstacle], walls: &dyn super::GhostWalls) -> Layout {
-        self.layout.rebuilt_with(obstacles, walls)
+    /// [`Self::layout_with`], the questions of kernel level sets (the nodes' sides, the ghosts'
+    /// wall points) answered by `queries` (a device's twin, [`super::LevelSetQueries`]).
+    pub fn layout_with_level_sets(&self, obstacles: &[Obstacle], queries: &dyn super::LevelSetQueries) -> Layout {
+        self.layout.rebuilt_with(obstacles, queries)
     }
 
     /// Installs `new` (a layout of the same lattice, [`Self::layout_with`]) and initialises

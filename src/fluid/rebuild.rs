@@ -4,8 +4,8 @@
 
 use super::boundary::{Face, FaceCondition};
 use super::geometry::Obstacle;
-use super::ghost_wall::{GhostWalls, OnThePool};
 use super::layout::Layout;
+use super::level_set_queries::{LevelSetQueries, OnThePool};
 
 /// The interior nodes (inclusive box, interior coordinates) that [`Layout::rebuilt`] recomputes;
 /// every other node's kind, ghost entry and thin taps are copied from the previous layout.
@@ -50,9 +50,9 @@ impl Layout {
         self.rebuilt_with(user_obstacles, &OnThePool)
     }
 
-    /// [`Self::rebuilt`] with the wall points of ghosts inside kernel level sets from `walls`
-    /// (a device's twin of [`super::KernelLevelSet::ghost_wall`]).
-    pub fn rebuilt_with(&self, user_obstacles: &[Obstacle], walls: &dyn GhostWalls) -> Self {
+    /// [`Self::rebuilt`] with the questions of kernel level sets (the nodes' sides, the ghosts'
+    /// wall points) answered by `queries` (a device's twin, [`LevelSetQueries`]).
+    pub fn rebuilt_with(&self, user_obstacles: &[Obstacle], queries: &dyn LevelSetQueries) -> Self {
         match self.rebuild_plan(user_obstacles) {
             Rebuild::Same => {
                 let mut same = self.clone();
@@ -60,8 +60,8 @@ impl Layout {
                 same.obstacles.extend_from_slice(user_obstacles);
                 same
             }
-            Rebuild::Local(region) => Self::build(self.grid.clone(), self.boundaries.clone(), user_obstacles, Some((self, region)), walls),
-            Rebuild::Full => Self::build(self.grid.clone(), self.boundaries.clone(), user_obstacles, None, walls),
+            Rebuild::Local(region) => Self::build(self.grid.clone(), self.boundaries.clone(), user_obstacles, Some((self, region)), queries),
+            Rebuild::Full => Self::build(self.grid.clone(), self.boundaries.clone(), user_obstacles, None, queries),
         }
     }
 

@@ -256,10 +256,11 @@ pub struct CoupledGpuSpeed {
     /// Buffers and bind-group sets the timed GPU steps made for their per-step work
     /// ([`super::coupled::GpuCoupled::device_objects_made`]; 0 in the steady state).
     pub gpu_device_objects_made: u64,
-    /// Method 2 on a device with f64 in shaders: the GPU steps per second with the ghosts' wall
-    /// points found on the CPU instead ([`super::coupled::GpuCoupled::device_ghost_walls`] off),
-    /// timed in the same process after the run above; None where they are found on the CPU anyway.
-    pub gpu_steps_per_s_cpu_ghost_walls: Option<f64>,
+    /// Method 2 on a device with f64 in shaders: the GPU steps per second with the level sets'
+    /// questions (the nodes' sides, the ghosts' wall points) answered on the CPU instead
+    /// ([`super::coupled::GpuCoupled::device_level_sets`] off), timed in the same process after
+    /// the run above; None where they are answered on the CPU anyway.
+    pub gpu_steps_per_s_cpu_level_sets: Option<f64>,
 }
 
 /// Times `steps` coupled steps of the solver `build` makes, on the GPU (a device of its own,
@@ -284,10 +285,10 @@ pub fn coupled_speed(scene: &str, build: impl Fn() -> crate::coupling::CoupledSo
     if !(cpu_ok && gpu_ok) {
         return Err(GpuError::Failed(format!("{scene}: the coupled run went unstable within {steps} steps (cpu ok: {cpu_ok}, gpu ok: {gpu_ok})")));
     }
-    // the same steps with the ghosts' wall points on the CPU, where the device finds them
-    let cpu_ghost_walls = if g.ghost_walls_on_device() {
+    // the same steps with the level sets' questions answered on the CPU, where the device answers them
+    let cpu_level_sets = if g.level_sets_on_device() {
         let mut h = super::coupled::GpuCoupled::new(GpuContext::new()?, build())?;
-        h.device_ghost_walls = false;
+        h.device_level_sets = false;
         let warm = h.run(2).is_ok();
         let t = Instant::now();
         let ok = warm && h.run(steps).is_ok();
@@ -312,6 +313,6 @@ pub fn coupled_speed(scene: &str, build: impl Fn() -> crate::coupling::CoupledSo
         nodes_per_round_trip: (g.round_trip_nodes - trip_nodes) as f64 / (g.round_trips - trips).max(1) as f64,
         gpu_geometry_parts: g.geometry_part_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect(),
         gpu_device_objects_made: g.device_objects_made() - objects,
-        gpu_steps_per_s_cpu_ghost_walls: cpu_ghost_walls,
+        gpu_steps_per_s_cpu_level_sets: cpu_level_sets,
     })
 }

@@ -122,7 +122,8 @@ impl GpuContext {
             ..wgpu::Limits::default()
         };
         let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
-        // f64 in shaders where the adapter has it: method 2's ghost walls (`super::ghost_wall`)
+        // f64 in shaders where the adapter has it: method 2's level-set questions
+        // (`super::level_set_queries`)
         let required_features = adapter.features() & (wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::SHADER_F64);
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("phonation"),

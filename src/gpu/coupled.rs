@@ -6,7 +6,7 @@
 //!
 //! | stage | where it runs |
 //! |---|---|
-//! | `fluid_geometry` | the particles' positions and velocities come back (16 B each); the level sets' layout (ghost depths, normals, wall velocities, 2.124–2.126, 2.130) is built on the CPU ([`CoupledSolver::next_level_set_walls`]) — the ghosts' wall points, its costliest part, on the device where it has f64 ([`GhostWallKernel`], one trip per body) — and its tables uploaded ([`GpuFluid::set_geometry`]); on a step where nodes change side, the populations of the nodes the change reads (those that change side and the fresh ones' neighbours, [`LayoutChange::reads`]) come back by the `gather` kernel so that covered nodes book their momentum and fresh ones take their neighbours' mean on the CPU, and the fresh nodes go up by the `scatter` kernel ([`GpuCoupled::round_trips`], [`GpuCoupled::round_trip_nodes`] count them) |
+//! | `fluid_geometry` | the particles' positions and velocities come back (16 B each); the level sets' layout (ghost depths, normals, wall velocities, 2.124–2.126, 2.130) is built on the CPU ([`CoupledSolver::next_level_set_walls`]) — its costliest parts, the nodes' sides and the ghosts' wall points, answered on the device where it has f64 ([`LevelSetKernels`], one trip per body and question) — and its tables uploaded ([`GpuFluid::set_geometry`]); on a step where nodes change side, the populations of the nodes the change reads (those that change side and the fresh ones' neighbours, [`LayoutChange::reads`]) come back by the `gather` kernel so that covered nodes book their momentum and fresh ones take their neighbours' mean on the CPU, and the fresh nodes go up by the `scatter` kernel ([`GpuCoupled::round_trips`], [`GpuCoupled::round_trip_nodes`] count them) |
 //! | `fluid` | one FDLB step on the GPU with the walls' face fluxes recorded after each advection (2.122–2.123, [`GpuFluid::record_face_fluxes`]) |
 //! | `momentum_exchange` | the geometry stage's node changes (a short list, on steps where nodes change side) added to the face-flux record on the device; each wall node's momentum handed to the particles within r_e with normalised kernel weights (2.127–2.128) by the gather kernels of [`CouplingKernels::hand_over`] (deterministic, no atomics), the record cleared there; only the particles' forces come back, as their loads, with the exchange's run sums per workgroup |
 //! | `solid` | the solid's sub-steps on the GPU ([`GpuSolid`]) with those loads and the air's added mass (2.129) |
@@ -48,7 +48,7 @@
 use super::context::{GpuContext, GpuError};
 use super::coupling::CouplingKernels;
 use super::fdlb::GpuFluid;
-use super::ghost_wall::GhostWallKernel;
+use super::level_set_queries::LevelSetKernels;
 use super::solid::GpuSolid;
 use crate::coupling::{CoupledSolver, Method, WeakOptions};
 use crate::fluid::LayoutChange;
@@ -65,10 +65,10 @@ pub const TIMING_EVERY: u64 = 16;
 /// step before), the walls built on the CPU (level sets or polygons, the layout near the bodies),
 /// the populations of the nodes that change side across the bus (steps with changes only), and
 /// the boundary tables made from the layout and written to the device; and (method 2), of the
-/// walls, the ghosts' wall points found on the device ([`GhostWallKernel`]: the upload, the
+/// walls, the level sets' questions answered on the device ([`LevelSetKernels`]: the uploads, the
 /// kernel and the read back), not counted in the second part.
 pub const GEOMETRY_PARTS: [&str; 5] =
-    ["particles back", "walls built on the CPU", "changed nodes across the bus", "tables written", "ghost walls on the device"];
+    ["particles back", "walls built on the CPU", "changed nodes across the bus", "tables written", "level-set questions on the device"];
 
 /// Fluid and solid of a coupled scene on the GPU (either coupling method).
 pub struct GpuCoupled {
@@ -113,12 +113,13 @@ pub struct GpuCoupled {
     /// Wall time of each of [`GEOMETRY_PARTS`] over the timed steps (a part of the
     /// `fluid_geometry` entry of [`Self::timings`]).
     pub geometry_parts: [Duration; 5],
-    /// Method 2's ghost wall points on the device, where it has f64 in shaders.
-    ghost_walls: Option<GhostWallKernel>,
-    /// Whether method 2's ghost wall points are found on the device (when it can: see
-    /// [`Self::ghost_walls_on_device`]); true by default, false to find them on the CPU as the
-    /// CPU backend does (tests compare the two).
-    pub device_ghost_walls: bool,
+    /// Method 2's level-set questions (the nodes' sides, the ghosts' wall points) answered on
+    /// the device, where it has f64 in shaders.
+    level_sets: Option<LevelSetKernels>,
+    /// Whether method 2's level-set questions (the nodes' sides, the ghosts' wall points) are
+    /// answered on the device (when it can: see [`Self::level_sets_on_device`]); true by
+    /// default, false to answer them on the CPU as the CPU backend does (tests compare the two).
+    pub device_level_sets: bool,
     /// Whether the step under way is one of the timed ones.
     timing_now: bool,
 }
@@ -134,7 +135,7 @@ impl GpuCoupled {
         }
         let solid = GpuSolid::from_solver(&ctx, &mut cpu.solid)?;
         let kernels = CouplingKernels::new(&ctx);
-        let ghost_walls = matches!(cpu.method, Method::Conserving(_)).then(|| GhostWallKernel::new(&ctx)).flatten();
+        let level_sets = matches!(cpu.method, Method::Conserving(_)).then(|| LevelSetKernels::new(&ctx)).flatten();
         let timings = vec![Duration::ZERO; cpu.stages().len()];
         let prescribed = {
             let p = &cpu.solid.particles;
@@ -158,8 +159,8 @@ impl GpuCoupled {
             forces_stale: false,
             fluid_unchecked: None,
             geometry_parts: [Duration::ZERO; 5],
-            ghost_walls,
-            device_ghost_walls: true,
+            level_sets,
+            device_level_sets: true,
             timing_now: false,
         })
     }
@@ -264,19 +265,19 @@ impl GpuCoupled {
             + self.fluid.step_objects_made()
             + self.kernels.objects_made()
             + self.solid.readback_buffers_made()
-            + self.ghost_walls.as_ref().map_or(0, GhostWallKernel::objects_made)
+            + self.level_sets.as_ref().map_or(0, LevelSetKernels::objects_made)
     }
 
-    /// Whether method 2's ghost wall points are found on the device: a method-2 scene on a
-    /// device with f64 in shaders, unless [`Self::device_ghost_walls`] is off.
-    pub fn ghost_walls_on_device(&self) -> bool {
-        self.ghost_walls.is_some() && self.device_ghost_walls
+    /// Whether method 2's level-set questions are answered on the device: a method-2 scene on
+    /// a device with f64 in shaders, unless [`Self::device_level_sets`] is off.
+    pub fn level_sets_on_device(&self) -> bool {
+        self.level_sets.is_some() && self.device_level_sets
     }
 
-    /// What finding the ghost wall points on the device has cost so far (None where they are
-    /// found on the CPU).
-    pub fn ghost_wall_work(&self) -> Option<super::ghost_wall::GhostWallWork> {
-        self.ghost_walls.as_ref().map(GhostWallKernel::work)
+    /// What answering the level-set questions on the device has cost so far (None where they
+    /// are answered on the CPU).
+    pub fn level_set_work(&self) -> Option<super::level_set_queries::LevelSetWork> {
+        self.level_sets.as_ref().map(LevelSetKernels::work)
     }
 
     /// Adds the time since `t0` to geometry part `k` on a timed step, and returns now.
@@ -470,7 +471,7 @@ impl GpuCoupled {
         let t = Instant::now();
         self.download_particles(false)?;
         let t = self.time_part(0, t);
-        let device = self.ghost_walls.as_ref().filter(|_| self.device_ghost_walls);
+        let device = self.level_sets.as_ref().filter(|_| self.device_level_sets);
         let on_device = device.map_or(Duration::ZERO, |k| k.work().time);
         let walls = match device {
             Some(k) => self.cpu.next_level_set_walls_with(k)?,

@@ -173,8 +173,10 @@ fn coupling_kernels_match_their_cpu_twins() {
     exchange("fsi_cylinder_conserving, one step's wall momenta", &set, &grid, &wall, factor, &cpu);
 }
 
-/// Method 2's ghost wall points on the device (shaders/ghost_wall.wgsl, f64) against their CPU
-/// twin `KernelLevelSet::ghost_wall`, on the ghosts of thick bodies (a disc of radius 6 cells
+/// Method 2's level-set questions on the device (shaders/level_set_queries.wgsl, f64) against
+/// their CPU twins: each node's side and distance (`KernelLevelSet::outside_distance`) on every
+/// node of a box around the body reaching past its bins, and each ghost's wall point
+/// (`KernelLevelSet::ghost_wall`), on the ghosts of thick bodies (a disc of radius 6 cells
 /// and a ball of radius 4, particles 0.4 cells apart jittered by ±0.08, r_e = 1 cell: the coarse
 /// 3D glottis's kernel over a body many kernels thick, where Newton's steps, the search away
 /// from the body's mass and the search toward the fluid node all decide some ghosts) and of a
@@ -182,14 +184,15 @@ fn coupling_kernels_match_their_cpu_twins() {
 /// order; only a driver's contraction of a product and a sum can part them, so each distance is
 /// held to the CPU's own definition of it, the searches' bracket width (1e-9 cells), and each
 /// normal to the same: a ghost whose wall came from another candidate (Newton's instead of a
-/// search's) would be off by far more.
+/// search's) would be off by far more. Every node must fall on the CPU's side, and its distance
+/// (one sum, −L/|∇L|) agree to 1e-12 of itself.
 #[test]
-fn ghost_walls_on_the_device_match_the_cpu() {
+fn level_set_queries_on_the_device_match_the_cpu() {
     use phonation::fluid::KernelLevelSet;
-    use phonation::gpu::ghost_wall::GhostWallKernel;
+    use phonation::gpu::level_set_queries::LevelSetKernels;
     let Some(ctx) = context() else { return };
-    let Some(kernel) = GhostWallKernel::new(&ctx) else {
-        eprintln!("{}: no f64 in shaders, the ghost walls stay on the CPU", ctx.describe());
+    let Some(kernel) = LevelSetKernels::new(&ctx) else {
+        eprintln!("{}: no f64 in shaders, the level sets' questions stay on the CPU", ctx.describe());
         return;
     };
     let mut state = 0x9e37_79b9_7f4a_7c15u64;
@@ -256,6 +259,27 @@ fn ghost_walls_on_the_device_match_the_cpu() {
     for (label, set, dim, c, reach) in
         [("disc", &disc, 2, [40.3, 37.6, 0.0], 6.0), ("ball", &ball, 3, [30.2, 28.7, 26.1], 4.0), ("plate", &plate, 2, [30.5, 20.2, 0.0], 12.0)]
     {
+        // every node of the box of the ghosts' search, 2 cells wider than the body's bins
+        let r = f64::ceil(reach) as i64 + 4;
+        let zs = if dim == 3 { c[2] as i64 - r..=c[2] as i64 + r } else { 0..=0 };
+        let nodes: Vec<[f64; 3]> = zs
+            .flat_map(|z| {
+                (c[1] as i64 - r..=c[1] as i64 + r).flat_map(move |y| (c[0] as i64 - r..=c[0] as i64 + r).map(move |x| [x as f64, y as f64, z as f64]))
+            })
+            .collect();
+        let sides = kernel.try_outside_distances(set, &nodes).expect("the device answers");
+        let (mut inside, mut dside) = (0, 0f64);
+        for (p, d) in nodes.iter().zip(&sides) {
+            let cpu = set.outside_distance(*p);
+            assert_eq!(d.is_none(), cpu.is_none(), "{label}: the side of {p:?}");
+            inside += d.is_none() as usize;
+            if let (Some(a), Some(b)) = (d, cpu) {
+                dside = dside.max((a - b).abs() / b.abs().max(1.0));
+            }
+        }
+        eprintln!("{label}: {} nodes ({inside} inside): distance {dside:.2e} of itself", nodes.len());
+        assert!(inside > 20 && inside < nodes.len() / 2, "{label}: {inside} of {} nodes inside", nodes.len());
+        assert!(dside <= 1e-12, "{label}: outside distance {dside:e}");
         let queries = ghosts(set, dim, c, reach);
         let gpu = kernel.try_ghost_walls(set, &queries).expect("the device answers");
         let (mut dd, mut dn, mut deep) = (0f64, 0f64, 0);
@@ -271,30 +295,30 @@ fn ghost_walls_on_the_device_match_the_cpu() {
         assert!(dd <= 1e-9 && dn <= 1e-9, "{label}: distance {dd:e}, normal {dn:e}");
     }
     let w = kernel.work();
-    assert_eq!((w.calls, w.failed), (3, 0));
+    assert_eq!((w.calls, w.failed), (6, 0));
 }
 
-/// The coupled step with method 2's ghost wall points found on the device builds the layout
-/// the CPU's ghost walls give, step by step: two runs of the small flap on the GPU, one with the
-/// walls on the device (the default where it has f64) and one with them on the CPU, over 30
-/// steps of the flap bending — the same node kinds, the same ghosts with the same image
-/// stencils' nodes, the ghosts' extrapolation ratios and wall velocities to the kernel's bound
-/// against its twin (1e-9, `ghost_walls_on_the_device_match_the_cpu`), every ghost of the
-/// flap's level set answered on the device (one call a step) and none of the other run's.
+/// The coupled step with method 2's level-set questions answered on the device builds the
+/// layout the CPU's answers give, step by step: two runs of the small flap on the GPU, one with
+/// the questions on the device (the default where it has f64) and one with them on the CPU, over
+/// 30 steps of the flap bending — the same node kinds, the same ghosts with the same image
+/// stencils' nodes, the ghosts' extrapolation ratios and wall velocities to the kernels' bound
+/// against their twins (1e-9, `level_set_queries_on_the_device_match_the_cpu`), both questions
+/// of the flap's level set answered on the device (two calls a step) and none of the other run's.
 #[test]
-fn a_coupled_step_with_ghost_walls_on_the_device_builds_the_cpus_layout() {
+fn a_coupled_step_with_level_sets_on_the_device_builds_the_cpus_layout() {
     use phonation::gpu::coupled::GpuCoupled;
     use phonation::scene::coupled::CoupledScene;
     let sc = CoupledScene::parse(SMALL_FLAP).unwrap();
     let Some(ctx) = context() else { return };
     let mut dev = GpuCoupled::new(ctx, sc.build().unwrap()).unwrap();
-    if !dev.ghost_walls_on_device() {
-        eprintln!("no f64 in shaders: the ghost walls stay on the CPU");
+    if !dev.level_sets_on_device() {
+        eprintln!("no f64 in shaders: the level sets' questions stay on the CPU");
         return;
     }
     let mut host = GpuCoupled::new(context().unwrap(), sc.build().unwrap()).unwrap();
-    host.device_ghost_walls = false;
-    assert!(!host.ghost_walls_on_device());
+    host.device_level_sets = false;
+    assert!(!host.level_sets_on_device());
     let steps = 30;
     let (mut ghosts, mut dr, mut dv) = (0, 0f64, 0f64);
     for step in 0..steps {
@@ -313,10 +337,13 @@ fn a_coupled_step_with_ghost_walls_on_the_device_builds_the_cpus_layout() {
         ghosts += a.ghosts.len();
     }
     dev.check_fluid().unwrap();
-    let (w, none) = (dev.ghost_wall_work().unwrap(), host.ghost_wall_work().unwrap());
-    eprintln!("{steps} steps: {} ghost walls on the device in {} calls ({:?}); ratio {dr:.2e}, wall velocity {dv:.2e} c", w.ghosts, w.calls, w.time);
-    assert_eq!((w.calls, w.failed, none.calls), (steps, 0, 0));
-    assert!(w.ghosts > 0 && w.ghosts as usize <= ghosts, "{} of {ghosts} ghosts", w.ghosts);
+    let (w, none) = (dev.level_set_work().unwrap(), host.level_set_work().unwrap());
+    eprintln!(
+        "{steps} steps: {} nodes and ghosts answered on the device in {} calls ({:?}); ratio {dr:.2e}, wall velocity {dv:.2e} c",
+        w.queries, w.calls, w.time
+    );
+    assert_eq!((w.calls, w.failed, none.calls), (2 * steps, 0, 0));
+    assert!(w.queries as usize > ghosts, "{} queries, {ghosts} ghosts", w.queries);
     assert!(dr <= 1e-9 && dv <= 1e-9, "ratio {dr:e}, wall velocity {dv:e}");
 }
 

@@ -1,11 +1,12 @@
-// The wall point of each ghost node inside a kernel level set (seed 000 §2.4.2, 2.124–2.126), in
-// f64 (the device's SHADER_F64): the GPU twin of src/fluid/ghost_wall.rs
-// (`KernelLevelSet::ghost_wall`), with the level set's sums (`sums`), Newton's depth (`depth`),
-// the direction away from the body's mass (`mass_outward`) and the bracketed searches
-// (`first_crossing`, src/fluid/bracket.rs `illinois`) written operation for operation as the CPU
-// writes them, so that the two agree to round-off: a ghost's image stencil switches where its
-// image point crosses a cell face, and an f32 wall point would switch stencils the CPU does not.
-// One thread per ghost, a gather over the CPU twin's bins of side r_e (CSR: bin b holds the
+// What the layout asks of a body's kernel level set (seed 000 §2.4.2, 2.124–2.126), in f64 (the
+// device's SHADER_F64): GPU twins of src/fluid/kernel_level_set.rs `outside_distance` (each
+// node's side of the wall) and src/fluid/ghost_wall.rs `KernelLevelSet::ghost_wall` (each ghost
+// node's wall point), with the level set's sums (`sums`), Newton's depth (`depth`), the direction
+// away from the body's mass (`mass_outward`) and the bracketed searches (`first_crossing`,
+// src/fluid/bracket.rs `illinois`) written operation for operation as the CPU writes them, so that
+// the two agree to round-off: a node's side, and a ghost's image stencil where its image point
+// crosses a cell face, switch at a threshold, and f32 would switch some that the CPU does not.
+// One thread per query, a gather over the CPU twin's bins of side r_e (CSR: bin b holds the
 // bin-ordered points sorted[start[b] .. start[b + 1]], the order in which the CPU sums them).
 // Lattice coordinates (cells).
 
@@ -19,7 +20,7 @@ struct Params {
     _pad0: f64,
     // bins per axis, .w number of points
     bins: vec4<u32>,
-    // ghosts
+    // queries (points or ghosts)
     count: u32,
     _pad1: u32,
     _pad2: u32,
@@ -32,10 +33,12 @@ struct Params {
 @group(0) @binding(2) var<storage, read> bin_start: array<u32>;
 // per bin the sum of its points' coordinates and their number
 @group(0) @binding(3) var<storage, read> bin_sums: array<f64>;
-// per ghost: the node (3) and the fluid node that makes it a ghost (3)
+// outside_distance: the points (3 each); ghost_wall: per ghost the node (3) and the fluid node
+// that makes it a ghost (3)
 @group(0) @binding(4) var<storage, read> queries: array<f64>;
-// per ghost: the signed distance to the wall (negative inside) and the outward normal
-@group(0) @binding(5) var<storage, read_write> walls: array<f64>;
+// outside_distance: per point the distance, or INSIDE; ghost_wall: per ghost the signed distance
+// to the wall (negative inside) and the outward normal
+@group(0) @binding(5) var<storage, read_write> answers: array<f64>;
 
 // Smallest |∇L| in −L/|∇L| (kernel_level_set.rs `FLAT`).
 const FLAT: f64 = 1e-6;
@@ -49,6 +52,8 @@ const NEWTON_TIE: f64 = 1e-6;
 const NO_CUTOFF: f64 = 1e300;
 // f64::MIN_POSITIVE: a depth of 0 inside, so that the sign tells inside from outside
 const MIN_POSITIVE: f64 = 2.2250738585072014e-308;
+// outside_distance's answer for a point inside (L > 0): every distance outside is ≥ 0
+const INSIDE: f64 = -1.0;
 
 // sqrt(a·a) with the CPU's order of the sum (geometry.rs `norm`)
 fn norm(a: vec3<f64>) -> f64 {
@@ -60,10 +65,11 @@ fn cell_of(p: vec3<f64>) -> vec3<i32> {
 }
 
 // L at p, with ∇L when `gradient` (else zero): kernel_level_set.rs `sums`, the 3ᴰ bins around p
-// as rows along x in z then y order.
+// as rows along x in z then y order. With `stop_inside`, the sum so far as soon as it is positive
+// after a row (every term is ≥ 0, so the whole sum would be positive too: the point is inside).
 struct Level { l: f64, g: vec3<f64> };
 
-fn sums(p: vec3<f64>, gradient: bool) -> Level {
+fn sums(p: vec3<f64>, gradient: bool, stop_inside: bool) -> Level {
     var s = Level(-P.phi, vec3<f64>(0.0));
     let far = P.re * P.re * (1.0 + 1e-12);
     if (any(p < P.lo.xyz) || any(p > P.hi.xyz)) {
@@ -89,6 +95,9 @@ fn sums(p: vec3<f64>, gradient: bool) -> Level {
                     s.g = vec3<f64>(s.g.x + kk * d.x, s.g.y + kk * d.y, s.g.z + kk * d.z);
                 }
             }
+            if (stop_inside && s.l > 0.0) {
+                return s;
+            }
         }
     }
     return s;
@@ -110,7 +119,7 @@ fn depth(p: vec3<f64>, at_p: Level) -> f64 {
     var last = NO_CUTOFF;
     for (var k = 0; k < NEWTON_STEPS; k = k + 1) {
         var s = at_p;
-        if (k > 0) { s = sums(x, true); }
+        if (k > 0) { s = sums(x, true, false); }
         let g2 = s.g.x * s.g.x + s.g.y * s.g.y + s.g.z * s.g.z;
         if (g2 < FLAT * FLAT || !(abs(s.l) < last)) {
             return -1.0;
@@ -162,7 +171,7 @@ fn mass_outward(p: vec3<f64>, radius: f64) -> vec3<f64> {
 }
 
 fn level_along(p: vec3<f64>, dir: vec3<f64>, t: f64) -> f64 {
-    return sums(vec3<f64>(p.x + t * dir.x, p.y + t * dir.y, p.z + t * dir.z), false).l;
+    return sums(vec3<f64>(p.x + t * dir.x, p.y + t * dir.y, p.z + t * dir.z), false, false).l;
 }
 
 // Where L first falls to 0 or below along `dir` from p (L = l_p > 0 there), bracketed by the
@@ -214,7 +223,7 @@ fn ghost_wall(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     let q = 6u * t;
     let p = vec3<f64>(queries[q], queries[q + 1u], queries[q + 2u]);
     let outside = vec3<f64>(queries[q + 3u], queries[q + 4u], queries[q + 5u]);
-    let at_p = sums(p, true);
+    let at_p = sums(p, true, false);
     var d: f64;
     var n: vec3<f64>;
     if (!(at_p.l > 0.0)) {
@@ -248,8 +257,22 @@ fn ghost_wall(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         n = best_n;
     }
     let o = 4u * t;
-    walls[o] = d;
-    walls[o + 1u] = n.x;
-    walls[o + 2u] = n.y;
-    walls[o + 3u] = n.z;
+    answers[o] = d;
+    answers[o + 1u] = n.x;
+    answers[o + 2u] = n.y;
+    answers[o + 3u] = n.z;
+}
+
+// KernelLevelSet::outside_distance: −L/|∇L| (|∇L| at least FLAT) at each point outside (L ≤ 0),
+// INSIDE where L > 0.
+@compute @workgroup_size(64)
+fn outside_distance(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let t = gid.x + gid.y * nwg.x * 64u;
+    if (t >= P.count) { return; }
+    let s = sums(vec3<f64>(queries[3u * t], queries[3u * t + 1u], queries[3u * t + 2u]), true, true);
+    if (s.l > 0.0) {
+        answers[t] = INSIDE;
+    } else {
+        answers[t] = -s.l / max(norm(s.g), FLAT);
+    }
 }

@@ -1,0 +1,284 @@
+//! What the layout asks of a body's kernel level set, answered on the device
+//! (shaders/level_set_queries.wgsl, f64): each node's side of the wall (the GPU twin of
+//! [`KernelLevelSet::outside_distance`]) and each ghost node's wall point (of
+//! [`KernelLevelSet::ghost_wall`], 2.124–2.126: Newton's steps along ∇L and two bracketed
+//! searches for the zero contour) — most of method 2's per-step geometry on the CPU
+//! (`glottis_3d_coarse`: 6 and 16.7 ms of a 34 ms stage on two cores). The layout asks each
+//! question once per body and step ([`LevelSetQueries`]); each call uploads the body's
+//! bin-ordered points, bin starts and bin sums with the queries and reads the answers back (one
+//! wait).
+//!
+//! In f64 because a node's side and a ghost's image stencil switch at a threshold (the stencil
+//! where the image point crosses a cell face): answers to f32 round-off (~10⁻⁵ cells) would
+//! switch some that the CPU does not, and the switches, not round-off, set how far two runs part
+//! (a towed disc: 5·10⁻² in the populations). The kernels write the CPU's operations in the CPU's
+//! order; drivers may still contract a product and a sum, so the two agree to round-off, not bit
+//! for bit (tests `level_set_queries_on_the_device_match_the_cpu` and
+//! `a_coupled_step_with_level_sets_on_the_device_builds_the_cpus_layout` in
+//! tests/gpu/coupling.rs). A device without SHADER_F64 (Metal; a device Bevy opened without it)
+//! has no kernels: [`LevelSetKernels::new`] says None and the questions stay on the CPU.
+
+use super::context::{GpuContext, buffer_layout, compute_pipelines, dispatch_grid, try_read_parts_into};
+use super::growing::GrowingBuffer;
+use crate::fluid::{GhostQuery, KernelLevelSet, LevelSetQueries, OnThePool};
+use bytemuck::{Pod, Zeroable};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+const SHADER: &str = include_str!("../../shaders/level_set_queries.wgsl");
+
+/// The kernel's uniform (`Params` in the shader).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct Params {
+    lo: [f64; 4],
+    hi: [f64; 4],
+    re: f64,
+    r_min: f64,
+    phi: f64,
+    _pad0: f64,
+    bins: [u32; 4],
+    count: u32,
+    _pad1: u32,
+    _pad2: u32,
+    _pad3: u32,
+}
+
+/// The `outside_distance` kernel's answer for a point inside (`INSIDE` in the shader): every
+/// distance outside is ≥ 0 (or NaN where the CPU's is).
+const INSIDE: f64 = -1.0;
+
+/// Storage bindings after the uniform: the bin-ordered points, the bins' starts, the bins' sums,
+/// the queries, the walls.
+const BINDINGS: usize = 5;
+
+/// The buffers the calls reuse (rewritten per call, remade only when a call outgrows them) and
+/// the bind group over them.
+struct Buffers {
+    params: wgpu::Buffer,
+    data: Vec<GrowingBuffer>,
+    staging: GrowingBuffer,
+    group: Option<(wgpu::BindGroup, Vec<wgpu::Buffer>)>,
+    groups_made: u64,
+}
+
+/// What the kernels' calls have cost so far.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LevelSetWork {
+    /// Calls (one per body, question and step).
+    pub calls: u64,
+    /// Points and ghosts answered on the device.
+    pub queries: u64,
+    /// Wall time of the calls: the uploads, the kernel and the read back.
+    pub time: Duration,
+    /// Calls whose read failed, answered on the CPU instead.
+    pub failed: u64,
+}
+
+/// One kernel of shaders/level_set_queries.wgsl.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kernel {
+    OutsideDistance,
+    GhostWall,
+}
+
+impl Kernel {
+    const ALL: [Kernel; 2] = [Kernel::OutsideDistance, Kernel::GhostWall];
+    fn entry(self) -> &'static str {
+        match self {
+            Kernel::OutsideDistance => "outside_distance",
+            Kernel::GhostWall => "ghost_wall",
+        }
+    }
+}
+
+/// The compiled kernels and their buffers.
+pub struct LevelSetKernels {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    pipelines: [wgpu::ComputePipeline; 2],
+    layout: wgpu::BindGroupLayout,
+    buffers: Mutex<Option<Buffers>>,
+    work: Mutex<LevelSetWork>,
+}
+
+impl LevelSetKernels {
+    /// The kernels on `ctx`'s device, or None when the device has no f64 in shaders
+    /// (`wgpu::Features::SHADER_F64`).
+    pub fn new(ctx: &GpuContext) -> Option<Self> {
+        if !ctx.device.features().contains(wgpu::Features::SHADER_F64) {
+            return None;
+        }
+        let device = &ctx.device;
+        let module =
+            device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("level set queries"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
+        let kinds = [(true, true), (false, true), (false, true), (false, true), (false, true), (false, false)];
+        let layout = buffer_layout(device, "level set queries", &kinds);
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("level set queries"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let mut map = compute_pipelines(device, &module, &pl, &Kernel::ALL.map(Kernel::entry));
+        let pipelines = Kernel::ALL.map(|k| map.remove(k.entry()).expect("one pipeline per entry point"));
+        Some(LevelSetKernels {
+            device: ctx.device.clone(),
+            queue: ctx.queue.clone(),
+            pipelines,
+            layout,
+            buffers: Mutex::new(None),
+            work: Mutex::new(LevelSetWork::default()),
+        })
+    }
+
+    /// What the calls have cost so far.
+    pub fn work(&self) -> LevelSetWork {
+        *self.work.lock().expect("the work's lock")
+    }
+
+    /// Buffers and bind groups the calls have made so far: the same after a call means the
+    /// call made none.
+    pub fn objects_made(&self) -> u64 {
+        let b = self.buffers.lock().expect("the buffers' lock");
+        b.as_ref().map_or(0, |b| 1 + b.staging.made() + b.groups_made + b.data.iter().map(GrowingBuffer::made).sum::<u64>())
+    }
+
+    /// [`KernelLevelSet::outside_distance`] at each of `points` to round-off (None inside); None
+    /// when the read failed. The points outside the set's bin box (where no particle is within
+    /// r_e, so L = −φ) are answered here, by the set itself.
+    pub fn try_outside_distances(&self, set: &KernelLevelSet, points: &[[f64; 3]]) -> Option<Vec<Option<f64>>> {
+        let (lo, hi, _) = set.bin_box();
+        let near: Vec<usize> = (0..points.len()).filter(|&i| (0..3).all(|a| points[i][a] >= lo[a] && points[i][a] <= hi[a])).collect();
+        let q: Vec<f64> = near.iter().flat_map(|&i| points[i]).collect();
+        let bytes = self.run(set, Kernel::OutsideDistance, &q, near.len(), 8)?;
+        // the read's bytes need not be aligned for f64
+        let d: Vec<f64> = bytemuck::pod_collect_to_vec(&bytes);
+        let mut out: Vec<Option<f64>> = vec![None; points.len()];
+        let mut on_device = vec![false; points.len()];
+        for (&i, &d) in near.iter().zip(&d) {
+            out[i] = (d != INSIDE).then_some(d);
+            on_device[i] = true;
+        }
+        for (i, o) in out.iter_mut().enumerate() {
+            if !on_device[i] {
+                *o = set.outside_distance(points[i]);
+            }
+        }
+        Some(out)
+    }
+
+    /// The wall of each of `queries` in `set` (signed distance in cells, outward normal), as
+    /// [`KernelLevelSet::ghost_wall`] gives them to round-off; None when the read failed.
+    pub fn try_ghost_walls(&self, set: &KernelLevelSet, queries: &[GhostQuery]) -> Option<Vec<(f64, [f64; 3])>> {
+        let q: Vec<f64> = queries.iter().flat_map(|(a, b)| a.iter().chain(b).copied()).collect();
+        let bytes = self.run(set, Kernel::GhostWall, &q, queries.len(), 32)?;
+        let w: Vec<f64> = bytemuck::pod_collect_to_vec(&bytes);
+        Some(w.chunks_exact(4).map(|c| (c[0], [c[1], c[2], c[3]])).collect())
+    }
+
+    /// Runs `kernel` over `count` queries (`q`, their coordinates) of `set` and reads back
+    /// `answer` bytes for each; None when the read failed.
+    fn run(&self, set: &KernelLevelSet, kernel: Kernel, q: &[f64], count: usize, answer: u64) -> Option<Vec<u8>> {
+        if count == 0 {
+            return Some(Vec::new());
+        }
+        let (device, queue) = (&self.device, &self.queue);
+        let (lo, hi, bins) = set.bin_box();
+        let (start, _) = set.bin_lists();
+        let (sorted, sums) = set.binned_points();
+        let p = Params {
+            lo: [lo[0], lo[1], lo[2], 0.0],
+            hi: [hi[0], hi[1], hi[2], 0.0],
+            re: set.re,
+            r_min: set.r_min,
+            phi: set.phi,
+            bins: [bins[0] as u32, bins[1] as u32, bins[2] as u32, set.points.len() as u32],
+            count: u32::try_from(count).expect("fewer than 2³² queries"),
+            ..Default::default()
+        };
+        let out_bytes = answer * count as u64;
+        let inputs: [&[u8]; 4] = [bytemuck::cast_slice(sorted), bytemuck::cast_slice(start), bytemuck::cast_slice(sums), bytemuck::cast_slice(q)];
+        let t0 = Instant::now();
+        let mut guard = self.buffers.lock().expect("the buffers' lock");
+        let b = guard.get_or_insert_with(|| {
+            // a body's points keep their number, but its box (the bins), its surface (the
+            // ghosts) and the nodes near it grow as it bends — the small flap's bins by 1.7× and
+            // its ghosts by 1.6× from their fewest over 120 steps —, so the first call makes room
+            // for three times its bins and queries, and later calls of a bending body make none
+            let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+            let room: [u64; BINDINGS] =
+                [inputs[0].len() as u64, 3 * inputs[1].len() as u64, 3 * inputs[2].len() as u64, 3 * inputs[3].len() as u64, 3 * out_bytes];
+            Buffers {
+                params: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("level set query params"),
+                    size: std::mem::size_of::<Params>() as u64,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }),
+                data: room.iter().map(|&r| GrowingBuffer::with_room(device, "level set queries", storage, r)).collect(),
+                staging: GrowingBuffer::with_room(device, "level set answers", wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, 3 * out_bytes),
+                group: None,
+                groups_made: 0,
+            }
+        });
+        queue.write_buffer(&b.params, 0, bytemuck::bytes_of(&p));
+        for (buf, d) in b.data.iter_mut().zip(inputs) {
+            buf.write(device, queue, d);
+        }
+        b.data[4].reserve(device, out_bytes);
+        b.staging.reserve(device, out_bytes);
+        let bound: Vec<wgpu::Buffer> = std::iter::once(b.params.clone()).chain(b.data.iter().map(|d| d.buffer().clone())).collect();
+        if b.group.as_ref().is_none_or(|(_, was)| *was != bound) {
+            let entries: Vec<wgpu::BindGroupEntry> =
+                bound.iter().enumerate().map(|(k, buf)| wgpu::BindGroupEntry { binding: k as u32, resource: buf.as_entire_binding() }).collect();
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("level set queries"), layout: &self.layout, entries: &entries });
+            b.group = Some((group, bound.clone()));
+            b.groups_made += 1;
+        }
+        let mut enc = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(kernel.entry()), timestamp_writes: None });
+            pass.set_pipeline(&self.pipelines[kernel as usize]);
+            pass.set_bind_group(0, &b.group.as_ref().expect("made above").0, &[]);
+            let ((gx, gy), _) = dispatch_grid(count);
+            pass.dispatch_workgroups(gx, gy, 1);
+        }
+        let read = try_read_parts_into(device, queue, enc, &[(&bound[5], 0, out_bytes)], b.staging.buffer());
+        let mut work = self.work.lock().expect("the work's lock");
+        work.calls += 1;
+        work.queries += count as u64;
+        work.time += t0.elapsed();
+        if read.is_none() {
+            work.failed += 1;
+        }
+        read
+    }
+}
+
+/// On the device; on the CPU when a read fails (the device lost: the step's other reads fail
+/// too, and the run stops with that diagnosis).
+impl LevelSetQueries for LevelSetKernels {
+    fn outside_distances(&self, set: &KernelLevelSet, points: &[[f64; 3]]) -> Vec<Option<f64>> {
+        self.try_outside_distances(set, points).unwrap_or_else(|| OnThePool.outside_distances(set, points))
+    }
+
+    fn ghost_walls(&self, set: &KernelLevelSet, queries: &[GhostQuery]) -> Vec<(f64, [f64; 3])> {
+        self.try_ghost_walls(set, queries).unwrap_or_else(|| OnThePool.ghost_walls(set, queries))
+    }
+}
+
+#[cfg(test)]
+mod mirror_tests {
+    use super::Params;
+    use crate::gpu::wgsl_check::{check_mirror, mirror};
+
+    #[test]
+    fn params_match_the_shader_layout() {
+        check_mirror(
+            "shaders/level_set_queries.wgsl",
+            super::SHADER,
+            "Params",
+            mirror!(Params { lo, hi, re, r_min, phi, _pad0, bins, count, _pad1, _pad2, _pad3 }),
+        );
+    }
+}
