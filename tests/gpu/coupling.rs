@@ -17,14 +17,7 @@ fn coupling_kernels_match_their_cpu_twins() {
     use phonation::stages::CoupledStageKind;
     let Some(ctx) = context() else { return };
     let kernels = CouplingKernels::new(&ctx);
-    // a deterministic pseudo-random stream in [0, 1)
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    let mut rand = move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rand = uniform_stream(0x2545_f491_4f6c_dd1d);
     // f32 sums of up to ~60 kernel terms that partly cancel: each quantity is compared relative
     // to the sum of its terms' magnitudes (L: φ + Σw; ∇L: Σ r_e/r²; the wall velocity: the
     // fastest particle's speed). The positions go to the GPU in f32: ~30 cells from the origin
@@ -195,13 +188,7 @@ fn level_set_queries_on_the_device_match_the_cpu() {
         eprintln!("{}: no f64 in shaders, the level sets' questions stay on the CPU", ctx.describe());
         return;
     };
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    let mut rand = move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rand = uniform_stream(0x9e37_79b9_7f4a_7c15);
     // particles 0.4 cells apart inside `inside` (relative to the centre), jittered
     let mut body = |dim: usize, centre: [f64; 3], reach: f64, inside: &dyn Fn([f64; 3]) -> bool| {
         let m = (reach / 0.4).ceil() as i64 + 1;

@@ -289,3 +289,14 @@ motion = { kind = "translation", velocity = [-20.0, 0.0] }
 pub(crate) fn small_flap_weak() -> String {
     SMALL_FLAP.replace("momentum_conserving", "weak").replace("kernel_radius = 1.0\n", "")
 }
+
+/// A deterministic pseudo-random stream in [0, 1) (xorshift64 from `seed`, non-zero).
+pub(crate) fn uniform_stream(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
