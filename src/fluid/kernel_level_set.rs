@@ -16,7 +16,7 @@
 use rayon::prelude::*;
 
 /// The particles of one body and the level set they define.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct KernelLevelSet {
     /// Particle positions (lattice coordinates).
     pub points: Vec<[f64; 3]>,
@@ -41,6 +41,21 @@ pub struct KernelLevelSet {
     /// Per bin, the sum of its points' coordinates and their number: the coarse picture of the
     /// body [`Self::mass_outward`] reads.
     bin_sums: Vec<[f64; 4]>,
+    /// Which binning this is ([`Self::id`]).
+    id: u64,
+}
+
+/// The next [`KernelLevelSet::id`].
+static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// Equal points, velocities, kernel, level and bins; the [`KernelLevelSet::id`] of the binning
+/// aside (two bodies binned alike at two steps are the same wall).
+impl PartialEq for KernelLevelSet {
+    fn eq(&self, o: &Self) -> bool {
+        (&self.points, &self.velocities, self.re, self.r_min, self.phi, self.bounds, self.bins)
+            == (&o.points, &o.velocities, o.re, o.r_min, o.phi, o.bounds, o.bins)
+            && (&self.start, &self.order, &self.sorted, &self.bin_sums) == (&o.start, &o.order, &o.sorted, &o.bin_sums)
+    }
 }
 
 /// Points per task of [`KernelLevelSet::new`]'s parallel loops.
@@ -93,6 +108,7 @@ impl KernelLevelSet {
             order: Vec::new(),
             sorted: Vec::new(),
             bin_sums: Vec::new(),
+            id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         };
         let n_bins = bins[0] * bins[1] * bins[2];
         let key: Vec<usize> = s.points.par_iter().with_min_len(PAR_POINTS).map(|p| s.bin_of(*p).expect("a point lies in its own box")).collect();
@@ -135,6 +151,12 @@ impl KernelLevelSet {
     /// The bins as lists: bin b holds the points `order[start[b]..start[b + 1]]`.
     pub fn bin_lists(&self) -> (&[u32], &[u32]) {
         (&self.start, &self.order)
+    }
+
+    /// A number no other binning made by [`Self::new`] in this process has (a clone keeps it):
+    /// a device that holds a set's bins knows by it whether they are the ones it holds.
+    pub fn id(&self) -> u64 {
+        self.id
     }
 
     /// The points in bin order (bin b's are `start[b]..start[b + 1]` of these, in the order

@@ -219,8 +219,9 @@ impl Layout {
         let points: Vec<[f64; 3]> = todo.par_iter().with_min_len(PAR_NODES).map(|&idx| pos(grid.coords(idx))).collect();
         let level_set_side: Vec<Option<Vec<Option<f64>>>> = obstacles
             .iter()
-            .map(|o| match &o.shape {
-                Shape::KernelLevelSet(ls) => Some(level_sets.outside_distances(ls, &points)),
+            .enumerate()
+            .map(|(k, o)| match &o.shape {
+                Shape::KernelLevelSet(ls) => Some(level_sets.outside_distances(k, ls, &points)),
                 _ => None,
             })
             .collect();
@@ -346,7 +347,7 @@ impl Layout {
             if queries.is_empty() {
                 continue;
             }
-            for (i, w) in at.into_iter().zip(level_sets.ghost_walls(ls, &queries)) {
+            for (i, w) in at.into_iter().zip(level_sets.ghost_walls(k, ls, &queries)) {
                 level_set_wall[i] = Some(w);
             }
         }

@@ -17,14 +17,16 @@ use rayon::prelude::*;
 pub type GhostQuery = ([f64; 3], [f64; 3]);
 
 /// Who answers the layout's questions of a kernel level set
-/// ([`super::layout::Layout`] asks each set once per question and step).
+/// ([`super::layout::Layout`] asks each set once per question and step). `which` says which of
+/// the layout's obstacles the set is — the same body at every step —, so that a device can keep
+/// each body's bins apart and send them once for both questions.
 pub trait LevelSetQueries: Sync {
     /// [`KernelLevelSet::outside_distance`] at each of `points`, in order (None inside).
-    fn outside_distances(&self, set: &KernelLevelSet, points: &[[f64; 3]]) -> Vec<Option<f64>>;
+    fn outside_distances(&self, which: usize, set: &KernelLevelSet, points: &[[f64; 3]]) -> Vec<Option<f64>>;
 
     /// [`KernelLevelSet::ghost_wall`]'s (signed distance, outward normal) for each of
     /// `queries`, in order.
-    fn ghost_walls(&self, set: &KernelLevelSet, queries: &[GhostQuery]) -> Vec<(f64, [f64; 3])>;
+    fn ghost_walls(&self, which: usize, set: &KernelLevelSet, queries: &[GhostQuery]) -> Vec<(f64, [f64; 3])>;
 }
 
 /// The CPU's answers on the pool's threads, bit for bit those of the set's own methods.
@@ -32,11 +34,11 @@ pub trait LevelSetQueries: Sync {
 pub struct OnThePool;
 
 impl LevelSetQueries for OnThePool {
-    fn outside_distances(&self, set: &KernelLevelSet, points: &[[f64; 3]]) -> Vec<Option<f64>> {
+    fn outside_distances(&self, _: usize, set: &KernelLevelSet, points: &[[f64; 3]]) -> Vec<Option<f64>> {
         points.par_iter().with_min_len(PAR_NODES).map(|&p| set.outside_distance(p)).collect()
     }
 
-    fn ghost_walls(&self, set: &KernelLevelSet, queries: &[GhostQuery]) -> Vec<(f64, [f64; 3])> {
+    fn ghost_walls(&self, _: usize, set: &KernelLevelSet, queries: &[GhostQuery]) -> Vec<(f64, [f64; 3])> {
         queries.par_iter().with_min_len(PAR_NODES / 8).map(|&(p, q)| set.ghost_wall(p, q)).collect()
     }
 }

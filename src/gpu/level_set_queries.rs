@@ -52,15 +52,24 @@ const INSIDE: f64 = -1.0;
 /// the queries, the walls.
 const BINDINGS: usize = 5;
 
-/// The buffers the calls reuse (rewritten per call, remade only when a call outgrows them) and
-/// the bind group over them.
-struct Buffers {
+/// The buffers the calls for one of the layout's level sets (one body) reuse — its bins
+/// (written when the set is another binning than the one they hold: once a step for both
+/// questions), the queries and the answers (rewritten per call, remade only when a call
+/// outgrows them) — and the bind group over them.
+struct Slot {
+    /// The [`KernelLevelSet::id`] of the bins held.
+    set: u64,
     params: wgpu::Buffer,
     data: Vec<GrowingBuffer>,
     staging: GrowingBuffer,
     group: Option<(wgpu::BindGroup, Vec<wgpu::Buffer>)>,
     groups_made: u64,
 }
+
+/// Bodies whose bins the device holds at once (the layout's level set `which` in slot
+/// `which % SLOTS`): a scene with more sends some bodies' bins for each question (the same
+/// answers, more uploads).
+const SLOTS: usize = 4;
 
 /// What the kernels' calls have cost so far.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -69,6 +78,9 @@ pub struct LevelSetWork {
     pub calls: u64,
     /// Points and ghosts answered on the device.
     pub queries: u64,
+    /// Bodies' bins sent to the device (once per binning while the device holds it: once a
+    /// step for both questions of a scene of up to four bodies).
+    pub bins_sent: u64,
     /// Wall time of the calls: the uploads, the kernel and the read back.
     pub time: Duration,
     /// Calls whose read failed, answered on the CPU instead.
@@ -98,7 +110,7 @@ pub struct LevelSetKernels {
     queue: wgpu::Queue,
     pipelines: [wgpu::ComputePipeline; 2],
     layout: wgpu::BindGroupLayout,
-    buffers: Mutex<Option<Buffers>>,
+    slots: Mutex<Vec<Slot>>,
     work: Mutex<LevelSetWork>,
 }
 
@@ -126,7 +138,7 @@ impl LevelSetKernels {
             queue: ctx.queue.clone(),
             pipelines,
             layout,
-            buffers: Mutex::new(None),
+            slots: Mutex::new(Vec::new()),
             work: Mutex::new(LevelSetWork::default()),
         })
     }
@@ -139,18 +151,18 @@ impl LevelSetKernels {
     /// Buffers and bind groups the calls have made so far: the same after a call means the
     /// call made none.
     pub fn objects_made(&self) -> u64 {
-        let b = self.buffers.lock().expect("the buffers' lock");
-        b.as_ref().map_or(0, |b| 1 + b.staging.made() + b.groups_made + b.data.iter().map(GrowingBuffer::made).sum::<u64>())
+        let slots = self.slots.lock().expect("the slots' lock");
+        slots.iter().map(|b| 1 + b.staging.made() + b.groups_made + b.data.iter().map(GrowingBuffer::made).sum::<u64>()).sum()
     }
 
     /// [`KernelLevelSet::outside_distance`] at each of `points` to round-off (None inside); None
     /// when the read failed. The points outside the set's bin box (where no particle is within
     /// r_e, so L = −φ) are answered here, by the set itself.
-    pub fn try_outside_distances(&self, set: &KernelLevelSet, points: &[[f64; 3]]) -> Option<Vec<Option<f64>>> {
+    pub fn try_outside_distances(&self, which: usize, set: &KernelLevelSet, points: &[[f64; 3]]) -> Option<Vec<Option<f64>>> {
         let (lo, hi, _) = set.bin_box();
         let near: Vec<usize> = (0..points.len()).filter(|&i| (0..3).all(|a| points[i][a] >= lo[a] && points[i][a] <= hi[a])).collect();
         let q: Vec<f64> = near.iter().flat_map(|&i| points[i]).collect();
-        let bytes = self.run(set, Kernel::OutsideDistance, &q, near.len(), 8)?;
+        let bytes = self.run(which, set, Kernel::OutsideDistance, &q, near.len(), 8)?;
         // the read's bytes need not be aligned for f64
         let d: Vec<f64> = bytemuck::pod_collect_to_vec(&bytes);
         let mut out: Vec<Option<f64>> = vec![None; points.len()];
@@ -169,16 +181,17 @@ impl LevelSetKernels {
 
     /// The wall of each of `queries` in `set` (signed distance in cells, outward normal), as
     /// [`KernelLevelSet::ghost_wall`] gives them to round-off; None when the read failed.
-    pub fn try_ghost_walls(&self, set: &KernelLevelSet, queries: &[GhostQuery]) -> Option<Vec<(f64, [f64; 3])>> {
+    pub fn try_ghost_walls(&self, which: usize, set: &KernelLevelSet, queries: &[GhostQuery]) -> Option<Vec<(f64, [f64; 3])>> {
         let q: Vec<f64> = queries.iter().flat_map(|(a, b)| a.iter().chain(b).copied()).collect();
-        let bytes = self.run(set, Kernel::GhostWall, &q, queries.len(), 32)?;
+        let bytes = self.run(which, set, Kernel::GhostWall, &q, queries.len(), 32)?;
         let w: Vec<f64> = bytemuck::pod_collect_to_vec(&bytes);
         Some(w.chunks_exact(4).map(|c| (c[0], [c[1], c[2], c[3]])).collect())
     }
 
-    /// Runs `kernel` over `count` queries (`q`, their coordinates) of `set` and reads back
-    /// `answer` bytes for each; None when the read failed.
-    fn run(&self, set: &KernelLevelSet, kernel: Kernel, q: &[f64], count: usize, answer: u64) -> Option<Vec<u8>> {
+    /// Runs `kernel` over `count` queries (`q`, their coordinates) of `set` (the layout's level
+    /// set `which`, whose bins its slot holds) and reads back `answer` bytes for each; None when
+    /// the read failed.
+    fn run(&self, which: usize, set: &KernelLevelSet, kernel: Kernel, q: &[f64], count: usize, answer: u64) -> Option<Vec<u8>> {
         if count == 0 {
             return Some(Vec::new());
         }
@@ -199,16 +212,19 @@ impl LevelSetKernels {
         let out_bytes = answer * count as u64;
         let inputs: [&[u8]; 4] = [bytemuck::cast_slice(sorted), bytemuck::cast_slice(start), bytemuck::cast_slice(sums), bytemuck::cast_slice(q)];
         let t0 = Instant::now();
-        let mut guard = self.buffers.lock().expect("the buffers' lock");
-        let b = guard.get_or_insert_with(|| {
+        let mut slots = self.slots.lock().expect("the slots' lock");
+        let k = which % SLOTS;
+        while slots.len() <= k {
             // a body's points keep their number, but its box (the bins), its surface (the
             // ghosts) and the nodes near it grow as it bends — the small flap's bins by 1.7× and
-            // its ghosts by 1.6× from their fewest over 120 steps —, so the first call makes room
-            // for three times its bins and queries, and later calls of a bending body make none
+            // its ghosts by 1.6× from their fewest over 120 steps —, so a slot starts with room
+            // for three times its first call's bins and queries, and later calls of a bending
+            // body make no buffer
             let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
             let room: [u64; BINDINGS] =
                 [inputs[0].len() as u64, 3 * inputs[1].len() as u64, 3 * inputs[2].len() as u64, 3 * inputs[3].len() as u64, 3 * out_bytes];
-            Buffers {
+            slots.push(Slot {
+                set: u64::MAX,
                 params: device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("level set query params"),
                     size: std::mem::size_of::<Params>() as u64,
@@ -219,12 +235,17 @@ impl LevelSetKernels {
                 staging: GrowingBuffer::with_room(device, "level set answers", wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, 3 * out_bytes),
                 group: None,
                 groups_made: 0,
-            }
-        });
+            });
+        }
+        let b = &mut slots[k];
         queue.write_buffer(&b.params, 0, bytemuck::bytes_of(&p));
-        for (buf, d) in b.data.iter_mut().zip(inputs) {
+        // the bins, once per binning; the queries, each call
+        let from = if b.set == set.id() { 3 } else { 0 };
+        let bins_sent = (from == 0) as u64;
+        for (buf, d) in b.data.iter_mut().zip(inputs).skip(from) {
             buf.write(device, queue, d);
         }
+        b.set = set.id();
         b.data[4].reserve(device, out_bytes);
         b.staging.reserve(device, out_bytes);
         let bound: Vec<wgpu::Buffer> = std::iter::once(b.params.clone()).chain(b.data.iter().map(|d| d.buffer().clone())).collect();
@@ -247,6 +268,7 @@ impl LevelSetKernels {
         let mut work = self.work.lock().expect("the work's lock");
         work.calls += 1;
         work.queries += count as u64;
+        work.bins_sent += bins_sent;
         work.time += t0.elapsed();
         if read.is_none() {
             work.failed += 1;
@@ -258,12 +280,12 @@ impl LevelSetKernels {
 /// On the device; on the CPU when a read fails (the device lost: the step's other reads fail
 /// too, and the run stops with that diagnosis).
 impl LevelSetQueries for LevelSetKernels {
-    fn outside_distances(&self, set: &KernelLevelSet, points: &[[f64; 3]]) -> Vec<Option<f64>> {
-        self.try_outside_distances(set, points).unwrap_or_else(|| OnThePool.outside_distances(set, points))
+    fn outside_distances(&self, which: usize, set: &KernelLevelSet, points: &[[f64; 3]]) -> Vec<Option<f64>> {
+        self.try_outside_distances(which, set, points).unwrap_or_else(|| OnThePool.outside_distances(which, set, points))
     }
 
-    fn ghost_walls(&self, set: &KernelLevelSet, queries: &[GhostQuery]) -> Vec<(f64, [f64; 3])> {
-        self.try_ghost_walls(set, queries).unwrap_or_else(|| OnThePool.ghost_walls(set, queries))
+    fn ghost_walls(&self, which: usize, set: &KernelLevelSet, queries: &[GhostQuery]) -> Vec<(f64, [f64; 3])> {
+        self.try_ghost_walls(which, set, queries).unwrap_or_else(|| OnThePool.ghost_walls(which, set, queries))
     }
 }
 

@@ -254,7 +254,7 @@ fn level_set_queries_on_the_device_match_the_cpu() {
                 (c[1] as i64 - r..=c[1] as i64 + r).flat_map(move |y| (c[0] as i64 - r..=c[0] as i64 + r).map(move |x| [x as f64, y as f64, z as f64]))
             })
             .collect();
-        let sides = kernel.try_outside_distances(set, &nodes).expect("the device answers");
+        let sides = kernel.try_outside_distances(0, set, &nodes).expect("the device answers");
         let (mut inside, mut dside) = (0, 0f64);
         for (p, d) in nodes.iter().zip(&sides) {
             let cpu = set.outside_distance(*p);
@@ -268,7 +268,7 @@ fn level_set_queries_on_the_device_match_the_cpu() {
         assert!(inside > 20 && inside < nodes.len() / 2, "{label}: {inside} of {} nodes inside", nodes.len());
         assert!(dside <= 1e-12, "{label}: outside distance {dside:e}");
         let queries = ghosts(set, dim, c, reach);
-        let gpu = kernel.try_ghost_walls(set, &queries).expect("the device answers");
+        let gpu = kernel.try_ghost_walls(0, set, &queries).expect("the device answers");
         let (mut dd, mut dn, mut deep) = (0f64, 0f64, 0);
         for (&(p, q), (d, n)) in queries.iter().zip(&gpu) {
             let (dc, nc) = set.ghost_wall(p, q);
@@ -281,62 +281,70 @@ fn level_set_queries_on_the_device_match_the_cpu() {
         assert!(queries.len() > 20, "{label}: {} ghosts", queries.len());
         assert!(dd <= 1e-9 && dn <= 1e-9, "{label}: distance {dd:e}, normal {dn:e}");
     }
+    // each body's bins sent once for its two questions
     let w = kernel.work();
-    assert_eq!((w.calls, w.failed), (6, 0));
+    assert_eq!((w.calls, w.bins_sent, w.failed), (6, 3, 0));
 }
 
 /// The coupled step with method 2's level-set questions answered on the device builds the
-/// layout the CPU's answers give, step by step: two runs of the small flap on the GPU, one with
-/// the questions on the device (the default where it has f64) and one with them on the CPU, over
-/// 30 steps of the flap bending — the same node kinds, the same ghosts with the same image
-/// stencils' nodes, the ghosts' extrapolation ratios and wall velocities to the kernels' bound
-/// against their twins (1e-9, `level_set_queries_on_the_device_match_the_cpu`), both questions
-/// of the flap's level set answered on the device (two calls a step) and none of the other run's.
+/// layout the CPU's answers give, step by step: two runs on the GPU, one with the questions on
+/// the device (the default where it has f64) and one with them on the CPU, over 30 steps of the
+/// small flap bending and of a disc towed past a clamped flap (two bodies, nodes changing side)
+/// — the same node kinds, the same ghosts with the same image stencils' nodes, the ghosts'
+/// extrapolation ratios and wall velocities to the kernels' bound against their twins (1e-9,
+/// `level_set_queries_on_the_device_match_the_cpu`), both questions of each body answered on the
+/// device (up to two calls per body and step, its bins sent once a step) and none of the other
+/// run's.
 #[test]
 fn a_coupled_step_with_level_sets_on_the_device_builds_the_cpus_layout() {
     use phonation::gpu::coupled::GpuCoupled;
     use phonation::scene::coupled::CoupledScene;
-    let sc = CoupledScene::parse(SMALL_FLAP).unwrap();
-    let Some(ctx) = context() else { return };
-    let mut dev = GpuCoupled::new(ctx, sc.build().unwrap()).unwrap();
-    if !dev.level_sets_on_device() {
-        eprintln!("no f64 in shaders: the level sets' questions stay on the CPU");
-        return;
-    }
-    let mut host = GpuCoupled::new(context().unwrap(), sc.build().unwrap()).unwrap();
-    host.device_level_sets = false;
-    assert!(!host.level_sets_on_device());
-    let steps = 30;
-    let (mut ghosts, mut dr, mut dv) = (0, 0f64, 0f64);
-    for step in 0..steps {
-        dev.step().unwrap();
-        host.step().unwrap();
-        let (a, b) = (&dev.cpu.fluid.layout, &host.cpu.fluid.layout);
-        assert!(a.kind == b.kind, "step {step}: node kinds");
-        assert_eq!(a.ghosts.len(), b.ghosts.len(), "step {step}: ghosts");
-        for (g, h) in a.ghosts.iter().zip(&b.ghosts) {
-            assert_eq!(g.node, h.node, "step {step}: ghost nodes");
-            let nodes = |x: &phonation::fluid::layout::Ghost| x.image.iter().map(|t| t.0).collect::<Vec<_>>();
-            assert_eq!(nodes(g), nodes(h), "step {step}: the image stencil of ghost {}", g.node);
-            dr = dr.max((g.ratio - h.ratio).abs());
-            dv = dv.max((0..3).map(|k| (g.wall_velocity[k] - h.wall_velocity[k]).abs()).fold(0.0, f64::max));
+    for (label, text, bodies) in [("small flap", SMALL_FLAP, 1), ("towed disc and flap", TOWED_DISC, 2)] {
+        let sc = CoupledScene::parse(text).unwrap();
+        let Some(ctx) = context() else { return };
+        let mut dev = GpuCoupled::new(ctx, sc.build().unwrap()).unwrap();
+        if !dev.level_sets_on_device() {
+            eprintln!("no f64 in shaders: the level sets' questions stay on the CPU");
+            return;
         }
-        ghosts += a.ghosts.len();
+        let mut host = GpuCoupled::new(context().unwrap(), sc.build().unwrap()).unwrap();
+        host.device_level_sets = false;
+        assert!(!host.level_sets_on_device());
+        let steps = 30;
+        let (mut ghosts, mut dr, mut dv) = (0, 0f64, 0f64);
+        for step in 0..steps {
+            dev.step().unwrap();
+            host.step().unwrap();
+            let (a, b) = (&dev.cpu.fluid.layout, &host.cpu.fluid.layout);
+            assert!(a.kind == b.kind, "{label}, step {step}: node kinds");
+            assert_eq!(a.ghosts.len(), b.ghosts.len(), "{label}, step {step}: ghosts");
+            for (g, h) in a.ghosts.iter().zip(&b.ghosts) {
+                assert_eq!(g.node, h.node, "{label}, step {step}: ghost nodes");
+                let nodes = |x: &phonation::fluid::layout::Ghost| x.image.iter().map(|t| t.0).collect::<Vec<_>>();
+                assert_eq!(nodes(g), nodes(h), "{label}, step {step}: the image stencil of ghost {}", g.node);
+                dr = dr.max((g.ratio - h.ratio).abs());
+                dv = dv.max((0..3).map(|k| (g.wall_velocity[k] - h.wall_velocity[k]).abs()).fold(0.0, f64::max));
+            }
+            ghosts += a.ghosts.len();
+        }
+        dev.check_fluid().unwrap();
+        let (w, none) = (dev.level_set_work().unwrap(), host.level_set_work().unwrap());
+        eprintln!(
+            "{label}, {steps} steps: {} nodes and ghosts answered on the device in {} calls ({:?}), {} changes of layout; ratio {dr:.2e}, wall velocity {dv:.2e} c",
+            w.queries, w.calls, w.time, dev.round_trips
+        );
+        // each body's bins go up once a step and serve both of its questions (a question with
+        // nothing to ask — a clamped body with no ghost at some step — makes no call)
+        assert_eq!((w.bins_sent, w.failed, none.calls), (bodies * steps, 0, 0), "{label}");
+        assert!(w.calls > w.bins_sent && w.calls <= 2 * w.bins_sent, "{label}: {} calls", w.calls);
+        assert!(w.queries as usize > ghosts, "{label}: {} queries, {ghosts} ghosts", w.queries);
+        assert!(dr <= 1e-9 && dv <= 1e-9, "{label}: ratio {dr:e}, wall velocity {dv:e}");
     }
-    dev.check_fluid().unwrap();
-    let (w, none) = (dev.level_set_work().unwrap(), host.level_set_work().unwrap());
-    eprintln!(
-        "{steps} steps: {} nodes and ghosts answered on the device in {} calls ({:?}); ratio {dr:.2e}, wall velocity {dv:.2e} c",
-        w.queries, w.calls, w.time
-    );
-    assert_eq!((w.calls, w.failed, none.calls), (2 * steps, 0, 0));
-    assert!(w.queries as usize > ghosts, "{} queries, {ghosts} ghosts", w.queries);
-    assert!(dr <= 1e-9 && dv <= 1e-9, "ratio {dr:e}, wall velocity {dv:e}");
 }
 
 /// Method 2's coupled step on the GPU (`GpuCoupled`: fluid, face fluxes, momentum exchange and
-/// solid on the device; the level-set geometry built on the CPU each step, its ghosts' wall
-/// points on the device where it has f64) against the CPU
+/// solid on the device; the level-set geometry built on the CPU each step, the level sets'
+/// questions answered on the device where it has f64) against the CPU
 /// solver over 200 steps (5000 solid sub-steps) of a moving flap that uncovers and covers
 /// nodes. The geometry must agree exactly: the same nodes changed side. Bounds: the fluid alone
 /// carries 4e-5 to 6e-5 of f32 round-off after 200 steps and is held to 1e-4
