@@ -184,15 +184,6 @@ impl Layout {
         let n = grid.len();
         let periodic_axis: [bool; 3] = std::array::from_fn(|a| a < grid.dim && matches!(boundaries.faces[2 * a], FaceCondition::Periodic));
         let pos = |x: [i64; 3]| [x[0] as f64, x[1] as f64, x[2] as f64];
-        // The obstacle a node belongs to: deepest-first, the one that contains the point with
-        // the largest (least negative) sdf. A node outside every obstacle but within half a cell
-        // of two of them is *pinched* (a slit narrower than a cell, e.g. a closing glottis): it
-        // leaves the fluid too, with the nearest of the two (d ≥ 0), since a fluid node squeezed
-        // between two walls that close on it is compressed without bound.
-        // Most nodes lie inside one obstacle or none: their side comes from
-        // `Shape::outside_distance_below` (one evaluation of a level set; a polygon's edges
-        // within `PINCH` of the node); the depths, which a level
-        // set finds by Newton steps, only where two obstacles contain the node.
         // the nodes recomputed: all, or the region's (the others keep their kinds, ghost
         // entries and thin taps)
         let todo: Vec<usize> = match previous {
@@ -225,6 +216,15 @@ impl Layout {
                 _ => None,
             })
             .collect();
+        // The obstacle a node belongs to: deepest-first, the one that contains the point with
+        // the largest (least negative) sdf. A node outside every obstacle but within half a cell
+        // of two of them is *pinched* (a slit narrower than a cell, e.g. a closing glottis): it
+        // leaves the fluid too, with the nearest of the two (d ≥ 0), since a fluid node squeezed
+        // between two walls that close on it is compressed without bound.
+        // Most nodes lie inside one obstacle or none: their side comes from
+        // `Shape::outside_distance_below` (a level set's from `level_set_side` above; a
+        // polygon's edges within `PINCH` of the node); the depths, which a level set finds by
+        // Newton steps, only where two obstacles contain the node.
         let containing = |i: usize, p: [f64; 3]| -> Option<usize> {
             let mut inside: Option<usize> = None;
             let mut several = false;

@@ -34,7 +34,8 @@
 //!
 //! A step waits for the device only where it reads something back: the particles for the
 //! geometry (one trip for all their arrays, with the fluid's instability flag of the step
-//! before), and for method 2 the hand-over's forces; the fluid step, method 1's traction and the
+//! before), and for method 2 the hand-over's forces and, where the device answers the level
+//! sets' questions, their answers (two per body); the fluid step, method 1's traction and the
 //! solid's sub-steps are only submitted. The flag stays set once a node leaves its range, so
 //! reading it one step late loses nothing: the diagnosis names the step whose fluid stage failed
 //! ([`GpuCoupled::run`] reads the last step's flag before it returns, so a run never ends on an
