@@ -22,6 +22,7 @@ use super::context::{GpuContext, buffer_layout, compute_pipelines, dispatch_grid
 use super::growing::GrowingBuffer;
 use crate::fluid::{GhostQuery, KernelLevelSet, LevelSetQueries, OnThePool};
 use bytemuck::{Pod, Zeroable};
+use rayon::prelude::*;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -43,6 +44,9 @@ struct Params {
     _pad2: u32,
     _pad3: u32,
 }
+
+/// Points per task of the host's loops over the nodes asked about.
+const PAR_POINTS: usize = 4096;
 
 /// The `outside_distance` kernel's answer for a point inside (`INSIDE` in the shader): every
 /// distance outside is ≥ 0 (or NaN where the CPU's is).
@@ -160,21 +164,17 @@ impl LevelSetKernels {
     /// r_e, so L = −φ) are answered here, by the set itself.
     pub fn try_outside_distances(&self, which: usize, set: &KernelLevelSet, points: &[[f64; 3]]) -> Option<Vec<Option<f64>>> {
         let (lo, hi, _) = set.bin_box();
-        let near: Vec<usize> = (0..points.len()).filter(|&i| (0..3).all(|a| points[i][a] >= lo[a] && points[i][a] <= hi[a])).collect();
+        let in_box = |p: &[f64; 3]| (0..3).all(|a| p[a] >= lo[a] && p[a] <= hi[a]);
+        // on the pool's threads: the layout asks for every node of the region (~10⁶ for the 3D
+        // glottis), most of them far from the body
+        let near: Vec<usize> = (0..points.len()).into_par_iter().with_min_len(PAR_POINTS).filter(|&i| in_box(&points[i])).collect();
         let q: Vec<f64> = near.iter().flat_map(|&i| points[i]).collect();
         let bytes = self.run(which, set, Kernel::OutsideDistance, &q, near.len(), 8)?;
         // the read's bytes need not be aligned for f64
         let d: Vec<f64> = bytemuck::pod_collect_to_vec(&bytes);
-        let mut out: Vec<Option<f64>> = vec![None; points.len()];
-        let mut on_device = vec![false; points.len()];
+        let mut out: Vec<Option<f64>> = points.par_iter().with_min_len(PAR_POINTS).map(|p| if in_box(p) { None } else { set.outside_distance(*p) }).collect();
         for (&i, &d) in near.iter().zip(&d) {
             out[i] = (d != INSIDE).then_some(d);
-            on_device[i] = true;
-        }
-        for (i, o) in out.iter_mut().enumerate() {
-            if !on_device[i] {
-                *o = set.outside_distance(points[i]);
-            }
         }
         Some(out)
     }
