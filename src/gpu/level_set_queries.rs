@@ -165,8 +165,9 @@ impl LevelSetKernels {
     pub fn try_outside_distances(&self, which: usize, set: &KernelLevelSet, points: &[[f64; 3]]) -> Option<Vec<Option<f64>>> {
         let (lo, hi, _) = set.bin_box();
         let in_box = |p: &[f64; 3]| (0..3).all(|a| p[a] >= lo[a] && p[a] <= hi[a]);
-        // on the pool's threads: the layout asks for every node of the region (~10⁶ for the 3D
-        // glottis), most of them far from the body
+        // on the pool's threads: the layout asks about every node of the region it rebuilds
+        // (42,408 a step for `glottis_3d_coarse`; the region grows with the lattice), many of
+        // them beyond this body's bins
         let near: Vec<usize> = (0..points.len()).into_par_iter().with_min_len(PAR_POINTS).filter(|&i| in_box(&points[i])).collect();
         let q: Vec<f64> = near.iter().flat_map(|&i| points[i]).collect();
         let bytes = self.run(which, set, Kernel::OutsideDistance, &q, near.len(), 8)?;
