@@ -3,7 +3,7 @@
 
 use crate::fluid::boundary::{Boundaries, FaceCondition};
 use crate::fluid::storage::Storage;
-use crate::fluid::{Equilibrium, FluidSolver, GasModel, Grid, Macro, Obstacle, Polygon, Shape, VelocitySet, VelocitySetKind, timestep};
+use crate::fluid::{Equilibrium, FluidSolver, GasModel, Grid, KernelLevelSet, Macro, Obstacle, Polygon, Shape, VelocitySet, VelocitySetKind, timestep};
 
 /// A small lattice with walls (y), a moving lid, an obstacle centred at x = `obstacle_x`, a body
 /// force and a diatomic gas, periodic along x (and z), its populations stored as `S`: every kind
@@ -45,4 +45,35 @@ pub fn closed_channel(gas: GasModel, thickness: usize, more: &[Obstacle]) -> Flu
     let mut obstacles = vec![Obstacle { shape: Shape::Polygon(plate), velocity: [0.0; 3], temperature: None }];
     obstacles.extend_from_slice(more);
     FluidSolver::new(eq, Grid::new(2, [24, 32, 1]), b, &obstacles, params, |_| Macro { rho: 1.0, u: [0.0; 3], theta: 0.6 })
+}
+
+/// The ghost-like nodes of the level set `s` in the box of lattice nodes `lo..=hi`: nodes
+/// inside (L > 0) with a node outside (L ≤ 0) within two cells along an axis, each with the
+/// nearest such node (±1 before ±2, x before y before z), as the layout picks the fluid node
+/// that makes a node a ghost — the queries of `KernelLevelSet::ghost_wall` and of its GPU twin.
+pub fn level_set_ghosts(s: &KernelLevelSet, dim: usize, lo: [i64; 3], hi: [i64; 3]) -> Vec<([f64; 3], [f64; 3])> {
+    let pos = |x: [i64; 3]| [x[0] as f64, x[1] as f64, x[2] as f64];
+    let inside = |x: [i64; 3]| s.level(pos(x)).0 > 0.0;
+    let mut out = Vec::new();
+    for z in lo[2]..=hi[2] {
+        for y in lo[1]..=hi[1] {
+            for x in lo[0]..=hi[0] {
+                let p = [x, y, z];
+                if !inside(p) {
+                    continue;
+                }
+                let q = [1i64, 2].iter().find_map(|&d| {
+                    (0..dim).flat_map(|a| [-d, d].map(move |sh| (a, sh))).find_map(|(a, sh)| {
+                        let mut q = p;
+                        q[a] += sh;
+                        (!inside(q)).then_some(q)
+                    })
+                });
+                if let Some(q) = q {
+                    out.push((pos(p), pos(q)));
+                }
+            }
+        }
+    }
+    out
 }

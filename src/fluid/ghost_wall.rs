@@ -133,35 +133,6 @@ mod tests {
         s
     }
 
-    /// The ghost-like nodes of `s`: lattice nodes inside (L > 0) with a node outside (L ≤ 0)
-    /// within two cells along an axis, each with the nearest such node (±1 before ±2, x
-    /// before y before z), as the layout picks it.
-    fn ghosts(s: &KernelLevelSet, dim: usize, lo: [i64; 3], hi: [i64; 3]) -> Vec<([f64; 3], [f64; 3])> {
-        let pos = |x: [i64; 3]| [x[0] as f64, x[1] as f64, x[2] as f64];
-        let mut out = Vec::new();
-        for z in lo[2]..=hi[2] {
-            for y in lo[1]..=hi[1] {
-                for x in lo[0]..=hi[0] {
-                    let p = [x, y, z];
-                    if !(s.level(pos(p)).0 > 0.0) {
-                        continue;
-                    }
-                    let q = [1i64, 2].iter().find_map(|&d| {
-                        (0..dim).flat_map(|a| [-d, d].map(move |s| (a, s))).find_map(|(a, sh)| {
-                            let mut q = p;
-                            q[a] += sh;
-                            (!(s.level(pos(q)).0 > 0.0)).then_some(q)
-                        })
-                    });
-                    if let Some(q) = q {
-                        out.push((pos(p), pos(q)));
-                    }
-                }
-            }
-        }
-        out
-    }
-
     /// The contour of `s` along `n` rays from `c`: 2D, evenly spaced angles; 3D, a Fibonacci
     /// sphere. By bisection between radius − 3 (inside) and radius + 2 (outside).
     fn contour(s: &KernelLevelSet, dim: usize, c: [f64; 3], radius: f64, n: usize) -> Vec<[f64; 3]> {
@@ -209,7 +180,7 @@ mod tests {
             let nearest = |p: [f64; 3]| rim.iter().map(|r| length([r[0] - p[0], r[1] - p[1], r[2] - p[2]])).fold(f64::INFINITY, f64::min);
             let (mut searched, mut kept, mut gave_up) = (0, 0, 0);
             let (mut worst, mut worst_sdf, mut worst_newton) = (0.0f64, 0.0f64, 0.0f64);
-            for (p, q) in ghosts(&s, dim, lo, hi) {
+            for (p, q) in crate::fluid::fixtures::level_set_ghosts(&s, dim, lo, hi) {
                 let (d, n) = s.ghost_wall(p, q);
                 assert!(d < 0.0, "{p:?}: inside, so a negative distance ({d})");
                 let truth = nearest(p);
@@ -253,7 +224,7 @@ mod tests {
             let lo = [c[0] as i64 - span, c[1] as i64 - span, if dim == 3 { c[2] as i64 - span } else { 0 }];
             let hi = [c[0] as i64 + span, c[1] as i64 + span, if dim == 3 { c[2] as i64 + span } else { 0 }];
             let (mut checked, mut won, mut cut) = (0, 0, 0);
-            for (p, q) in ghosts(&s, dim, lo, hi) {
+            for (p, q) in crate::fluid::fixtures::level_set_ghosts(&s, dim, lo, hi) {
                 let (l, g) = s.level(p);
                 let to = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
                 let reach = length(to);

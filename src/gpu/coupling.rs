@@ -11,7 +11,7 @@
 //! is [`super::coupled::GpuCoupled`].
 
 use super::context::{GpuContext, buffer_layout, compute_pipelines, split_read, try_read_parts_into};
-use super::growing::GrowingBuffer;
+use super::growing::{GrowingBuffer, KeptBindGroup};
 use crate::fluid::{Grid, KernelLevelSet};
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, DVec4};
@@ -108,9 +108,7 @@ struct Buffers {
     per_kernel: GrowingBuffer,
     data: Vec<GrowingBuffer>,
     staging: GrowingBuffer,
-    group: Option<(wgpu::BindGroup, Vec<wgpu::Buffer>)>,
-    /// Bind groups made so far.
-    groups_made: u64,
+    group: KeptBindGroup,
 }
 
 impl Buffers {
@@ -133,8 +131,7 @@ impl Buffers {
             // 4 KiB each to start with: a few hundred particles' or changed nodes' entries
             data: (0..BINDINGS).map(|_| GrowingBuffer::with_room(device, "coupling", storage, 4096)).collect(),
             staging: GrowingBuffer::with_room(device, "coupling readback", wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, 0),
-            group: None,
-            groups_made: 0,
+            group: KeptBindGroup::default(),
         }
     }
 
@@ -206,7 +203,7 @@ impl CouplingKernels {
     pub fn objects_made(&self) -> u64 {
         let b = self.buffers.lock().expect("the buffers' lock");
         let scaled = self.scaled.lock().expect("the scaled buffer's lock").is_some() as u64;
-        b.as_ref().map_or(0, |b| b.made() + b.groups_made) + scaled
+        b.as_ref().map_or(0, |b| b.made() + b.group.made()) + scaled
     }
 
     /// Runs `kernels` in order over `count` threads each, with the given bindings, then clears
@@ -238,14 +235,7 @@ impl CouplingKernels {
                 _ => own.buffer().clone(),
             }))
             .collect();
-        if b.group.as_ref().is_none_or(|(_, was)| *was != bound) {
-            let entries: Vec<wgpu::BindGroupEntry> =
-                bound.iter().enumerate().map(|(k, buf)| wgpu::BindGroupEntry { binding: k as u32, resource: buf.as_entire_binding() }).collect();
-            let group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("coupling"), layout: &self.layout, entries: &entries });
-            b.group = Some((group, bound.clone()));
-            b.groups_made += 1;
-        }
-        let group = &b.group.as_ref().expect("made above").0;
+        let group = b.group.over(device, &self.layout, "coupling", &bound);
         let mut enc = device.create_command_encoder(&Default::default());
         for (i, &(kernel, count)) in kernels.iter().enumerate() {
             enc.copy_buffer_to_buffer(b.per_kernel.buffer(), i as u64 * size, &b.params, 0, size);

@@ -116,6 +116,36 @@ impl Readback {
     }
 }
 
+/// A bind group over whole buffers, kept while they are the same buffers and made again when
+/// one of them is another (a [`GrowingBuffer`] that outgrew its room): the coupled step's
+/// kernels bind their growing buffers through it, so that a step that outgrows nothing makes none.
+#[derive(Default)]
+pub struct KeptBindGroup {
+    group: Option<(wgpu::BindGroup, Vec<wgpu::Buffer>)>,
+    /// Bind groups made so far.
+    made: u64,
+}
+
+impl KeptBindGroup {
+    /// The bind group of `layout` with buffer k at binding k, made again only when `bound`
+    /// differs from the buffers it was made with.
+    pub fn over(&mut self, device: &wgpu::Device, layout: &wgpu::BindGroupLayout, label: &'static str, bound: &[wgpu::Buffer]) -> &wgpu::BindGroup {
+        if self.group.as_ref().is_none_or(|(_, was)| was.as_slice() != bound) {
+            let entries: Vec<wgpu::BindGroupEntry> =
+                bound.iter().enumerate().map(|(k, buf)| wgpu::BindGroupEntry { binding: k as u32, resource: buf.as_entire_binding() }).collect();
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(label), layout, entries: &entries });
+            self.group = Some((group, bound.to_vec()));
+            self.made += 1;
+        }
+        &self.group.as_ref().expect("made above").0
+    }
+
+    /// Bind groups made so far.
+    pub fn made(&self) -> u64 {
+        self.made
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -19,7 +19,7 @@
 //! has no kernels: [`LevelSetKernels::new`] says None and the questions stay on the CPU.
 
 use super::context::{GpuContext, buffer_layout, compute_pipelines, dispatch_grid, try_read_parts_into};
-use super::growing::GrowingBuffer;
+use super::growing::{GrowingBuffer, KeptBindGroup};
 use crate::fluid::{GhostQuery, KernelLevelSet, LevelSetQueries, OnThePool};
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
@@ -66,8 +66,7 @@ struct Slot {
     params: wgpu::Buffer,
     data: Vec<GrowingBuffer>,
     staging: GrowingBuffer,
-    group: Option<(wgpu::BindGroup, Vec<wgpu::Buffer>)>,
-    groups_made: u64,
+    group: KeptBindGroup,
 }
 
 /// Bodies whose bins the device holds at once (the layout's level set `which` in slot
@@ -156,7 +155,7 @@ impl LevelSetKernels {
     /// call made none.
     pub fn objects_made(&self) -> u64 {
         let slots = self.slots.lock().expect("the slots' lock");
-        slots.iter().map(|b| 1 + b.staging.made() + b.groups_made + b.data.iter().map(GrowingBuffer::made).sum::<u64>()).sum()
+        slots.iter().map(|b| 1 + b.staging.made() + b.group.made() + b.data.iter().map(GrowingBuffer::made).sum::<u64>()).sum()
     }
 
     /// [`KernelLevelSet::outside_distance`] at each of `points` to round-off (None inside); None
@@ -234,8 +233,7 @@ impl LevelSetKernels {
                 }),
                 data: room.iter().map(|&r| GrowingBuffer::with_room(device, "level set queries", storage, r)).collect(),
                 staging: GrowingBuffer::with_room(device, "level set answers", wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST, 3 * out_bytes),
-                group: None,
-                groups_made: 0,
+                group: KeptBindGroup::default(),
             });
         }
         let b = &mut slots[k];
@@ -250,18 +248,12 @@ impl LevelSetKernels {
         b.data[4].reserve(device, out_bytes);
         b.staging.reserve(device, out_bytes);
         let bound: Vec<wgpu::Buffer> = std::iter::once(b.params.clone()).chain(b.data.iter().map(|d| d.buffer().clone())).collect();
-        if b.group.as_ref().is_none_or(|(_, was)| *was != bound) {
-            let entries: Vec<wgpu::BindGroupEntry> =
-                bound.iter().enumerate().map(|(k, buf)| wgpu::BindGroupEntry { binding: k as u32, resource: buf.as_entire_binding() }).collect();
-            let group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("level set queries"), layout: &self.layout, entries: &entries });
-            b.group = Some((group, bound.clone()));
-            b.groups_made += 1;
-        }
+        let group = b.group.over(device, &self.layout, "level set queries", &bound);
         let mut enc = device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(kernel.entry()), timestamp_writes: None });
             pass.set_pipeline(&self.pipelines[kernel as usize]);
-            pass.set_bind_group(0, &b.group.as_ref().expect("made above").0, &[]);
+            pass.set_bind_group(0, group, &[]);
             let ((gx, gy), _) = dispatch_grid(count);
             pass.dispatch_workgroups(gx, gy, 1);
         }

@@ -210,36 +210,6 @@ fn level_set_queries_on_the_device_match_the_cpu() {
         s.phi = 0.5 * s.level(centre).0;
         s
     };
-    // the lattice nodes inside with a node outside within two cells along an axis (±1 before
-    // ±2, x before y before z, as the layout picks it)
-    let ghosts = |s: &KernelLevelSet, dim: usize, c: [f64; 3], reach: f64| {
-        let pos = |x: [i64; 3]| [x[0] as f64, x[1] as f64, x[2] as f64];
-        let inside = |x: [i64; 3]| s.level(pos(x)).0 > 0.0;
-        let r = reach.ceil() as i64 + 2;
-        let mut out = Vec::new();
-        let zs = if dim == 3 { c[2] as i64 - r..=c[2] as i64 + r } else { 0..=0 };
-        for z in zs {
-            for y in c[1] as i64 - r..=c[1] as i64 + r {
-                for x in c[0] as i64 - r..=c[0] as i64 + r {
-                    let p = [x, y, z];
-                    if !inside(p) {
-                        continue;
-                    }
-                    let q = [1i64, 2].iter().find_map(|&d| {
-                        (0..dim).flat_map(|a| [-d, d].map(move |sh| (a, sh))).find_map(|(a, sh)| {
-                            let mut q = p;
-                            q[a] += sh;
-                            (!inside(q)).then_some(q)
-                        })
-                    });
-                    if let Some(q) = q {
-                        out.push((pos(p), pos(q)));
-                    }
-                }
-            }
-        }
-        out
-    };
     let disc = body(2, [40.3, 37.6, 0.0], 6.0, &|x| x[0] * x[0] + x[1] * x[1] <= 36.0);
     let ball = body(3, [30.2, 28.7, 26.1], 4.0, &|x| x[0] * x[0] + x[1] * x[1] + x[2] * x[2] <= 16.0);
     let plate = body(2, [30.5, 20.2, 0.0], 12.0, &|x| x[0].abs() <= 12.0 && x[1].abs() <= 0.4);
@@ -267,7 +237,15 @@ fn level_set_queries_on_the_device_match_the_cpu() {
         eprintln!("{label}: {} nodes ({inside} inside): distance {dside:.2e} of itself", nodes.len());
         assert!(inside > 20 && inside < nodes.len() / 2, "{label}: {inside} of {} nodes inside", nodes.len());
         assert!(dside <= 1e-12, "{label}: outside distance {dside:e}");
-        let queries = ghosts(set, dim, c, reach);
+        let r = f64::ceil(reach) as i64 + 2;
+        let (lo, hi) = (c.map(|x| x as i64 - r), c.map(|x| x as i64 + r));
+        let flat = |mut b: [i64; 3]| {
+            if dim == 2 {
+                b[2] = 0;
+            }
+            b
+        };
+        let queries = phonation::fluid::fixtures::level_set_ghosts(set, dim, flat(lo), flat(hi));
         let gpu = kernel.try_ghost_walls(0, set, &queries).expect("the device answers");
         let (mut dd, mut dn, mut deep) = (0f64, 0f64, 0);
         for (&(p, q), (d, n)) in queries.iter().zip(&gpu) {
