@@ -1,16 +1,25 @@
 // Method 2's coupling kernels (seed 000 §2.4.2), f32 — GPU twins of
 // src/fluid/kernel_level_set.rs (`level`, `velocity_at`) and src/coupling/conserving.rs
-// (`momentum_exchange`). Lattice coordinates (cells), c units. Particles are binned by the CPU
-// twin's bins of side r_e (CSR: bin b holds order[start[b] .. start[b + 1]]); every kernel is a
-// gather (one thread per query, node or particle), so no atomics and no order dependence.
+// (`momentum_exchange`). Lattice coordinates (cells), c units. The particles of one or more
+// bodies, each body's level set binned by its CPU twin's bins of side r_e (CSR: bin b of set s
+// holds s.first.x + order[s.first.x + start[s.first.y + b] ...]); a query sums over the sets in
+// order, as the CPU's stage does. Every kernel is a gather (one thread per query, node or
+// particle), so no atomics and no order dependence.
 
-struct Params {
+// One body's level set: its bins and where its points and bins start in the joint arrays.
+struct SetGrid {
     // bins' origin (the points' bounding box grown by r_e), .w unused
     lo: vec4<f32>,
     // bounding box's far corner, .w unused
     hi: vec4<f32>,
     // bins per axis, .w number of points
     bins: vec4<u32>,
+    // .x the set's first point (in points, velocities and bin_order), .y its first entry of
+    // bin_start, .zw unused
+    first: vec4<u32>,
+};
+
+struct Params {
     // padded lattice: px, py, pz and the halo width (the same on every axis of the lattice)
     padded: vec4<u32>,
     halo: vec4<u32>,
@@ -21,7 +30,8 @@ struct Params {
     factor: f32,
     // queries, nodes or particles
     count: u32,
-    _pad0: u32,
+    // number of level sets in set_grids
+    sets: u32,
     _pad1: u32,
     _pad2: u32,
 };
@@ -51,6 +61,8 @@ struct Params {
 // no particle within r_e — walls that are no coupled body —, the mass all wall nodes took) and
 // (Σ (p − u_w m), the momentum in the wall's frame, 0)
 @group(0) @binding(12) var<storage, read_write> diag_partials: array<vec4<f32>>;
+// the level sets, bodies in order
+@group(0) @binding(13) var<storage, read> set_grids: array<SetGrid>;
 
 var<workgroup> diag_a: array<vec4<f32>, 64>;
 var<workgroup> diag_b: array<vec4<f32>, 64>;
@@ -59,8 +71,8 @@ fn thread_index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * 64u;
 }
 
-fn near(p: vec3<f32>) -> bool {
-    return all(p >= P.lo.xyz) && all(p <= P.hi.xyz);
+fn near(p: vec3<f32>, g: SetGrid) -> bool {
+    return all(p >= g.lo.xyz) && all(p <= g.hi.xyz);
 }
 
 // The kernel weight w(r) = r_e / max(r, r_min) − 1 (2.124), for r ≤ r_e.
@@ -68,32 +80,35 @@ fn weight(r: f32) -> f32 {
     return P.re / max(r, P.r_min) - 1.0;
 }
 
-// Visits the particles in the 3ᴰ bins around p (CPU twin: KernelLevelSet::candidates) and sums
-// L, ∇L, Σ w v and Σ w over those within r_e.
+// Visits the particles in the 3ᴰ bins around p of each set (CPU twin: KernelLevelSet::candidates,
+// set after set) and sums L, ∇L, Σ w v and Σ w over those within r_e.
 struct Sums { l: f32, g: vec3<f32>, wv: vec3<f32>, w: f32 };
 
 fn kernel_sums(p: vec3<f32>) -> Sums {
     var s = Sums(-P.phi, vec3<f32>(0.0), vec3<f32>(0.0), 0.0);
-    if (!near(p)) { return s; }
-    let c = vec3<i32>(floor((p - P.lo.xyz) / P.re));
-    let b = vec3<i32>(P.bins.xyz);
-    let lo = max(c - vec3<i32>(1), vec3<i32>(0));
-    let hi = min(c + vec3<i32>(1), b - vec3<i32>(1));
-    for (var z = lo.z; z <= hi.z; z = z + 1) {
-        for (var y = lo.y; y <= hi.y; y = y + 1) {
-            for (var x = lo.x; x <= hi.x; x = x + 1) {
-                let bin = u32((z * b.y + y) * b.x + x);
-                for (var k = bin_start[bin]; k < bin_start[bin + 1u]; k = k + 1u) {
-                    let j = bin_order[k];
-                    let d = p - points[j].xyz;
-                    let r = length(d);
-                    if (r > P.re) { continue; }
-                    let w = weight(r);
-                    s.l += w;
-                    s.w += w;
-                    s.wv += w * velocities[j].xyz;
-                    if (r > P.r_min) {
-                        s.g += (-P.re / (r * r * r)) * d;
+    for (var si = 0u; si < P.sets; si = si + 1u) {
+        let g = set_grids[si];
+        if (!near(p, g)) { continue; }
+        let c = vec3<i32>(floor((p - g.lo.xyz) / P.re));
+        let b = vec3<i32>(g.bins.xyz);
+        let lo = max(c - vec3<i32>(1), vec3<i32>(0));
+        let hi = min(c + vec3<i32>(1), b - vec3<i32>(1));
+        for (var z = lo.z; z <= hi.z; z = z + 1) {
+            for (var y = lo.y; y <= hi.y; y = y + 1) {
+                for (var x = lo.x; x <= hi.x; x = x + 1) {
+                    let bin = g.first.y + u32((z * b.y + y) * b.x + x);
+                    for (var k = bin_start[bin]; k < bin_start[bin + 1u]; k = k + 1u) {
+                        let j = g.first.x + bin_order[g.first.x + k];
+                        let d = p - points[j].xyz;
+                        let r = length(d);
+                        if (r > P.re) { continue; }
+                        let w = weight(r);
+                        s.l += w;
+                        s.w += w;
+                        s.wv += w * velocities[j].xyz;
+                        if (r > P.r_min) {
+                            s.g += (-P.re / (r * r * r)) * d;
+                        }
                     }
                 }
             }

@@ -325,20 +325,19 @@ impl CoupledSolver {
         Ok(())
     }
 
-    /// The particles of every coupled body as one level set (the current walls' points and
-    /// velocities, bodies in order; φ = 0) with each point's particle index: the weights of the
-    /// momentum exchange (2.127–2.128) normalised over all bodies at once, as
-    /// the `momentum_exchange` stage normalises them — for a backend that runs that stage itself.
-    pub fn exchange_particles(&self) -> (KernelLevelSet, Vec<usize>) {
+    /// The level sets of the coupled bodies (the current walls' points and velocities, bodies in
+    /// order) with the particle index of each of their points, one after the other: the weights of
+    /// the momentum exchange (2.127–2.128) normalised over all bodies at once, as the
+    /// `momentum_exchange` stage normalises them — for a backend that runs that stage itself. The
+    /// sets are the geometry stage's own, bins and all: nothing is binned again.
+    pub fn exchange_sets(&self) -> (&[Arc<KernelLevelSet>], Vec<usize>) {
         let ex = self.exchange.as_ref().expect("method 2");
-        let p = &self.solid.particles;
-        let mut index = Vec::new();
+        let body = &self.solid.particles.body;
+        let mut index = Vec::with_capacity(body.len());
         for b in &self.bodies {
-            index.extend((0..p.len()).filter(|&i| p.body[i] == b.surface.body));
+            index.extend(body.iter().enumerate().filter(|(_, x)| **x == b.surface.body).map(|(i, _)| i));
         }
-        let points = ex.sets.iter().flat_map(|s| s.points.iter().copied()).collect();
-        let velocities = ex.sets.iter().flat_map(|s| s.velocities.iter().copied()).collect();
-        (KernelLevelSet::new(points, velocities, self.kernel_radius(), self.r_min(), 0.0), index)
+        (&ex.sets, index)
     }
 
     /// The momentum (xyz) and mass (w) booked by the geometry stage to the padded nodes that

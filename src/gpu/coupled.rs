@@ -52,7 +52,7 @@ use super::fdlb::GpuFluid;
 use super::level_set_queries::LevelSetKernels;
 use super::solid::GpuSolid;
 use crate::coupling::{CoupledSolver, Method, WeakOptions};
-use crate::fluid::LayoutChange;
+use crate::fluid::{KernelLevelSet, LayoutChange};
 use crate::stages::CoupledStageKind;
 use crate::step::{Instability, Part, Site};
 use glam::DVec3;
@@ -503,10 +503,11 @@ impl GpuCoupled {
     /// particles near it, as their loads over the step.
     fn momentum_exchange(&mut self) {
         let changes = self.cpu.take_node_change_momentum();
-        let (set, index) = self.cpu.exchange_particles();
+        let (sets, index) = self.cpu.exchange_sets();
+        let sets: Vec<&KernelLevelSet> = sets.iter().map(|s| &**s).collect();
         let factor = self.cpu.momentum_unit() / self.cpu.dt();
         let wall = self.fluid.face_flux_buffer().expect("GpuCoupled::new records the face fluxes");
-        let (shares, diag) = self.kernels.hand_over(&self.ctx, &set, &self.cpu.fluid.layout.grid, wall, &changes, factor);
+        let (shares, diag) = self.kernels.hand_over(&self.ctx, &sets, &self.cpu.fluid.layout.grid, wall, &changes, factor);
         self.cpu.add_exchange_diagnostics(diag.walls, diag.mass, diag.wall_frame);
         let mut force = vec![DVec3::ZERO; self.cpu.solid.particles.len()];
         for (i, f) in index.into_iter().zip(shares) {

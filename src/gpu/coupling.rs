@@ -23,9 +23,6 @@ const SHADER: &str = include_str!("../../shaders/coupling.wgsl");
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 struct Params {
-    lo: [f32; 4],
-    hi: [f32; 4],
-    bins: [u32; 4],
     padded: [u32; 4],
     halo: [u32; 4],
     re: f32,
@@ -33,9 +30,52 @@ struct Params {
     phi: f32,
     factor: f32,
     count: u32,
-    _pad0: u32,
+    sets: u32,
     _pad1: u32,
     _pad2: u32,
+}
+
+/// One body's level set as the kernels find it (`SetGrid` in the shader): its bins' box and
+/// counts, and where its points and bins start in the joint arrays.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct SetGrid {
+    lo: [f32; 4],
+    hi: [f32; 4],
+    /// Bins per axis, .w the set's number of points.
+    bins: [u32; 4],
+    /// .x the set's first point, .y its first entry of the joint `bin_start`.
+    first: [u32; 4],
+}
+
+/// The level sets of one call, one after the other, as the kernels read them (bindings 1–4 and
+/// 13): each set's bin lists keep their own numbering, `SetGrid::first` places them.
+#[derive(Default)]
+struct JointSets {
+    grids: Vec<SetGrid>,
+    points: Vec<[f32; 4]>,
+    velocities: Vec<[f32; 4]>,
+    start: Vec<u32>,
+    order: Vec<u32>,
+}
+
+impl JointSets {
+    /// The sets in order (all with the same kernel radius and r_min, as one scene's bodies have).
+    fn new(sets: &[&KernelLevelSet]) -> Self {
+        let mut j = JointSets::default();
+        for s in sets {
+            assert!(s.re == sets[0].re && s.r_min == sets[0].r_min, "the sets of one call share their kernel");
+            let (lo, hi, bins) = s.bin_box();
+            let (start, order) = s.bin_lists();
+            let first = [j.points.len() as u32, j.start.len() as u32, 0, 0];
+            j.grids.push(SetGrid { lo: v4(lo), hi: v4(hi), bins: [bins[0] as u32, bins[1] as u32, bins[2] as u32, s.points.len() as u32], first });
+            j.points.extend(s.points.iter().map(|p| v4(*p)));
+            j.velocities.extend(s.velocities.iter().map(|p| v4(*p)));
+            j.start.extend_from_slice(start);
+            j.order.extend_from_slice(order);
+        }
+        j
+    }
 }
 
 /// One kernel of shaders/coupling.wgsl.
@@ -60,8 +100,8 @@ impl Kernel {
     }
 }
 
-/// Number of buffer bindings after the uniform (bindings 1–12 of shaders/coupling.wgsl).
-const BINDINGS: usize = 12;
+/// Number of buffer bindings after the uniform (bindings 1–13 of shaders/coupling.wgsl).
+const BINDINGS: usize = 13;
 /// The binding of the wall momentum per node.
 const WALL: usize = 7;
 /// The binding of the per-workgroup sums of the exchange's diagnostics.
@@ -161,7 +201,7 @@ impl CouplingKernels {
     pub fn new(ctx: &GpuContext) -> Self {
         let device = &ctx.device;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("coupling"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
-        // uniform, then (read-only?) storage bindings 1–12
+        // uniform, then (read-only?) storage bindings 1–13
         let kinds = [
             (true, true),
             (false, true),
@@ -176,6 +216,7 @@ impl CouplingKernels {
             (false, true),
             (false, true),
             (false, false),
+            (false, true),
         ];
         let layout = buffer_layout(device, "coupling", &kinds);
         let pl =
@@ -185,15 +226,14 @@ impl CouplingKernels {
         CouplingKernels { pipelines, layout, scaled: std::sync::Mutex::new(None), buffers: std::sync::Mutex::new(None) }
     }
 
-    fn params(set: &KernelLevelSet) -> Params {
-        let (lo, hi, bins) = set.bin_box();
+    /// The parameters of `sets` (their kernel; φ of a single set, 0 for several).
+    fn params(sets: &[&KernelLevelSet]) -> Params {
+        let first = sets.first().expect("at least one level set");
         Params {
-            lo: v4(lo),
-            hi: v4(hi),
-            bins: [bins[0] as u32, bins[1] as u32, bins[2] as u32, set.points.len() as u32],
-            re: set.re as f32,
-            r_min: set.r_min as f32,
-            phi: set.phi as f32,
+            re: first.re as f32,
+            r_min: first.r_min as f32,
+            phi: if sets.len() == 1 { first.phi as f32 } else { 0.0 },
+            sets: sets.len() as u32,
             ..Default::default()
         }
     }
@@ -265,15 +305,13 @@ impl CouplingKernels {
     /// L, ∇L, the wall velocity and Σw at each of `queries` (lattice coordinates): the GPU twin of
     /// [`KernelLevelSet::level`] and [`KernelLevelSet::velocity_at`].
     pub fn level_set_at(&self, ctx: &GpuContext, set: &KernelLevelSet, queries: &[[f64; 3]]) -> Vec<(f64, DVec3, DVec3, f64)> {
-        let (start, order) = set.bin_lists();
-        let pts: Vec<[f32; 4]> = set.points.iter().map(|p| v4(*p)).collect();
-        let vel: Vec<[f32; 4]> = set.velocities.iter().map(|p| v4(*p)).collect();
+        let joint = JointSets::new(&[set]);
         let q: Vec<[f32; 4]> = queries.iter().map(|p| v4(*p)).collect();
         let data = [
-            Binding::Data(bytemuck::cast_slice(&pts)),
-            Binding::Data(bytemuck::cast_slice(&vel)),
-            Binding::Data(bytemuck::cast_slice(start)),
-            Binding::Data(bytemuck::cast_slice(order)),
+            Binding::Data(bytemuck::cast_slice(&joint.points)),
+            Binding::Data(bytemuck::cast_slice(&joint.velocities)),
+            Binding::Data(bytemuck::cast_slice(&joint.start)),
+            Binding::Data(bytemuck::cast_slice(&joint.order)),
             Binding::Data(bytemuck::cast_slice(&q)),
             Binding::Output(32 * queries.len() as u64),
             Binding::Unused,
@@ -282,8 +320,9 @@ impl CouplingKernels {
             Binding::Unused,
             Binding::Unused,
             Binding::Unused,
+            Binding::Data(bytemuck::cast_slice(&joint.grids)),
         ];
-        let bytes = self.run(ctx, Self::params(set), data, &[(Kernel::LevelSetAt, queries.len() as u32)], &[], &[6]);
+        let bytes = self.run(ctx, Self::params(&[set]), data, &[(Kernel::LevelSetAt, queries.len() as u32)], &[], &[6]);
         let o: &[[f32; 4]] = bytemuck::cast_slice(&bytes[0]);
         (0..queries.len())
             .map(|k| {
@@ -306,31 +345,31 @@ impl CouplingKernels {
             contents: bytemuck::cast_slice(&w),
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         });
-        self.hand_over(ctx, set, grid, &buffer, &[], factor).0
+        self.hand_over(ctx, &[set], grid, &buffer, &[], factor).0
     }
 
     /// Method 2's momentum_exchange stage with the wall momentum on the device: `wall` holds one
     /// `vec4<f32>` per node of `grid` (at least; the GPU fluid's face-flux record,
     /// [`super::GpuFluid::face_flux_buffer`]); the geometry stage's node changes `changes`
     /// (node, momentum and mass, lattice units) are added to it, each node's momentum goes to
-    /// the particles of `set` within r_e with normalised kernel weights, and `wall` is cleared for
-    /// the next step. The set (its points, velocities and bins) and the node changes go up, and
-    /// the particles' forces (×`factor`) come back,
+    /// the particles of `sets` (the bodies' level sets, in order: the weights are normalised over
+    /// all of them at once, as the CPU's stage does) within r_e with normalised kernel weights, and
+    /// `wall` is cleared for the next step. The sets (their points, velocities and bins, as they
+    /// are: nothing is binned again) and the node changes go up, and the particles' forces
+    /// (×`factor`, the sets' points in order) come back,
     /// with the nodes' contributions to the exchange's run sums (summed per workgroup on the
     /// device, 32 B per 64 nodes, and over the workgroups here in f64).
     pub fn hand_over(
         &self,
         ctx: &GpuContext,
-        set: &KernelLevelSet,
+        sets: &[&KernelLevelSet],
         grid: &Grid,
         wall: &wgpu::Buffer,
         changes: &[(usize, DVec4)],
         factor: f64,
     ) -> (Vec<DVec3>, ExchangeDiagnostics) {
         assert!(wall.size() >= (16 * grid.len()) as u64, "one wall value per lattice node");
-        let (start, order) = set.bin_lists();
-        let pts: Vec<[f32; 4]> = set.points.iter().map(|p| v4(*p)).collect();
-        let vel: Vec<[f32; 4]> = set.velocities.iter().map(|p| v4(*p)).collect();
+        let joint = JointSets::new(sets);
         // distinct nodes, so that no two threads of add_node_changes write one entry
         let mut merged: Vec<(usize, DVec4)> = changes.to_vec();
         merged.sort_by_key(|c| c.0);
@@ -353,31 +392,33 @@ impl CouplingKernels {
             }));
         }
         let scaled = guard.as_ref().expect("made above");
-        let mut p = Self::params(set);
+        let mut p = Self::params(sets);
         p.padded = [grid.padded[0] as u32, grid.padded[1] as u32, grid.padded[2] as u32, 0];
         p.halo = [grid.halo[0] as u32, grid.halo[1] as u32, grid.halo[2] as u32, 0];
         p.factor = factor as f32;
+        let n = joint.points.len();
         let data = [
-            Binding::Data(bytemuck::cast_slice(&pts)),
-            Binding::Data(bytemuck::cast_slice(&vel)),
-            Binding::Data(bytemuck::cast_slice(start)),
-            Binding::Data(bytemuck::cast_slice(order)),
+            Binding::Data(bytemuck::cast_slice(&joint.points)),
+            Binding::Data(bytemuck::cast_slice(&joint.velocities)),
+            Binding::Data(bytemuck::cast_slice(&joint.start)),
+            Binding::Data(bytemuck::cast_slice(&joint.order)),
             // the gather reads the particles' positions from `points` (binding 1)
             Binding::Unused,
             Binding::Unused,
             Binding::Resident(wall),
             Binding::Resident(scaled),
-            Binding::Output(16 * pts.len() as u64),
+            Binding::Output(16 * n as u64),
             Binding::Data(bytemuck::cast_slice(&change_momentum)),
             Binding::Data(bytemuck::cast_slice(&change_node)),
             // two vec4 per workgroup of `exchange_weights`
             Binding::Output(32 * workgroups(grid.len() as u32) as u64),
+            Binding::Data(bytemuck::cast_slice(&joint.grids)),
         ];
         let mut kernels = Vec::new();
         if !merged.is_empty() {
             kernels.push((Kernel::AddNodeChanges, merged.len() as u32));
         }
-        kernels.extend([(Kernel::ExchangeWeights, grid.len() as u32), (Kernel::ExchangeGather, pts.len() as u32)]);
+        kernels.extend([(Kernel::ExchangeWeights, grid.len() as u32), (Kernel::ExchangeGather, n as u32)]);
         let bytes = self.run(ctx, p, data, &kernels, &[WALL], &[9, DIAG_PARTIALS]);
         let f: &[[f32; 4]] = bytemuck::cast_slice(&bytes[0]);
         let forces = f.iter().map(|v| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect();
@@ -395,16 +436,16 @@ impl CouplingKernels {
 
 #[cfg(test)]
 mod mirror_tests {
-    use super::Params;
+    use super::{Params, SetGrid};
     use crate::gpu::wgsl_check::{check_mirror, mirror};
 
     #[test]
     fn params_match_the_shader_layout() {
-        check_mirror(
-            "shaders/coupling.wgsl",
-            super::SHADER,
-            "Params",
-            mirror!(Params { lo, hi, bins, padded, halo, re, r_min, phi, factor, count, _pad0, _pad1, _pad2 }),
-        );
+        check_mirror("shaders/coupling.wgsl", super::SHADER, "Params", mirror!(Params { padded, halo, re, r_min, phi, factor, count, sets, _pad1, _pad2 }));
+    }
+
+    #[test]
+    fn set_grid_matches_the_shader_layout() {
+        check_mirror("shaders/coupling.wgsl", super::SHADER, "SetGrid", mirror!(SetGrid { lo, hi, bins, first }));
     }
 }

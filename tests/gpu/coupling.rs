@@ -7,7 +7,8 @@ use crate::support::*;
 /// Method 2's coupling kernels (shaders/coupling.wgsl) against their CPU twins: the level set,
 /// its gradient and the wall velocity at query points (2.124–2.126, 2.130), and the hand-over of
 /// the wall nodes' momentum to the particles (2.127–2.128) — on random inputs (a jittered disc of
-/// particles with random velocities, random wall momenta near it) and on the built-in scene
+/// particles with random velocities, random wall momenta near it; then a second disc beside it,
+/// the nodes between them sharing their momentum over both bodies' sets) and on the built-in scene
 /// `fsi_cylinder_conserving` after five coupled steps.
 #[test]
 fn coupling_kernels_match_their_cpu_twins() {
@@ -119,7 +120,7 @@ fn coupling_kernels_match_their_cpu_twins() {
             contents: bytemuck::cast_slice(&w32),
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
         });
-        let (gpu, diag) = kernels.hand_over(&ctx, &set, &grid, &buffer, &changes, factor);
+        let (gpu, diag) = kernels.hand_over(&ctx, &[&set], &grid, &buffer, &changes, factor);
         let force_scale = cpu.iter().map(|f| f.length()).fold(0.0, f64::max);
         let d = gpu.iter().zip(&cpu).map(|(g, c)| (*g - *c).length()).fold(0.0, f64::max) / force_scale;
         // the run sums: f32 sums of ~250 terms of size ≤ 1 against f64, relative to Σ|term|
@@ -136,6 +137,61 @@ fn coupling_kernels_match_their_cpu_twins() {
         assert!(dd.iter().all(|x| *x < 1e-6), "run sums {dd:?}");
         let after: Vec<f32> = bytemuck::cast_slice(&phonation::gpu::context::read_buffer(&ctx.device, &ctx.queue, &buffer)).to_vec();
         assert!(after.iter().all(|x| *x == 0.0), "the wall buffer is cleared after the hand-over");
+    }
+
+    // Two bodies side by side (a second disc of radius 4 cells 0.6 cells from the first): a node
+    // between them has particles of both within r_e, and its momentum is shared over both sets'
+    // weights at once, set after set, as the CPU's stage does (conserving::momentum_exchange).
+    {
+        use wgpu::util::DeviceExt;
+        let (c1, r1) = ([c0[0] + radius + 0.6 + 4.0, c0[1] + 0.7, 0.0], 4.0);
+        let (mut pts1, mut vel1) = (Vec::new(), Vec::new());
+        for i in -10..=10 {
+            for j in -10..=10 {
+                let p = [c1[0] + 0.5 * i as f64 + 0.2 * (rand() - 0.5), c1[1] + 0.5 * j as f64 + 0.2 * (rand() - 0.5), 0.0];
+                if (p[0] - c1[0]).hypot(p[1] - c1[1]) <= r1 {
+                    pts1.push(p);
+                    vel1.push([rand() - 0.5, rand() - 0.5, 0.0]);
+                }
+            }
+        }
+        let second = KernelLevelSet::new(pts1, vel1, 2.0, 0.125, 0.0);
+        let grid = phonation::fluid::Grid::new(2, [48, 36, 1]);
+        let sets = [&set, &second];
+        let mut wall = vec![DVec4::ZERO; grid.len()];
+        let mut cpu = vec![DVec3::ZERO; set.points.len() + second.points.len()];
+        let mut shared = 0;
+        for (node, w) in wall.iter_mut().enumerate() {
+            let x = grid.coords(node);
+            let at = [x[0] as f64, x[1] as f64, 0.0];
+            let near = |c: [f64; 3], r: f64| ((at[0] - c[0]).hypot(at[1] - c[1]) - r).abs() < 2.5;
+            if (near(c0, radius) || near(c1, r1)) && rand() < 0.8 {
+                *w = DVec4::new(rand() - 0.5, rand() - 0.5, 0.0, rand() - 0.5);
+                let ws: Vec<(usize, f64)> = set.weights(at).chain(second.weights(at).map(|(j, x)| (set.points.len() + j, x))).collect();
+                let sum: f64 = ws.iter().map(|(_, x)| x).sum();
+                shared += (set.weights(at).next().is_some() && second.weights(at).next().is_some()) as usize;
+                if sum > 0.0 {
+                    for (j, wj) in ws {
+                        cpu[j] += (wj / sum) * w.truncate() * factor;
+                    }
+                }
+            }
+        }
+        assert!(shared > 10, "{shared} nodes with particles of both bodies within r_e");
+        let w32: Vec<[f32; 4]> = wall.iter().map(|v| v.as_vec4().to_array()).collect();
+        let buffer = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("two bodies' wall"),
+            contents: bytemuck::cast_slice(&w32),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        });
+        let (gpu, _) = kernels.hand_over(&ctx, &sets, &grid, &buffer, &[], factor);
+        assert_eq!(gpu.len(), cpu.len(), "one force per point of either set");
+        let scale = cpu.iter().map(|f| f.length()).fold(0.0, f64::max);
+        let d = gpu.iter().zip(&cpu).map(|(g, c)| (*g - *c).length()).fold(0.0, f64::max) / scale;
+        let second_total: DVec3 = gpu[set.points.len()..].iter().sum();
+        eprintln!("two bodies, {shared} nodes shared: force {d:.2e} of the largest; the second body's total {second_total:?}");
+        assert!(second_total.length() > 0.01 * scale, "the second body takes its share");
+        assert!(d < 1e-5, "two bodies: {d:e}");
     }
 
     // The built-in scene: a clamped elastic cylinder in the Schäfer–Turek channel, method 2.
