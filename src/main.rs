@@ -6,7 +6,7 @@ mod cli;
 
 use anyhow::bail;
 use clap::{Parser, Subcommand};
-use phonation::run::Backend;
+use phonation::run::{Backend, LevelSets};
 use std::path::PathBuf;
 
 #[derive(Parser)]
@@ -31,6 +31,12 @@ enum Command {
         /// Solver backend: cpu, gpu, or auto (a hardware GPU when present, else the CPU).
         #[arg(long, value_enum, default_value = "auto")]
         backend: Backend,
+        /// GPU backend, method-2 scenes: where each step's level-set questions (each node's
+        /// side, each ghost's wall point; f64) are asked — on the device (where it has f64) or
+        /// on the host's threads, for GPUs whose f64 is slow. Both give the same layouts (the answers
+        /// agree to round-off).
+        #[arg(long, value_enum, default_value = "device")]
+        level_sets: LevelSets,
         /// Write OUT/checkpoint.bin every this many steps (atomically; the latest replaces the
         /// previous one).
         #[arg(long, value_name = "STEPS")]
@@ -90,12 +96,13 @@ fn main() -> anyhow::Result<()> {
         out: None,
         steps: None,
         backend: Backend::Auto,
+        level_sets: LevelSets::Device,
         checkpoint_every: None,
         resume: None,
         stop_at: None,
     }) {
-        Command::Run { scene: name, out, steps, backend, checkpoint_every, resume, stop_at } => {
-            cli::run::run(cli::run::RunArgs { name, out, steps, backend, checkpoint_every, resume, stop_at })?
+        Command::Run { scene: name, out, steps, backend, level_sets, checkpoint_every, resume, stop_at } => {
+            cli::run::run(cli::run::RunArgs { name, out, steps, backend, level_sets, checkpoint_every, resume, stop_at })?
         }
         Command::Check { scene: name } => cli::run::check(name)?,
         Command::Scenes => cli::run::scenes(),

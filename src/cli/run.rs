@@ -2,7 +2,7 @@
 
 use anyhow::{Context, bail};
 use phonation::run::checkpoint::{Checkpoint, Checkpointing};
-use phonation::run::{Backend, RunOptions, RunStatus, run_scene};
+use phonation::run::{Backend, LevelSets, RunOptions, RunStatus, run_scene};
 use phonation::scene::coupled::CoupledScene;
 use phonation::scene::lattice_gas::LatticeGasScene;
 use phonation::scene::solid::SolidScene;
@@ -25,6 +25,7 @@ pub struct RunArgs {
     pub out: Option<PathBuf>,
     pub steps: Option<u64>,
     pub backend: Backend,
+    pub level_sets: LevelSets,
     pub checkpoint_every: Option<u64>,
     pub resume: Option<PathBuf>,
     pub stop_at: Option<u64>,
@@ -61,6 +62,7 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
         steps: a.steps,
         show_progress: true,
         backend: a.backend,
+        level_sets: a.level_sets,
         checkpoint: Checkpointing { every: a.checkpoint_every, resume, scene_text: text },
         stop_at: a.stop_at,
     };

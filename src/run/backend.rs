@@ -30,6 +30,23 @@ pub enum Backend {
     Auto,
 }
 
+/// Where the GPU backend asks method 2's level-set questions each step (each node's side of a
+/// body, each ghost's wall point; f64, [`crate::gpu::level_set_queries`]): on the device, or on
+/// the host's threads as the CPU backend does. The layouts are the same either way (the
+/// device's kernels do the CPU's operations in its order; the answers agree to round-off,
+/// tested); only the speed differs: a
+/// GPU whose f64 runs at 1/32–1/64 of its f32 (most consumer cards) may answer slower than the
+/// host — `bench --backend gpu` times both for the method-2 scenes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LevelSets {
+    /// On the device where it has f64 in shaders, else on the host.
+    #[default]
+    Device,
+    /// On the host's threads.
+    Host,
+}
+
 /// Whether an adapter of this type is a real GPU (discrete or integrated), which `Auto` takes;
 /// a software rasteriser (lavapipe) or a virtual adapter is not.
 pub fn is_hardware_gpu(device_type: wgpu::DeviceType) -> bool {

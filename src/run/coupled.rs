@@ -271,6 +271,7 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
     std::fs::create_dir_all(dir)?;
     let record = ck.restore(&mut c, dir)?.cloned();
     let mut engine = super::CoupledEngine::new(opts.backend, c, sc.solid.file.solid.cg_tolerance)?;
+    engine.ask_level_sets(opts.level_sets);
     let c = engine.solver();
     let resumed = record.is_some();
     let resumed_from_step = resumed.then_some(c.step_count);

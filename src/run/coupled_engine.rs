@@ -11,7 +11,7 @@
 //! An advance brings back nothing the outputs read (the coupling's own stages bring back what
 //! they need: the particles, method 1's traction nodes, the nodes a change of layout reads).
 
-use super::backend::{Backend, gpu_cg_tolerance, pick_gpu};
+use super::backend::{Backend, LevelSets, gpu_cg_tolerance, pick_gpu};
 use super::mirror::{Mirror, Readback, device_failure};
 use crate::coupling::CoupledSolver;
 use crate::fluid::{Instability, Totals};
@@ -73,6 +73,24 @@ impl CoupledEngine {
         }
         let name = super::backend::with_preconditioner_note(name, &g.solid);
         Ok(Self { on: CoupledOn::Gpu(Box::new(g)), health: Some(health), name, mirror: Mirror::new(step), solid_at: step })
+    }
+
+    /// Where a method-2 scene on the GPU asks its level-set questions from now on; the
+    /// backend's name says where they are asked (nothing changes on the CPU, or for method 1,
+    /// whose walls are polygons the host builds).
+    pub fn ask_level_sets(&mut self, on: LevelSets) {
+        let CoupledOn::Gpu(g) = &mut self.on else { return };
+        if g.cpu.exchange().is_none() {
+            return;
+        }
+        g.device_level_sets = on == LevelSets::Device;
+        let base = self.name.split("; level-set questions").next().unwrap_or_default().to_string();
+        let where_ = match (g.level_sets_on_device(), on) {
+            (true, _) => "on the device (f64)",
+            (false, LevelSets::Host) => "on the host (--level-sets host)",
+            (false, LevelSets::Device) => "on the host (the device has no f64 in shaders)",
+        };
+        self.name = format!("{base}; level-set questions {where_}");
     }
 
     /// The mirror as it is: on the CPU the solver itself; on the GPU the CPU side of the last

@@ -8,7 +8,7 @@ use crate::scene::build::SceneSummary;
 use crate::scene::schema::Field;
 use crate::state::state_hash;
 use crate::step::Solver;
-pub use backend::{Backend, FluidEngine, LatticeGasEngine, Readback, SolidEngine, is_hardware_gpu, pick_gpu};
+pub use backend::{Backend, FluidEngine, LatticeGasEngine, LevelSets, Readback, SolidEngine, is_hardware_gpu, pick_gpu};
 pub use coupled_engine::CoupledEngine;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -78,6 +78,8 @@ pub struct RunOptions {
     pub steps: Option<u64>,
     pub show_progress: bool,
     pub backend: Backend,
+    /// Where a method-2 scene on the GPU asks its level-set questions (ignored elsewhere).
+    pub level_sets: LevelSets,
     /// Checkpoints to write and the one to continue from.
     pub checkpoint: checkpoint::Checkpointing,
     /// Stop after this step, as if the run were killed there (the output schedule stays that

@@ -23,6 +23,7 @@ fn opts(text: &str, steps: u64, every: Option<u64>, stop_at: Option<u64>, resume
         backend: Backend::Cpu,
         checkpoint: Checkpointing { every, resume, scene_text: text.to_string() },
         stop_at,
+        ..Default::default()
     }
 }
 

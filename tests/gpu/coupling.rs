@@ -535,7 +535,7 @@ fn a_towed_body_on_the_gpu_matches_the_cpu() {
 #[test]
 fn a_coupled_scene_runs_on_the_gpu_backend_with_the_cpus_outputs() {
     use phonation::run::coupled::run_coupled_scene;
-    use phonation::run::{Backend, RunOptions};
+    use phonation::run::{Backend, LevelSets, RunOptions};
     use phonation::scene::coupled::CoupledScene;
     let Some(_ctx) = context() else { return };
     let sc = CoupledScene::parse(&SMALL_FLAP.replace(
@@ -543,18 +543,32 @@ fn a_coupled_scene_runs_on_the_gpu_backend_with_the_cpus_outputs() {
         "[[probes]]\nname = \"wake\"\nposition = [3.0, 1.3]\n[output]\nprobe_every = 10\nsnapshots = 1\n[coupling]\noutput_every = 20\nprobes = [{ name = \"tip\", min = [2.5, 1.15], max = [2.6, 1.25] }]",
     ))
     .unwrap();
-    let read = |backend: Backend| {
-        let dir = std::env::temp_dir().join(format!("phonation-gpu-coupled-{backend:?}-{}", std::process::id()));
+    let read_with = |backend: Backend, level_sets: LevelSets| {
+        let dir = std::env::temp_dir().join(format!("phonation-gpu-coupled-{backend:?}-{level_sets:?}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
-        let r = run_coupled_scene(&sc, &dir, &RunOptions { steps: Some(100), backend, ..Default::default() }).unwrap();
+        let r = run_coupled_scene(&sc, &dir, &RunOptions { steps: Some(100), backend, level_sets, ..Default::default() }).unwrap();
         let text = std::fs::read_to_string(dir.join("coupling.csv")).unwrap();
         let header: Vec<String> = text.lines().next().unwrap().split(',').map(String::from).collect();
         let rows: Vec<Vec<f64>> = text.lines().skip(1).map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
         let _ = std::fs::remove_dir_all(&dir);
         (r, header, rows)
     };
+    let read = |backend: Backend| read_with(backend, LevelSets::Device);
     let (rc, header, cpu) = read(Backend::Cpu);
     let (rg, _, gpu) = read(Backend::Gpu);
+    // `--level-sets host`: the same run with the level-set questions asked on the host; the
+    // backend's name says where they were asked, and the rows are those of the device's answers
+    // (the same layouts: `a_coupled_step_with_level_sets_on_the_device_builds_the_cpus_layout`).
+    // Measured on lavapipe: 0 apart. The answers agree to ~1e-15 of a cell and reach the f32
+    // kernels rounded; 1e-6 leaves room for a driver whose contraction of a product and a sum
+    // moves an f32 ratio by an ulp (6e-8), which 100 steps may grow by a few times.
+    let (rh, _, host) = read_with(Backend::Gpu, LevelSets::Host);
+    eprintln!("{}\n{}", rg.backend, rh.backend);
+    assert!(rh.backend.ends_with("; level-set questions on the host (--level-sets host)"), "{}", rh.backend);
+    assert!(rg.backend.ends_with("; level-set questions on the device (f64)") || rg.backend.ends_with("(the device has no f64 in shaders)"), "{}", rg.backend);
+    let apart = host.iter().zip(&gpu).flat_map(|(h, g)| h.iter().zip(g).map(|(a, b)| (a - b).abs() / a.abs().max(b.abs()).max(1e-300))).fold(0.0, f64::max);
+    eprintln!("level sets on the host against the device: rows {apart:.2e} apart (relative)");
+    assert!(apart < 1e-6, "{apart:e}");
     // what came back for the outputs: one whole state (the snapshot at step 100, also the end),
     // the air's totals summed on the device for the 5 csv rows and the summary's mass drift, the
     // probe's node at the 10 samples, the solid with each (15 kB) — not the lattice at every

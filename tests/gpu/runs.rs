@@ -334,6 +334,7 @@ fn a_gpu_run_resumed_from_its_checkpoint_ends_as_the_whole_run() {
                 backend: Backend::Gpu,
                 checkpoint: Checkpointing { every, resume, scene_text: text.to_string() },
                 stop_at,
+                ..Default::default()
             };
             match Scene::read(text).unwrap() {
                 Scene::Fluid(sc) => phonation::run::run_scene(&sc, dir, &o).unwrap().state_hash,
