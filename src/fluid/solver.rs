@@ -10,7 +10,7 @@
 //! Each stage first writes its local part (collision and force) into the stage output, then the
 //! boundary fill, then subtracts the advection.
 
-use super::boundary::{Boundaries, StageFields, fill_boundaries};
+use super::boundary::{Boundaries, GhostScratch, StageFields, fill_boundaries};
 use super::equilibrium::{Equilibrium, MACRO_FIELDS, Macro};
 use super::geometry::Obstacle;
 use super::grid::Grid;
@@ -50,6 +50,8 @@ pub struct FluidSolver<S: Storage = f64> {
     mac: Vec<f64>,
     /// h of the thin walls' side ghosts in the current stage ([`super::thin_wall`]).
     side_h: Vec<f64>,
+    /// Scratch of the boundary fill, kept between fills ([`super::boundary::GhostScratch`]).
+    ghost_scratch: GhostScratch<S>,
     /// The state at rest the stored populations depart from (the initial state's mean density
     /// and temperature), and its equilibrium per value rounded to `S` — the shift of a shifted
     /// storage ([`Storage`]; empty when `S` is not shifted).
@@ -119,6 +121,7 @@ impl<S: Storage> FluidSolver<S> {
             f2: vec![S::default(); n * nv],
             h: vec![S::default(); n * nv],
             side_h: Vec::new(),
+            ghost_scratch: GhostScratch::default(),
             mac: vec![0.0; n * MACRO_FIELDS],
             rest: Macro::default(),
             shift: Vec::new(),
@@ -186,6 +189,7 @@ impl<S: Storage> FluidSolver<S> {
             h: recoded(&self.h),
             mac: self.mac.clone(),
             side_h: self.side_h.clone(),
+            ghost_scratch: GhostScratch::default(),
             rest: self.rest,
             shift,
             pop: self.pop,
@@ -365,6 +369,7 @@ impl<S: Storage> FluidSolver<S> {
                     h: &mut self.h,
                     mac: &mut self.mac,
                     side_h: &mut self.side_h,
+                    ghost_scratch: &mut self.ghost_scratch,
                     shift: &self.shift,
                     pop: self.pop,
                     mac_layout: self.macro_layout,

@@ -154,6 +154,24 @@ impl RowBlocked {
         }
     }
 
+    /// The values of `node` as stored (no decoding) into `out` (length nv).
+    #[inline]
+    pub fn gather_raw<T: Copy>(&self, a: &[T], node: usize, out: &mut [T]) {
+        let base = self.index(node, 0);
+        for (v, o) in out.iter_mut().enumerate() {
+            *o = a[base + v * self.px];
+        }
+    }
+
+    /// Writes the stored values `vals` (length nv) into `node` (as [`Self::gather_raw`]).
+    #[inline]
+    pub fn scatter_raw<T: Copy>(&self, a: &mut [T], node: usize, vals: &[T]) {
+        let base = self.index(node, 0);
+        for (v, x) in vals.iter().enumerate() {
+            a[base + v * self.px] = *x;
+        }
+    }
+
     /// Copies every value of node `src` onto node `dst`.
     #[inline]
     pub fn copy_node<T: Copy>(&self, a: &mut [T], src: usize, dst: usize) {
