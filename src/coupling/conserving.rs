@@ -386,17 +386,23 @@ impl CoupledSolver {
         let grid = &self.fluid.layout.grid;
         let ex = self.exchange.as_mut().expect("method 2");
         ex.changed.clear();
-        for node in 0..grid.len() {
-            let w4 = std::mem::take(&mut ex.wall[node]);
-            if w4 == DVec4::ZERO {
-                continue;
-            }
+        // the wall nodes (momentum or mass to hand over), and each one's particles within r_e
+        // — (particle, weight, its velocity in c units) — found on the pool's threads; then
+        // handed over in node order, as one by one (the same sums bit for bit)
+        let nodes: Vec<usize> = (0..grid.len()).filter(|&node| ex.wall[node] != DVec4::ZERO).collect();
+        let (sets, members) = (&ex.sets, &members);
+        let near: Vec<Vec<(usize, f64, DVec3)>> = nodes
+            .par_iter()
+            .with_min_len(64)
+            .map(|&node| {
+                let x = grid.coords(node);
+                let at = [x[0] as f64, x[1] as f64, x[2] as f64];
+                sets.iter().zip(members).flat_map(|(s, m)| s.weights(at).map(move |(j, wj)| (m[j], wj, DVec3::from_array(s.velocities[j])))).collect()
+            })
+            .collect();
+        for (&node, weights) in nodes.iter().zip(near) {
+            let w4 = ex.wall[node];
             let w = w4.truncate();
-            let x = grid.coords(node);
-            let at = [x[0] as f64, x[1] as f64, x[2] as f64];
-            // (particle, weight, its velocity in c units)
-            let weights: Vec<(usize, f64, DVec3)> =
-                ex.sets.iter().zip(&members).flat_map(|(s, m)| s.weights(at).map(move |(j, wj)| (m[j], wj, DVec3::from_array(s.velocities[j])))).collect();
             let sum: f64 = weights.iter().map(|(_, wj, _)| wj).sum();
             // the wall velocity there (2.130), for the wall-frame diagnostic
             let uw = if sum > 0.0 { weights.iter().map(|(_, wj, v)| *wj * *v).sum::<DVec3>() / sum } else { DVec3::ZERO };
@@ -414,6 +420,8 @@ impl CoupledSolver {
                 ex.walls += w * to_physical;
             }
         }
+        // every node's record taken: zero for the next step
+        ex.wall.par_iter_mut().with_min_len(4096).for_each(|w| *w = DVec4::ZERO);
         self.forces.force = force;
         self.forces.total = total;
         self.apply_forces();
