@@ -55,19 +55,25 @@ fn coupling_kernels_match_their_cpu_twins() {
         assert!(d < 1e-5, "{label}: {d:e}");
     };
 
-    // Random inputs: a disc of radius 6 cells at (20.3, 17.6), spacing 0.5 jittered by ±0.1.
-    let (c0, radius) = ([20.3, 17.6, 0.0], 6.0);
-    let mut pts = Vec::new();
-    let mut vel = Vec::new();
-    for i in -14..=14 {
-        for j in -14..=14 {
-            let p = [c0[0] + 0.5 * i as f64 + 0.2 * (rand() - 0.5), c0[1] + 0.5 * j as f64 + 0.2 * (rand() - 0.5), 0.0];
-            if (p[0] - c0[0]).hypot(p[1] - c0[1]) <= radius {
-                pts.push(p);
-                vel.push([rand() - 0.5, rand() - 0.5, 0.0]);
+    // A disc of `radius` cells at `c` (2D): particles 0.5 apart jittered by ±0.1 with random
+    // velocities (points, velocities).
+    fn jittered_disc(rand: &mut dyn FnMut() -> f64, c: [f64; 3], radius: f64) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+        let m = (2.0 * radius) as i32 + 2;
+        let (mut pts, mut vel) = (Vec::new(), Vec::new());
+        for i in -m..=m {
+            for j in -m..=m {
+                let p = [c[0] + 0.5 * i as f64 + 0.2 * (rand() - 0.5), c[1] + 0.5 * j as f64 + 0.2 * (rand() - 0.5), 0.0];
+                if (p[0] - c[0]).hypot(p[1] - c[1]) <= radius {
+                    pts.push(p);
+                    vel.push([rand() - 0.5, rand() - 0.5, 0.0]);
+                }
             }
         }
+        (pts, vel)
     }
+    // Random inputs: a disc of radius 6 cells at (20.3, 17.6).
+    let (c0, radius) = ([20.3, 17.6, 0.0], 6.0);
+    let (pts, vel) = jittered_disc(&mut rand, c0, radius);
     let set = KernelLevelSet::new(pts.clone(), vel, 2.0, 0.125, 40.0);
     let queries: Vec<[f64; 3]> = (0..2000).map(|_| [c0[0] + 20.0 * (rand() - 0.5), c0[1] + 20.0 * (rand() - 0.5), 0.0]).collect();
     compare("random disc", &set, &queries);
@@ -145,16 +151,7 @@ fn coupling_kernels_match_their_cpu_twins() {
     {
         use wgpu::util::DeviceExt;
         let (c1, r1) = ([c0[0] + radius + 0.6 + 4.0, c0[1] + 0.7, 0.0], 4.0);
-        let (mut pts1, mut vel1) = (Vec::new(), Vec::new());
-        for i in -10..=10 {
-            for j in -10..=10 {
-                let p = [c1[0] + 0.5 * i as f64 + 0.2 * (rand() - 0.5), c1[1] + 0.5 * j as f64 + 0.2 * (rand() - 0.5), 0.0];
-                if (p[0] - c1[0]).hypot(p[1] - c1[1]) <= r1 {
-                    pts1.push(p);
-                    vel1.push([rand() - 0.5, rand() - 0.5, 0.0]);
-                }
-            }
-        }
+        let (pts1, vel1) = jittered_disc(&mut rand, c1, r1);
         let second = KernelLevelSet::new(pts1, vel1, 2.0, 0.125, 0.0);
         let grid = phonation::fluid::Grid::new(2, [48, 36, 1]);
         let sets = [&set, &second];
