@@ -44,7 +44,7 @@ impl CoupledSolver {
         let dim = grid.dim;
         // ρ₀ c_s Δt per cell face, lattice units → physical mass (ρ Δx^D per lattice unit)
         let per_face = self.fluid.eq.sound_speed(self.units.theta0) * self.fluid.params.dt / dim as f64 * self.units.density * self.units.dx.powi(dim as i32);
-        let members: Vec<Vec<usize>> = self.bodies.iter().map(|b| (0..p.len()).filter(|&i| p.body[i] == b.surface.body).collect()).collect();
+        let members = self.body_members();
         for node in 0..grid.len() {
             if !is_wall(kind[node]) {
                 continue;

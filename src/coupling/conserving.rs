@@ -235,14 +235,12 @@ impl CoupledSolver {
     }
 
     fn level_sets_of(&self, x: &[[f64; 3]], v: &[[f64; 3]]) -> Vec<KernelLevelSet> {
-        let p = &self.solid.particles;
         // the bodies' sets built side by side on the pool (each set's own loops share it too)
-        self.bodies
+        self.body_members()
             .par_iter()
             .enumerate()
-            .map(|(k, b)| {
+            .map(|(k, members)| {
                 let phi = self.surface_levels().get(k).copied().unwrap_or(0.0);
-                let members: Vec<usize> = (0..p.len()).filter(|&i| p.body[i] == b.surface.body).collect();
                 KernelLevelSet::new(members.iter().map(|&i| x[i]).collect(), members.iter().map(|&i| v[i]).collect(), self.kernel_radius(), self.r_min(), phi)
             })
             .collect()
@@ -332,12 +330,7 @@ impl CoupledSolver {
     /// sets are the geometry stage's own, bins and all: nothing is binned again.
     pub fn exchange_sets(&self) -> (&[Arc<KernelLevelSet>], Vec<usize>) {
         let ex = self.exchange.as_ref().expect("method 2");
-        let body = &self.solid.particles.body;
-        let mut index = Vec::with_capacity(body.len());
-        for b in &self.bodies {
-            index.extend(body.iter().enumerate().filter(|(_, x)| **x == b.surface.body).map(|(i, _)| i));
-        }
-        (&ex.sets, index)
+        (&ex.sets, self.body_members().concat())
     }
 
     /// The momentum (xyz) and mass (w) booked by the geometry stage to the padded nodes that
@@ -365,9 +358,8 @@ impl CoupledSolver {
     /// by another backend's momentum exchange, becomes the particles' loads (with the scene's
     /// own) and each body's total.
     pub fn set_air_forces(&mut self, force: Vec<DVec3>) {
-        let p = &self.solid.particles;
-        assert_eq!(force.len(), p.len(), "one force per particle");
-        self.forces.total = self.bodies.iter().map(|b| (0..p.len()).filter(|&i| p.body[i] == b.surface.body).map(|i| force[i]).sum()).collect();
+        assert_eq!(force.len(), self.solid.particles.len(), "one force per particle");
+        self.forces.total = self.body_members().iter().map(|m| m.iter().map(|&i| force[i]).sum()).collect();
         self.forces.force = force;
         self.apply_forces();
     }
@@ -379,7 +371,7 @@ impl CoupledSolver {
         let dt = self.dt();
         let p = &self.solid.particles;
         // particle index of each level set's j-th point
-        let members: Vec<Vec<usize>> = self.bodies.iter().map(|b| (0..p.len()).filter(|&i| p.body[i] == b.surface.body).collect()).collect();
+        let members = self.body_members();
         let body_of: Vec<Option<usize>> = (0..p.len()).map(|i| self.bodies.iter().position(|b| b.surface.body == p.body[i])).collect();
         let mut force = vec![DVec3::ZERO; p.len()];
         let mut total = vec![DVec3::ZERO; self.bodies.len()];

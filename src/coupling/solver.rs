@@ -219,6 +219,13 @@ impl CoupledSolver {
         Ok(())
     }
 
+    /// The particles of each coupled body (indices in order), bodies in order: the points of
+    /// each body's level set, one after the other.
+    pub fn body_members(&self) -> Vec<Vec<usize>> {
+        let body = &self.solid.particles.body;
+        self.bodies.iter().map(|b| (0..body.len()).filter(|&i| body[i] == b.surface.body).collect()).collect()
+    }
+
     /// Runs `n` coupled steps, stopping at the first instability.
     pub fn run(&mut self, n: u64) -> Result<(), Instability> {
         for _ in 0..n {

@@ -4,6 +4,7 @@
 //! CPU reference solver.
 
 pub mod boundary;
+pub mod boundary_fill;
 mod bracket;
 pub mod equilibrium;
 pub mod fixtures;

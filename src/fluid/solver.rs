@@ -10,7 +10,8 @@
 //! Each stage first writes its local part (collision and force) into the stage output, then the
 //! boundary fill, then subtracts the advection.
 
-use super::boundary::{Boundaries, GhostScratch, StageFields, fill_boundaries};
+use super::boundary::Boundaries;
+use super::boundary_fill::{GhostScratch, StageFields, fill_boundaries};
 use super::equilibrium::{Equilibrium, MACRO_FIELDS, Macro};
 use super::geometry::Obstacle;
 use super::grid::Grid;
@@ -50,7 +51,7 @@ pub struct FluidSolver<S: Storage = f64> {
     mac: Vec<f64>,
     /// h of the thin walls' side ghosts in the current stage ([`super::thin_wall`]).
     side_h: Vec<f64>,
-    /// Scratch of the boundary fill, kept between fills ([`super::boundary::GhostScratch`]).
+    /// Scratch of the boundary fill, kept between fills ([`super::boundary_fill::GhostScratch`]).
     ghost_scratch: GhostScratch<S>,
     /// The state at rest the stored populations depart from (the initial state's mean density
     /// and temperature), and its equilibrium per value rounded to `S` — the shift of a shifted

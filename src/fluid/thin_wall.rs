@@ -24,7 +24,7 @@
 //! stencil with the side ghost's value in place of the far one, so the wall holds no-slip (and
 //! its velocity) on both sides of a plate one node row thick, where the node row, a ghost,
 //! can serve only one. Side ghosts are filled with the ghosts at every stage
-//! ([`super::boundary::fill_boundaries`]) into their own array (the solver's `side_h`; the GPU
+//! ([`super::boundary_fill::fill_boundaries`]) into their own array (the solver's `side_h`; the GPU
 //! keeps them as extra inactive nodes past the lattice).
 //!
 //! **One-sided stencils**, where no side ghost can be built (a node pinched between two walls,
