@@ -45,6 +45,8 @@ pub struct BenchReport {
     pub triad: Bandwidth,
     /// The f64 peak of the roofline ([`fma_peak`]).
     pub fma_peak: FlopRate,
+    /// The scalar f64 FMA rate ([`scalar_fma_peak`]; `None` off x86-64 or without FMA).
+    pub scalar_fma_peak: Option<FlopRate>,
     /// The last-level cache (bytes): benchmarks whose data fits in twice this report no
     /// bandwidth fraction.
     pub last_level_cache_bytes: usize,
@@ -83,6 +85,7 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
     let triad = triad(if quick { 1 << 23 } else { triad_elements(llc) }, 10);
     let bw = triad.best;
     let fma = fma_peak(5);
+    let scalar_fma = scalar_fma_peak(5);
     let (n2, n3, st) =
         if quick { (128, 32, 3) } else { (side_beyond_cache(VelocitySetKind::D2q21, 512, llc), side_beyond_cache(VelocitySetKind::D3q39, 96, llc), 10) };
     let lattices = if wants("fdlb") {
@@ -127,6 +130,7 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
     };
     for v in &mut solid {
         v.flop_fraction = v.flops_per_update.map(|f| f * v.particle_updates_per_s / fma.best);
+        v.scalar_flop_fraction = v.flops_per_update.zip(scalar_fma).map(|(f, peak)| f * v.particle_updates_per_s / peak.best);
     }
     let lattice_gas = if wants("lattice_gas") {
         let (cells, steps) = if quick { ([32, 16, 8], 3) } else { ([256, 128, 64], 4) };
@@ -160,6 +164,7 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
         triad_bandwidth_gb_s: bw / 1e9,
         triad,
         fma_peak: fma,
+        scalar_fma_peak: scalar_fma,
         last_level_cache_bytes: last_level_cache_bytes(),
         lattices,
         speed_vs_error,

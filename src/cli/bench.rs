@@ -38,7 +38,7 @@ fn percent(f: Option<f64>) -> String {
 /// One table row of a solid speed measurement (`extra` appended, e.g. a ratio to the CPU).
 fn solid_row(v: &phonation::solid::bench::SolidSpeed, extra: &str) {
     println!(
-        "{:9} {:>10} {:>10} {:>14.3e} {:>9.0} {:>8} {:>8} {:>9.1} {:>8.1}{extra}",
+        "{:9} {:>10} {:>10} {:>14.3e} {:>9.0} {:>8} {:>8} {:>8} {:>9.1} {:>8.1}{extra}",
         match v.preconditioner {
             Some(phonation::solid::Preconditioner::BlockJacobi) => "impl/bj".to_string(),
             Some(phonation::solid::Preconditioner::Patches) => "impl/ptch".to_string(),
@@ -50,6 +50,7 @@ fn solid_row(v: &phonation::solid::bench::SolidSpeed, extra: &str) {
         v.bytes_per_update,
         percent(v.bandwidth_fraction),
         v.flop_fraction.map_or("-".into(), |f| format!("{:.1}%", 100.0 * f)),
+        v.scalar_flop_fraction.map_or("-".into(), |f| format!("{:.1}%", 100.0 * f)),
         v.cg_iterations,
         v.time_step_over_explicit_limit
     );
@@ -101,6 +102,14 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             r.fma_peak.repetitions,
             r.fma_peak.median / 1e9
         );
+        if let Some(p) = r.scalar_fma_peak {
+            println!(
+                "CPU: scalar f64 FMA rate {:.1} GFLOP/s (one f64 per instruction, the roof of code that does not vectorise; best of {}, median {:.1})",
+                p.best / 1e9,
+                p.repetitions,
+                p.median / 1e9
+            );
+        }
         if !r.lattices.is_empty() {
             println!("{:8} {:>16} {:>16} {:>10} {:>10}", "lattice", "nodes", "updates/s", "B/update", "of b/w");
         }
@@ -176,8 +185,8 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                 "MPS solid (3D, r_e = 2.1 l0; implicit at 10× the explicit limit, CG to 1e-8 with the coarse space and the patch (ptch) or block-Jacobi (bj) smoother):"
             );
             println!(
-                "{:9} {:>10} {:>10} {:>14} {:>9} {:>8} {:>8} {:>9} {:>8}",
-                "step", "particles", "bonds", "updates/s", "B/update", "of b/w", "of flops", "CG it.", "Δt/lim"
+                "{:9} {:>10} {:>10} {:>14} {:>9} {:>8} {:>8} {:>8} {:>9} {:>8}",
+                "step", "particles", "bonds", "updates/s", "B/update", "of b/w", "of flops", "scalar", "CG it.", "Δt/lim"
             );
         }
         for v in &r.solid {

@@ -1,11 +1,19 @@
 //! Particle updates per second of the MPS solid (explicit and implicit steps) and the fraction
 //! of the measured memory bandwidth they reach.
 //!
-//! Bytes per particle update (explicit), a lower bound of the traffic of the two force kernels
-//! and the integration: per bond the neighbour index (4), reverse index (4), r⁰ (24), shift
-//! (24), ŵ (8), k (8), c (8), g (24) read twice (strain_stress and bond_forces, 2 × 104 B, the
-//! neighbour's state mostly from cache), plus per particle the 6×6 stiffness (288), x, v, ω,
-//! q, f, τ, Q and strain (≈ 400 B).
+//! Bytes per particle update (explicit), the byte count the fractions have used since issue 16
+//! was filed (kept so that they compare across sessions): per bond the neighbour index (4),
+//! reverse index (4), r⁰ (24), shift (24), ŵ (8), k (8), c (8), g (24) counted twice
+//! (strain_stress and bond_forces, 2 × 104 B, the neighbour's state mostly from cache), plus per
+//! particle the 6×6 stiffness (288), x, v, ω, q, f, τ, Q and strain (≈ 400 B). What the kernels
+//! read per bond is less: strain_stress the neighbour and g (28 B), bond_forces the neighbour,
+//! g, g_ji, r⁰, k and c (92 B), and the shift (24 B in each) only in a body with periodic bonds
+//! (`Bonds::periodic`) — 120 of the counted 208 B. Neither roof bounds the bond loops alone:
+//! the 10⁶ block reads about half the triad by those 120 B and runs at about half the scalar
+//! FMA rate (`scalar_flop_fraction`; glam's f64 vectors and matrices are scalar arithmetic, and
+//! not every counted flop is part of an FMA). Reading 48 B fewer per bond made it 1.05–1.22×
+//! faster (interleaved runs); reading r⁰ from the particles' reference positions instead of
+//! `r0` (24 B less again, one more gather) made `bond_forces` slower.
 
 //! Flops per particle update (explicit), the other roof: [`FLOPS_PER_BOND`] counted in the
 //! source of the two bond loops (the per-particle work — quaternion to matrix, the 6×6
@@ -43,6 +51,9 @@ pub struct SolidSpeed {
     /// Of the f64 peak measured in the same process (the bench fills it in:
     /// `bench::fma_peak`).
     pub flop_fraction: Option<f64>,
+    /// Of the scalar FMA rate measured in the same process (`bench::scalar_fma_peak`): the
+    /// roof of the bond loops, which are scalar f64 code.
+    pub scalar_flop_fraction: Option<f64>,
     /// Mean CG iterations per implicit step (0 for explicit).
     pub cg_iterations: f64,
     pub time_step_over_explicit_limit: f64,
@@ -106,6 +117,7 @@ pub fn speed_of(
         bandwidth_fraction: if cpu { crate::machine::fraction_of_bandwidth(ups * bytes, footprint(s), bandwidth) } else { Some(ups * bytes / bandwidth) },
         flops_per_update: (s.options.integrator == Integrator::Explicit).then(|| FLOPS_PER_BOND * bonds as f64 / n as f64),
         flop_fraction: None,
+        scalar_flop_fraction: None,
         cg_iterations: iters as f64 / steps as f64,
         time_step_over_explicit_limit: s.dt / s.explicit_limit,
         stage_shares,

@@ -7,6 +7,12 @@
 //! Each particle stores its own bonds (CSR, both directions), so the force kernels gather
 //! without atomics on the CPU and the GPU. Bonds never change (solids use the initial
 //! configuration); periodic images are stored as a shift added to x_j.
+//!
+//! The force kernels stream the bond arrays each step, so what they read per bond weighs
+//! (see `bench.rs`). In a body none of whose bonds crosses a periodic face — every glottis,
+//! flap and benchmark block — every shift is zero and r_ij = x_j − x_i, so `strain_stress` and
+//! `bond_forces` do not read `shift` there ([`Bonds::periodic`]: 24 of the 116 bytes
+//! `bond_forces` reads per bond, 24 of `strain_stress`'s 52).
 
 use super::grid::{Periods, SearchGrid};
 use super::material::Voigt6;
@@ -47,6 +53,9 @@ pub struct Bonds {
     /// g_ji, the reverse bond's gradient weight, stored with bond i → j so that the force
     /// kernel reads it in order instead of through `reverse`.
     pub grad_reverse: Vec<DVec3>,
+    /// Whether some bond crosses a periodic face (a nonzero `shift`); when none does, the
+    /// kernels take r_ij = x_j − x_i without reading `shift` ([`Self::current_vector`]).
+    pub periodic: bool,
 }
 
 impl Bonds {
@@ -60,6 +69,15 @@ impl Bonds {
 
     pub fn is_empty(&self) -> bool {
         self.neighbour.is_empty()
+    }
+
+    /// r_ij = x_j + shift − x_i of bond k (i → j) at positions x, `PERIODIC` being
+    /// [`Self::periodic`]; without periodic bonds x_j − x_i, the same value (adding a zero
+    /// shift could change only the sign of a component of x_j that is −0, and so of an exact
+    /// zero in r: the golden state hashes of `run::resume_tests` are unchanged).
+    #[inline(always)]
+    pub fn current_vector<const PERIODIC: bool>(&self, x: &[DVec3], i: usize, j: usize, k: usize) -> DVec3 {
+        if PERIODIC { x[j] + self.shift[k] - x[i] } else { x[j] - x[i] }
     }
 }
 
@@ -147,6 +165,7 @@ pub fn build(p: &Particles, re: f64, periods: Periods, pair_modulus: &[f64], vis
         .collect();
     b.grad = (0..n).into_par_iter().with_min_len(256).flat_map_iter(|i| second_order_weights(&b, i, p.dim)).collect();
     b.grad_reverse = b.reverse.iter().map(|&r| b.grad[r as usize]).collect();
+    b.periodic = b.shift.iter().any(|s| *s != DVec3::ZERO);
     b
 }
 

@@ -71,6 +71,11 @@ impl StressField {
 /// Kernel 1, `strain_stress`: deformation gradient, co-rotated strain, gradient-model stress,
 /// Q_i and the gradient-part torque of every particle.
 pub fn strain_stress(d: &Discretisation, x: &[DVec3], rot: &[DMat3], mode: Mode, out: &mut StressField) {
+    if d.bonds.periodic { strain_stress_with::<true>(d, x, rot, mode, out) } else { strain_stress_with::<false>(d, x, rot, mode, out) }
+}
+
+/// [`strain_stress`] for bonds that do (`PERIODIC`) or do not cross a periodic face.
+fn strain_stress_with<const PERIODIC: bool>(d: &Discretisation, x: &[DVec3], rot: &[DMat3], mode: Mode, out: &mut StressField) {
     let b = &d.bonds;
     let plane = d.dim == 2;
     (out.q.par_iter_mut(), out.torque.par_iter_mut(), out.energy.par_iter_mut(), out.strain.par_iter_mut()).into_par_iter().enumerate().for_each(
@@ -79,7 +84,7 @@ pub fn strain_stress(d: &Discretisation, x: &[DVec3], rot: &[DMat3], mode: Mode,
             for k in b.of(i) {
                 let j = b.neighbour[k] as usize;
                 let r = match mode {
-                    Mode::Full => x[j] + b.shift[k] - x[i],
+                    Mode::Full => b.current_vector::<PERIODIC>(x, i, j, k),
                     Mode::Linear => x[j] - x[i],
                 };
                 f += outer(r, b.grad[k]);
@@ -174,6 +179,26 @@ pub fn bond_forces(
     follow: Option<(&[DVec3], &[DVec3])>,
     out: &mut ForceField,
 ) {
+    if d.bonds.periodic {
+        bond_forces_with::<true>(d, x, v, spin, rot, stress, mode, follow, out)
+    } else {
+        bond_forces_with::<false>(d, x, v, spin, rot, stress, mode, follow, out)
+    }
+}
+
+/// [`bond_forces`] for bonds that do (`PERIODIC`) or do not cross a periodic face.
+#[allow(clippy::too_many_arguments)]
+fn bond_forces_with<const PERIODIC: bool>(
+    d: &Discretisation,
+    x: &[DVec3],
+    v: &[DVec3],
+    spin: Option<&[DVec3]>,
+    rot: &[DMat3],
+    stress: &StressField,
+    mode: Mode,
+    follow: Option<(&[DVec3], &[DVec3])>,
+    out: &mut ForceField,
+) {
     let b = &d.bonds;
     (out.force.par_iter_mut(), out.torque.par_iter_mut(), out.energy.par_iter_mut()).into_par_iter().enumerate().for_each(|(i, (fo, to, en))| {
         let mut f = DVec3::ZERO;
@@ -193,7 +218,7 @@ pub fn bond_forces(
             let (a_i, a_j) = (r_i * r0, rot[j] * r0);
             let (r, u) = match mode {
                 Mode::Full => {
-                    let r = x[j] + b.shift[k] - x[i];
+                    let r = b.current_vector::<PERIODIC>(x, i, j, k);
                     (r, r - 0.5 * (a_i + a_j))
                 }
                 Mode::Linear => {
@@ -225,4 +250,67 @@ pub fn bond_forces(
         *to = t;
         *en = e;
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hash::mix32;
+    use crate::solid::bench::benchmark_block;
+    use crate::solid::particles::{Particles, sample_box};
+    use crate::solid::{Integrator, Orthotropic, SolidOptions, SolidSolver};
+    use glam::DQuat;
+
+    /// A pseudo-random number in [−1, 1) from a counter.
+    fn noise(k: u32) -> f64 {
+        mix32(k) as f64 / 2f64.powi(31) - 1.0
+    }
+
+    fn noisy(k: u32, scale: f64) -> DVec3 {
+        scale * DVec3::new(noise(3 * k), noise(3 * k + 1), noise(3 * k + 2))
+    }
+
+    /// Without periodic bonds the kernels take r_ij = x_j − x_i instead of x_j + shift − x_i
+    /// (`Bonds::current_vector`): on a deformed, moving, rotated block both ways give every
+    /// output bit for bit; and a body whose bonds wrap a periodic face is marked periodic, so
+    /// that it reads its shifts.
+    #[test]
+    fn the_force_kernels_read_no_zero_shift_and_change_no_bit() {
+        let s = benchmark_block(6, Integrator::Explicit);
+        let d = &s.disc;
+        assert!(!d.bonds.periodic && d.bonds.shift.iter().all(|s| *s == DVec3::ZERO));
+        let n = s.particles.len();
+        let x: Vec<DVec3> = (0..n).map(|i| s.particles.reference[i] + noisy(i as u32, 0.01)).collect();
+        let v: Vec<DVec3> = (0..n).map(|i| noisy(1_000_000 + i as u32, 0.3)).collect();
+        let spin: Vec<DVec3> = (0..n).map(|i| noisy(2_000_000 + i as u32, 2.0)).collect();
+        let rot: Vec<DMat3> = (0..n).map(|i| DMat3::from_quat(DQuat::from_scaled_axis(noisy(3_000_000 + i as u32, 0.05)))).collect();
+        let bits = |v: &[DVec3]| v.iter().flat_map(|p| p.to_array()).map(f64::to_bits).collect::<Vec<_>>();
+        let mat_bits = |m: &[DMat3]| m.iter().flat_map(|m| m.to_cols_array()).map(f64::to_bits).collect::<Vec<_>>();
+        let (mut a, mut b) = (StressField::new(n), StressField::new(n));
+        strain_stress_with::<false>(d, &x, &rot, Mode::Full, &mut a);
+        strain_stress_with::<true>(d, &x, &rot, Mode::Full, &mut b);
+        assert_eq!(mat_bits(&a.q), mat_bits(&b.q));
+        assert_eq!(bits(&a.torque), bits(&b.torque));
+        assert!(a.energy.iter().zip(&b.energy).all(|(p, q)| p.to_bits() == q.to_bits()));
+        let stressed = a.q.iter().map(|q| q.to_cols_array().iter().fold(0.0f64, |m, e| m.max(e.abs()))).fold(0.0, f64::max);
+        assert!(stressed > 1.0, "the block is strained: largest |Q| {stressed}");
+        let (mut fa, mut fb) = (ForceField::new(n), ForceField::new(n));
+        bond_forces_with::<false>(d, &x, &v, Some(&spin), &rot, &a, Mode::Full, None, &mut fa);
+        bond_forces_with::<true>(d, &x, &v, Some(&spin), &rot, &a, Mode::Full, None, &mut fb);
+        assert_eq!(bits(&fa.force), bits(&fb.force));
+        assert_eq!(bits(&fa.torque), bits(&fb.torque));
+        assert!(fa.energy.iter().zip(&fb.energy).all(|(p, q)| p.to_bits() == q.to_bits()));
+        let largest = fa.force.iter().map(|f| f.length()).fold(0.0, f64::max);
+        assert!(largest > 1.0, "the block is loaded: largest force {largest}");
+
+        // a slab periodic in x: the bonds across the face carry the period as their shift
+        let m = Orthotropic::isotropic(1.0e6, 0.3, 1.0, 0.0);
+        let mut p = Particles::new(3, 0.1);
+        for x in sample_box(3, DVec3::ZERO, DVec3::new(0.8, 0.4, 0.4), 0.1) {
+            p.push(x, 1.0, 0, 0, false);
+        }
+        let periodic = SolidSolver::new(p, vec![m], SolidOptions { periods: [Some(0.8), None, None], ..Default::default() }).unwrap();
+        let wrapping = periodic.disc.bonds.shift.iter().filter(|s| s.x.abs() > 0.7).count();
+        assert!(periodic.disc.bonds.periodic && wrapping > 0, "{wrapping} bonds wrap the face");
+    }
 }
