@@ -44,7 +44,6 @@ impl CoupledSolver {
         let dim = grid.dim;
         // ρ₀ c_s Δt per cell face, lattice units → physical mass (ρ Δx^D per lattice unit)
         let per_face = self.fluid.eq.sound_speed(self.units.theta0) * self.fluid.params.dt / dim as f64 * self.units.density * self.units.dx.powi(dim as i32);
-        let members = self.body_members();
         for node in 0..grid.len() {
             if !is_wall(kind[node]) {
                 continue;
@@ -58,7 +57,8 @@ impl CoupledSolver {
             }
             let x = grid.coords(node);
             let at = [x[0] as f64, x[1] as f64, x[2] as f64];
-            let weights: Vec<(usize, f64)> = ex.sets().iter().zip(&members).flat_map(|(s, m)| s.weights(at).map(move |(j, wj)| (m[j], wj))).collect();
+            let weights: Vec<(usize, f64)> =
+                ex.sets().iter().zip(self.members.bodies()).flat_map(|(s, m)| s.weights(at).map(move |(j, wj)| (m[j], wj))).collect();
             let sum: f64 = weights.iter().map(|(_, w)| w).sum();
             if sum <= 0.0 {
                 continue;

@@ -236,7 +236,8 @@ impl CoupledSolver {
 
     fn level_sets_of(&self, x: &[[f64; 3]], v: &[[f64; 3]]) -> Vec<KernelLevelSet> {
         // the bodies' sets built side by side on the pool (each set's own loops share it too)
-        self.body_members()
+        let members: Vec<&[usize]> = self.members.bodies().collect();
+        members
             .par_iter()
             .enumerate()
             .map(|(k, members)| {
@@ -328,9 +329,9 @@ impl CoupledSolver {
     /// the momentum exchange (2.127–2.128) normalised over all bodies at once, as the
     /// `momentum_exchange` stage normalises them — for a backend that runs that stage itself. The
     /// sets are the geometry stage's own, bins and all: nothing is binned again.
-    pub fn exchange_sets(&self) -> (&[Arc<KernelLevelSet>], Vec<usize>) {
+    pub fn exchange_sets(&self) -> (&[Arc<KernelLevelSet>], &[usize]) {
         let ex = self.exchange.as_ref().expect("method 2");
-        (&ex.sets, self.body_members().concat())
+        (&ex.sets, self.members.order())
     }
 
     /// The momentum (xyz) and mass (w) booked by the geometry stage to the padded nodes that
@@ -359,7 +360,7 @@ impl CoupledSolver {
     /// own) and each body's total.
     pub fn set_air_forces(&mut self, force: Vec<DVec3>) {
         assert_eq!(force.len(), self.solid.particles.len(), "one force per particle");
-        self.forces.total = self.body_members().iter().map(|m| m.iter().map(|&i| force[i]).sum()).collect();
+        self.forces.total = self.members.bodies().map(|m| m.iter().map(|&i| force[i]).sum()).collect();
         self.forces.force = force;
         self.apply_forces();
     }
@@ -370,43 +371,43 @@ impl CoupledSolver {
         let to_physical = self.momentum_unit();
         let dt = self.dt();
         let p = &self.solid.particles;
-        // particle index of each level set's j-th point
-        let members = self.body_members();
-        let body_of: Vec<Option<usize>> = (0..p.len()).map(|i| self.bodies.iter().position(|b| b.surface.body == p.body[i])).collect();
         let mut force = vec![DVec3::ZERO; p.len()];
         let mut total = vec![DVec3::ZERO; self.bodies.len()];
         let grid = &self.fluid.layout.grid;
         let ex = self.exchange.as_mut().expect("method 2");
         ex.changed.clear();
         // the wall nodes (momentum or mass to hand over), and each one's particles within r_e
-        // — (particle, weight, its velocity in c units) — found on the pool's threads; then
-        // handed over in node order, as one by one (the same sums bit for bit)
+        // — (particle, weight, its velocity in c units, its body) — found on the pool's
+        // threads; then handed over in node order, as one by one (the same sums bit for bit)
         let nodes: Vec<usize> = (0..grid.len()).filter(|&node| ex.wall[node] != DVec4::ZERO).collect();
-        let (sets, members) = (&ex.sets, &members);
-        let near: Vec<Vec<(usize, f64, DVec3)>> = nodes
+        let (sets, members) = (&ex.sets, &self.members);
+        let near: Vec<Vec<(usize, f64, DVec3, usize)>> = nodes
             .par_iter()
             .with_min_len(64)
             .map(|&node| {
                 let x = grid.coords(node);
                 let at = [x[0] as f64, x[1] as f64, x[2] as f64];
-                sets.iter().zip(members).flat_map(|(s, m)| s.weights(at).map(move |(j, wj)| (m[j], wj, DVec3::from_array(s.velocities[j])))).collect()
+                // a set's j-th point is its body's j-th particle
+                sets.iter()
+                    .zip(members.bodies())
+                    .enumerate()
+                    .flat_map(|(b, (s, m))| s.weights(at).map(move |(j, wj)| (m[j], wj, DVec3::from_array(s.velocities[j]), b)))
+                    .collect()
             })
             .collect();
         for (&node, weights) in nodes.iter().zip(near) {
             let w4 = ex.wall[node];
             let w = w4.truncate();
-            let sum: f64 = weights.iter().map(|(_, wj, _)| wj).sum();
+            let sum: f64 = weights.iter().map(|(_, wj, _, _)| wj).sum();
             // the wall velocity there (2.130), for the wall-frame diagnostic
-            let uw = if sum > 0.0 { weights.iter().map(|(_, wj, v)| *wj * *v).sum::<DVec3>() / sum } else { DVec3::ZERO };
+            let uw = if sum > 0.0 { weights.iter().map(|(_, wj, v, _)| *wj * *v).sum::<DVec3>() / sum } else { DVec3::ZERO };
             ex.mass_to_walls += w4.w;
             ex.wall_frame += (w - uw * w4.w) * to_physical;
             if sum > 0.0 {
-                for (i, wj, _) in weights {
+                for (i, wj, _, b) in weights {
                     let f = (wj / sum) * w * to_physical / dt;
                     force[i] += f;
-                    if let Some(b) = body_of[i] {
-                        total[b] += f;
-                    }
+                    total[b] += f;
                 }
             } else {
                 ex.walls += w * to_physical;

@@ -29,7 +29,7 @@ pub mod weak;
 
 pub use conserving::ConservingOptions;
 pub use motion::Motion;
-pub use solver::{CoupledBody, CoupledSolver, CouplingSetupError, Method, solid_substeps};
+pub use solver::{BodyMembers, CoupledBody, CoupledSolver, CouplingSetupError, Method, solid_substeps};
 pub use surface::{BodySurface, ReferenceShape, SurfaceError};
 pub use traction::{SurfaceForces, TractionModel, surface_forces};
 pub use weak::WeakOptions;

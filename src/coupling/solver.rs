@@ -95,6 +95,45 @@ pub struct CoupledSolver {
     pub(super) built: Option<Vec<Polygon>>,
     /// Method 2: the level sets' calibration and the momentum on its way to the particles.
     pub(super) exchange: Option<Exchange>,
+    /// The particles of each coupled body, found once (a particle never changes body).
+    pub(super) members: BodyMembers,
+}
+
+/// The particles of each coupled body (indices ascending), bodies in order, one after the
+/// other: the order of the points of the bodies' level sets.
+#[derive(Clone, Debug, Default)]
+pub struct BodyMembers {
+    /// Every body's particles, body after body.
+    order: Vec<usize>,
+    /// Where each body's particles begin in `order` (one more entry than bodies).
+    starts: Vec<usize>,
+}
+
+impl BodyMembers {
+    /// The particles whose `body` id is each of `bodies`, in that order.
+    pub fn of(particle_body: &[u16], bodies: &[CoupledBody]) -> Self {
+        let mut m = Self { order: Vec::new(), starts: vec![0] };
+        for b in bodies {
+            m.order.extend((0..particle_body.len()).filter(|&i| particle_body[i] == b.surface.body));
+            m.starts.push(m.order.len());
+        }
+        m
+    }
+
+    /// Body `k`'s particles.
+    pub fn body(&self, k: usize) -> &[usize] {
+        &self.order[self.starts[k]..self.starts[k + 1]]
+    }
+
+    /// Each body's particles, bodies in order.
+    pub fn bodies(&self) -> impl Iterator<Item = &[usize]> {
+        (0..self.starts.len() - 1).map(|k| self.body(k))
+    }
+
+    /// Every body's particles, body after body.
+    pub fn order(&self) -> &[usize] {
+        &self.order
+    }
 }
 
 /// Solid sub-steps per coupled step of `dt` (s) for a solid whose own step is `solid_dt` (s): the
@@ -139,6 +178,7 @@ impl CoupledSolver {
             }
         }
         let base_load = solid.particles.load.clone();
+        let members = BodyMembers::of(&solid.particles.body, &bodies);
         let n = solid.particles.len();
         let stages = Self::stages_of(&method).len();
         let mut c = CoupledSolver {
@@ -157,6 +197,7 @@ impl CoupledSolver {
             base_load,
             built: None,
             exchange: None,
+            members,
         };
         if let Method::Conserving(o) = method {
             c.exchange = Some(Exchange::new(&c, o));
@@ -219,11 +260,10 @@ impl CoupledSolver {
         Ok(())
     }
 
-    /// The particles of each coupled body (indices in order), bodies in order: the points of
-    /// each body's level set, one after the other.
-    pub fn body_members(&self) -> Vec<Vec<usize>> {
-        let body = &self.solid.particles.body;
-        self.bodies.iter().map(|b| (0..body.len()).filter(|&i| body[i] == b.surface.body).collect()).collect()
+    /// The particles of each coupled body, bodies in order: the points of each body's level
+    /// set, one after the other.
+    pub fn body_members(&self) -> &BodyMembers {
+        &self.members
     }
 
     /// Runs `n` coupled steps, stopping at the first instability.

@@ -508,11 +508,11 @@ impl GpuCoupled {
         let factor = self.cpu.momentum_unit() / self.cpu.dt();
         let wall = self.fluid.face_flux_buffer().expect("GpuCoupled::new records the face fluxes");
         let (shares, diag) = self.kernels.hand_over(&self.ctx, &sets, &self.cpu.fluid.layout.grid, wall, &changes, factor);
-        self.cpu.add_exchange_diagnostics(diag.walls, diag.mass, diag.wall_frame);
         let mut force = vec![DVec3::ZERO; self.cpu.solid.particles.len()];
-        for (i, f) in index.into_iter().zip(shares) {
+        for (&i, f) in index.iter().zip(shares) {
             force[i] = f;
         }
+        self.cpu.add_exchange_diagnostics(diag.walls, diag.mass, diag.wall_frame);
         self.cpu.set_air_forces(force);
         self.solid.upload_loads(&self.cpu.solid);
     }
