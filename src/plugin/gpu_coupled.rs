@@ -28,13 +28,21 @@
 //!
 //! Without a render device nothing is uploaded and the entity keeps being stepped on the CPU by
 //! [`super::PhonationPlugin`], with the same components.
+//!
+//! Method 2's level-set questions (each node's side, each ghost's wall point) are asked on the
+//! device where Bevy's render device has f64 in shaders — Bevy opens it with every feature of
+//! the adapter unless its `WgpuSettings` say otherwise — and on the host's threads where it has
+//! not. Put [`GpuLevelSets`]`(LevelSets::Host)` on the entity before it is uploaded to ask them on
+//! the host anyway (a GPU whose f64 runs at 1/32–1/64 of its f32, as most consumer cards' does);
+//! [`GpuCoupledReadback::backend`] says where they are asked. The results are the same either
+//! way (`phonation run --level-sets`).
 
 use super::{CoupledGlottis, CoupledSimulation, CoupledStatus, GpuStepping, PhonationSystems, StepsThisFrame};
 use crate::coupling::glottis::{GlottalSample, Glottis};
 use crate::coupling::traction::SurfaceForces;
 use crate::fluid::{GeometryChange, Totals};
 use crate::gpu::GpuContext;
-use crate::run::CoupledEngine;
+use crate::run::{CoupledEngine, LevelSets};
 use crate::solid::SolidSolver;
 use crate::step::Solver;
 use bevy::prelude::*;
@@ -113,9 +121,18 @@ impl SolidKinematics {
     }
 }
 
+/// Where a GPU-stepped coupled entity's method-2 level-set questions are asked, read when the
+/// entity is uploaded (absent: [`LevelSets::Device`], on the device where it has f64 in
+/// shaders); the run layer's [`CoupledEngine::ask_level_sets`].
+#[derive(Component, Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct GpuLevelSets(pub LevelSets);
+
 /// The last frame read back from the render world for a GPU-stepped coupled entity.
 #[derive(Component, Debug, Clone, Default)]
 pub struct GpuCoupledReadback {
+    /// The backend the entity was uploaded to, as `phonation run` names it: the device, and for
+    /// method 2 where its level-set questions are asked ([`GpuLevelSets`]).
+    pub backend: String,
     /// The coupled step the figures belong to.
     pub step: u64,
     /// The air's totals at that step (lattice units), summed on the device.
@@ -143,12 +160,12 @@ pub(super) fn build(app: &mut App) {
 #[allow(clippy::type_complexity)]
 fn upload_coupled(
     mut commands: Commands,
-    sims: Query<(Entity, &CoupledSimulation, Option<&CoupledGlottis>), (With<GpuStepping>, Without<GpuCoupledHandle>)>,
+    sims: Query<(Entity, &CoupledSimulation, Option<&CoupledGlottis>, Option<&GpuLevelSets>), (With<GpuStepping>, Without<GpuCoupledHandle>)>,
     render: RenderDeviceParam,
 ) {
-    for (entity, sim, glottis) in &sims {
+    for (entity, sim, glottis, level_sets) in &sims {
         let Some((ctx, name)) = render.context() else { return };
-        let engine = match CoupledEngine::on_device(ctx, name, sim.solver.clone(), None) {
+        let mut engine = match CoupledEngine::on_device(ctx, name, sim.solver.clone(), None) {
             Ok(e) => e,
             Err(e) => {
                 warn!("phonation: coupled simulation on {entity} stays on the CPU: {e:#}");
@@ -156,13 +173,15 @@ fn upload_coupled(
                 continue;
             }
         };
+        engine.ask_level_sets(level_sets.map_or_else(LevelSets::default, |l| l.0));
+        let readback = GpuCoupledReadback { backend: engine.name.clone(), ..default() };
         let handle = GpuCoupledHandle {
             engine: Arc::new(Mutex::new(engine)),
             glottis: glottis.map(|g| Arc::new(g.glottis.clone())),
             inbox: Arc::default(),
             steps_this_frame: 0,
         };
-        commands.entity(entity).insert((handle, GpuCoupledReadback::default()));
+        commands.entity(entity).insert((handle, readback));
     }
 }
 
@@ -323,7 +342,9 @@ impl CoupledFrame {
                 g.flow.pop_front();
             }
         }
-        *readback = GpuCoupledReadback { step: self.step, totals: self.totals, readbacks: readback.readbacks + 1 };
+        readback.step = self.step;
+        readback.totals = self.totals;
+        readback.readbacks += 1;
         self.failure
     }
 }

@@ -28,7 +28,7 @@ pub mod two_mass;
 pub use coupled::{CoupledDiagnostics, CoupledGlottis, CoupledSimulation, CoupledStatus};
 pub use diagnostics::PhonationDiagnosticsPlugin;
 pub use gpu::{GpuAir, GpuFluidHandle, GpuProbes, GpuStepping, PhonationGpuPlugin};
-pub use gpu_coupled::{GpuCoupledHandle, GpuCoupledReadback};
+pub use gpu_coupled::{GpuCoupledHandle, GpuCoupledReadback, GpuLevelSets};
 pub use gpu_solid::GpuSolidHandle;
 pub use lattice_gas::{LatticeGasDiagnostics, LatticeGasSimulation};
 pub use solid::{SolidDiagnostics, SolidSimulation, SolidStatus};

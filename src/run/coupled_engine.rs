@@ -87,7 +87,7 @@ impl CoupledEngine {
         let base = self.name.split("; level-set questions").next().unwrap_or_default().to_string();
         let where_ = match (g.level_sets_on_device(), on) {
             (true, _) => "on the device (f64)",
-            (false, LevelSets::Host) => "on the host (--level-sets host)",
+            (false, LevelSets::Host) => "on the host (as asked)",
             (false, LevelSets::Device) => "on the host (the device has no f64 in shaders)",
         };
         self.name = format!("{base}; level-set questions {where_}");

@@ -561,7 +561,7 @@ fn a_coupled_scene_runs_on_the_gpu_backend_with_the_cpus_outputs() {
     // moves an f32 ratio by an ulp (6e-8), which 100 steps may grow by a few times.
     let (rh, _, host) = read_with(Backend::Gpu, LevelSets::Host);
     eprintln!("{}\n{}", rg.backend, rh.backend);
-    assert!(rh.backend.ends_with("; level-set questions on the host (--level-sets host)"), "{}", rh.backend);
+    assert!(rh.backend.ends_with("; level-set questions on the host (as asked)"), "{}", rh.backend);
     assert!(rg.backend.ends_with("; level-set questions on the device (f64)") || rg.backend.ends_with("(the device has no f64 in shaders)"), "{}", rg.backend);
     let apart = host.iter().zip(&gpu).flat_map(|(h, g)| h.iter().zip(g).map(|(a, b)| (a - b).abs() / a.abs().max(b.abs()).max(1e-300))).fold(0.0, f64::max);
     eprintln!("level sets on the host against the device: rows {apart:.2e} apart (relative)");

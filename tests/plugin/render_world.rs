@@ -300,3 +300,53 @@ fn a_coupled_glottis_stepped_in_the_render_world_matches_the_gpu_backend() {
     assert!(f_bits(&now.solver) != f_bits(&back));
     assert_eq!(app.world().get::<CoupledGlottis>(e).unwrap().flow.len() as u64, back.step_count + 40);
 }
+
+/// Method 2's level-set questions in the render world go where the entity asks: on Bevy's render
+/// device when it has f64 in shaders (Bevy opens it with the adapter's features; lavapipe has
+/// them), on the host with [`GpuLevelSets`]`(LevelSets::Host)` — each readback naming where —,
+/// and the two entities, stepped alike, come back with the same air and particles bit for bit
+/// (the questions' answers agree to ~1e-15 cells and reach f32 kernels: `run --level-sets`).
+#[test]
+fn the_render_worlds_level_set_questions_go_where_the_entity_asks() {
+    use bevy::render::renderer::RenderDevice;
+    use phonation::plugin::{CoupledSimulation, CoupledStatus, GpuCoupledReadback, GpuLevelSets, GpuStepping};
+    use phonation::run::LevelSets;
+    use phonation::scene::coupled::CoupledScene;
+    let Some(mut app) = render_world_app() else { return };
+    let sc = CoupledScene::parse(scene::builtin("fsi_cylinder_conserving").unwrap()).unwrap();
+    app.insert_resource(SimulationControl { paused: false, steps_per_frame: 5, single_steps: 0 });
+    let on_device = app.world_mut().spawn((CoupledSimulation { solver: sc.build().unwrap() }, GpuStepping)).id();
+    let on_host = app.world_mut().spawn((CoupledSimulation { solver: sc.build().unwrap() }, GpuStepping, GpuLevelSets(LevelSets::Host))).id();
+    let step = |app: &App, e| app.world().get::<GpuCoupledReadback>(e).map_or(0, |r| r.step);
+    for _ in 0..100 {
+        app.update();
+        if step(&app, on_device) >= 20 && step(&app, on_host) >= 20 {
+            break;
+        }
+    }
+    let w = app.world();
+    assert!(step(&app, on_device) >= 20 && step(&app, on_host) >= 20, "both stepped 20 steps within 100 frames");
+    assert_eq!((w.get::<CoupledStatus>(on_device), w.get::<CoupledStatus>(on_host)), (None, None), "both still running");
+    let f64_shaders = w.resource::<RenderDevice>().features().contains(bevy::render::settings::WgpuFeatures::SHADER_F64);
+    let backend = |e| w.get::<GpuCoupledReadback>(e).unwrap().backend.clone();
+    eprintln!("{}\n{}", backend(on_device), backend(on_host));
+    let device_side =
+        if f64_shaders { "; level-set questions on the device (f64)" } else { "; level-set questions on the host (the device has no f64 in shaders)" };
+    assert!(backend(on_device).ends_with(device_side), "{}", backend(on_device));
+    assert!(backend(on_host).ends_with("; level-set questions on the host (as asked)"), "{}", backend(on_host));
+    assert!(std::env::var("CI").is_err() || f64_shaders, "lavapipe's f64 reaches Bevy's render device in CI");
+
+    // taken off the device (paused): both come back at the same step with the same state
+    app.insert_resource(SimulationControl { paused: true, steps_per_frame: 5, single_steps: 0 });
+    app.world_mut().entity_mut(on_device).remove::<GpuStepping>();
+    app.world_mut().entity_mut(on_host).remove::<GpuStepping>();
+    app.update();
+    let w = app.world();
+    let (a, b) = (&w.get::<CoupledSimulation>(on_device).unwrap().solver, &w.get::<CoupledSimulation>(on_host).unwrap().solver);
+    assert!(a.step_count >= 20 && a.step_count == b.step_count, "steps {} and {}", a.step_count, b.step_count);
+    let f_bits = |s: &phonation::coupling::CoupledSolver| s.fluid.f.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let pos = |s: &phonation::coupling::CoupledSolver| s.solid.particles.position.iter().flat_map(|p| p.to_array()).map(f64::to_bits).collect::<Vec<_>>();
+    assert!(f_bits(a) == f_bits(b), "the air differs between the level sets on the device and on the host");
+    assert_eq!(pos(a), pos(b), "the particles differ between the level sets on the device and on the host");
+    assert!(a.solid.particles.position.iter().zip(&a.solid.particles.reference).any(|(x, r)| *x != *r), "the cylinder moved");
+}
