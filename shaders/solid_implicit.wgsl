@@ -287,6 +287,151 @@ fn cg_patches(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_i
     }
 }
 
+// ---------------------------------------------------------------- coarse space
+
+// The coarse-space correction of the preconditioner, z += P A_c⁻¹ Pᵀ r (CPU twin:
+// CoarseSpace::add_correction in src/solid/coarse.rs): the aggregates' affine modes, A_c⁻¹ dense.
+// Its arrays follow the patches' in `patch_index` (from coarse_index_at(): [A, m, dimension,
+// modes, A + 1 unknown offsets, A + 1 member offsets, the aggregate of each particle (u32 max
+// where clamped), the members aggregate by aggregate]) and in `patch_inverse` (from
+// coarse_values_at(): [(x − centre)/side, 3 per particle; 12 × 12 mode coefficients per
+// aggregate; A_c⁻¹, m × m]); g = Pᵀ r and u = A_c⁻¹ g live in `partials` after the dot
+// products' partial sums (coarse_work_at()).
+fn coarse_index_at() -> u32 {
+    let q = patch_index[0];
+    return 3u + 2u * q + patch_index[1u + q];
+}
+
+fn coarse_values_at() -> u32 {
+    return patch_index[2u + 2u * patch_index[0]];
+}
+
+fn coarse_work_at() -> u32 {
+    return 4u * ((P.n + 255u) / 256u) + 4u;
+}
+
+fn coarse_rel(i: u32) -> vec3<f32> {
+    let v = coarse_values_at() + 3u * i;
+    return vec3<f32>(patch_inverse[v], patch_inverse[v + 1u], patch_inverse[v + 2u]);
+}
+
+// m_k(rel) · v for the affine modes k of CoarseSpace::basis_of: translations, rotations
+// (e_k × rel · v = e_k · (rel × v)), normal strains, shears
+fn mode_dots(rel: vec3<f32>, v: vec3<f32>, dim: u32) -> array<f32, 12> {
+    var d: array<f32, 12>;
+    if dim == 2u {
+        d[0] = v.x;
+        d[1] = v.y;
+        d[2] = rel.x * v.y - rel.y * v.x;
+        d[3] = rel.x * v.x;
+        d[4] = rel.y * v.y;
+        d[5] = rel.y * v.x + rel.x * v.y;
+    } else {
+        let c = cross(rel, v);
+        d[0] = v.x;
+        d[1] = v.y;
+        d[2] = v.z;
+        d[3] = c.x;
+        d[4] = c.y;
+        d[5] = c.z;
+        d[6] = rel.x * v.x;
+        d[7] = rel.y * v.y;
+        d[8] = rel.z * v.z;
+        d[9] = rel.y * v.x + rel.x * v.y;
+        d[10] = rel.z * v.y + rel.y * v.z;
+        d[11] = rel.z * v.x + rel.x * v.z;
+    }
+    return d;
+}
+
+var<workgroup> coarse_sums: array<f32, 768>;
+
+// g = Pᵀ r, one workgroup per aggregate: the modes' projections of r summed over the members,
+// then g_e = Σ_k b_ek S_k for the aggregate's basis vectors e
+@compute @workgroup_size(64)
+fn coarse_restrict(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let a = wid.x + wid.y * 65535u;
+    let c0 = coarse_index_at();
+    let aggregates = patch_index[c0];
+    if a >= aggregates { return; }
+    let dim = patch_index[c0 + 2u];
+    let starts = c0 + 5u + aggregates;
+    let members = c0 + 6u + 2u * aggregates + P.n;
+    var s: array<f32, 12>;
+    for (var k = 0u; k < 12u; k++) { s[k] = 0.0; }
+    for (var t = patch_index[starts + a] + li; t < patch_index[starts + a + 1u]; t += 64u) {
+        let i = patch_index[members + t];
+        let d = mode_dots(coarse_rel(i), cg[P.n + i].xyz, dim);
+        for (var k = 0u; k < 12u; k++) { s[k] += d[k]; }
+    }
+    for (var k = 0u; k < 12u; k++) { coarse_sums[12u * li + k] = s[k]; }
+    workgroupBarrier();
+    for (var h = 32u; h > 0u; h >>= 1u) {
+        if li < h {
+            for (var k = 0u; k < 12u; k++) { coarse_sums[12u * li + k] += coarse_sums[12u * (li + h) + k]; }
+        }
+        workgroupBarrier();
+    }
+    let o = patch_index[c0 + 4u + a];
+    let count = patch_index[c0 + 5u + a] - o;
+    if li < count {
+        let coef = coarse_values_at() + 3u * P.n + 144u * a + 12u * li;
+        var g = 0.0;
+        for (var k = 0u; k < patch_index[c0 + 3u]; k++) { g += patch_inverse[coef + k] * coarse_sums[k]; }
+        partials[coarse_work_at() + o + li] = g;
+    }
+}
+
+// u = A_c⁻¹ g, one workgroup per row (A_c⁻¹ symmetric, read along its rows)
+@compute @workgroup_size(256)
+fn coarse_solve(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let p = wid.x + wid.y * 65535u;
+    let c0 = coarse_index_at();
+    let m = patch_index[c0 + 1u];
+    if p >= m { return; }
+    let row = coarse_values_at() + 3u * P.n + 144u * patch_index[c0] + p * m;
+    let work = coarse_work_at();
+    var acc = 0.0;
+    for (var q = li; q < m; q += 256u) { acc += patch_inverse[row + q] * partials[work + q]; }
+    red[li] = acc;
+    workgroupBarrier();
+    for (var s = 128u; s > 0u; s >>= 1u) {
+        if li < s { red[li] += red[li + s]; }
+        workgroupBarrier();
+    }
+    if li == 0u { partials[work + m + p] = red[0]; }
+}
+
+// z += P u: each free particle adds its aggregate's motion Σ_k c_k m_k(rel), c_k = Σ_e u_e b_ek
+@compute @workgroup_size(64)
+fn coarse_prolong(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = idx(gid);
+    if i >= P.n { return; }
+    let c0 = coarse_index_at();
+    let aggregates = patch_index[c0];
+    let a = patch_index[c0 + 6u + 2u * aggregates + i];
+    if a == 0xffffffffu { return; }
+    let dim = patch_index[c0 + 2u];
+    let modes = patch_index[c0 + 3u];
+    let o = patch_index[c0 + 4u + a];
+    let count = patch_index[c0 + 5u + a] - o;
+    let coef = coarse_values_at() + 3u * P.n + 144u * a;
+    let u = coarse_work_at() + patch_index[c0 + 1u] + o;
+    var c: array<f32, 12>;
+    for (var k = 0u; k < 12u; k++) { c[k] = 0.0; }
+    for (var e = 0u; e < count; e++) {
+        let ue = partials[u + e];
+        for (var k = 0u; k < modes; k++) { c[k] += ue * patch_inverse[coef + 12u * e + k]; }
+    }
+    let rel = coarse_rel(i);
+    let dx = mode_dots(rel, vec3<f32>(1.0, 0.0, 0.0), dim);
+    let dy = mode_dots(rel, vec3<f32>(0.0, 1.0, 0.0), dim);
+    let dz = mode_dots(rel, vec3<f32>(0.0, 0.0, 1.0), dim);
+    var z = vec3<f32>(0.0);
+    for (var k = 0u; k < modes; k++) { z += c[k] * vec3<f32>(dx[k], dy[k], dz[k]); }
+    cg[2u * P.n + i] = vec4<f32>(cg[2u * P.n + i].xyz + z, 0.0);
+}
+
 // p = z and the operator's first input, after the patch smoother gave the first z
 @compute @workgroup_size(64)
 fn cg_first_direction(@builtin(global_invocation_id) gid: vec3<u32>) {

@@ -26,7 +26,7 @@ mod solve;
 pub use contact::CONTACT_SLOTS;
 use contact::GpuContact;
 pub use solve::PATCH_MAX_PARTICLES;
-use solve::{PatchArrays, device_patches};
+use solve::{PatchArrays, device_coarse, device_patches};
 
 use bindings::{Buf, Buffers, G0, G1, Kernel, Pipelines};
 use wgpu::util::DeviceExt;
@@ -92,14 +92,19 @@ pub struct GpuSolid {
     pub last_cg: (usize, f64),
     /// Every CG solve on the device so far (as the CPU solver's).
     pub cg_tally: crate::solid::implicit::CgTally,
-    /// What preconditions the implicit solve here: the CPU options' patches
-    /// ([`crate::solid::patch_jacobi`], without the coarse space, which stays on the CPU) or
-    /// block Jacobi — chosen by the options, or when the patches do not fit
-    /// (`preconditioner_note` says why).
+    /// What smooths in the implicit solve's preconditioner here: the CPU options' patches
+    /// ([`crate::solid::patch_jacobi`]) or block Jacobi — chosen by the options, or when the
+    /// patches do not fit (`preconditioner_note` says why); the CPU's coarse space is added
+    /// where the device holds it ([`Self::coarse_unknowns`], `coarse_note`).
     pub preconditioner: Preconditioner,
     pub preconditioner_note: Option<String>,
     /// Patches of the patch smoother (0 with block Jacobi).
     patch_count: u32,
+    /// The coarse space's aggregates and unknowns on the device (0 without one:
+    /// `coarse_note` says why).
+    coarse_aggregates: u32,
+    coarse_unknowns: u32,
+    pub coarse_note: Option<String>,
     pub step_count: u64,
     contact: Option<GpuContact>,
     /// Reference positions X: the `pos` buffer holds the displacement u = x − X
@@ -119,8 +124,9 @@ impl GpuSolid {
         let pre: Vec<[f32; 12]> = if implicit { s.preconditioner().blocks().iter().map(m3).collect() } else { vec![[0f32; 12]; n] };
         let limit = ctx.limits.max_storage_buffer_binding_size;
         let wants_patches = implicit && s.options.preconditioner == Preconditioner::Patches;
-        if wants_patches {
-            s.patch_smoother();
+        if implicit {
+            // the options' smoother and the coarse space, as the CPU step builds them
+            s.prepare_preconditioner();
         }
         // the rest reads the solver only: the inverses go up from the solver's own array
         let s = &*s;
@@ -129,6 +135,15 @@ impl GpuSolid {
             Some(Ok(a)) => (Preconditioner::Patches, a, None),
             Some(Err(why)) => (Preconditioner::BlockJacobi, PatchArrays::default(), Some(why)),
             None => (Preconditioner::BlockJacobi, PatchArrays::default(), None),
+        };
+        let coarse = match (implicit, s.coarse_space()) {
+            (false, _) => Err(None),
+            (true, None) => Err(Some("no coarse space (a periodic solid, or A_c not positive definite): the smoother alone".to_string())),
+            (true, Some(c)) => device_coarse(c, &s.particles.reference, 4 * patch_arrays.inverse.len() as u64, limit).map_err(Some),
+        };
+        let (coarse, coarse_note) = match coarse {
+            Ok(c) => (Some(c), None),
+            Err(why) => (None, why),
         };
         let b = &s.disc.bonds;
         let nb = b.len();
@@ -174,11 +189,31 @@ impl GpuSolid {
                 Buf::Theta => storage(name, bytemuck::cast_slice(&vec![[0f32; 4]; 2 * n])),
                 Buf::Cg => storage(name, bytemuck::cast_slice(&vec![[0f32; 4]; 7 * n])),
                 Buf::Precond => storage(name, bytemuck::cast_slice(&pre)),
-                Buf::Partials => storage(name, bytemuck::cast_slice(&vec![0f32; 4 * n.div_ceil(256) + 4])),
+                // the dot products' partial sums, then the coarse space's g and u
+                Buf::Partials => {
+                    storage(name, bytemuck::cast_slice(&vec![0f32; 4 * n.div_ceil(256) + 4 + 2 * coarse.as_ref().map_or(0, |c| c.unknowns as usize)]))
+                }
                 Buf::Scalars => storage(name, bytemuck::cast_slice(&[0f32; 8])),
-                // block Jacobi: Q = 0 (the smoother is never dispatched then)
-                Buf::PatchIndex => storage(name, bytemuck::cast_slice(if patch_arrays.index.is_empty() { &[0u32][..] } else { &patch_arrays.index })),
-                Buf::PatchInverse => storage(name, bytemuck::cast_slice(patch_arrays.inverse)),
+                // block Jacobi: Q = 0 (the smoother is never dispatched then); the coarse
+                // space's arrays follow the patches'
+                Buf::PatchIndex => match &coarse {
+                    Some(c) => storage(name, bytemuck::cast_slice(&[&patch_arrays.index[..], &c.index].concat())),
+                    None => storage(name, bytemuck::cast_slice(&patch_arrays.index)),
+                },
+                Buf::PatchInverse => match &coarse {
+                    Some(c) => {
+                        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                            label: Some(name),
+                            size: 4 * (patch_arrays.inverse.len() + c.values.len()) as u64,
+                            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                            mapped_at_creation: false,
+                        });
+                        ctx.queue.write_buffer(&buffer, 0, bytemuck::cast_slice(patch_arrays.inverse));
+                        ctx.queue.write_buffer(&buffer, 4 * patch_arrays.inverse.len() as u64, bytemuck::cast_slice(&c.values));
+                        buffer
+                    }
+                    None => storage(name, bytemuck::cast_slice(patch_arrays.inverse)),
+                },
                 // the per-particle vectors
                 Buf::Pos
                 | Buf::Vel
@@ -233,6 +268,9 @@ impl GpuSolid {
             preconditioner,
             preconditioner_note,
             patch_count: patch_arrays.patches(),
+            coarse_aggregates: coarse.as_ref().map_or(0, |c| c.aggregates),
+            coarse_unknowns: coarse.as_ref().map_or(0, |c| c.unknowns),
+            coarse_note,
             step_count: 0,
             contact: None,
             reference: p.reference.clone(),
@@ -246,6 +284,11 @@ impl GpuSolid {
         }
         g.upload_state(s);
         Ok(g)
+    }
+
+    /// The coarse space's unknowns on the device (0: the smoother alone, `coarse_note` says why).
+    pub fn coarse_unknowns(&self) -> usize {
+        self.coarse_unknowns as usize
     }
 
     /// Writes positions, velocities, spins, quaternions, loads (+ added mass) and rotation
@@ -300,6 +343,10 @@ impl GpuSolid {
         match kernel {
             Kernel::CgPatches => {
                 let w = self.patch_count.max(1);
+                if w <= 65_535 { pass.dispatch_workgroups(w, 1, 1) } else { pass.dispatch_workgroups(65_535, w.div_ceil(65_535), 1) }
+            }
+            Kernel::CoarseRestrict | Kernel::CoarseSolve => {
+                let w = if kernel == Kernel::CoarseRestrict { self.coarse_aggregates } else { self.coarse_unknowns }.max(1);
                 if w <= 65_535 { pass.dispatch_workgroups(w, 1, 1) } else { pass.dispatch_workgroups(65_535, w.div_ceil(65_535), 1) }
             }
             Kernel::CgDots => pass.dispatch_workgroups((self.n as u32).div_ceil(256).max(1), 1, 1),
@@ -517,7 +564,8 @@ pub type Kinematics = (Vec<DVec3>, Vec<DVec3>, Vec<Vec<u8>>);
 
 /// Particle updates per second of the GPU solid on the benchmark block of
 /// [`crate::solid::bench::benchmark_block`] with the implicit solve's `preconditioner` (the
-/// patches fall back to block Jacobi where they do not fit: the row says which ran);
+/// patches fall back to block Jacobi where they do not fit: the row says which ran), with the
+/// coarse space where the device holds it (its probing and A_c⁻¹ in the setup time);
 /// `bandwidth` is the device's copy bandwidth (B/s).
 pub fn solid_speed(
     ctx: &GpuContext,
@@ -543,7 +591,8 @@ pub fn solid_speed(
     g.wait();
     let wall = t.elapsed().as_secs_f64();
     let mut v = crate::solid::bench::speed_of(false, &s, steps, wall, iters, setup, Vec::new(), bandwidth);
-    // the device solve's preconditioner: the patches without the coarse space, or block Jacobi
+    // the device solve's smoother (the patches, or block Jacobi where they do not fit), with the
+    // coarse space as on the CPU where the device holds it (`coarse_note` otherwise)
     v.preconditioner = v.preconditioner.map(|_| g.preconditioner);
     Ok(v)
 }

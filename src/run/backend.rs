@@ -357,12 +357,14 @@ impl SolidEngine {
 }
 
 /// The backend's name, with why the device's implicit solve fell back to block Jacobi from
-/// the patches when it did (printed as the run's backend and kept in `summary.json`).
+/// the patches, or went without the coarse space, when it did (printed as the run's backend
+/// and kept in `summary.json`).
 pub(super) fn with_preconditioner_note(name: String, g: &GpuSolid) -> String {
-    match &g.preconditioner_note {
-        Some(why) => format!("{name}; implicit solve: {why}"),
-        None => name,
+    let mut name = name;
+    for why in [&g.preconditioner_note, &g.coarse_note].into_iter().flatten() {
+        name = format!("{name}; implicit solve: {why}");
     }
+    name
 }
 
 /// The GPU solid's CG tolerance for the scene's `solid.cg_tolerance` (see [`SolidEngine::new`]).

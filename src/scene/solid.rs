@@ -42,7 +42,7 @@ pub struct SolidSpec {
     #[serde(default)]
     pub gravity: Vec<f64>,
     pub cg_tolerance: Option<f64>,
-    /// The implicit solve's smoother: "patches" (default; on the GPU without the coarse space) or "block_jacobi".
+    /// The implicit solve's smoother: "patches" (default) or "block_jacobi"; the coarse space is added to either on both backends.
     pub preconditioner: Option<crate::solid::Preconditioner>,
     pub materials: Vec<MaterialSpec>,
     pub bodies: Vec<BodySpec>,

@@ -46,6 +46,11 @@ pub struct CoarseSpace {
     /// `start[i]`: P's entries, evaluated once.
     vectors: Vec<DVec3>,
     start: Vec<usize>,
+    /// Centre of each aggregate (length) and its basis: coefficients of the affine modes of
+    /// [`mode`] about the centre (one row of 12 per basis vector), for [`Self::basis_of`].
+    centre: Vec<DVec3>,
+    basis: Vec<Vec<[f64; 12]>>,
+    dim: usize,
 }
 
 /// A_c and its solve.
@@ -329,7 +334,68 @@ impl CoarseSpace {
                 CoarseSolve::Sparse(Box::new(SparseCoarse::new(a, groups)?))
             }
         };
-        Some(Self { aggregate, offset, solve, side, vectors, start })
+        Some(Self { aggregate, offset, solve, side, vectors, start, centre, basis, dim })
+    }
+
+    /// Aggregate of each particle (`u32::MAX` at clamped particles).
+    pub fn aggregate_of(&self) -> &[u32] {
+        &self.aggregate
+    }
+
+    /// First coarse unknown of each aggregate, and the total at the end.
+    pub fn offsets(&self) -> &[usize] {
+        &self.offset
+    }
+
+    /// Aggregate j's centre (length) and basis, each basis vector as the coefficients of the
+    /// affine modes about the centre with positions scaled by 1/[`Self::side`] — in 3D the
+    /// translations x, y, z, the rotations about x, y, z (e_k × r), the normal strains
+    /// (r_k e_k), the shears (r_y, r_x, 0), (0, r_z, r_y), (r_z, 0, r_x); in 2D x, y, e_z × r,
+    /// (r_x, 0), (0, r_y), (r_y, r_x); the device's kernels (`coarse_restrict`,
+    /// `coarse_prolong` in shaders/solid_implicit.wgsl) evaluate the same list.
+    pub fn basis_of(&self, j: usize) -> (DVec3, &[[f64; 12]]) {
+        (self.centre[j], &self.basis[j])
+    }
+
+    /// Number of affine modes per aggregate (6 in 2D, 12 in 3D).
+    pub fn modes(&self) -> usize {
+        mode_count(self.dim)
+    }
+
+    /// A_c⁻¹, dense and row-major (symmetric): the columns solved through the Cholesky factor,
+    /// or for a block-sparse A_c the matrix assembled and factorised first (≈ m³ flops: the
+    /// device applies A_c⁻¹ as one dense product, where the CPU solves). `None` when a
+    /// block-sparse A_c does not factorise to round-off.
+    pub fn dense_inverse(&self) -> Option<Vec<f64>> {
+        let m = self.unknowns();
+        let factor = match &self.solve {
+            CoarseSolve::Dense(l) => std::borrow::Cow::Borrowed(l),
+            CoarseSolve::Sparse(s) => {
+                let mut a = vec![0.0; m * m];
+                a.par_chunks_mut(m).enumerate().for_each(|(q, row)| {
+                    let mut e = vec![0.0; m];
+                    e[q] = 1.0;
+                    s.apply(&e, row);
+                });
+                for p in 0..m {
+                    for q in 0..p {
+                        let v = 0.5 * (a[p * m + q] + a[q * m + p]);
+                        a[p * m + q] = v;
+                        a[q * m + p] = v;
+                    }
+                }
+                if !cholesky(&mut a, m) {
+                    return None;
+                }
+                std::borrow::Cow::Owned(a)
+            }
+        };
+        let mut inverse = vec![0.0; m * m];
+        inverse.par_chunks_mut(m).enumerate().for_each(|(q, column)| {
+            column[q] = 1.0;
+            cholesky_solve(&factor, m, column);
+        });
+        Some(inverse)
     }
 
     /// Number of coarse unknowns.

@@ -31,8 +31,8 @@ pub enum Integrator {
     Implicit,
 }
 
-/// The smoother of the implicit step's preconditioner on the CPU (the coarse space
-/// [`super::coarse`] is added to either; the GPU solve uses block Jacobi alone).
+/// The smoother of the implicit step's preconditioner (the coarse space [`super::coarse`] is
+/// added to either, on the CPU and, where it holds it, on the GPU).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Preconditioner {
@@ -282,7 +282,7 @@ impl SolidSolver {
     }
 
     /// The patch smoother for the current Δt (built on first use, without the coarse space:
-    /// what the GPU's implicit solve applies, [`crate::solid::Preconditioner::Patches`]).
+    /// [`crate::solid::Preconditioner::Patches`], which the GPU's implicit solve applies too).
     pub fn patch_smoother(&mut self) -> &PatchJacobi {
         if self.patches.is_none() {
             self.patches = Some(PatchJacobi::new(&self.disc, &self.particles, self.dt));
@@ -526,6 +526,13 @@ impl SolidSolver {
         let built = c.is_some();
         self.coarse = Some(c);
         built
+    }
+
+    /// Leaves the implicit preconditioner's coarse space out (the smoother alone, on the CPU
+    /// and on a device built from this solver) until the added mass changes: for studies of
+    /// the preconditioner.
+    pub fn drop_coarse_space(&mut self) {
+        self.coarse = Some(None);
     }
 
     /// The implicit preconditioner's coarse space, once built.

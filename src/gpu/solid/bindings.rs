@@ -172,10 +172,13 @@ pub(super) enum Kernel {
     CgPatches,
     CgFirstDirection,
     CgUpdateResidual,
+    CoarseRestrict,
+    CoarseSolve,
+    CoarseProlong,
 }
 
 impl Kernel {
-    pub const ALL: [Kernel; 23] = [
+    pub const ALL: [Kernel; 26] = [
         Kernel::RotationMatrices,
         Kernel::StrainStressFull,
         Kernel::StrainStressLinear,
@@ -199,6 +202,9 @@ impl Kernel {
         Kernel::CgPatches,
         Kernel::CgFirstDirection,
         Kernel::CgUpdateResidual,
+        Kernel::CoarseRestrict,
+        Kernel::CoarseSolve,
+        Kernel::CoarseProlong,
     ];
 
     /// The WGSL entry point.
@@ -227,6 +233,9 @@ impl Kernel {
             Kernel::CgPatches => "cg_patches",
             Kernel::CgFirstDirection => "cg_first_direction",
             Kernel::CgUpdateResidual => "cg_update_residual",
+            Kernel::CoarseRestrict => "coarse_restrict",
+            Kernel::CoarseSolve => "coarse_solve",
+            Kernel::CoarseProlong => "coarse_prolong",
         }
     }
 }
