@@ -1,7 +1,8 @@
 // MPS solid on the GPU, the implicit method (seed 000 (2.57)–(2.66), (2.73)–(2.74)): the
 // second half of the module that begins in shaders/solid.wgsl, whose bindings, `P` and `idx`
 // it uses — the rotations slaved to the positions, the matrix-free linear operator's chain
-// rule, preconditioned CG (block Jacobi or the patch smoother) and the update.
+// rule, preconditioned CG (block Jacobi or the patch smoother, plus the coarse space) and the
+// update.
 
 // ---------------------------------------------------------------- implicit method
 

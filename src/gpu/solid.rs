@@ -138,7 +138,10 @@ impl GpuSolid {
         };
         let coarse = match (implicit, s.coarse_space()) {
             (false, _) => Err(None),
-            (true, None) => Err(Some("no coarse space (a periodic solid, or A_c not positive definite): the smoother alone".to_string())),
+            (true, None) => Err(Some(
+                "no coarse space (a periodic solid, an A_c not positive definite, or dropped by `SolidSolver::drop_coarse_space`): the smoother alone"
+                    .to_string(),
+            )),
             (true, Some(c)) => device_coarse(c, &s.particles.reference, 4 * patch_arrays.inverse.len() as u64, limit).map_err(Some),
         };
         let (coarse, coarse_note) = match coarse {

@@ -23,7 +23,7 @@
 //! 18 spacings: see the README).
 
 use super::coarse_sparse::{BlockSparse, Groups, SparseCoarse};
-use super::dense::{cholesky, cholesky_solve};
+use super::dense::{cholesky_solve, symmetrised_cholesky};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -316,14 +316,7 @@ impl CoarseSpace {
         let solve = match storage {
             Storage::Dense(mut a) => {
                 // symmetric in exact arithmetic; symmetrised against round-off
-                for p in 0..m {
-                    for q in 0..p {
-                        let s = 0.5 * (a[p * m + q] + a[q * m + p]);
-                        a[p * m + q] = s;
-                        a[q * m + p] = s;
-                    }
-                }
-                if !cholesky(&mut a, m) {
+                if !symmetrised_cholesky(&mut a, m) {
                     return None;
                 }
                 CoarseSolve::Dense(a)
@@ -377,14 +370,7 @@ impl CoarseSpace {
                     e[q] = 1.0;
                     s.apply(&e, row);
                 });
-                for p in 0..m {
-                    for q in 0..p {
-                        let v = 0.5 * (a[p * m + q] + a[q * m + p]);
-                        a[p * m + q] = v;
-                        a[q * m + p] = v;
-                    }
-                }
-                if !cholesky(&mut a, m) {
+                if !symmetrised_cholesky(&mut a, m) {
                     return None;
                 }
                 std::borrow::Cow::Owned(a)

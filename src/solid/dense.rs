@@ -29,6 +29,19 @@ pub fn cholesky(a: &mut [f64], m: usize) -> bool {
     true
 }
 
+/// [`cholesky`] of a matrix symmetric in exact arithmetic, each pair of mirror entries first
+/// replaced by their mean (against round-off).
+pub fn symmetrised_cholesky(a: &mut [f64], m: usize) -> bool {
+    for p in 0..m {
+        for q in 0..p {
+            let s = 0.5 * (a[p * m + q] + a[q * m + p]);
+            a[p * m + q] = s;
+            a[q * m + p] = s;
+        }
+    }
+    cholesky(a, m)
+}
+
 /// Solves L Lᵀ u = b in place (`l` from [`cholesky`], m × m): forward, then backward substitution.
 pub fn cholesky_solve(l: &[f64], m: usize, u: &mut [f64]) {
     for p in 0..m {

@@ -167,8 +167,8 @@ impl GpuSolid {
     const COARSE: [Kernel; 3] = [Kernel::CoarseRestrict, Kernel::CoarseSolve, Kernel::CoarseProlong];
 
     /// The implicit step's solve A ΔV = B (seed (2.63)–(2.66)): B, then CG preconditioned by
-    /// block Jacobi or the patches, plus the coarse space where the device holds it, `check_every` iterations per submission, the residual read
-    /// back after each.
+    /// block Jacobi or the patches, plus the coarse space where the device holds it,
+    /// `check_every` iterations per submission, the residual read back after each.
     pub(super) fn conjugate_gradient(&mut self) {
         let patches = self.preconditioner == Preconditioner::Patches;
         let coarse = self.coarse_unknowns > 0;
