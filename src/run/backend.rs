@@ -408,6 +408,13 @@ impl Solver for SolidEngine {
             let s = &self.solver;
             return Err(failed_download(self.health.as_ref(), s.step_count + n, s.time + n as f64 * s.dt, "s", n, kept));
         }
+        // the device's last solve and its tally stand for the CPU copy's (solid.csv's
+        // cg_iterations and cg_residual columns)
+        if self.solver.options.integrator == crate::solid::Integrator::Implicit {
+            let (iterations, relative_residual) = g.last_cg;
+            self.solver.last.cg = crate::solid::implicit::CgReport { iterations, relative_residual, converged: relative_residual <= g.cg_tolerance };
+            self.solver.cg_tally = g.cg_tally;
+        }
         match self.solver.non_finite() {
             None => Ok(()),
             Some(i) => Err(self.solver.instability_at(i)),

@@ -214,7 +214,8 @@ fn the_device_solve_with_patches_and_the_coarse_space_takes_fewest_iterations() 
 /// Two elastic blocks driven into each other above a wall, with gravity and friction.
 /// `solid.cg_tolerance` has its effect on the GPU too: a looser tolerance stops the f32
 /// conjugate gradient earlier, each solve ends at or below its tolerance, and a tolerance below
-/// what f32 reaches is refused with the field (the CPU, in f64, takes it).
+/// what f32 reaches is refused with the field (the CPU, in f64, takes it); the engine's CPU copy,
+/// which the outputs read, reports the device's solve.
 #[test]
 fn the_scene_cg_tolerance_drives_the_gpu_solve_or_is_refused() {
     use phonation::run::{Backend, SolidEngine};
@@ -237,6 +238,10 @@ fn the_scene_cg_tolerance_drives_the_gpu_solve_or_is_refused() {
         let (it, res) = g.gpu_last_cg().expect("on the GPU");
         eprintln!("GPU CG to {t:e}: {it} iterations, residual {res:e}");
         assert!(res <= t, "GPU CG stopped at {res:e} above its tolerance {t:e}");
+        // the CPU copy that the outputs read (solid.csv's cg columns) carries the device's solve
+        let last = g.solver.last.cg;
+        assert!(last.iterations == it && last.relative_residual == res && last.converged, "{last:?} against ({it}, {res:e})");
+        assert_eq!(g.solver.cg_tally.solves, 1, "{:?}", g.solver.cg_tally);
         iterations.push(it);
     }
     assert!(iterations[0] < iterations[1], "a looser tolerance takes fewer iterations: {iterations:?}");
