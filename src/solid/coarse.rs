@@ -23,7 +23,7 @@
 //! 18 spacings: see the README).
 
 use super::coarse_sparse::{BlockSparse, Groups, SparseCoarse};
-use super::dense::{cholesky_solve, symmetrised_cholesky};
+use super::dense::{cholesky_inverse, cholesky_solve, symmetrised_cholesky};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -246,6 +246,17 @@ impl CoarseSpace {
             }
             list
         };
+        // each particle's basis vectors, made once: the probes and the responses read them
+        let mut start = Vec::with_capacity(n + 1);
+        let mut vectors = Vec::new();
+        for i in 0..n {
+            start.push(vectors.len());
+            if aggregate[i] != u32::MAX {
+                let j = aggregate[i] as usize;
+                vectors.extend(basis[j].iter().map(|b| value(j, b, i)));
+            }
+        }
+        start.push(vectors.len());
         let mut storage = if sparse {
             Storage::Sparse(BlockSparse::new(offset.clone(), grid_of.iter().map(neighbours_of).collect()))
         } else {
@@ -261,40 +272,44 @@ impl CoarseSpace {
                 continue;
             }
             for d in 0..modes {
-                let mut any = false;
-                x.iter_mut().for_each(|v| *v = DVec3::ZERO);
-                for (j, m) in members.iter().enumerate() {
-                    if pushed(&grid_of[j]) && d < basis[j].len() {
-                        any = true;
-                        for &i in m {
-                            x[i] = value(j, &basis[j][d], i);
-                        }
-                    }
-                }
-                if !any {
+                let probed = |j: usize| pushed(&grid_of[j]) && d < basis[j].len();
+                if !(0..count).any(probed) {
                     continue;
                 }
+                // the probe vector and the responses: each particle and each aggregate on its
+                // own (the pool's threads; every sum in the same order as one by one)
+                x.par_iter_mut().enumerate().with_min_len(4096).for_each(|(i, v)| {
+                    let j = aggregate[i];
+                    *v = if j != u32::MAX && probed(j as usize) { vectors[start[i] + d] } else { DVec3::ZERO };
+                });
                 apply(&x, &mut y);
-                for (j, cj) in grid_of.iter().enumerate() {
-                    // the pushed aggregate within reach of j: index ≡ colour (mod period), |Δ| ≤ r
-                    let mut ci = [0usize; 3];
-                    let mut inside = true;
-                    for ax in 0..dim {
-                        let off = (colour[ax] + period - cj[ax] % period) % period;
-                        let off = if off > r { off as isize - period as isize } else { off as isize };
-                        let v = cj[ax] as isize + off;
-                        inside &= v >= 0 && (v as usize) < nc[ax];
-                        ci[ax] = v.max(0) as usize;
-                    }
-                    if !inside || id[grid.flat(ci)] == u32::MAX {
-                        continue;
-                    }
-                    let i = id[grid.flat(ci)] as usize;
-                    if d >= basis[i].len() {
-                        continue;
-                    }
-                    for (e, b) in basis[j].iter().enumerate() {
-                        let response: f64 = members[j].iter().map(|&p| value(j, b, p).dot(y[p])).sum();
+                let responses: Vec<Option<(usize, Vec<f64>)>> = grid_of
+                    .par_iter()
+                    .enumerate()
+                    .map(|(j, cj)| {
+                        // the pushed aggregate within reach of j: index ≡ colour (mod period), |Δ| ≤ r
+                        let mut ci = [0usize; 3];
+                        let mut inside = true;
+                        for ax in 0..dim {
+                            let off = (colour[ax] + period - cj[ax] % period) % period;
+                            let off = if off > r { off as isize - period as isize } else { off as isize };
+                            let v = cj[ax] as isize + off;
+                            inside &= v >= 0 && (v as usize) < nc[ax];
+                            ci[ax] = v.max(0) as usize;
+                        }
+                        if !inside || id[grid.flat(ci)] == u32::MAX {
+                            return None;
+                        }
+                        let i = id[grid.flat(ci)] as usize;
+                        if d >= basis[i].len() {
+                            return None;
+                        }
+                        Some((i, (0..basis[j].len()).map(|e| members[j].iter().map(|&p| vectors[start[p] + e].dot(y[p])).sum()).collect()))
+                    })
+                    .collect();
+                for (j, r) in responses.into_iter().enumerate() {
+                    let Some((i, response)) = r else { continue };
+                    for (e, response) in response.into_iter().enumerate() {
                         match &mut storage {
                             Storage::Dense(a) => a[(offset[j] + e) * m + offset[i] + d] = response,
                             Storage::Sparse(a) => *a.entry_mut(j, e, i, d).expect("a pushed aggregate within reach is a neighbour") = response,
@@ -303,16 +318,6 @@ impl CoarseSpace {
                 }
             }
         }
-        let mut start = Vec::with_capacity(n + 1);
-        let mut vectors = Vec::new();
-        for i in 0..n {
-            start.push(vectors.len());
-            if aggregate[i] != u32::MAX {
-                let j = aggregate[i] as usize;
-                vectors.extend(basis[j].iter().map(|b| value(j, b, i)));
-            }
-        }
-        start.push(vectors.len());
         let solve = match storage {
             Storage::Dense(mut a) => {
                 // symmetric in exact arithmetic; symmetrised against round-off
@@ -355,9 +360,9 @@ impl CoarseSpace {
         mode_count(self.dim)
     }
 
-    /// A_c⁻¹, dense and row-major (symmetric): the columns solved through the Cholesky factor,
-    /// or for a block-sparse A_c the matrix assembled and factorised first (≈ m³ flops: the
-    /// device applies A_c⁻¹ as one dense product, where the CPU solves). `None` when a
+    /// A_c⁻¹, dense and row-major (symmetric): from the Cholesky factor ([`cholesky_inverse`],
+    /// ≈ m³/3 multiply-adds), for a block-sparse A_c assembled and factorised first (the device
+    /// applies A_c⁻¹ as one dense product, where the CPU solves). `None` when a
     /// block-sparse A_c does not factorise to round-off.
     pub fn dense_inverse(&self) -> Option<Vec<f64>> {
         let m = self.unknowns();
@@ -376,12 +381,7 @@ impl CoarseSpace {
                 std::borrow::Cow::Owned(a)
             }
         };
-        let mut inverse = vec![0.0; m * m];
-        inverse.par_chunks_mut(m).enumerate().for_each(|(q, column)| {
-            column[q] = 1.0;
-            cholesky_solve(&factor, m, column);
-        });
-        Some(inverse)
+        Some(cholesky_inverse(&factor, m))
     }
 
     /// Number of coarse unknowns.
