@@ -504,6 +504,13 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                                 v.gpu_steps_per_s / host
                             );
                         }
+                        let host: Vec<String> = v.gpu_host_work_s.iter().map(|(n, t)| format!("{n} {:.3} ms", 1e3 * t)).collect();
+                        println!(
+                            "{:>30} the host's own work per step: {} — at most {:.0} steps/s on any device driven by this host",
+                            "",
+                            host.join(", "),
+                            v.gpu_host_ceiling_steps_per_s
+                        );
                         gpu_coupled.push(v);
                     }
                     Err(e) => println!("{label} skipped: {e}"),

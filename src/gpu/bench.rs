@@ -261,6 +261,11 @@ pub struct CoupledGpuSpeed {
     /// ([`super::coupled::GpuCoupled::device_level_sets`] off), timed in the same process after
     /// the run above; None where they are answered on the CPU anyway.
     pub gpu_steps_per_s_cpu_level_sets: Option<f64>,
+    /// The host's own work per GPU step, seconds ([`super::coupled::GpuCoupled::host_work_per_step`]).
+    pub gpu_host_work_s: Vec<(String, f64)>,
+    /// 1 / their sum: the most GPU steps per second this host lets any device take with the
+    /// geometry built on the host.
+    pub gpu_host_ceiling_steps_per_s: f64,
 }
 
 /// Times `steps` coupled steps of the solver `build` makes, on the GPU (a device of its own,
@@ -278,6 +283,7 @@ pub fn coupled_speed(scene: &str, build: impl Fn() -> crate::coupling::CoupledSo
     // met no multiple of the default 16 and printed every share as 0 %)
     g.timing_every = g.timing_every.min(steps.max(1));
     g.geometry_parts = Default::default();
+    (g.timed_steps, g.traction_plan_time) = (0, Default::default());
     let (trips, trip_nodes, objects) = (g.round_trips, g.round_trip_nodes, g.device_objects_made());
     let t = Instant::now();
     let gpu_ok = warm && g.run(steps).is_ok();
@@ -297,6 +303,8 @@ pub fn coupled_speed(scene: &str, build: impl Fn() -> crate::coupling::CoupledSo
         None
     };
     let shares: Vec<(String, f64)> = g.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
+    let host: Vec<(String, f64)> = g.host_work_per_step().into_iter().map(|(n, t)| (n.to_string(), t)).collect();
+    let host_total: f64 = host.iter().map(|(_, t)| t).sum();
     let coupling = shares.iter().filter(|(n, _)| matches!(n.as_str(), "fluid_geometry" | "momentum_exchange" | "surface_traction")).map(|(_, s)| s).sum();
     Ok(CoupledGpuSpeed {
         scene: scene.into(),
@@ -314,5 +322,7 @@ pub fn coupled_speed(scene: &str, build: impl Fn() -> crate::coupling::CoupledSo
         gpu_geometry_parts: g.geometry_part_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect(),
         gpu_device_objects_made: g.device_objects_made() - objects,
         gpu_steps_per_s_cpu_level_sets: cpu_level_sets,
+        gpu_host_work_s: host,
+        gpu_host_ceiling_steps_per_s: 1.0 / host_total,
     })
 }

@@ -71,6 +71,10 @@ pub const TIMING_EVERY: u64 = 16;
 pub const GEOMETRY_PARTS: [&str; 5] =
     ["particles back", "walls built on the CPU", "changed nodes across the bus", "tables written", "level-set questions on the device"];
 
+/// The host's own work in a GPU coupled step ([`GpuCoupled::host_work_per_step`]): the walls
+/// built on the CPU, the boundary tables written for the device, method 1's traction plan.
+pub const HOST_PARTS: [&str; 3] = ["walls built on the CPU", "tables written", "traction plan on the CPU"];
+
 /// Fluid and solid of a coupled scene on the GPU (either coupling method).
 pub struct GpuCoupled {
     /// The CPU side: the scene's solver, which holds the geometry (layout, level sets), the
@@ -123,6 +127,11 @@ pub struct GpuCoupled {
     pub device_level_sets: bool,
     /// Whether the step under way is one of the timed ones.
     timing_now: bool,
+    /// Steps timed stage by stage so far (the denominator of [`Self::host_work_per_step`]).
+    pub timed_steps: u64,
+    /// Method 1: wall time of the traction plans made on the CPU ([`CoupledSolver::traction_plan`])
+    /// over the timed steps (a part of the `surface_traction` entry of [`Self::timings`]).
+    pub traction_plan_time: Duration,
 }
 
 impl GpuCoupled {
@@ -163,6 +172,8 @@ impl GpuCoupled {
             level_sets,
             device_level_sets: true,
             timing_now: false,
+            timed_steps: 0,
+            traction_plan_time: Duration::ZERO,
         })
     }
 
@@ -184,6 +195,7 @@ impl GpuCoupled {
     pub fn step(&mut self) -> Result<(), Instability> {
         let timed = self.cpu.step_count.is_multiple_of(self.timing_every.max(1));
         self.timing_now = timed;
+        self.timed_steps += timed as u64;
         if timed {
             // the steps before were only submitted: their work still on the device (the solid's
             // sub-steps) would be timed as this step's first stage, whose read of the particles
@@ -249,6 +261,20 @@ impl GpuCoupled {
     pub fn geometry_part_shares(&self) -> Vec<(&'static str, f64)> {
         let total: Duration = self.timings.iter().sum();
         GEOMETRY_PARTS.iter().zip(&self.geometry_parts).map(|(n, t)| (*n, if total.is_zero() { 0.0 } else { t.as_secs_f64() / total.as_secs_f64() })).collect()
+    }
+
+    /// The step's work that the host does alone, whatever the device, in seconds per timed step
+    /// ([`HOST_PARTS`]): the walls built on the CPU and the tables written for the device
+    /// (parts of [`GEOMETRY_PARTS`]) and, for method 1, the traction's plan. Their sum bounds
+    /// the steps per second on any device driven by this host (the waits for the device, the
+    /// transfers and method 2's force scatter come on top).
+    pub fn host_work_per_step(&self) -> Vec<(&'static str, f64)> {
+        let per = |t: Duration| if self.timed_steps == 0 { 0.0 } else { t.as_secs_f64() / self.timed_steps as f64 };
+        let mut parts = vec![(HOST_PARTS[0], per(self.geometry_parts[1])), (HOST_PARTS[1], per(self.geometry_parts[3]))];
+        if matches!(self.cpu.method, Method::Weak(_)) {
+            parts.push((HOST_PARTS[2], per(self.traction_plan_time)));
+        }
+        parts
     }
 
     /// The buffers and bind-group sets made on the device for the coupled step's per-step work
@@ -441,7 +467,11 @@ impl GpuCoupled {
     /// CPU holds (brought back by this step's geometry stage), as the surface particles' loads
     /// in the solid's load buffer.
     fn surface_traction(&mut self, o: WeakOptions) -> Result<(), Instability> {
+        let t = Instant::now();
         let plan = self.cpu.traction_plan(o);
+        if self.timing_now {
+            self.traction_plan_time += t.elapsed();
+        }
         self.fluid.surface_traction(&plan, self.cpu.base_loads(), self.solid.load_buffer());
         self.traction_nodes += plan.stencil.len() as u64;
         self.traction_plan = Some(plan);

@@ -899,5 +899,14 @@ fn the_bench_times_the_coupled_stages_of_a_short_run() {
         let fluid = v.gpu_stage_shares.iter().find(|(n, _)| n == "fluid").map_or(0.0, |(_, s)| *s);
         assert!(fluid > 0.0, "the fluid stage was timed: {:?}", v.gpu_stage_shares);
         assert!(v.gpu_coupling_share >= 0.0 && v.gpu_coupling_share < 1.0);
+        // the host's own work: the walls and the tables on every method, the traction's plan on
+        // method 1's; each timed, together less than the whole step
+        let weak = !text.contains("momentum_conserving");
+        let names: Vec<&str> = v.gpu_host_work_s.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names.len(), if weak { 3 } else { 2 }, "{names:?}");
+        assert!(v.gpu_host_work_s.iter().all(|(_, t)| *t > 0.0), "{:?}", v.gpu_host_work_s);
+        let host: f64 = v.gpu_host_work_s.iter().map(|(_, t)| t).sum();
+        assert!((v.gpu_host_ceiling_steps_per_s * host - 1.0).abs() < 1e-12);
+        assert!(v.gpu_host_ceiling_steps_per_s > v.gpu_steps_per_s, "host {host} s a step, {} steps/s", v.gpu_steps_per_s);
     }
 }
