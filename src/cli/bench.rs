@@ -407,7 +407,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                 (Integrator::Implicit, Preconditioner::Patches, implicit_steps),
                 (Integrator::Implicit, Preconditioner::BlockJacobi, implicit_steps),
             ] {
-                match phonation::gpu::solid::solid_speed(&ctx, side, integ, pre, steps, bw) {
+                match phonation::gpu::bench::solid_speed(&ctx, side, integ, pre, steps, bw) {
                     Ok(v) => {
                         let key = format!("{:?}/{}", v.integrator, v.particles).to_lowercase();
                         // against the CPU's default (patches and the coarse space)

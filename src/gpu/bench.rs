@@ -1,10 +1,13 @@
 //! GPU speed measurements: the device's copy bandwidth measured by a copy kernel in the same
-//! process, and FDLB node updates per second, as a fraction of that bandwidth.
+//! process, and FDLB node updates per second, as a fraction of that bandwidth; the drawing, the
+//! coupled step against the CPU, and the solid's benchmark block.
 
 use super::context::{GpuContext, GpuError};
 use super::fdlb::GpuFluid;
+use super::solid::GpuSolid;
 use crate::bench::{LatticeSpeed, benchmark_solver};
 use crate::fluid::VelocitySetKind;
+use crate::solid::{Integrator, Preconditioner};
 use std::time::Instant;
 use wgpu::util::DeviceExt;
 
@@ -325,4 +328,39 @@ pub fn coupled_speed(scene: &str, build: impl Fn() -> crate::coupling::CoupledSo
         gpu_host_work_s: host,
         gpu_host_ceiling_steps_per_s: 1.0 / host_total,
     })
+}
+
+/// Particle updates per second of the GPU solid on the benchmark block of
+/// [`crate::solid::bench::benchmark_block`] with the implicit solve's `preconditioner` (the
+/// patches fall back to block Jacobi where they do not fit: the row says which ran), with the
+/// coarse space where the device holds it (its probing and A_c⁻¹ in the setup time);
+/// `bandwidth` is the device's copy bandwidth (B/s).
+pub fn solid_speed(
+    ctx: &GpuContext,
+    side: usize,
+    integrator: Integrator,
+    preconditioner: Preconditioner,
+    steps: u64,
+    bandwidth: f64,
+) -> Result<crate::solid::bench::SolidSpeed, GpuError> {
+    let t0 = std::time::Instant::now();
+    let mut s = crate::solid::bench::benchmark_block(side, integrator);
+    s.options.preconditioner = preconditioner;
+    let mut g = GpuSolid::from_solver(ctx, &mut s)?;
+    let setup = t0.elapsed().as_secs_f64();
+    g.run(1);
+    g.wait();
+    let t = std::time::Instant::now();
+    let mut iters = 0;
+    for _ in 0..(if integrator == Integrator::Implicit { steps } else { 1 }) {
+        g.run(if integrator == Integrator::Implicit { 1 } else { steps });
+        iters += g.last_cg.0;
+    }
+    g.wait();
+    let wall = t.elapsed().as_secs_f64();
+    let mut v = crate::solid::bench::speed_of(false, &s, steps, wall, iters, setup, Vec::new(), bandwidth);
+    // the device solve's smoother (the patches, or block Jacobi where they do not fit), with the
+    // coarse space as on the CPU where the device holds it (`coarse_note` otherwise)
+    v.preconditioner = v.preconditioner.map(|_| g.preconditioner);
+    Ok(v)
 }

@@ -565,41 +565,6 @@ impl GpuSolid {
 /// the same trip ([`GpuSolid::download_kinematics`]).
 pub type Kinematics = (Vec<DVec3>, Vec<DVec3>, Vec<Vec<u8>>);
 
-/// Particle updates per second of the GPU solid on the benchmark block of
-/// [`crate::solid::bench::benchmark_block`] with the implicit solve's `preconditioner` (the
-/// patches fall back to block Jacobi where they do not fit: the row says which ran), with the
-/// coarse space where the device holds it (its probing and A_c⁻¹ in the setup time);
-/// `bandwidth` is the device's copy bandwidth (B/s).
-pub fn solid_speed(
-    ctx: &GpuContext,
-    side: usize,
-    integrator: Integrator,
-    preconditioner: Preconditioner,
-    steps: u64,
-    bandwidth: f64,
-) -> Result<crate::solid::bench::SolidSpeed, GpuError> {
-    let t0 = std::time::Instant::now();
-    let mut s = crate::solid::bench::benchmark_block(side, integrator);
-    s.options.preconditioner = preconditioner;
-    let mut g = GpuSolid::from_solver(ctx, &mut s)?;
-    let setup = t0.elapsed().as_secs_f64();
-    g.run(1);
-    g.wait();
-    let t = std::time::Instant::now();
-    let mut iters = 0;
-    for _ in 0..(if integrator == Integrator::Implicit { steps } else { 1 }) {
-        g.run(if integrator == Integrator::Implicit { 1 } else { steps });
-        iters += g.last_cg.0;
-    }
-    g.wait();
-    let wall = t.elapsed().as_secs_f64();
-    let mut v = crate::solid::bench::speed_of(false, &s, steps, wall, iters, setup, Vec::new(), bandwidth);
-    // the device solve's smoother (the patches, or block Jacobi where they do not fit), with the
-    // coarse space as on the CPU where the device holds it (`coarse_note` otherwise)
-    v.preconditioner = v.preconditioner.map(|_| g.preconditioner);
-    Ok(v)
-}
-
 #[cfg(test)]
 mod mirror_tests {
     use super::{Params, SHADER};

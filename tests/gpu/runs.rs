@@ -489,7 +489,7 @@ fn the_gpu_scaling_table_times_every_kernel_and_leaves_out_what_does_not_fit() {
     assert_eq!(skipped.len(), 1, "{skipped:?}");
     assert_eq!(skipped[0], "D2Q21 [96, 96, 1]: one population array needs 870912 bytes, more than the adapter's max_buffer_size of 716800");
     let fdlb = |set, n| phonation::gpu::bench::lattice_speed(&ctx, set, n, 3, bw).bytes_per_node_update;
-    let solid = |side| phonation::gpu::solid::solid_speed(&ctx, side, Integrator::Explicit, Default::default(), 3, bw).unwrap().bytes_per_update;
+    let solid = |side| phonation::gpu::bench::solid_speed(&ctx, side, Integrator::Explicit, Default::default(), 3, bw).unwrap().bytes_per_update;
     for r in &rows {
         let bytes = match r.kernel.as_str() {
             "D2Q21" => fdlb(VelocitySetKind::D2q21, [32, 32, 1]),
