@@ -360,7 +360,7 @@ impl CoarseSpace {
         mode_count(self.dim)
     }
 
-    /// A_c⁻¹, dense and row-major (symmetric): from the Cholesky factor ([`cholesky_inverse`],
+    /// A_c⁻¹, dense and row-major (symmetric): from the Cholesky factor (`dense::cholesky_inverse`,
     /// ≈ m³/3 multiply-adds), for a block-sparse A_c assembled and factorised first (the device
     /// applies A_c⁻¹ as one dense product, where the CPU solves). `None` when a
     /// block-sparse A_c does not factorise to round-off.
