@@ -281,12 +281,10 @@ pub fn coupled_speed(scene: &str, build: impl Fn() -> crate::coupling::CoupledSo
     let cpu_wall = t.elapsed().as_secs_f64();
     let mut g = super::coupled::GpuCoupled::new(GpuContext::new()?, build())?;
     let warm = g.run(2).is_ok();
-    g.timings.iter_mut().for_each(|t| *t = std::time::Duration::ZERO);
+    g.reset_timings();
     // at least one step of the timed ones is timed stage by stage (a `--quick` run of 5 steps
     // met no multiple of the default 16 and printed every share as 0 %)
     g.timing_every = g.timing_every.min(steps.max(1));
-    g.geometry_parts = Default::default();
-    (g.timed_steps, g.traction_plan_time) = (0, Default::default());
     let (trips, trip_nodes, objects) = (g.round_trips, g.round_trip_nodes, g.device_objects_made());
     let t = Instant::now();
     let gpu_ok = warm && g.run(steps).is_ok();

@@ -251,6 +251,14 @@ impl GpuCoupled {
         }
     }
 
+    /// Clears every timer (the stages', the geometry's parts, the traction plans', the count of
+    /// timed steps), e.g. after warm-up steps that compiled the pipelines.
+    pub fn reset_timings(&mut self) {
+        self.timings.iter_mut().for_each(|t| *t = Duration::ZERO);
+        self.geometry_parts = Default::default();
+        (self.timed_steps, self.traction_plan_time) = (0, Duration::ZERO);
+    }
+
     /// Each stage's share of the wall time so far.
     pub fn stage_shares(&self) -> Vec<(&'static str, f64)> {
         crate::stages::time_shares(self.cpu.stages().iter().map(|s| s.name).zip(&self.timings))

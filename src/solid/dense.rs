@@ -163,13 +163,7 @@ mod tests {
 
     /// A symmetric positive definite m × m matrix: BᵀB/m + I with B pseudo-random in [−1, 1).
     fn spd(m: usize, seed: u64) -> Vec<f64> {
-        let mut state = seed;
-        let b: Vec<f64> = (0..m * m)
-            .map(|_| {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                2.0 * ((state >> 11) as f64 / (1u64 << 53) as f64) - 1.0
-            })
-            .collect();
+        let b = crate::analysis::synthetic::uniform_noise(seed, m * m);
         let mut a = vec![0.0; m * m];
         a.par_chunks_mut(m).enumerate().for_each(|(i, row)| {
             for j in 0..m {
