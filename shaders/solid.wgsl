@@ -20,8 +20,9 @@ struct Params {
 @group(0) @binding(3) var<storage, read> rev: array<u32>;
 // r⁰.xyz, ŵ
 @group(0) @binding(4) var<storage, read> bond_r0: array<vec4<f32>>;
-// periodic shift.xyz (r⁰ = X_j + shift − X_i already holds it), pair stiffness k
-@group(0) @binding(5) var<storage, read> bond_shift: array<vec4<f32>>;
+// pair stiffness k of each bond (4 B: the periodic shift, already in r⁰ = X_j + shift − X_i, is
+// not sent)
+@group(0) @binding(5) var<storage, read> bond_stiffness: array<f32>;
 // gradient weight g.xyz, pair damping c
 @group(0) @binding(6) var<storage, read> bond_grad: array<vec4<f32>>;
 // C' = C − C_pair, 36 per particle (Voigt, row-major)
@@ -206,7 +207,7 @@ fn bond_forces_at(i: u32, full: bool, follow: bool) {
             r = 0.5 * (a_i + a_j);
             v_j = lin_v[j].xyz;
         }
-        let kk = bond_shift[k].w;
+        let kk = bond_stiffness[k];
         f += kk * u;
         t += 0.5 * kk * cross(a_i, u);
         let c = g.w;

@@ -168,7 +168,7 @@ impl GpuSolid {
         let zeros12 = vec![[0f32; 12]; n];
         let params = Params { n: n as u32, dim: p.dim as u32, contact: 0, pad: 0, dt: s.dt as f32, _p: [0.0; 3], gravity: v4(s.options.gravity, 0.0) };
         let r0: Vec<[f32; 4]> = (0..nb).map(|k| v4(b.r0[k], b.w_hat[k])).collect();
-        let sh: Vec<[f32; 4]> = (0..nb).map(|k| v4(b.shift[k], b.stiffness[k])).collect();
+        let stiffness: Vec<f32> = b.stiffness.iter().map(|k| *k as f32).collect();
         let gr: Vec<[f32; 4]> = (0..nb).map(|k| v4(b.grad[k], b.damping[k])).collect();
         let cs: Vec<f32> = s.disc.grad_stiffness.iter().flat_map(|c| c.iter().flat_map(|row| row.iter().map(|x| *x as f32))).collect();
         let info: Vec<[f32; 4]> = (0..n).map(|i| [p.mass[i] as f32, p.inertia[i] as f32, p.volume[i] as f32, if p.fixed[i] { 1.0 } else { 0.0 }]).collect();
@@ -184,7 +184,7 @@ impl GpuSolid {
                 Buf::Nbr => storage(name, bytemuck::cast_slice(&b.neighbour)),
                 Buf::Rev => storage(name, bytemuck::cast_slice(&b.reverse)),
                 Buf::BondR0 => storage(name, bytemuck::cast_slice(&r0)),
-                Buf::BondShift => storage(name, bytemuck::cast_slice(&sh)),
+                Buf::BondStiffness => storage(name, bytemuck::cast_slice(&stiffness)),
                 Buf::BondGrad => storage(name, bytemuck::cast_slice(&gr)),
                 Buf::Cstiff => storage(name, bytemuck::cast_slice(&cs)),
                 Buf::Pinfo => storage(name, bytemuck::cast_slice(&info)),
