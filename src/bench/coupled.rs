@@ -135,3 +135,139 @@ pub(super) fn coupled_rows(method: &'static str, body: crate::validation::fsi::C
         })
         .collect()
 }
+
+/// The fluid_geometry stage of a coupled scene on its own: what building the walls costs the
+/// host at every step, at the scene's full size.
+#[derive(Clone, Debug, Serialize)]
+pub struct GeometrySpeed {
+    pub scene: String,
+    /// "weak" (surface polygons) or "momentum_conserving" (kernel level sets).
+    pub method: &'static str,
+    pub nodes: usize,
+    pub particles: usize,
+    pub steps: u64,
+    /// Wall time of one fluid_geometry stage (s): the walls built and installed, the level
+    /// sets' questions answered on this host's threads.
+    pub seconds_per_step: f64,
+    /// 1 / [`Self::seconds_per_step`]: the most coupled steps per second while the walls are
+    /// built on this host.
+    pub ceiling_steps_per_s: f64,
+    /// Of [`Self::seconds_per_step`], the level sets' questions (the nodes' sides, the ghosts'
+    /// wall points: [`crate::fluid::LevelSetQueries`]) that the GPU backend asks of a device
+    /// with f64 (method 2; zero for method 1).
+    pub device_answerable_seconds_per_step: f64,
+    /// 1 / (the rest): the ceiling where those questions go to a device.
+    pub ceiling_with_device_questions_steps_per_s: f64,
+    /// Timed steps whose walls differ from the step before's (the ghosts' depths or wall
+    /// velocities): every one, or the figures timed no work.
+    pub walls_rebuilt: u64,
+}
+
+/// The CPU's answers to the level sets' questions, timed.
+#[derive(Default)]
+struct TimedQueries(std::sync::Mutex<f64>);
+
+impl TimedQueries {
+    fn time<T>(&self, f: impl FnOnce() -> T) -> T {
+        let t = Instant::now();
+        let out = f();
+        *self.0.lock().expect("not poisoned") += t.elapsed().as_secs_f64();
+        out
+    }
+}
+
+impl crate::fluid::LevelSetQueries for TimedQueries {
+    fn outside_distances(&self, which: usize, set: &crate::fluid::KernelLevelSet, points: &[[f64; 3]]) -> Vec<Option<f64>> {
+        self.time(|| crate::fluid::OnThePool.outside_distances(which, set, points))
+    }
+
+    fn ghost_walls(&self, which: usize, set: &crate::fluid::KernelLevelSet, queries: &[crate::fluid::GhostQuery]) -> Vec<(f64, [f64; 3])> {
+        self.time(|| crate::fluid::OnThePool.ghost_walls(which, set, queries))
+    }
+}
+
+/// Lattice cells by which [`geometry_speed`] moves the particles at its steps (a few times a
+/// real step's displacement: the glottis's folds move ≲ 10⁻² cells a step).
+pub const GEOMETRY_BENCH_CELLS: f64 = 0.02;
+
+/// `steps` fluid_geometry stages of each built-in coupled scene of `names`, at rest but for a
+/// translation of every particle along x by ±[`GEOMETRY_BENCH_CELLS`] cells in turn, so that
+/// every wall moves at every step, as in a run where the folds vibrate, and no other stage
+/// runs (the 3D glottis's solid step would take minutes here).
+pub fn geometry_speed(names: &[&str], steps: u64) -> Vec<GeometrySpeed> {
+    use crate::coupling::Method;
+    use crate::stages::CoupledStageKind;
+    names
+        .iter()
+        .map(|name| {
+            let sc = crate::scene::coupled::CoupledScene::parse(crate::scene::builtin(name).expect("built in")).expect("valid");
+            let mut c = sc.build().expect("builds");
+            let shift = GEOMETRY_BENCH_CELLS * c.units.dx;
+            let (mut wall, queries, mut rebuilt) = (0.0, TimedQueries::default(), 0);
+            // one untimed stage first (the walls of the scene's first step)
+            for k in 0..=steps {
+                let dx = if k % 2 == 0 { shift } else { -shift };
+                c.solid.particles.position.iter_mut().for_each(|x| x.x += dx);
+                if k == 1 {
+                    *queries.0.lock().expect("not poisoned") = 0.0;
+                }
+                let before = c.fluid.layout.ghosts.clone();
+                let t = Instant::now();
+                match c.method {
+                    Method::Weak(_) => c.run_stage(CoupledStageKind::FluidGeometry).expect("a shift of a fraction of a cell"),
+                    Method::Conserving(_) => {
+                        // the stage's two halves, as the CPU backend runs them, with the
+                        // questions timed
+                        let walls = c.next_level_set_walls_with(&queries).expect("a shift of a fraction of a cell");
+                        c.install_level_set_walls(walls);
+                    }
+                }
+                if k > 0 {
+                    wall += t.elapsed().as_secs_f64();
+                    rebuilt += u64::from(c.fluid.layout.ghosts != before);
+                }
+            }
+            let asked = *queries.0.lock().expect("not poisoned") / steps as f64;
+            let n = c.fluid.layout.grid.n;
+            let per = wall / steps as f64;
+            GeometrySpeed {
+                scene: name.to_string(),
+                method: match c.method {
+                    Method::Weak(_) => "weak",
+                    Method::Conserving(_) => "momentum_conserving",
+                },
+                nodes: n[0] * n[1] * n[2],
+                particles: c.solid.particles.len(),
+                steps,
+                seconds_per_step: per,
+                ceiling_steps_per_s: 1.0 / per,
+                device_answerable_seconds_per_step: asked,
+                ceiling_with_device_questions_steps_per_s: 1.0 / (per - asked),
+                walls_rebuilt: rebuilt,
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The geometry bench times real work: on the flap (both methods), every timed step's walls
+    /// differ from the step before's; method 2's level-set questions are a part of the stage
+    /// (method 1 asks none), and each ceiling is one over its time.
+    #[test]
+    fn the_geometry_bench_rebuilds_the_walls_at_every_timed_step() {
+        let rows = geometry_speed(&["wall_flap", "wall_flap_conserving"], 3);
+        assert_eq!(rows.iter().map(|r| r.method).collect::<Vec<_>>(), ["weak", "momentum_conserving"]);
+        for r in &rows {
+            assert_eq!(r.walls_rebuilt, 3, "{}", r.scene);
+            assert!(r.seconds_per_step > 0.0 && r.seconds_per_step.is_finite(), "{r:?}");
+            assert!((r.ceiling_steps_per_s * r.seconds_per_step - 1.0).abs() < 1e-12);
+            let host = r.seconds_per_step - r.device_answerable_seconds_per_step;
+            assert!((r.ceiling_with_device_questions_steps_per_s * host - 1.0).abs() < 1e-9);
+        }
+        assert_eq!(rows[0].device_answerable_seconds_per_step, 0.0);
+        assert!(rows[1].device_answerable_seconds_per_step > 0.0 && rows[1].device_answerable_seconds_per_step < rows[1].seconds_per_step, "{:?}", rows[1]);
+    }
+}

@@ -72,10 +72,13 @@ pub struct BenchReport {
     pub glottis: Vec<GlottisSpeed>,
     /// Cost per update against size ([`scaling`]; only with `--only scaling`: it takes minutes).
     pub scaling: Vec<scaling::ScalingRow>,
+    /// The coupled glottis scenes' fluid_geometry stage alone, at full size ([`geometry_speed`];
+    /// only with `--only geometry`: building the 3D glottis takes a minute).
+    pub geometry: Vec<GeometrySpeed>,
 }
 
 /// Parts of the benchmark, for `bench --only`.
-pub const SUITES: [&str; 10] = ["fdlb", "storage", "solid", "crossover", "lattice_gas", "coupled", "two_mass", "glottis", "drawing", "scaling"];
+pub const SUITES: [&str; 11] = ["fdlb", "storage", "solid", "crossover", "lattice_gas", "coupled", "two_mass", "glottis", "drawing", "scaling", "geometry"];
 
 /// The CPU benchmark (every suite of [`SUITES`], or only `only`). `quick` shrinks grids for a
 /// smoke run.
@@ -148,6 +151,11 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
         glottis_speed(&["glottis_2d_coarse", "glottis_2d_c"], 300)
     };
     let scaling = if only == Some("scaling") { scaling::scaling_table(quick) } else { Vec::new() };
+    let geometry = match (only == Some("geometry"), quick) {
+        (false, _) => Vec::new(),
+        (true, true) => geometry_speed(&["glottis_2d_coarse", "glottis_3d_coarse"], 4),
+        (true, false) => geometry_speed(&["glottis_2d_c", "glottis_3d_coarse", "glottis_3d"], 8),
+    };
     let (storage, storage_errors) = if wants("storage") {
         (
             vec![storage_speed(VelocitySetKind::D2q21, [n2, n2, 1], st, 5, bw), storage_speed(VelocitySetKind::D3q39, [n3, n3, n3], st.min(5), 5, bw)],
@@ -174,6 +182,7 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
         coupled,
         two_mass,
         glottis,
+        geometry,
     }
 }
 

@@ -22,9 +22,10 @@ pub struct BenchArgs {
     /// Also write the report as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Only one suite: fdlb, storage (f32 against f64 populations), solid, crossover (the implicit-against-explicit table of the solid suite alone), lattice_gas, coupled, two_mass, glottis, drawing or scaling
+    /// Only one suite: fdlb, storage (f32 against f64 populations), solid, crossover (the implicit-against-explicit table of the solid suite alone), lattice_gas, coupled, two_mass, glottis, drawing, scaling
     /// (cost per update against size, on the CPU and with --backend gpu the device: only when
-    /// asked for, it takes minutes).
+    /// asked for, it takes minutes) or geometry (the coupled glottis scenes' fluid_geometry stage
+    /// alone, up to the 3D glottis: only when asked for).
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(phonation::bench::SUITES))]
     pub only: Option<String>,
 }
@@ -280,6 +281,32 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             println!("{:>18} {:>8} {:>9} {:>10.3e} {:>10.1} {:>16.2}", g.scene, g.nodes, g.particles, g.dt, g.coupled_steps_per_s, g.wall_per_simulated_ms);
             let st: Vec<String> = g.stage_shares.iter().map(|(n, f)| format!("{n} {:.0}%", 100.0 * f)).collect();
             println!("     stages: {}", st.join(", "));
+        }
+        if !r.geometry.is_empty() {
+            println!(
+                "the fluid_geometry stage alone (CPU, {} threads; every particle moved ±{} cells a step): what building the walls costs the host per coupled step",
+                r.threads,
+                phonation::bench::GEOMETRY_BENCH_CELLS
+            );
+            println!("  (\"device's\": the level sets' questions, which the GPU backend asks of a device with f64; the rest is the host's own work)");
+            println!(
+                "{:>18} {:>20} {:>9} {:>9} {:>6} {:>10} {:>10} {:>10} {:>16}",
+                "scene", "method", "nodes", "particles", "steps", "ms/step", "device's", "host's", "host ceiling/s"
+            );
+        }
+        for g in &r.geometry {
+            println!(
+                "{:>18} {:>20} {:>9} {:>9} {:>6} {:>10.3} {:>10.3} {:>10.3} {:>16.1}",
+                g.scene,
+                g.method,
+                g.nodes,
+                g.particles,
+                g.steps,
+                1e3 * g.seconds_per_step,
+                1e3 * g.device_answerable_seconds_per_step,
+                1e3 * (g.seconds_per_step - g.device_answerable_seconds_per_step),
+                g.ceiling_with_device_questions_steps_per_s
+            );
         }
         if !r.scaling.is_empty() {
             println!(
