@@ -32,8 +32,8 @@
 
 use super::momentum_exchange::step_with_exchange;
 use super::solver::{CoupledBody, CoupledSolver};
-use crate::fluid::layout::{Layout, NodeKind};
-use crate::fluid::{KernelLevelSet, LayoutChange, Macro, Shape};
+use crate::fluid::layout::Layout;
+use crate::fluid::{KernelLevelSet, LayoutChange, Macro, NodeChange, Shape};
 use crate::step::{Instability, Site};
 use glam::{DVec3, DVec4};
 use rayon::prelude::*;
@@ -291,18 +291,15 @@ impl CoupledSolver {
     pub fn install_level_set_walls(&mut self, walls: LevelSetWalls) {
         let plan = walls.change(&self.fluid.layout).clone();
         let LevelSetWalls { layout, sets, points, .. } = walls;
-        let was: Vec<bool> = self.fluid.layout.kind.iter().map(|k| *k == NodeKind::Fluid).collect();
         let ch = self.fluid.apply_layout(layout, &plan);
         let q = self.fluid.eq.q();
         let unit = self.momentum_unit();
         let ex = self.exchange.as_mut().expect("method 2");
         ex.sets = sets;
         ex.built = Some(points);
-        for (node, was) in was.into_iter().enumerate() {
-            let is = self.fluid.layout.kind[node] == NodeKind::Fluid;
-            if was == is {
-                continue;
-            }
+        // the nodes that changed side, in node order: the plan's list, not a scan of the lattice
+        for (node, change) in &plan.nodes {
+            let (node, was) = (*node, matches!(change, NodeChange::Covered));
             let f = self.fluid.node_populations(node);
             let m: DVec4 = self.fluid.eq.cf[..q].iter().zip(&f[..q]).map(|(c, f)| DVec4::new(c[0], c[1], c[2], 1.0) * *f).sum();
             let m = if was { m } else { -m };

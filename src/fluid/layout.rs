@@ -384,9 +384,9 @@ impl Layout {
         let mut face_halos = Vec::new();
         let mut periodic = Vec::new();
         for &idx in &todo {
-            let x = grid.coords(idx);
             match kind[idx] {
                 NodeKind::FaceHalo => {
+                    let x = grid.coords(idx);
                     let a = (0..3).find(|&a| x[a] < 0 || x[a] >= grid.n[a] as i64).unwrap();
                     let face = if x[a] < 0 { Face::ALL[2 * a] } else { Face::ALL[2 * a + 1] };
                     let mut s = x;
@@ -401,7 +401,7 @@ impl Layout {
                     face_halos.push(FaceHalo { node: idx, face, source: grid.index(s) });
                 }
                 NodeKind::Periodic => {
-                    let s = wrap(x);
+                    let s = wrap(grid.coords(idx));
                     periodic.push((idx, grid.index(s)));
                 }
                 _ => {}

@@ -255,10 +255,10 @@ impl WallGeometry<'_> {
 /// reading nodes to consider (ascending), all when None.
 pub fn thin_taps(geo: &WallGeometry, only: Option<&[usize]>) -> Vec<ThinTap> {
     let (grid, kind, ghosts, periodic) = (geo.grid, geo.kind, geo.ghosts, geo.periodic);
-    let mut ghost_of = vec![usize::MAX; grid.len()];
-    for (k, g) in ghosts.iter().enumerate() {
-        ghost_of[g.node] = k;
-    }
+    // the ghost at a node by bisection of the ghosts (in node order), not a lattice-sized index
+    // made at every step: only the nodes next to a wall ask
+    debug_assert!(ghosts.windows(2).all(|w| w[0].node < w[1].node), "ghosts in node order");
+    let ghost_of = |node: usize| ghosts.binary_search_by_key(&node, |g| g.node).ok();
     // Image point of each ghost (mean of its image nodes' coordinates, by weight).
     let image: Vec<[f64; 3]> = ghosts
         .par_iter()
@@ -294,20 +294,18 @@ pub fn thin_taps(geo: &WallGeometry, only: Option<&[usize]>) -> Vec<ThinTap> {
         if kind[node] != NodeKind::Fluid {
             return out;
         }
-        let r = grid.coords(node);
         // Most nodes have only fluid within two cells along every axis: they read no ghost and
         // no wall, so no tap below is made (`one_sided_weights` of three falses is None) —
-        // answered first from the kinds alone.
+        // answered first from the kinds alone, by strides (a fluid node is interior, and the
+        // lattice's halo is two nodes deep)
         let clear = (0..grid.dim).all(|a| {
-            [-2i64, -1, 1, 2].into_iter().all(|d| {
-                let mut y = r;
-                y[a] += d;
-                kind[grid.index(y)] == NodeKind::Fluid
-            })
+            let s = grid.stride[a];
+            [node - 2 * s, node - s, node + s, node + 2 * s].into_iter().all(|y| kind[y] == NodeKind::Fluid)
         });
         if clear {
             return out;
         }
+        let r = grid.coords(node);
         for axis in 0..grid.dim {
             for sign in [1i64, -1] {
                 let x_at = |d: i64| {
@@ -318,11 +316,11 @@ pub fn thin_taps(geo: &WallGeometry, only: Option<&[usize]>) -> Vec<ThinTap> {
                 let at = |d: i64| grid.index(x_at(d));
                 // Is the ghost at displacement d (in units of s) on the reader's side?
                 let far_ghost = |i: usize, d: i64| {
-                    let k = ghost_of[i];
-                    k != usize::MAX && {
-                        let t = r[axis] + d * sign;
-                        (image[k][axis] - t as f64) * ((r[axis] - t) as f64) < 0.0
-                    }
+                    kind[i] == NodeKind::Ghost
+                        && ghost_of(i).is_some_and(|k| {
+                            let t = r[axis] + d * sign;
+                            (image[k][axis] - t as f64) * ((r[axis] - t) as f64) < 0.0
+                        })
                 };
                 let (ahead, behind, behind2) = (at(1), at(-1), at(-2));
                 let far_ahead = far_ghost(ahead, 1);
@@ -358,8 +356,8 @@ pub fn thin_taps(geo: &WallGeometry, only: Option<&[usize]>) -> Vec<ThinTap> {
         }
         out
     };
-    let per_node: Vec<Vec<ThinTap>> = nodes.par_iter().with_min_len(PAR_NODES).map(|&node| taps_of(node)).collect();
-    per_node.into_iter().flatten().collect()
+    // in node order (rayon's collect keeps the sequential order), with no list per node
+    nodes.par_iter().with_min_len(PAR_NODES).flat_map_iter(|&node| taps_of(node)).collect()
 }
 
 #[cfg(test)]
