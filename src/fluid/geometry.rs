@@ -93,6 +93,7 @@ impl Shape {
     /// value bit for bit where it is below `limit`, [`Outside::Beyond`] where it is not. A
     /// polygon ([`Polygon`]) then searches its edges only within `limit` of the point instead
     /// of out to its nearest edge, however far.
+    ///
     /// A half-space answers inline, with [`Self::sdf`]'s expression (the layout asks it at every
     /// rebuilt node: the calls through `outside_distance` and `sdf` cost more than the dot product).
     #[inline]
