@@ -18,13 +18,17 @@ pub struct GlottisSpeed {
     pub stage_shares: Vec<(String, f64)>,
 }
 
+/// The solver of the built-in coupled scene `name`.
+fn built_in(name: &str) -> crate::coupling::CoupledSolver {
+    crate::scene::coupled::CoupledScene::parse(crate::scene::builtin(name).expect("built in")).expect("valid").build().expect("builds")
+}
+
 /// `steps` coupled steps of each built-in glottis scene of `names`.
 pub fn glottis_speed(names: &[&str], steps: u64) -> Vec<GlottisSpeed> {
     names
         .iter()
         .map(|name| {
-            let sc = crate::scene::coupled::CoupledScene::parse(crate::scene::builtin(name).expect("built in")).expect("valid");
-            let mut c = sc.build().expect("builds");
+            let mut c = built_in(name);
             let t = Instant::now();
             c.run(steps).expect("stable from rest");
             let wall = t.elapsed().as_secs_f64();
@@ -200,8 +204,7 @@ pub fn geometry_speed(names: &[&str], steps: u64) -> Vec<GeometrySpeed> {
     names
         .iter()
         .map(|name| {
-            let sc = crate::scene::coupled::CoupledScene::parse(crate::scene::builtin(name).expect("built in")).expect("valid");
-            let mut c = sc.build().expect("builds");
+            let mut c = built_in(name);
             let shift = GEOMETRY_BENCH_CELLS * c.units.dx;
             let (mut wall, queries, mut rebuilt) = (0.0, TimedQueries::default(), 0);
             // one untimed stage first (the walls of the scene's first step)
