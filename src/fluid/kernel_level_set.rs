@@ -227,22 +227,39 @@ impl KernelLevelSet {
         if len > 0.0 { v.map(|x| x / len) } else { [0.0; 3] }
     }
 
-    /// The particles in the bins around `p` (every particle within r_e of it, and some more).
+    /// The particles in the bins around `p` (every particle within r_e of it, and some more),
+    /// through `order`: the reference the tests hold the bin-ordered sums and weights to.
+    #[cfg(test)]
     fn candidates(&self, p: [f64; 3]) -> impl Iterator<Item = usize> + '_ {
         self.runs(p).flat_map(move |run| self.order[run].iter().map(|&j| j as usize))
     }
 
-    /// The kernel weight of every particle within r_e of `p`: (particle, w) (2.124).
+    /// The kernel weight of every particle within r_e of `p`: (particle, w) (2.124), in the
+    /// bins' order around `p` (rows in z then y). The positions are read from `Self::sorted`
+    /// one run per row of bins (as [`Self::level`] reads them), and the particles beyond r_e by
+    /// more than round-off are passed over before the square root: the same weights bit for
+    /// bit as from `points[j]` one particle at a time (test
+    /// `the_binned_sums_see_every_particle_within_reach_in_3d`), for less: asked for the wall
+    /// velocity of every ghost node of method 2 at every step.
     pub fn weights(&self, p: [f64; 3]) -> impl Iterator<Item = (usize, f64)> + '_ {
-        self.candidates(p).filter_map(move |j| {
-            let x = self.points[j];
-            let r = ((x[0] - p[0]).powi(2) + (x[1] - p[1]).powi(2) + (x[2] - p[2]).powi(2)).sqrt();
-            (r <= self.re).then(|| (j, self.re / r.max(self.r_min) - 1.0))
+        // r² above this is r > r_e whatever the rounding of r = √r²
+        let far = self.re * self.re * (1.0 + 1e-12);
+        self.runs(p).flat_map(move |run| {
+            self.sorted[run.clone()].iter().zip(&self.order[run]).filter_map(move |(x, &j)| {
+                let d = [x[0] - p[0], x[1] - p[1], x[2] - p[2]];
+                let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                if r2 > far {
+                    return None;
+                }
+                let r = r2.sqrt();
+                (r <= self.re).then(|| (j as usize, self.re / r.max(self.r_min) - 1.0))
+            })
         })
     }
 
-    /// L(p) and ∇L(p) (per cell). The particles of `Self::candidates` in the same order (the
-    /// sums are the same bit for bit), read from `Self::sorted` as one run per row of bins;
+    /// L(p) and ∇L(p) (per cell), summed over the particles of the bins around `p` in the
+    /// bins' order (read from `Self::sorted` as one run per row of bins: the same sums bit for
+    /// bit as over the particles through `order`, tests below);
     /// those beyond r_e by more than round-off are passed over before the square root.
     pub fn level(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
         self.sums::<true, false>(p).expect("runs to the end")
@@ -511,6 +528,17 @@ mod tests {
                 within.iter().map(|x| re / ((x[0] - p[0]).powi(2) + (x[1] - p[1]).powi(2) + (x[2] - p[2]).powi(2)).sqrt().max(r_min) - 1.0).sum::<f64>()
                     - s.phi;
             assert_eq!(s.weights(*p).count(), within.len(), "{p:?}");
+            // the weights read from the bin-ordered positions: the candidates' own positions'
+            // weights, one at a time, in the same order, bit for bit
+            let one_by_one: Vec<(usize, u64)> = s
+                .candidates(*p)
+                .filter_map(|j| {
+                    let x = pts[j];
+                    let r = ((x[0] - p[0]).powi(2) + (x[1] - p[1]).powi(2) + (x[2] - p[2]).powi(2)).sqrt();
+                    (r <= re).then(|| (j, (re / r.max(r_min) - 1.0).to_bits()))
+                })
+                .collect();
+            assert_eq!(s.weights(*p).map(|(j, w)| (j, w.to_bits())).collect::<Vec<_>>(), one_by_one, "{p:?}");
             let (l, _) = s.level(*p);
             assert!((l - brute).abs() < 1e-12 * brute.abs().max(1.0), "{p:?}: {l} vs {brute}");
             assert_eq!(s.level_value(*p).to_bits(), l.to_bits(), "{p:?}");

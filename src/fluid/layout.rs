@@ -223,11 +223,12 @@ impl Layout {
         // between two walls that close on it is compressed without bound.
         // Most nodes lie inside one obstacle or none: their side comes from
         // `Shape::outside_distance_below` (a level set's from `level_set_side` above; a
-        // polygon's edges within `PINCH` of the node); the depths, which a level set finds by
-        // Newton steps, only where two obstacles contain the node.
-        let containing = |i: usize, p: [f64; 3]| -> Option<usize> {
+        // polygon's edges within `PINCH` of the node). Where two obstacles contain the node
+        // only the fact is kept ([`Owner::Several`]): which of them owns it matters to a ghost
+        // alone, and the depths that decide it (a level set's by Newton steps) are taken for
+        // the ghosts below (`deepest`).
+        let containing = |i: usize, p: [f64; 3]| -> Owner {
             let mut inside: Option<usize> = None;
-            let mut several = false;
             let mut near: [Option<(usize, f64)>; 2] = [None, None];
             for (k, o) in obstacles.iter().enumerate() {
                 let side = match &level_set_side[k] {
@@ -236,8 +237,10 @@ impl Layout {
                 };
                 match side {
                     Outside::Inside => {
-                        several |= inside.is_some();
-                        inside = inside.or(Some(k));
+                        if inside.is_some() {
+                            return Owner::Several;
+                        }
+                        inside = Some(k);
                     }
                     Outside::Within(d) => {
                         if near[0].is_none_or(|(_, nd)| d < nd) {
@@ -250,26 +253,31 @@ impl Layout {
                     Outside::Beyond => {}
                 }
             }
-            if several {
-                let mut deepest: Option<(usize, f64)> = None;
-                for (k, o) in obstacles.iter().enumerate() {
-                    let d = o.shape.sdf(p);
-                    if d < 0.0 && deepest.is_none_or(|(_, bd)| d > bd) {
-                        deepest = Some((k, d));
-                    }
-                }
-                return deepest.map(|(k, _)| k);
+            match inside.or(if near[1].is_some() { near[0].map(|(k, _)| k) } else { None }) {
+                Some(k) => Owner::One(k),
+                None => Owner::Free,
             }
-            inside.or(if near[1].is_some() { near[0].map(|(k, _)| k) } else { None })
+        };
+        // the deepest of the obstacles that contain `p`: a node inside one has sdf < 0 there
+        // exactly (`Shape::outside_distance`'s contract), so one is found
+        let deepest = |p: [f64; 3]| -> usize {
+            let mut deepest: Option<(usize, f64)> = None;
+            for (k, o) in obstacles.iter().enumerate() {
+                let d = o.shape.sdf(p);
+                if d < 0.0 && deepest.is_none_or(|(_, bd)| d > bd) {
+                    deepest = Some((k, d));
+                }
+            }
+            deepest.expect("a node inside two obstacles has a negative sdf in each").0
         };
 
         // which nodes lie in (or are pinched by) an obstacle: independent of each other, so
         // found on the pool's threads (in order: the same answers as one by one); kept for the
         // ghosts below
-        let owner: Vec<Option<usize>> = points.par_iter().enumerate().with_min_len(PAR_NODES).map(|(i, &p)| containing(i, p)).collect();
+        let owner: Vec<Owner> = points.par_iter().enumerate().with_min_len(PAR_NODES).map(|(i, &p)| containing(i, p)).collect();
         // each recomputed node's kind from its obstacle and its place (on the pool's threads)
-        let side = |idx: usize, owner: &Option<usize>| -> NodeKind {
-            if owner.is_some() {
+        let side = |idx: usize, owner: &Owner| -> NodeKind {
+            if !matches!(owner, Owner::Free) {
                 return NodeKind::Inactive;
             }
             let x = grid.coords(idx);
@@ -295,14 +303,14 @@ impl Layout {
         // Solid nodes within axis reach of a fluid node become ghosts; face halos stay only
         // where a fluid stencil reads them (not in corners). Both read the fluid nodes only,
         // which this does not change: found on the pool's threads, then applied.
-        let reach = |idx: usize, kind: &[NodeKind]| nearest_fluid(&grid, kind, grid.coords(idx)).is_some();
+        let reach = |idx: usize, kind: &[NodeKind]| fluid_within_reach(&grid, kind, idx);
         let walls: Vec<Option<NodeKind>> = todo
             .par_iter()
             .zip(&owner)
             .with_min_len(PAR_NODES)
             .map(|(&idx, o)| match (o, kind[idx]) {
-                (Some(_), _) => reach(idx, &kind).then_some(NodeKind::Ghost),
-                (None, NodeKind::FaceHalo) => (!reach(idx, &kind)).then_some(NodeKind::Inactive),
+                (Owner::One(_) | Owner::Several, _) => reach(idx, &kind).then_some(NodeKind::Ghost),
+                (Owner::Free, NodeKind::FaceHalo) => (!reach(idx, &kind)).then_some(NodeKind::Inactive),
                 _ => None,
             })
             .collect();
@@ -324,12 +332,18 @@ impl Layout {
         };
         let fluid_at = |x: [i64; 3]| fluid_node(&grid, &kind, &periodic_axis, x);
 
-        // the ghosts (node, obstacle) in node order
+        // the ghosts (node, obstacle) in node order, the owner of a ghost inside several
+        // obstacles found now (on the pool's threads)
         let ghost_of: Vec<(usize, usize)> = todo
-            .iter()
+            .par_iter()
             .zip(&owner)
+            .with_min_len(PAR_NODES)
             .filter(|&(&idx, _)| kind[idx] == NodeKind::Ghost)
-            .map(|(&idx, owner)| (idx, owner.expect("ghost is inside (or pinched by) a solid")))
+            .map(|(&idx, owner)| match *owner {
+                Owner::One(k) => (idx, k),
+                Owner::Several => (idx, deepest(pos(grid.coords(idx)))),
+                Owner::Free => unreachable!("a ghost is inside (or pinched by) a solid"),
+            })
             .collect();
         // a level set's wall point: the nearest of Newton's and two searches', one toward the
         // fluid node that makes the node a ghost (`fluid::ghost_wall`), asked of `level_sets` one
@@ -454,10 +468,21 @@ impl Layout {
     }
 }
 
+/// The obstacle a recomputed node belongs to, as [`Layout::build`]'s owners' pass finds it.
+#[derive(Clone, Copy, Debug)]
+enum Owner {
+    /// In no obstacle and pinched by none: fluid, or a halo node.
+    Free,
+    /// Inside obstacle `k`, or pinched with `k` the nearer of the two.
+    One(usize),
+    /// Inside two or more: the deepest owns it, found only where that matters (a ghost).
+    Several,
+}
+
 /// The fluid node nearest to `x` (interior coordinates) along an axis within two cells —
 /// ±1 before ±2, x before y before z — the one that makes a solid node a ghost; `None` when
 /// there is none.
-fn nearest_fluid(grid: &Grid, kind: &[NodeKind], x: [i64; 3]) -> Option<[i64; 3]> {
+pub(super) fn nearest_fluid(grid: &Grid, kind: &[NodeKind], x: [i64; 3]) -> Option<[i64; 3]> {
     // plain loops: asked of every solid node near a moving body at every step, where the
     // iterator chain's closures cost twice the reads
     for d in [1i64, 2] {
@@ -472,6 +497,22 @@ fn nearest_fluid(grid: &Grid, kind: &[NodeKind], x: [i64; 3]) -> Option<[i64; 3]
         }
     }
     None
+}
+
+/// Whether a fluid node lies within two cells of node `idx` (a padded index) along an axis:
+/// [`nearest_fluid`]`(…).is_some()`, read by strides where the four neighbours along every axis
+/// lie in the padded grid (all but the nodes at its edge): asked of every solid node near a
+/// moving body at every step.
+pub(super) fn fluid_within_reach(grid: &Grid, kind: &[NodeKind], idx: usize) -> bool {
+    let x = grid.coords(idx);
+    let clear = (0..grid.dim).all(|a| x[a] - 2 >= -(grid.halo[a] as i64) && x[a] + 2 < (grid.n[a] + grid.halo[a]) as i64);
+    if !clear {
+        return nearest_fluid(grid, kind, x).is_some();
+    }
+    (0..grid.dim).any(|a| {
+        let s = grid.stride[a];
+        [idx - 2 * s, idx - s, idx + s, idx + 2 * s].into_iter().any(|j| kind[j] == NodeKind::Fluid)
+    })
 }
 
 /// The fluid nodes next to one of `walls` along an axis, ascending and each once. With `walls`
@@ -535,25 +576,24 @@ pub(super) fn ghost_wall_velocity(o: &Obstacle, wall: [f64; 3]) -> [f64; 3] {
 }
 
 /// The 2ᴰ corners of the cell around `p` (interior node coordinates) with their multilinear
-/// weights (the base corner rounds along unused axes).
-pub(crate) fn multilinear_corners(dim: usize, p: [f64; 3]) -> Vec<([i64; 3], f64)> {
+/// weights (the base corner rounds along unused axes), without an allocation: asked for every
+/// ghost's image point at every step of a moving body.
+pub(crate) fn multilinear_corners(dim: usize, p: [f64; 3]) -> impl Iterator<Item = ([i64; 3], f64)> {
     let base: [i64; 3] = std::array::from_fn(|a| if a < dim { p[a].floor() as i64 } else { p[a].round() as i64 });
     let frac: [f64; 3] = std::array::from_fn(|a| if a < dim { p[a] - base[a] as f64 } else { 0.0 });
-    (0..1usize << dim)
-        .map(|c| {
-            let mut x = base;
-            let mut w = 1.0;
-            for a in 0..dim {
-                if c & (1 << a) != 0 {
-                    x[a] += 1;
-                    w *= frac[a];
-                } else {
-                    w *= 1.0 - frac[a];
-                }
+    (0..1usize << dim).map(move |c| {
+        let mut x = base;
+        let mut w = 1.0;
+        for a in 0..dim {
+            if c & (1 << a) != 0 {
+                x[a] += 1;
+                w *= frac[a];
+            } else {
+                w *= 1.0 - frac[a];
             }
-            (x, w)
-        })
-        .collect()
+        }
+        (x, w)
+    })
 }
 
 /// Multilinear interpolation weights at `p` over fluid nodes only (renormalised). Falls back to

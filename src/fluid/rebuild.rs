@@ -115,7 +115,7 @@ mod tests {
     use crate::fluid::geometry::Polygon;
     use crate::fluid::geometry::Shape;
     use crate::fluid::grid::Grid;
-    use crate::fluid::layout::NodeKind;
+    use crate::fluid::layout::{NodeKind, fluid_within_reach, nearest_fluid};
 
     fn assert_same(local: &Layout, full: &Layout, label: &str) {
         assert_eq!(local.obstacles, full.obstacles, "{label}: obstacles");
@@ -131,6 +131,11 @@ mod tests {
         assert_eq!(local.fluid_count, full.fluid_count, "{label}: fluid count");
         assert_eq!(local.wall_faces, full.wall_faces, "{label}: wall faces");
         assert_eq!(full.wall_faces, wall_faces_by_scan(full), "{label}: wall faces against a scan of the lattice");
+        // the reach test by strides is the search by coordinates at every node, the padded
+        // grid's edges included
+        let g = &full.grid;
+        let by_strides = (0..g.len()).find(|&i| fluid_within_reach(g, &full.kind, i) != nearest_fluid(g, &full.kind, g.coords(i)).is_some());
+        assert_eq!(by_strides.map(|i| g.coords(i)), None, "{label}: the reach test by strides differs");
     }
 
     /// Every fluid node with a non-fluid, non-periodic axis neighbour, by a scan of the lattice
