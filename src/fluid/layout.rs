@@ -425,12 +425,10 @@ impl Layout {
             // the previous ghosts, face halos and periodic copies outside the region, merged
             // with the region's in node order
             let outside = |node: usize| !r.contains(grid.coords(node));
-            ghosts.extend(p.ghosts.iter().filter(|g| outside(g.node)).cloned());
-            ghosts.sort_by_key(|g| g.node);
-            face_halos.extend(p.face_halos.iter().filter(|h| outside(h.node)).cloned());
-            face_halos.sort_by_key(|h| h.node);
-            periodic.extend(p.periodic.iter().flat_map(|r| (0..r.len).map(move |k| (r.dst + k, r.src + k))).filter(|&(d, _)| outside(d)));
-            periodic.sort_unstable();
+            ghosts = merge_in_node_order(ghosts, p.ghosts.iter().filter(|g| outside(g.node)).cloned(), |g| g.node);
+            face_halos = merge_in_node_order(face_halos, p.face_halos.iter().filter(|h| outside(h.node)).cloned(), |h| h.node);
+            let previous_periodic = p.periodic.iter().flat_map(|r| (0..r.len).map(move |k| (r.dst + k, r.src + k))).filter(|&(d, _)| outside(d));
+            periodic = merge_in_node_order(periodic, previous_periodic, |&(d, _)| d);
         }
         const { assert!(HALO >= 2) };
         // Merge consecutive pairs along a row that the same stencils read into runs.
@@ -477,6 +475,24 @@ enum Owner {
     One(usize),
     /// Inside two or more: the deepest owns it, found only where that matters (a ghost).
     Several,
+}
+
+/// `ours` and `theirs`, each in node order and with no node in both (a rebuilt region's lists
+/// and the previous layout's entries outside it), merged in node order — what a stable sort of
+/// the two together gives, each entry moved once (the 3D glottis's 173,000 ghosts a step).
+fn merge_in_node_order<T>(ours: Vec<T>, theirs: impl Iterator<Item = T>, node: impl Fn(&T) -> usize) -> Vec<T> {
+    debug_assert!(ours.windows(2).all(|w| node(&w[0]) < node(&w[1])), "the region's entries in node order");
+    let mut out = Vec::with_capacity(ours.len() + theirs.size_hint().0);
+    let mut theirs = theirs.peekable();
+    for o in ours {
+        while let Some(t) = theirs.next_if(|t| node(t) < node(&o)) {
+            out.push(t);
+        }
+        out.push(o);
+    }
+    out.extend(theirs);
+    debug_assert!(out.windows(2).all(|w| node(&w[0]) < node(&w[1])), "the merged entries in node order");
+    out
 }
 
 /// The fluid node nearest to `x` (interior coordinates) along an axis within two cells —

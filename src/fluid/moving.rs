@@ -201,7 +201,7 @@ impl<S: Storage> FluidSolver<S> {
 /// [`FluidSolver::sample`]).
 fn linear_stencil(layout: &Layout, p: [f64; 3]) -> Option<Vec<(usize, f64)>> {
     let dim = layout.grid.dim;
-    let corners: Option<Vec<(usize, f64)>> = multilinear_corners(dim, p).into_iter().map(|(x, w)| layout.fluid_node_at(x).map(|i| (i, w))).collect();
+    let corners: Option<Vec<(usize, f64)>> = multilinear_corners(dim, p).map(|(x, w)| layout.fluid_node_at(x).map(|i| (i, w))).collect();
     if corners.is_some() {
         return corners;
     }
