@@ -302,22 +302,20 @@ pub fn thin_taps(geo: &WallGeometry, only: Option<&[usize]>) -> Vec<ThinTap> {
         }
     };
     // each node's taps apart, on the pool's threads, gathered in node order
+    // Most nodes are not fluid, or have only fluid within two cells along every axis: those
+    // read no ghost and no wall, so no tap below is made (`one_sided_weights` of three falses
+    // is None) — answered first from the kinds alone, by strides (a fluid node is interior, and
+    // the lattice's halo is two nodes deep), in a pass of its own: the 3D glottis's 1.23·10⁶
+    // rebuilt nodes leave 100,000 readers next to a wall
+    let reads_a_wall = |node: usize| {
+        kind[node] == NodeKind::Fluid
+            && !(0..grid.dim).all(|a| {
+                let s = grid.stride[a];
+                [node - 2 * s, node - s, node + s, node + 2 * s].into_iter().all(|y| kind[y] == NodeKind::Fluid)
+            })
+    };
     let taps_of = |node: usize| -> Vec<ThinTap> {
         let mut out = Vec::new();
-        if kind[node] != NodeKind::Fluid {
-            return out;
-        }
-        // Most nodes have only fluid within two cells along every axis: they read no ghost and
-        // no wall, so no tap below is made (`one_sided_weights` of three falses is None) —
-        // answered first from the kinds alone, by strides (a fluid node is interior, and the
-        // lattice's halo is two nodes deep)
-        let clear = (0..grid.dim).all(|a| {
-            let s = grid.stride[a];
-            [node - 2 * s, node - s, node + s, node + 2 * s].into_iter().all(|y| kind[y] == NodeKind::Fluid)
-        });
-        if clear {
-            return out;
-        }
         let r = grid.coords(node);
         for axis in 0..grid.dim {
             for sign in [1i64, -1] {
@@ -370,7 +368,8 @@ pub fn thin_taps(geo: &WallGeometry, only: Option<&[usize]>) -> Vec<ThinTap> {
         out
     };
     // in node order (rayon's collect keeps the sequential order), with no list per node
-    nodes.par_iter().with_min_len(PAR_NODES).flat_map_iter(|&node| taps_of(node)).collect()
+    let readers: Vec<usize> = nodes.par_iter().with_min_len(PAR_NODES).copied().filter(|&n| reads_a_wall(n)).collect();
+    readers.par_iter().with_min_len(PAR_NODES / 8).flat_map_iter(|&node| taps_of(node)).collect()
 }
 
 #[cfg(test)]
