@@ -301,7 +301,6 @@ pub fn thin_taps(geo: &WallGeometry, only: Option<&[usize]>) -> Vec<ThinTap> {
             &all
         }
     };
-    // each node's taps apart, on the pool's threads, gathered in node order
     // Most nodes are not fluid, or have only fluid within two cells along every axis: those
     // read no ghost and no wall, so no tap below is made (`one_sided_weights` of three falses
     // is None) — answered first from the kinds alone, by strides (a fluid node is interior, and
@@ -314,6 +313,7 @@ pub fn thin_taps(geo: &WallGeometry, only: Option<&[usize]>) -> Vec<ThinTap> {
                 [node - 2 * s, node - s, node + s, node + 2 * s].into_iter().all(|y| kind[y] == NodeKind::Fluid)
             })
     };
+    // each reader's taps apart (on the pool's threads below, gathered in node order)
     let taps_of = |node: usize| -> Vec<ThinTap> {
         let mut out = Vec::new();
         let r = grid.coords(node);
