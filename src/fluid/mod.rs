@@ -11,6 +11,7 @@ pub mod fixtures;
 pub mod geometry;
 mod ghost_wall;
 pub mod grid;
+mod interpolation;
 pub mod kernel_level_set;
 pub mod layout;
 pub mod level_set_queries;

@@ -12,7 +12,8 @@
 
 use super::equilibrium::Macro;
 use super::geometry::Obstacle;
-use super::layout::{Layout, NodeKind, multilinear_corners};
+use super::interpolation::multilinear_corners;
+use super::layout::{Layout, NodeKind};
 use super::solver::FluidSolver;
 use super::storage::Storage;
 

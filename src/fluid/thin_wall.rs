@@ -53,7 +53,8 @@ use super::bracket::illinois;
 use super::equilibrium::Equilibrium;
 use super::geometry::{Obstacle, dot};
 use super::grid::Grid;
-use super::layout::{Ghost, NodeKind, PAR_NODES, fluid_node, ghost_wall_velocity, interpolation_stencil};
+use super::interpolation::interpolation_stencil;
+use super::layout::{Ghost, NodeKind, PAR_NODES, fluid_node, ghost_wall_velocity};
 use super::storage::{RowBlocked, Storage, shift_of};
 use rayon::prelude::*;
 
@@ -255,23 +256,10 @@ impl WallGeometry<'_> {
 /// reading nodes to consider (ascending), all when None.
 pub fn thin_taps(geo: &WallGeometry, only: Option<&[usize]>) -> Vec<ThinTap> {
     let (grid, kind, ghosts, periodic) = (geo.grid, geo.kind, geo.ghosts, geo.periodic);
-    // the ghost at a node by bisection of its row's ghosts (the ghosts are in node order; a
-    // row's first ghost from a table of one entry per row of the padded lattice, not a
-    // lattice-sized index made at every step): only the nodes next to a wall ask
+    // the ghost at a node by bisection of the ghosts (in node order), not a lattice-sized index
+    // made at every step: only the nodes next to a wall ask
     debug_assert!(ghosts.windows(2).all(|w| w[0].node < w[1].node), "ghosts in node order");
-    let row_len = grid.padded[0];
-    let mut row_start = vec![0u32; grid.len() / row_len + 1];
-    for g in ghosts {
-        row_start[g.node / row_len + 1] += 1;
-    }
-    for r in 1..row_start.len() {
-        row_start[r] += row_start[r - 1];
-    }
-    let ghost_of = |node: usize| {
-        let row = node / row_len;
-        let (a, b) = (row_start[row] as usize, row_start[row + 1] as usize);
-        ghosts[a..b].binary_search_by_key(&node, |g| g.node).ok().map(|k| a + k)
-    };
+    let ghost_of = |node: usize| ghosts.binary_search_by_key(&node, |g| g.node).ok();
     // Image point of each ghost (mean of its image nodes' coordinates, by weight).
     let image: Vec<[f64; 3]> = ghosts
         .par_iter()
