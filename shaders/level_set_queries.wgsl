@@ -1,7 +1,7 @@
-// What the layout asks of a body's kernel level set (seed 000 §2.4.2, 2.124–2.126), in f64 (the
-// device's SHADER_F64): GPU twins of src/fluid/kernel_level_set.rs `outside_distance` (each
+// What the layout asks of a body's kernel level set (seed 000 §2.4.2, 2.124–2.126, 2.130), in f64
+// (the device's SHADER_F64): GPU twins of src/fluid/kernel_level_set.rs `outside_distance` (each
 // node's side of the wall) and src/fluid/ghost_wall.rs `KernelLevelSet::ghost_wall` (each ghost
-// node's wall point), with the level set's sums (`sums`), Newton's depth (`depth`), the direction
+// node's wall point, with kernel_level_set.rs `velocity_at` there: `wall_velocity`), with the level set's sums (`sums`), Newton's depth (`depth`), the direction
 // away from the body's mass (`mass_outward`) and the bracketed searches (`first_crossing`,
 // src/fluid/bracket.rs `illinois`) written operation for operation as the CPU writes them, so that
 // the two agree to round-off: a node's side, and a ghost's image stencil where its image point
@@ -33,12 +33,14 @@ struct Params {
 @group(0) @binding(2) var<storage, read> bin_start: array<u32>;
 // per bin the sum of its points' coordinates and their number
 @group(0) @binding(3) var<storage, read> bin_sums: array<f64>;
+// the particles' velocities in the same order as `sorted`, three each (c units)
+@group(0) @binding(4) var<storage, read> sorted_velocities: array<f64>;
 // outside_distance: the points (3 each); ghost_wall: per ghost the node (3) and the fluid node
 // that makes it a ghost (3)
-@group(0) @binding(4) var<storage, read> queries: array<f64>;
+@group(0) @binding(5) var<storage, read> queries: array<f64>;
 // outside_distance: per point the distance, or INSIDE; ghost_wall: per ghost the signed distance
-// to the wall (negative inside) and the outward normal
-@group(0) @binding(5) var<storage, read_write> answers: array<f64>;
+// to the wall (negative inside), the outward normal (3) and the wall velocity (3): 7 each
+@group(0) @binding(6) var<storage, read_write> answers: array<f64>;
 
 // Smallest |∇L| in −L/|∇L| (kernel_level_set.rs `FLAT`).
 const FLAT: f64 = 1e-6;
@@ -101,6 +103,43 @@ fn sums(p: vec3<f64>, gradient: bool, stop_inside: bool) -> Level {
         }
     }
     return s;
+}
+
+// The wall velocity at p (2.130): the particles' velocities averaged with their kernel weights
+// w = r_e/max(r, r_min) − 1 over those within r_e, zero where there are none
+// (kernel_level_set.rs `velocity_at` over `slot_weights`: the bins around p in the order `sums`
+// visits them, r measured from the particle to p).
+fn wall_velocity(p: vec3<f64>) -> vec3<f64> {
+    var v = vec3<f64>(0.0);
+    var sum: f64 = 0.0;
+    let far = P.re * P.re * (1.0 + 1e-12);
+    if (any(p < P.lo.xyz) || any(p > P.hi.xyz)) {
+        return v;
+    }
+    let c = cell_of(p);
+    let b = vec3<i32>(P.bins.xyz);
+    let lo = max(c - vec3<i32>(1), vec3<i32>(0));
+    let hi = min(c + vec3<i32>(1), b - vec3<i32>(1));
+    for (var z = lo.z; z <= hi.z; z = z + 1) {
+        for (var y = lo.y; y <= hi.y; y = y + 1) {
+            let row = u32((z * b.y + y) * b.x);
+            let end = bin_start[row + u32(hi.x) + 1u];
+            for (var k = bin_start[row + u32(lo.x)]; k < end; k = k + 1u) {
+                let d = vec3<f64>(sorted[3u * k] - p.x, sorted[3u * k + 1u] - p.y, sorted[3u * k + 2u] - p.z);
+                let r2 = d.x * d.x + d.y * d.y + d.z * d.z;
+                if (r2 > far) { continue; }
+                let r = sqrt(r2);
+                if (r > P.re) { continue; }
+                let w = P.re / max(r, P.r_min) - 1.0;
+                sum = sum + w;
+                v = vec3<f64>(v.x + w * sorted_velocities[3u * k], v.y + w * sorted_velocities[3u * k + 1u], v.z + w * sorted_velocities[3u * k + 2u]);
+            }
+        }
+    }
+    if (sum > 0.0) {
+        return vec3<f64>(v.x / sum, v.y / sum, v.z / sum);
+    }
+    return v;
 }
 
 // −g/|g|, zero where g is (ghost_wall.rs `outward`)
@@ -256,11 +295,16 @@ fn ghost_wall(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         d = -best;
         n = best_n;
     }
-    let o = 4u * t;
+    // the wall point (fluid/level_set_queries.rs `wall_point`) and its velocity
+    let v = wall_velocity(vec3<f64>(p.x - d * n.x, p.y - d * n.y, p.z - d * n.z));
+    let o = 7u * t;
     answers[o] = d;
     answers[o + 1u] = n.x;
     answers[o + 2u] = n.y;
     answers[o + 3u] = n.z;
+    answers[o + 4u] = v.x;
+    answers[o + 5u] = v.y;
+    answers[o + 6u] = v.z;
 }
 
 // KernelLevelSet::outside_distance: −L/|∇L| (|∇L| at least FLAT) at each point outside (L ≤ 0),

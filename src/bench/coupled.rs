@@ -185,7 +185,7 @@ impl crate::fluid::LevelSetQueries for TimedQueries {
         self.time(|| crate::fluid::OnThePool.outside_distances(which, set, points))
     }
 
-    fn ghost_walls(&self, which: usize, set: &crate::fluid::KernelLevelSet, queries: &[crate::fluid::GhostQuery]) -> Vec<(f64, [f64; 3])> {
+    fn ghost_walls(&self, which: usize, set: &crate::fluid::KernelLevelSet, queries: &[crate::fluid::GhostQuery]) -> Vec<crate::fluid::GhostWall> {
         self.time(|| crate::fluid::OnThePool.ghost_walls(which, set, queries))
     }
 }

@@ -388,7 +388,7 @@ impl CoupledSolver {
                 sets.iter()
                     .zip(members.bodies())
                     .enumerate()
-                    .flat_map(|(b, (s, m))| s.weights(at).map(move |(j, wj)| (m[j], wj, DVec3::from_array(s.velocities[j]), b)))
+                    .flat_map(|(b, (s, m))| s.weights(at).map(move |(j, wj)| (m[j], wj, DVec3::from_array(s.velocities()[j]), b)))
                     .collect()
             })
             .collect();

@@ -20,8 +20,9 @@ use rayon::prelude::*;
 pub struct KernelLevelSet {
     /// Particle positions (lattice coordinates).
     pub points: Vec<[f64; 3]>,
-    /// Particle velocities (c units).
-    pub velocities: Vec<[f64; 3]>,
+    /// Particle velocities (c units; read through [`Self::velocities`]: their bin-ordered copy
+    /// is made with the bins).
+    velocities: Vec<[f64; 3]>,
     /// Kernel radius r_e (cells).
     pub re: f64,
     /// Clamp of r in the kernel (cells).
@@ -38,6 +39,9 @@ pub struct KernelLevelSet {
     /// The points in bin order (`points[order[k]]` at k): [`Self::level`] reads each bin's as
     /// one contiguous run.
     sorted: Vec<[f64; 3]>,
+    /// The velocities in the same order (`velocities[order[k]]` at k): what
+    /// [`Self::velocity_at`] and a device's twin of it read.
+    sorted_velocities: Vec<[f64; 3]>,
     /// Per bin, the sum of its points' coordinates and their number: the coarse picture of the
     /// body [`Self::mass_outward`] reads.
     bin_sums: Vec<[f64; 4]>,
@@ -106,6 +110,7 @@ impl KernelLevelSet {
             start: Vec::new(),
             order: Vec::new(),
             sorted: Vec::new(),
+            sorted_velocities: Vec::new(),
             bin_sums: Vec::new(),
             id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         };
@@ -125,6 +130,7 @@ impl KernelLevelSet {
             fill[k] += 1;
         }
         s.sorted = order.par_iter().with_min_len(PAR_POINTS).map(|&j| s.points[j as usize]).collect();
+        s.sorted_velocities = order.par_iter().with_min_len(PAR_POINTS).map(|&j| s.velocities[j as usize]).collect();
         s.bin_sums = (0..n_bins)
             .into_par_iter()
             .with_min_len(PAR_POINTS / 8)
@@ -163,6 +169,17 @@ impl KernelLevelSet {
     /// of [`Self::ghost_wall`] reads.
     pub fn binned_points(&self) -> (&[[f64; 3]], &[[f64; 4]]) {
         (&self.sorted, &self.bin_sums)
+    }
+
+    /// The particles' velocities in bin order (those of [`Self::binned_points`]' points): what a
+    /// device's twin of [`Self::velocity_at`] reads.
+    pub fn binned_velocities(&self) -> &[[f64; 3]] {
+        &self.sorted_velocities
+    }
+
+    /// The particles' velocities (c units), in the order of [`Self::points`].
+    pub fn velocities(&self) -> &[[f64; 3]] {
+        &self.velocities
     }
 
     fn near(&self, p: [f64; 3]) -> bool {
@@ -239,20 +256,26 @@ impl KernelLevelSet {
     /// one run per row of bins (as [`Self::level`] reads them), and the particles beyond r_e by
     /// more than round-off are passed over before the square root: the same weights bit for
     /// bit as from `points[j]` one particle at a time (test
-    /// `the_binned_sums_see_every_particle_within_reach_in_3d`), for less: asked for the wall
-    /// velocity of every ghost node of method 2 at every step.
+    /// `the_binned_sums_see_every_particle_within_reach_in_3d`), for less: the hand-over
+    /// (2.127–2.128) asks it at every crossing point of method 2 at every step.
     pub fn weights(&self, p: [f64; 3]) -> impl Iterator<Item = (usize, f64)> + '_ {
+        self.slot_weights(p).map(|(k, w)| (self.order[k] as usize, w))
+    }
+
+    /// [`Self::weights`] by bin-ordered slot (an index into `sorted` and `sorted_velocities`)
+    /// instead of by particle: the same weights in the same order.
+    fn slot_weights(&self, p: [f64; 3]) -> impl Iterator<Item = (usize, f64)> + '_ {
         // r² above this is r > r_e whatever the rounding of r = √r²
         let far = self.re * self.re * (1.0 + 1e-12);
         self.runs(p).flat_map(move |run| {
-            self.sorted[run.clone()].iter().zip(&self.order[run]).filter_map(move |(x, &j)| {
+            self.sorted[run.clone()].iter().zip(run).filter_map(move |(x, k)| {
                 let d = [x[0] - p[0], x[1] - p[1], x[2] - p[2]];
                 let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
                 if r2 > far {
                     return None;
                 }
                 let r = r2.sqrt();
-                (r <= self.re).then(|| (j as usize, self.re / r.max(self.r_min) - 1.0))
+                (r <= self.re).then(|| (k, self.re / r.max(self.r_min) - 1.0))
             })
         })
     }
@@ -376,14 +399,15 @@ impl KernelLevelSet {
     }
 
     /// Wall velocity at `p` (2.130): the kernel-weighted mean of the particles' velocities
-    /// (zero where no particle is within r_e).
+    /// (zero where no particle is within r_e), summed in the bins' order from the bin-ordered
+    /// velocities (shaders/level_set_queries.wgsl `wall_velocity` is its twin).
     pub fn velocity_at(&self, p: [f64; 3]) -> [f64; 3] {
         let mut v = [0.0; 3];
         let mut sum = 0.0;
-        for (j, w) in self.weights(p) {
+        for (k, w) in self.slot_weights(p) {
             sum += w;
             for a in 0..3 {
-                v[a] += w * self.velocities[j][a];
+                v[a] += w * self.sorted_velocities[k][a];
             }
         }
         if sum > 0.0 { v.map(|x| x / sum) } else { v }

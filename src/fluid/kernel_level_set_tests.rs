@@ -119,7 +119,10 @@ fn the_binned_sums_see_every_particle_within_reach_in_3d() {
         }
     }
     let (re, r_min) = (1.0, 0.5);
-    let s = KernelLevelSet::new(pts.clone(), vec![[0.0; 3]; pts.len()], re, r_min, 2.0);
+    // velocities that differ from particle to particle, so that a sum over the wrong particles
+    // or in another order shows
+    let vel: Vec<[f64; 3]> = (0..pts.len()).map(|j| [(j as f64 * 0.37).sin(), (j as f64 * 0.11).cos(), 1e-3 * j as f64]).collect();
+    let s = KernelLevelSet::new(pts.clone(), vel.clone(), re, r_min, 2.0);
     let mut probes = Vec::new();
     for (n, x) in pts.iter().enumerate().step_by(7) {
         let unit = [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [0.6, 0.8, 0.0], [0.0, 0.6, -0.8]][n % 5];
@@ -147,6 +150,15 @@ fn the_binned_sums_see_every_particle_within_reach_in_3d() {
             })
             .collect();
         assert_eq!(s.weights(*p).map(|(j, w)| (j, w.to_bits())).collect::<Vec<_>>(), one_by_one, "{p:?}");
+        // the wall velocity (2.130) from the bin-ordered velocities: the particles' own
+        // velocities with those weights, in that order, bit for bit
+        let (mut v, mut sum) = ([0.0; 3], 0.0);
+        for (j, w) in s.weights(*p) {
+            sum += w;
+            (0..3).for_each(|a| v[a] += w * vel[j][a]);
+        }
+        let v = if sum > 0.0 { v.map(|x| x / sum) } else { v };
+        assert_eq!(s.velocity_at(*p).map(f64::to_bits), v.map(f64::to_bits), "{p:?}");
         let (l, _) = s.level(*p);
         assert!((l - brute).abs() < 1e-12 * brute.abs().max(1.0), "{p:?}: {l} vs {brute}");
         assert_eq!(s.level_value(*p).to_bits(), l.to_bits(), "{p:?}");

@@ -6,7 +6,7 @@ use super::boundary::{Boundaries, Face, FaceCondition};
 use super::geometry::{Obstacle, Outside, Shape, dot};
 use super::grid::{Grid, HALO};
 use super::interpolation::interpolation_stencil;
-use super::level_set_queries::{GhostQuery, LevelSetQueries, OnThePool};
+use super::level_set_queries::{GhostQuery, GhostWall, LevelSetQueries, OnThePool, wall_point};
 use super::rebuild::Region;
 use super::thin_wall::{ThinTap, WallGeometry, thin_taps};
 use rayon::prelude::*;
@@ -347,9 +347,9 @@ impl Layout {
             })
             .collect();
         // a level set's wall point: the nearest of Newton's and two searches', one toward the
-        // fluid node that makes the node a ghost (`fluid::ghost_wall`), asked of `level_sets` one
-        // set at a time
-        let mut level_set_wall: Vec<Option<(f64, [f64; 3])>> = vec![None; ghost_of.len()];
+        // fluid node that makes the node a ghost (`fluid::ghost_wall`), and the wall's velocity
+        // there (2.130), asked of `level_sets` one set at a time
+        let mut level_set_wall: Vec<Option<GhostWall>> = vec![None; ghost_of.len()];
         for (k, o) in obstacles.iter().enumerate() {
             let Shape::KernelLevelSet(ls) = &o.shape else { continue };
             let (at, queries): (Vec<usize>, Vec<GhostQuery>) = ghost_of
@@ -376,12 +376,12 @@ impl Layout {
                 let p = pos(grid.coords(idx));
                 let o = &obstacles[k];
                 let (d, nrm) = match (&o.shape, found) {
-                    (_, Some(w)) => *w,
+                    (_, Some(w)) => (w.distance, w.normal),
                     // a level set's ghost with no fluid node within two cells along an axis
                     (Shape::KernelLevelSet(_), None) => (o.shape.sdf(p), o.shape.normal(p)),
                     (shape, None) => shape.sdf_and_normal(p),
                 };
-                let wall = [p[0] - d * nrm[0], p[1] - d * nrm[1], p[2] - d * nrm[2]];
+                let wall = wall_point(p, d, nrm);
                 let d_img = (-d).max(1.0);
                 let img = [wall[0] + d_img * nrm[0], wall[1] + d_img * nrm[1], wall[2] + d_img * nrm[2]];
                 let mut image = interpolation_stencil(&grid, img, &fluid_at);
@@ -392,7 +392,12 @@ impl Layout {
                     // within two cells along an axis by the definition of a ghost.
                     image = interpolation_stencil(&grid, p, &fluid_at);
                 }
-                let v = ghost_wall_velocity(o, wall);
+                // a level set's wall velocity came with its wall point (the same
+                // `velocity_at(wall)` on the CPU)
+                let v = match found {
+                    Some(w) => w.velocity,
+                    None => ghost_wall_velocity(o, wall),
+                };
                 Ghost { node: idx, image, ratio: d / d_img, wall_velocity: v, wall_temperature: o.temperature }
             })
             .collect();

@@ -70,7 +70,7 @@ impl JointSets {
             let first = [j.points.len() as u32, j.start.len() as u32, 0, 0];
             j.grids.push(SetGrid { lo: v4(lo), hi: v4(hi), bins: [bins[0] as u32, bins[1] as u32, bins[2] as u32, s.points.len() as u32], first });
             j.points.extend(s.points.iter().map(|p| v4(*p)));
-            j.velocities.extend(s.velocities.iter().map(|p| v4(*p)));
+            j.velocities.extend(s.velocities().iter().map(|p| v4(*p)));
             j.start.extend_from_slice(start);
             j.order.extend_from_slice(order);
         }

@@ -2,7 +2,7 @@
 //! (shaders/level_set_queries.wgsl, f64): each node's side of the wall (the GPU twin of
 //! [`KernelLevelSet::outside_distance`]) and each ghost node's wall point (of
 //! [`KernelLevelSet::ghost_wall`], 2.124–2.126: Newton's steps along ∇L and two bracketed
-//! searches for the zero contour) — most of method 2's per-step geometry on the CPU
+//! searches for the zero contour, with the wall velocity there, 2.130) — most of method 2's per-step geometry on the CPU
 //! (`glottis_3d_coarse`: 6 and 16.7 ms of a 34 ms stage on two cores). The layout asks each
 //! question once per body and step ([`LevelSetQueries`]); each call uploads the body's
 //! bin-ordered points, bin starts and bin sums with the queries and reads the answers back (one
@@ -20,7 +20,7 @@
 
 use super::context::{GpuContext, buffer_layout, compute_pipelines, dispatch_grid, try_read_parts_into};
 use super::growing::{GrowingBuffer, KeptBindGroup};
-use crate::fluid::{GhostQuery, KernelLevelSet, LevelSetQueries, OnThePool};
+use crate::fluid::{GhostQuery, GhostWall, KernelLevelSet, LevelSetQueries, OnThePool};
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
 use std::sync::Mutex;
@@ -53,8 +53,15 @@ const PAR_POINTS: usize = 4096;
 const INSIDE: f64 = -1.0;
 
 /// Storage bindings after the uniform: the bin-ordered points, the bins' starts, the bins' sums,
-/// the queries, the walls.
-const BINDINGS: usize = 5;
+/// the bin-ordered velocities, the queries, the answers.
+const BINDINGS: usize = 6;
+
+/// The storage bindings written once per binning (the bins and what they order): the first
+/// [`BINNED`] of [`BINDINGS`].
+const BINNED: usize = 4;
+
+/// f64s per ghost_wall answer: the signed distance, the normal, the wall velocity.
+const GHOST_WALL_ANSWER: usize = 7;
 
 /// The buffers the calls for one of the layout's level sets (one body) reuse — its bins
 /// (written when the set is another binning than the one they hold: once a step for both
@@ -127,7 +134,7 @@ impl LevelSetKernels {
         let device = &ctx.device;
         let module =
             device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("level set queries"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
-        let kinds = [(true, true), (false, true), (false, true), (false, true), (false, true), (false, false)];
+        let kinds = [(true, true), (false, true), (false, true), (false, true), (false, true), (false, true), (false, false)];
         let layout = buffer_layout(device, "level set queries", &kinds);
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("level set queries"),
@@ -179,13 +186,14 @@ impl LevelSetKernels {
         Some(out)
     }
 
-    /// The wall of each of `queries` in `set` (signed distance in cells, outward normal), as
-    /// [`KernelLevelSet::ghost_wall`] gives them to round-off; None when the read failed.
-    pub fn try_ghost_walls(&self, which: usize, set: &KernelLevelSet, queries: &[GhostQuery]) -> Option<Vec<(f64, [f64; 3])>> {
+    /// The wall of each of `queries` in `set` (signed distance in cells, outward normal, and
+    /// the wall velocity at the wall point, c units), as [`KernelLevelSet::ghost_wall`] and
+    /// [`KernelLevelSet::velocity_at`] give them to round-off; None when the read failed.
+    pub fn try_ghost_walls(&self, which: usize, set: &KernelLevelSet, queries: &[GhostQuery]) -> Option<Vec<GhostWall>> {
         let q: Vec<f64> = queries.iter().flat_map(|(a, b)| a.iter().chain(b).copied()).collect();
-        let bytes = self.run(which, set, Kernel::GhostWall, &q, queries.len(), 32)?;
+        let bytes = self.run(which, set, Kernel::GhostWall, &q, queries.len(), 8 * GHOST_WALL_ANSWER as u64)?;
         let w: Vec<f64> = bytemuck::pod_collect_to_vec(&bytes);
-        Some(w.chunks_exact(4).map(|c| (c[0], [c[1], c[2], c[3]])).collect())
+        Some(w.chunks_exact(GHOST_WALL_ANSWER).map(|c| GhostWall { distance: c[0], normal: [c[1], c[2], c[3]], velocity: [c[4], c[5], c[6]] }).collect())
     }
 
     /// Runs `kernel` over `count` queries (`q`, their coordinates) of `set` (the layout's level
@@ -210,7 +218,13 @@ impl LevelSetKernels {
             ..Default::default()
         };
         let out_bytes = answer * count as u64;
-        let inputs: [&[u8]; 4] = [bytemuck::cast_slice(sorted), bytemuck::cast_slice(start), bytemuck::cast_slice(sums), bytemuck::cast_slice(q)];
+        let inputs: [&[u8]; BINDINGS - 1] = [
+            bytemuck::cast_slice(sorted),
+            bytemuck::cast_slice(start),
+            bytemuck::cast_slice(sums),
+            bytemuck::cast_slice(set.binned_velocities()),
+            bytemuck::cast_slice(q),
+        ];
         let t0 = Instant::now();
         let mut slots = self.slots.lock().expect("the slots' lock");
         let k = which % SLOTS;
@@ -221,8 +235,14 @@ impl LevelSetKernels {
             // for three times its first call's bins and queries, and later calls of a bending
             // body make no buffer
             let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
-            let room: [u64; BINDINGS] =
-                [inputs[0].len() as u64, 3 * inputs[1].len() as u64, 3 * inputs[2].len() as u64, 3 * inputs[3].len() as u64, 3 * out_bytes];
+            let room: [u64; BINDINGS] = [
+                inputs[0].len() as u64,
+                3 * inputs[1].len() as u64,
+                3 * inputs[2].len() as u64,
+                inputs[3].len() as u64,
+                3 * inputs[4].len() as u64,
+                3 * out_bytes,
+            ];
             slots.push(Slot {
                 set: u64::MAX,
                 params: device.create_buffer(&wgpu::BufferDescriptor {
@@ -239,13 +259,13 @@ impl LevelSetKernels {
         let b = &mut slots[k];
         queue.write_buffer(&b.params, 0, bytemuck::bytes_of(&p));
         // the bins, once per binning; the queries, each call
-        let from = if b.set == set.id() { 3 } else { 0 };
+        let from = if b.set == set.id() { BINNED } else { 0 };
         let bins_sent = (from == 0) as u64;
         for (buf, d) in b.data.iter_mut().zip(inputs).skip(from) {
             buf.write(device, queue, d);
         }
         b.set = set.id();
-        b.data[4].reserve(device, out_bytes);
+        b.data[BINDINGS - 1].reserve(device, out_bytes);
         b.staging.reserve(device, out_bytes);
         let bound: Vec<wgpu::Buffer> = std::iter::once(b.params.clone()).chain(b.data.iter().map(|d| d.buffer().clone())).collect();
         let group = b.group.over(device, &self.layout, "level set queries", &bound);
@@ -257,7 +277,7 @@ impl LevelSetKernels {
             let ((gx, gy), _) = dispatch_grid(count);
             pass.dispatch_workgroups(gx, gy, 1);
         }
-        let read = try_read_parts_into(device, queue, enc, &[(&bound[5], 0, out_bytes)], b.staging.buffer());
+        let read = try_read_parts_into(device, queue, enc, &[(&bound[BINDINGS], 0, out_bytes)], b.staging.buffer());
         let mut work = self.work.lock().expect("the work's lock");
         work.calls += 1;
         work.queries += count as u64;
@@ -277,7 +297,7 @@ impl LevelSetQueries for LevelSetKernels {
         self.try_outside_distances(which, set, points).unwrap_or_else(|| OnThePool.outside_distances(which, set, points))
     }
 
-    fn ghost_walls(&self, which: usize, set: &KernelLevelSet, queries: &[GhostQuery]) -> Vec<(f64, [f64; 3])> {
+    fn ghost_walls(&self, which: usize, set: &KernelLevelSet, queries: &[GhostQuery]) -> Vec<GhostWall> {
         self.try_ghost_walls(which, set, queries).unwrap_or_else(|| OnThePool.ghost_walls(which, set, queries))
     }
 }
