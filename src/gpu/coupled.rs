@@ -294,7 +294,7 @@ impl GpuCoupled {
     /// trips of steps where nodes change side, of the fluid's totals and of the piece forces'
     /// reads (made once, and again only when a round trip outgrows them). Constant over steps
     /// that made none: the steady state of a coupled run (test
-    /// `a_coupled_step_makes_no_buffers_once_running` in tests/gpu/coupling.rs).
+    /// `a_coupled_step_makes_no_buffers_once_running` in tests/gpu/coupled_steps.rs).
     pub fn device_objects_made(&self) -> u64 {
         self.fluid.geometry_rebinds
             + self.fluid.step_objects_made()

@@ -13,9 +13,9 @@
 //! switch some that the CPU does not, and the switches, not round-off, set how far two runs part
 //! (a towed disc: 5·10⁻² in the populations). The kernels write the CPU's operations in the CPU's
 //! order; drivers may still contract a product and a sum, so the two agree to round-off, not bit
-//! for bit (tests `level_set_queries_on_the_device_match_the_cpu` and
+//! for bit (tests `level_set_queries_on_the_device_match_the_cpu` in tests/gpu/coupling.rs and
 //! `a_coupled_step_with_level_sets_on_the_device_builds_the_cpus_layout` in
-//! tests/gpu/coupling.rs). A device without SHADER_F64 (Metal; a device Bevy opened without it)
+//! tests/gpu/coupled_steps.rs). A device without SHADER_F64 (Metal; a device Bevy opened without it)
 //! has no kernels: [`LevelSetKernels::new`] says None and the questions stay on the CPU.
 
 use super::context::{GpuContext, buffer_layout, compute_pipelines, dispatch_grid, try_read_parts_into};

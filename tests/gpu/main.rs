@@ -5,12 +5,14 @@
 //! Without an adapter these tests fail in CI (CI=true) and are skipped loudly elsewhere.
 //!
 //! One test binary (each links the GPU stack once), a module per part of the core: `fluid`,
-//! `solid`, `lattice_gas`, `coupling`, `drawing` (what the plugin draws) and `runs` (the run
-//! layer on the GPU backend), with what they share in `support`.
+//! `solid`, `lattice_gas`, `coupling` (its kernels), `coupled_steps` (whole coupled steps),
+//! `drawing` (what the plugin draws) and `runs` (the run layer on the GPU backend), with what
+//! they share in `support`.
 
 #[path = "../common/mod.rs"]
 mod common;
 
+mod coupled_steps;
 mod coupling;
 mod drawing;
 mod fluid;
