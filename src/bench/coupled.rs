@@ -165,18 +165,39 @@ pub struct GeometrySpeed {
     /// Timed steps whose walls differ from the step before's (the ghosts' depths or wall
     /// velocities): every one, or the figures timed no work.
     pub walls_rebuilt: u64,
+    /// The host's own work split: each part of the layout's build
+    /// ([`crate::fluid::LayoutPart`], in its order) per step, then `bodies` (the rest of making
+    /// the walls: the particles in lattice units, the level sets binned or the surface polygons
+    /// made) and `install` (the walls installed in the fluid: fresh nodes initialised, method
+    /// 2's momentum of the nodes that changed side booked).
+    pub host_parts: Vec<GeometryPart>,
 }
 
-/// The CPU's answers to the level sets' questions, timed.
+/// One part of the host's work per step of the geometry bench.
+#[derive(Clone, Debug, Serialize)]
+pub struct GeometryPart {
+    pub part: &'static str,
+    pub seconds_per_step: f64,
+}
+
+/// The CPU's answers to the level sets' questions, timed, and the layout's parts' times.
 #[derive(Default)]
-struct TimedQueries(std::sync::Mutex<f64>);
+struct TimedQueries {
+    asked: std::sync::Mutex<f64>,
+    parts: std::sync::Mutex<[f64; crate::fluid::LayoutPart::ALL.len()]>,
+}
 
 impl TimedQueries {
     fn time<T>(&self, f: impl FnOnce() -> T) -> T {
         let t = Instant::now();
         let out = f();
-        *self.0.lock().expect("not poisoned") += t.elapsed().as_secs_f64();
+        *self.asked.lock().expect("not poisoned") += t.elapsed().as_secs_f64();
         out
+    }
+
+    fn reset(&self) {
+        *self.asked.lock().expect("not poisoned") = 0.0;
+        *self.parts.lock().expect("not poisoned") = Default::default();
     }
 }
 
@@ -187,6 +208,10 @@ impl crate::fluid::LevelSetQueries for TimedQueries {
 
     fn ghost_walls(&self, which: usize, set: &crate::fluid::KernelLevelSet, queries: &[crate::fluid::GhostQuery]) -> Vec<crate::fluid::GhostWall> {
         self.time(|| crate::fluid::OnThePool.ghost_walls(which, set, queries))
+    }
+
+    fn part_timed(&self, part: crate::fluid::LayoutPart, elapsed: std::time::Duration) {
+        self.parts.lock().expect("not poisoned")[part as usize] += elapsed.as_secs_f64();
     }
 }
 
@@ -200,39 +225,56 @@ pub const GEOMETRY_BENCH_CELLS: f64 = 0.02;
 /// runs (the 3D glottis's solid step would take minutes here).
 pub fn geometry_speed(names: &[&str], steps: u64) -> Vec<GeometrySpeed> {
     use crate::coupling::Method;
-    use crate::stages::CoupledStageKind;
     names
         .iter()
         .map(|name| {
             let mut c = built_in(name);
             let shift = GEOMETRY_BENCH_CELLS * c.units.dx;
-            let (mut wall, queries, mut rebuilt) = (0.0, TimedQueries::default(), 0);
+            let (mut wall, mut installing, queries, mut rebuilt) = (0.0, 0.0, TimedQueries::default(), 0);
             // one untimed stage first (the walls of the scene's first step)
             for k in 0..=steps {
                 let dx = if k % 2 == 0 { shift } else { -shift };
                 c.solid.particles.position.iter_mut().for_each(|x| x.x += dx);
                 if k == 1 {
-                    *queries.0.lock().expect("not poisoned") = 0.0;
+                    queries.reset();
                 }
                 let before = c.fluid.layout.ghosts.clone();
+                // the stage's two halves (the walls made, then installed in the fluid) as the
+                // CPU backend runs them, the level sets' questions and the layout's parts timed
                 let t = Instant::now();
-                match c.method {
-                    Method::Weak(_) => c.run_stage(CoupledStageKind::FluidGeometry).expect("a shift of a fraction of a cell"),
-                    Method::Conserving(_) => {
-                        // the stage's two halves, as the CPU backend runs them, with the
-                        // questions timed
-                        let walls = c.next_level_set_walls_with(&queries).expect("a shift of a fraction of a cell");
-                        c.install_level_set_walls(walls);
+                let install = match c.method {
+                    Method::Weak(o) => {
+                        let walls = c.next_polygon_walls_with(o, &queries).expect("a shift of a fraction of a cell");
+                        let t = Instant::now();
+                        if let Some(walls) = walls {
+                            c.install_polygon_walls(walls);
+                        }
+                        t.elapsed()
                     }
-                }
+                    Method::Conserving(_) => {
+                        let walls = c.next_level_set_walls_with(&queries).expect("a shift of a fraction of a cell");
+                        let t = Instant::now();
+                        c.install_level_set_walls(walls);
+                        t.elapsed()
+                    }
+                };
                 if k > 0 {
                     wall += t.elapsed().as_secs_f64();
+                    installing += install.as_secs_f64();
                     rebuilt += u64::from(c.fluid.layout.ghosts != before);
                 }
             }
-            let asked = *queries.0.lock().expect("not poisoned") / steps as f64;
+            let asked = *queries.asked.lock().expect("not poisoned") / steps as f64;
             let n = c.fluid.layout.grid.n;
             let per = wall / steps as f64;
+            let parts = *queries.parts.lock().expect("not poisoned");
+            let mut host_parts: Vec<GeometryPart> =
+                crate::fluid::LayoutPart::ALL.iter().zip(parts).map(|(p, t)| GeometryPart { part: p.name(), seconds_per_step: t / steps as f64 }).collect();
+            let layout: f64 = host_parts.iter().map(|p| p.seconds_per_step).sum();
+            let install = installing / steps as f64;
+            // the particles to lattice units, the level sets binned or the surface polygons made
+            host_parts.push(GeometryPart { part: "bodies", seconds_per_step: per - asked - layout - install });
+            host_parts.push(GeometryPart { part: "install", seconds_per_step: install });
             GeometrySpeed {
                 scene: name.to_string(),
                 method: match c.method {
@@ -247,6 +289,7 @@ pub fn geometry_speed(names: &[&str], steps: u64) -> Vec<GeometrySpeed> {
                 device_answerable_seconds_per_step: asked,
                 ceiling_with_device_questions_steps_per_s: 1.0 / (per - asked),
                 walls_rebuilt: rebuilt,
+                host_parts,
             }
         })
         .collect()
@@ -258,7 +301,8 @@ mod tests {
 
     /// The geometry bench times real work: on the flap (both methods), every timed step's walls
     /// differ from the step before's; method 2's level-set questions are a part of the stage
-    /// (method 1 asks none), and each ceiling is one over its time.
+    /// (method 1 asks none), and each ceiling is one over its time; the layout's parts, each
+    /// timed, the bodies' walls and their install add up to the host's part.
     #[test]
     fn the_geometry_bench_rebuilds_the_walls_at_every_timed_step() {
         let rows = geometry_speed(&["wall_flap", "wall_flap_conserving"], 3);
@@ -269,6 +313,22 @@ mod tests {
             assert!((r.ceiling_steps_per_s * r.seconds_per_step - 1.0).abs() < 1e-12);
             let host = r.seconds_per_step - r.device_answerable_seconds_per_step;
             assert!((r.ceiling_with_device_questions_steps_per_s * host - 1.0).abs() < 1e-9);
+        }
+        for r in &rows {
+            // the layout's parts and the rest add up to the host's part; every part ran
+            let host = r.seconds_per_step - r.device_answerable_seconds_per_step;
+            let names: Vec<&str> = r.host_parts.iter().map(|p| p.part).collect();
+            let mut expected: Vec<&str> = crate::fluid::LayoutPart::ALL.iter().map(|p| p.name()).collect();
+            expected.extend(["bodies", "install"]);
+            assert_eq!(names, expected, "{}", r.scene);
+            let sum: f64 = r.host_parts.iter().map(|p| p.seconds_per_step).sum();
+            assert!((sum - host).abs() <= 1e-9 * host.max(1.0), "{}: parts {sum} against the host's {host}", r.scene);
+            assert!(r.host_parts.iter().all(|p| p.seconds_per_step >= -1e-9), "{r:?}");
+            let layout: f64 = r.host_parts[..crate::fluid::LayoutPart::ALL.len()].iter().map(|p| p.seconds_per_step).sum();
+            assert!(layout > 0.0 && layout <= host, "{}: layout {layout} of {host}", r.scene);
+            for part in ["owners", "images", "thin_taps", "bodies", "install"] {
+                assert!(r.host_parts.iter().any(|p| p.part == part && p.seconds_per_step > 0.0), "{}: {part}: {r:?}", r.scene);
+            }
         }
         assert_eq!(rows[0].device_answerable_seconds_per_step, 0.0);
         assert!(rows[1].device_answerable_seconds_per_step > 0.0 && rows[1].device_answerable_seconds_per_step < rows[1].seconds_per_step, "{:?}", rows[1]);

@@ -307,6 +307,8 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                 1e3 * (g.seconds_per_step - g.device_answerable_seconds_per_step),
                 g.ceiling_with_device_questions_steps_per_s
             );
+            let parts: Vec<String> = g.host_parts.iter().map(|p| format!("{} {:.2}", p.part, 1e3 * p.seconds_per_step)).collect();
+            println!("     host's parts, ms/step: {}", parts.join(", "));
         }
         if !r.scaling.is_empty() {
             println!(

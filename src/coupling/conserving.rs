@@ -209,10 +209,20 @@ impl CoupledSolver {
     /// The level set of every body at the particles' current positions and velocities
     /// (method 2; φ = 0 under method 1, which has no calibration).
     pub fn level_sets(&self) -> Vec<KernelLevelSet> {
+        self.level_sets_through(&self.lattice_positions())
+    }
+
+    /// The particles' current positions in lattice coordinates (cells), on the pool's threads.
+    fn lattice_positions(&self) -> Vec<[f64; 3]> {
+        self.solid.particles.position.par_iter().with_min_len(4096).map(|x| self.to_lattice(*x)).collect()
+    }
+
+    /// [`Self::level_sets`] with the particles at lattice positions `x` (cells: the current
+    /// positions, [`Self::lattice_positions`]).
+    fn level_sets_through(&self, x: &[[f64; 3]]) -> Vec<KernelLevelSet> {
         let p = &self.solid.particles;
-        let x: Vec<[f64; 3]> = p.position.par_iter().with_min_len(4096).map(|x| self.to_lattice(*x)).collect();
         let v: Vec<[f64; 3]> = p.velocity.par_iter().with_min_len(4096).map(|v| (*v / self.units.velocity).to_array()).collect();
-        self.level_sets_of(&x, &v)
+        self.level_sets_of(x, &v)
     }
 
     /// The level set of every body for drawing its surface (lattice coordinates): method 2's
@@ -242,7 +252,8 @@ impl CoupledSolver {
             .enumerate()
             .map(|(k, members)| {
                 let phi = self.surface_levels().get(k).copied().unwrap_or(0.0);
-                KernelLevelSet::new(members.iter().map(|&i| x[i]).collect(), members.iter().map(|&i| v[i]).collect(), self.kernel_radius(), self.r_min(), phi)
+                let gather = |a: &[[f64; 3]]| members.par_iter().with_min_len(4096).map(|&i| a[i]).collect();
+                KernelLevelSet::new(gather(x), gather(v), self.kernel_radius(), self.r_min(), phi)
             })
             .collect()
     }
@@ -270,15 +281,26 @@ impl CoupledSolver {
     /// question: [`crate::fluid::LevelSetQueries`]).
     pub fn next_level_set_walls_with(&self, queries: &dyn crate::fluid::LevelSetQueries) -> Result<LevelSetWalls, Instability> {
         let super::solver::Method::Conserving(o) = self.method else { panic!("level-set walls are method 2's") };
-        let points: Vec<DVec3> = self.solid.particles.position.iter().map(|x| DVec3::from_array(self.to_lattice(*x))).collect();
+        // on the pool's threads: the 3D glottis moves 665,344 particles a step
+        let x = self.lattice_positions();
+        let points: Vec<DVec3> = x.par_iter().with_min_len(4096).map(|p| DVec3::from_array(*p)).collect();
         let ex = self.exchange.as_ref().expect("method 2 has its exchange state");
         if let Some(old) = &ex.built {
-            let (i, d) = old.iter().zip(&points).map(|(a, b)| (*a - *b).length()).enumerate().fold((0, 0.0), |m, (i, d)| if d > m.1 { (i, d) } else { m });
+            // the farthest move, the first particle of those that moved as far
+            let farther = |m: (usize, f64), c: (usize, f64)| if c.1 > m.1 || (c.1 == m.1 && c.0 < m.0) { c } else { m };
+            let (i, d) = old
+                .par_iter()
+                .zip(&points)
+                .with_min_len(4096)
+                .map(|(a, b)| (*a - *b).length())
+                .enumerate()
+                .fold(|| (usize::MAX, 0.0), |m, (i, d)| farther(m, (i, d)))
+                .reduce(|| (usize::MAX, 0.0), farther);
             if d > o.max_cells_per_step {
                 return Err(self.moved_too_far(Site::Particle(i), "particle displacement in one step (cells)", d, o.max_cells_per_step));
             }
         }
-        let sets: Vec<Arc<KernelLevelSet>> = self.level_sets().into_iter().map(Arc::new).collect();
+        let sets: Vec<Arc<KernelLevelSet>> = self.level_sets_through(&x).into_iter().map(Arc::new).collect();
         let mut all = self.obstacles.clone();
         all.extend(self.body_walls(sets.iter().cloned().map(Shape::KernelLevelSet)));
         Ok(LevelSetWalls { layout: self.fluid.layout_with_level_sets(&all, queries), sets, points, change: Default::default() })

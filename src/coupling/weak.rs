@@ -100,6 +100,13 @@ impl CoupledSolver {
     /// its wall velocities) since the walls were last built. Refuses a surface that moved more
     /// than `o.max_cells_per_step` cells.
     pub fn next_polygon_walls(&self, o: WeakOptions) -> Result<Option<PolygonWalls>, Instability> {
+        self.next_polygon_walls_with(o, &crate::fluid::OnThePool)
+    }
+
+    /// [`Self::next_polygon_walls`] with the layout built through `queries`: a polygon asks no
+    /// level-set question, but `queries` hears how long the layout's parts took
+    /// ([`crate::fluid::LevelSetQueries::part_timed`]: the geometry bench).
+    pub fn next_polygon_walls_with(&self, o: WeakOptions, queries: &dyn crate::fluid::LevelSetQueries) -> Result<Option<PolygonWalls>, Instability> {
         let polys = self.polygons();
         if let Some(old) = &self.built {
             let mut moved = false;
@@ -122,7 +129,7 @@ impl CoupledSolver {
         }
         let mut all = self.obstacles.clone();
         all.extend(self.body_walls(polys.iter().cloned().map(Shape::Polygon)));
-        let layout = self.fluid.layout_with(&all);
+        let layout = self.fluid.layout_with_level_sets(&all, queries);
         Ok(Some(PolygonWalls { polygons: polys, layout, change: Default::default() }))
     }
 

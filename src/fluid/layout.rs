@@ -6,7 +6,7 @@ use super::boundary::{Boundaries, Face, FaceCondition};
 use super::geometry::{Obstacle, Outside, Shape, dot};
 use super::grid::{Grid, HALO};
 use super::interpolation::interpolation_stencil;
-use super::level_set_queries::{GhostQuery, GhostWall, LevelSetQueries, OnThePool, wall_point};
+use super::level_set_queries::{GhostQuery, GhostWall, LayoutPart, LevelSetQueries, OnThePool, PartClock, wall_point};
 use super::rebuild::Region;
 use super::thin_wall::{ThinTap, WallGeometry, thin_taps};
 use rayon::prelude::*;
@@ -161,6 +161,7 @@ impl Layout {
         previous: Option<(&Layout, Region)>,
         level_sets: &dyn LevelSetQueries,
     ) -> Self {
+        let mut clock = PartClock::start(level_sets);
         let mut obstacles = Vec::new();
         for face in Face::ALL {
             let a = face.axis();
@@ -209,6 +210,7 @@ impl Layout {
         // one evaluation of L, the sum stopped as soon as it is positive), asked of `level_sets`
         // for all the nodes at once
         let points: Vec<[f64; 3]> = todo.par_iter().with_min_len(PAR_NODES).map(|&idx| pos(grid.coords(idx))).collect();
+        clock.done(LayoutPart::Nodes);
         let level_set_side: Vec<Option<Vec<Option<f64>>>> = obstacles
             .iter()
             .enumerate()
@@ -275,7 +277,9 @@ impl Layout {
         // which nodes lie in (or are pinched by) an obstacle: independent of each other, so
         // found on the pool's threads (in order: the same answers as one by one); kept for the
         // ghosts below
+        clock.skip();
         let owner: Vec<Owner> = points.par_iter().enumerate().with_min_len(PAR_NODES).map(|(i, &p)| containing(i, p)).collect();
+        clock.done(LayoutPart::Owners);
         // each recomputed node's kind from its obstacle and its place (on the pool's threads)
         let side = |idx: usize, owner: &Owner| -> NodeKind {
             if !matches!(owner, Owner::Free) {
@@ -300,6 +304,7 @@ impl Layout {
         for (&idx, k) in todo.iter().zip(&sides) {
             kind[idx] = *k;
         }
+        clock.done(LayoutPart::Kinds);
 
         // Solid nodes within axis reach of a fluid node become ghosts; face halos stay only
         // where a fluid stencil reads them (not in corners). Both read the fluid nodes only,
@@ -320,6 +325,7 @@ impl Layout {
                 kind[idx] = *k;
             }
         }
+        clock.done(LayoutPart::Reach);
 
         // Resolve a node used for interpolation to a fluid node (through periodic images).
         let wrap = |x: [i64; 3]| -> [i64; 3] {
@@ -362,10 +368,14 @@ impl Layout {
             if queries.is_empty() {
                 continue;
             }
-            for (i, w) in at.into_iter().zip(level_sets.ghost_walls(k, ls, &queries)) {
+            clock.done(LayoutPart::GhostList);
+            let answers = level_sets.ghost_walls(k, ls, &queries);
+            clock.skip();
+            for (i, w) in at.into_iter().zip(answers) {
                 level_set_wall[i] = Some(w);
             }
         }
+        clock.done(LayoutPart::GhostList);
         // each ghost's image stencil and wall velocity, on the pool's threads, collected in
         // node order
         let mut ghosts: Vec<Ghost> = ghost_of
@@ -401,9 +411,14 @@ impl Layout {
                 Ghost { node: idx, image, ratio: d / d_img, wall_velocity: v, wall_temperature: o.temperature }
             })
             .collect();
+        clock.done(LayoutPart::Images);
+        // the recomputed face halos and periodic copies (found on the pool's threads, in node
+        // order: the region of the 3D glottis has 1.23·10⁶ nodes, of which a few are either)
+        let halos: Vec<usize> =
+            todo.par_iter().with_min_len(PAR_NODES).copied().filter(|&i| matches!(kind[i], NodeKind::FaceHalo | NodeKind::Periodic)).collect();
         let mut face_halos = Vec::new();
         let mut periodic = Vec::new();
-        for &idx in &todo {
+        for idx in halos {
             match kind[idx] {
                 NodeKind::FaceHalo => {
                     let x = grid.coords(idx);
@@ -455,7 +470,8 @@ impl Layout {
             runs.push(PeriodicRun { dst: d, src: s, len: 1, reach });
         }
         let periodic = runs;
-        let fluid_count = kind.iter().filter(|k| **k == NodeKind::Fluid).count();
+        let fluid_count = kind.par_iter().with_min_len(64 * PAR_NODES).filter(|k| **k == NodeKind::Fluid).count();
+        clock.done(LayoutPart::HaloLists);
         let geo = WallGeometry { grid: &grid, kind: &kind, ghosts: &ghosts, obstacles: &obstacles, periodic: &periodic_axis };
         let thin_taps = match previous {
             None => thin_taps(&geo, None),
@@ -467,7 +483,9 @@ impl Layout {
                 taps
             }
         };
+        clock.done(LayoutPart::ThinTaps);
         let wall_faces = wall_face_nodes(&grid, &kind, ghosts.iter().map(|g| g.node).chain(face_halos.iter().map(|h| h.node)));
+        clock.done(LayoutPart::WallFaces);
         Layout { grid, boundaries, obstacles, kind, ghosts, face_halos, periodic, fluid_count, thin_taps, wall_faces }
     }
 }

@@ -12,6 +12,7 @@
 use super::kernel_level_set::KernelLevelSet;
 use super::layout::PAR_NODES;
 use rayon::prelude::*;
+use std::time::{Duration, Instant};
 
 /// A ghost node inside a kernel level set and the fluid node that makes it a ghost (lattice
 /// coordinates): what [`KernelLevelSet::ghost_wall`] is asked.
@@ -33,6 +34,86 @@ pub fn wall_point(p: [f64; 3], d: f64, n: [f64; 3]) -> [f64; 3] {
     [p[0] - d * n[0], p[1] - d * n[1], p[2] - d * n[2]]
 }
 
+/// The parts of the layout's own work ([`super::layout::Layout`]'s build, in its order) whose
+/// wall time [`LevelSetQueries::part_timed`] hears of: the host's share of a coupled step's
+/// `fluid_geometry` stage, split.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LayoutPart {
+    /// The obstacles, the recomputed nodes' list and points, the kinds copied.
+    Nodes,
+    /// Which obstacle contains (or pinches) each recomputed node.
+    Owners,
+    /// Each node's kind from its owner and place.
+    Kinds,
+    /// Solid nodes with fluid within two cells along an axis (ghosts), face halos read.
+    Reach,
+    /// The ghosts in node order with their obstacle, and the level sets' ghost questions made.
+    GhostList,
+    /// Each ghost's image stencil (and the wall velocity of a ghost of another shape than a
+    /// level set).
+    Images,
+    /// The face halos and periodic copies, the lists merged with the previous layout's, the
+    /// fluid nodes counted.
+    HaloLists,
+    /// The upwind stencils next to thin walls ([`super::thin_wall::thin_taps`]).
+    ThinTaps,
+    /// The nodes next to a wall ([`super::layout::Layout::wall_faces`]).
+    WallFaces,
+}
+
+impl LayoutPart {
+    pub const ALL: [LayoutPart; 9] = [
+        LayoutPart::Nodes,
+        LayoutPart::Owners,
+        LayoutPart::Kinds,
+        LayoutPart::Reach,
+        LayoutPart::GhostList,
+        LayoutPart::Images,
+        LayoutPart::HaloLists,
+        LayoutPart::ThinTaps,
+        LayoutPart::WallFaces,
+    ];
+
+    /// A short name (snake case), as the geometry bench prints it.
+    pub fn name(self) -> &'static str {
+        match self {
+            LayoutPart::Nodes => "nodes",
+            LayoutPart::Owners => "owners",
+            LayoutPart::Kinds => "kinds",
+            LayoutPart::Reach => "reach",
+            LayoutPart::GhostList => "ghost_list",
+            LayoutPart::Images => "images",
+            LayoutPart::HaloLists => "halo_lists",
+            LayoutPart::ThinTaps => "thin_taps",
+            LayoutPart::WallFaces => "wall_faces",
+        }
+    }
+}
+
+/// The layout's clock: the wall time since its last mark, told to `to` as a part's.
+pub(super) struct PartClock<'a> {
+    at: Instant,
+    to: &'a dyn LevelSetQueries,
+}
+
+impl<'a> PartClock<'a> {
+    pub(super) fn start(to: &'a dyn LevelSetQueries) -> Self {
+        PartClock { at: Instant::now(), to }
+    }
+
+    /// The time since the last mark was `part`'s.
+    pub(super) fn done(&mut self, part: LayoutPart) {
+        let now = Instant::now();
+        self.to.part_timed(part, now - self.at);
+        self.at = now;
+    }
+
+    /// The time since the last mark was no part's (a question, timed by whoever answers it).
+    pub(super) fn skip(&mut self) {
+        self.at = Instant::now();
+    }
+}
+
 /// Who answers the layout's questions of a kernel level set
 /// ([`super::layout::Layout`] asks each set once per question and step). `which` says which of
 /// the layout's obstacles the set is — the same body at every step —, so that a device can keep
@@ -44,6 +125,11 @@ pub trait LevelSetQueries: Sync {
     /// [`KernelLevelSet::ghost_wall`]'s signed distance and outward normal for each of
     /// `queries`, in order, with [`KernelLevelSet::velocity_at`] at the wall point.
     fn ghost_walls(&self, which: usize, set: &KernelLevelSet, queries: &[GhostQuery]) -> Vec<GhostWall>;
+
+    /// Hears the wall time of each part of the layout's own work (the questions above not
+    /// included), once or more per part and build; nothing by default. The geometry bench
+    /// (`phonation bench --only geometry`) sums them.
+    fn part_timed(&self, _part: LayoutPart, _elapsed: Duration) {}
 }
 
 /// The CPU's answers on the pool's threads, bit for bit those of the set's own methods.

@@ -36,7 +36,7 @@ pub use boundary::{Boundaries, Face, FaceCondition, InletProfile};
 pub use equilibrium::{Equilibrium, GasModel, Macro};
 pub use geometry::{KernelLevelSet, Obstacle, Polygon, Shape};
 pub use grid::Grid;
-pub use level_set_queries::{GhostQuery, GhostWall, LevelSetQueries, OnThePool, wall_point};
+pub use level_set_queries::{GhostQuery, GhostWall, LayoutPart, LevelSetQueries, OnThePool, wall_point};
 pub use moving::{GeometryChange, LayoutChange, NodeChange};
 pub use solver::{FluidSolver, Instability, Totals};
 pub use steady::SelectiveFrequencyDamping;
