@@ -17,6 +17,7 @@ pub mod layout;
 pub mod level_set_queries;
 mod memory_hints;
 pub mod moving;
+mod neighbours;
 pub mod observe;
 mod polygon;
 mod rebuild;

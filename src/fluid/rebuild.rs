@@ -115,7 +115,8 @@ mod tests {
     use crate::fluid::geometry::Polygon;
     use crate::fluid::geometry::Shape;
     use crate::fluid::grid::Grid;
-    use crate::fluid::layout::{NodeKind, fluid_within_reach, nearest_fluid};
+    use crate::fluid::layout::NodeKind;
+    use crate::fluid::neighbours::{fluid_within_reach, nearest_fluid};
 
     fn assert_same(local: &Layout, full: &Layout, label: &str) {
         assert_eq!(local.obstacles, full.obstacles, "{label}: obstacles");

@@ -54,7 +54,8 @@ use super::equilibrium::Equilibrium;
 use super::geometry::{Obstacle, dot};
 use super::grid::Grid;
 use super::interpolation::interpolation_stencil;
-use super::layout::{Ghost, NodeKind, PAR_NODES, fluid_node, ghost_wall_velocity};
+use super::layout::{Ghost, NodeKind, PAR_NODES, ghost_wall_velocity};
+use super::neighbours::fluid_node;
 use super::storage::{RowBlocked, Storage, shift_of};
 use rayon::prelude::*;
 
