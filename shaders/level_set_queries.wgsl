@@ -66,6 +66,21 @@ fn cell_of(p: vec3<f64>) -> vec3<i32> {
     return vec3<i32>(floor((p - P.lo.xyz) / P.re));
 }
 
+// The 3ᴰ bins around a point's bin, clipped to the grid (bin coordinates, inclusive).
+struct Window { lo: vec3<i32>, hi: vec3<i32> };
+
+fn window(p: vec3<f64>) -> Window {
+    let c = cell_of(p);
+    return Window(max(c - vec3<i32>(1), vec3<i32>(0)), min(c + vec3<i32>(1), vec3<i32>(P.bins.xyz) - vec3<i32>(1)));
+}
+
+// The bin-ordered slots [x, y) of the window's row (y, z): its bins along x are contiguous
+// (kernel_level_set.rs `runs`).
+fn row_run(w: Window, y: i32, z: i32) -> vec2<u32> {
+    let row = u32((z * i32(P.bins.y) + y) * i32(P.bins.x));
+    return vec2<u32>(bin_start[row + u32(w.lo.x)], bin_start[row + u32(w.hi.x) + 1u]);
+}
+
 // L at p, with ∇L when `gradient` (else zero): kernel_level_set.rs `sums`, the 3ᴰ bins around p
 // as rows along x in z then y order. With `stop_inside`, the sum so far as soon as it is positive
 // after a row (every term is ≥ 0, so the whole sum would be positive too: the point is inside).
@@ -77,15 +92,11 @@ fn sums(p: vec3<f64>, gradient: bool, stop_inside: bool) -> Level {
     if (any(p < P.lo.xyz) || any(p > P.hi.xyz)) {
         return s;
     }
-    let c = cell_of(p);
-    let b = vec3<i32>(P.bins.xyz);
-    let lo = max(c - vec3<i32>(1), vec3<i32>(0));
-    let hi = min(c + vec3<i32>(1), b - vec3<i32>(1));
-    for (var z = lo.z; z <= hi.z; z = z + 1) {
-        for (var y = lo.y; y <= hi.y; y = y + 1) {
-            let row = u32((z * b.y + y) * b.x);
-            let end = bin_start[row + u32(hi.x) + 1u];
-            for (var k = bin_start[row + u32(lo.x)]; k < end; k = k + 1u) {
+    let w = window(p);
+    for (var z = w.lo.z; z <= w.hi.z; z = z + 1) {
+        for (var y = w.lo.y; y <= w.hi.y; y = y + 1) {
+            let run = row_run(w, y, z);
+            for (var k = run.x; k < run.y; k = k + 1u) {
                 let d = vec3<f64>(p.x - sorted[3u * k], p.y - sorted[3u * k + 1u], p.z - sorted[3u * k + 2u]);
                 let r2 = d.x * d.x + d.y * d.y + d.z * d.z;
                 if (r2 > far) { continue; }
@@ -116,15 +127,11 @@ fn wall_velocity(p: vec3<f64>) -> vec3<f64> {
     if (any(p < P.lo.xyz) || any(p > P.hi.xyz)) {
         return v;
     }
-    let c = cell_of(p);
-    let b = vec3<i32>(P.bins.xyz);
-    let lo = max(c - vec3<i32>(1), vec3<i32>(0));
-    let hi = min(c + vec3<i32>(1), b - vec3<i32>(1));
-    for (var z = lo.z; z <= hi.z; z = z + 1) {
-        for (var y = lo.y; y <= hi.y; y = y + 1) {
-            let row = u32((z * b.y + y) * b.x);
-            let end = bin_start[row + u32(hi.x) + 1u];
-            for (var k = bin_start[row + u32(lo.x)]; k < end; k = k + 1u) {
+    let w = window(p);
+    for (var z = w.lo.z; z <= w.hi.z; z = z + 1) {
+        for (var y = w.lo.y; y <= w.hi.y; y = y + 1) {
+            let run = row_run(w, y, z);
+            for (var k = run.x; k < run.y; k = k + 1u) {
                 let d = vec3<f64>(sorted[3u * k] - p.x, sorted[3u * k + 1u] - p.y, sorted[3u * k + 2u] - p.z);
                 let r2 = d.x * d.x + d.y * d.y + d.z * d.z;
                 if (r2 > far) { continue; }
