@@ -416,7 +416,7 @@ impl Layout {
         // the recomputed face halos and periodic copies (found on the pool's threads, in node
         // order: the region of the 3D glottis has 1.23·10⁶ nodes, of which a few are either)
         let halos: Vec<usize> =
-            todo.par_iter().with_min_len(PAR_NODES).copied().filter(|&i| matches!(kind[i], NodeKind::FaceHalo | NodeKind::Periodic)).collect();
+            todo.par_iter().with_min_len(64 * PAR_NODES).copied().filter(|&i| matches!(kind[i], NodeKind::FaceHalo | NodeKind::Periodic)).collect();
         let mut face_halos = Vec::new();
         let mut periodic = Vec::new();
         for idx in halos {
