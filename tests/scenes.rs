@@ -211,6 +211,11 @@ fn a_glottis_sweeps_over_resolution_with_its_cost_in_the_table() {
     };
     let (s0, s1) = (summary(0), summary(1));
     assert_eq!(s1["nodes"][0], 93);
+    // the time before the first step is reported apart from the stepping's
+    for s in [&s0, &s1] {
+        let (build, wall) = (s["build_s"].as_f64().unwrap(), s["wall_s"].as_f64().unwrap());
+        assert!(build > 0.0 && build.is_finite() && wall > 0.0, "build {build} s, wall {wall} s");
+    }
     let dt_ratio = s1["dt"].as_f64().unwrap() / s0["dt"].as_f64().unwrap();
     assert!((dt_ratio - 1.0 / 1.5).abs() < 1e-9, "Δt ratio {dt_ratio}");
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("sweep.json")).unwrap()).unwrap();

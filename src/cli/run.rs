@@ -115,7 +115,7 @@ fn run_coupled(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> anyhow::Resu
         sc.coupling.method.name()
     );
     let r = phonation::run::coupled::run_coupled_scene(sc, dir, opts)?;
-    eprintln!("backend: {}", r.backend);
+    eprintln!("backend: {}; scene built in {:.1} s", r.backend, r.build_s);
     eprintln!(
         "{} particles, {} solid sub-steps per step; {} steps, {:.4e} s simulated in {:.1} s wall ({:.1} coupled steps/s); final force {:?}; max displacement {:.3e}; fluid mass drift {:.2e}",
         r.particles, r.substeps, r.steps, r.simulated_s, r.wall_s, r.coupled_steps_per_s, r.final_forces, r.max_displacement, r.fluid_mass_drift

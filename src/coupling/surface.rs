@@ -20,6 +20,7 @@
 
 use crate::solid::Particles;
 use glam::{DMat3, DVec3};
+use rayon::prelude::*;
 use std::collections::HashMap;
 
 /// The reference shape of a body (physical units), used to place the surface points.
@@ -144,47 +145,48 @@ impl BodySurface {
             let near =
                 |d: [i64; 3]| sites.get(&[k[0] + d[0], k[1] + d[1], k[2] + d[2]]).is_some_and(|v| v.iter().any(|&j| (p.reference[j] - q).length() < 0.5 * l0));
             let zs: &[i64] = if dim == 3 { &[-1, 0, 1] } else { &[0] };
-            zs.iter().any(|&dz| (-1..=1).any(|dy| (-1..=1).any(|dx| near([dx, dy, dz]))))
+            // the site's own key first: where a particle sits, it is almost always there
+            near([0, 0, 0]) || zs.iter().any(|&dz| (-1..=1).any(|dy| (-1..=1).any(|dx| near([dx, dy, dz]))))
         };
         let empty_at = |x: DVec3, a: usize, s: i64| {
             let mut q = x;
             q[a] += s as f64 * l0;
             !occupied(q)
         };
-        let mut surface = Vec::new();
-        for &i in &members {
-            let x = p.reference[i];
-            let empty = |a: usize, s: i64| empty_at(x, a, s);
-            // (the polygon's need: in 3D, which has no connectivity, a one-particle sheet is fine)
-            if dim == 2 && (0..dim).any(|a| empty(a, 1) && empty(a, -1)) {
-                return Err(SurfaceError::TooThin { body, particle: i });
-            }
-            if (0..dim).any(|a| empty(a, 1) || empty(a, -1)) {
-                surface.push(i);
-            }
+        // (the polygon's need: in 3D, which has no connectivity, a one-particle sheet is fine)
+        let too_thin = |i: usize| dim == 2 && (0..dim).any(|a| empty_at(p.reference[i], a, 1) && empty_at(p.reference[i], a, -1));
+        if let Some(&i) = members.par_iter().find_first(|&&i| too_thin(i)) {
+            return Err(SurfaceError::TooThin { body, particle: i });
         }
+        let on_surface = |i: usize| (0..dim).any(|a| empty_at(p.reference[i], a, 1) || empty_at(p.reference[i], a, -1));
+        let surface: Vec<usize> = members.par_iter().copied().filter(|&i| on_surface(i)).collect();
         if surface.len() < dim + 1 {
             return Err(SurfaceError::TooFew { body });
         }
-        let mut points = Vec::with_capacity(surface.len());
-        for &i in &surface {
-            let x = p.reference[i];
-            let point = match shape {
-                ReferenceShape::Sampled => {
-                    let mut o = DVec3::ZERO;
-                    for a in 0..dim {
-                        for s in [1i64, -1] {
-                            if empty_at(x, a, s) {
-                                o[a] += 0.5 * l0 * s as f64;
+        let points: Vec<Option<DVec3>> = surface
+            .par_iter()
+            .map(|&i| {
+                let x = p.reference[i];
+                match shape {
+                    ReferenceShape::Sampled => {
+                        let mut o = DVec3::ZERO;
+                        for a in 0..dim {
+                            for s in [1i64, -1] {
+                                if empty_at(x, a, s) {
+                                    o[a] += 0.5 * l0 * s as f64;
+                                }
                             }
                         }
+                        Some(x + o)
                     }
-                    Some(x + o)
+                    _ => shape.surface_point(x, l0),
                 }
-                _ => shape.surface_point(x, l0),
-            };
-            points.push(point.ok_or(SurfaceError::NotOnShape { body, particle: i })?);
+            })
+            .collect();
+        if let Some(k) = points.iter().position(Option::is_none) {
+            return Err(SurfaceError::NotOnShape { body, particle: surface[k] });
         }
+        let points: Vec<DVec3> = points.into_iter().flatten().collect();
         if dim == 3 {
             let offsets = surface.iter().zip(&points).map(|(&i, x)| *x - p.reference[i]).collect();
             return Ok(BodySurface { body, particles: surface, offsets });

@@ -22,6 +22,7 @@ use super::storage::{RowBlocked, Storage, recode_into, rest_shift};
 use super::timestep::StepParams;
 use super::upwind::stencils;
 use crate::stages::{FDLB_STEP, RkStage, Stage, StageKind, StageTimings};
+use rayon::prelude::*;
 use std::time::Instant;
 
 pub use super::observe::Totals;
@@ -227,8 +228,6 @@ impl<S: Storage> FluidSolver<S> {
     /// the equilibrium at rest of the state's mean density and temperature.
     pub fn initialise(&mut self, init: impl Fn([f64; 3]) -> Macro + Sync) {
         let nv = self.eq.values_per_node();
-        let mut w = vec![0.0; self.eq.set.shells.len()];
-        let mut fe = vec![0.0; nv];
         let n = self.layout.grid.len();
         let grid = &self.layout.grid;
         let at = |node: usize| {
@@ -239,15 +238,25 @@ impl<S: Storage> FluidSolver<S> {
         let (rho, theta) = (0..n).map(&at).fold((0.0, 0.0), |(r, t), m| (r + m.rho, t + m.theta));
         self.rest = Macro { rho: rho / n.max(1) as f64, u: [0.0; 3], theta: theta / n.max(1) as f64 };
         self.shift = rest_shift::<S>(&self.eq, &self.rest);
-        for node in 0..n {
-            let m = &at(node);
-            self.eq.feq_into(m, &mut w, &mut fe);
-            self.pop.scatter_populations(&mut self.f, node, &self.shift, &fe);
-            self.macro_layout.scatter(&mut self.mac, node, &[m.rho, m.u[0], m.u[1], m.u[2], m.theta]);
+        // one row of nodes at a time on the pool's threads (a row is a contiguous chunk of every
+        // array): the first touch of the arrays' pages, which is most of a large scene's build
+        let (pop, macro_layout, eq, shift) = (self.pop, self.macro_layout, &self.eq, &self.shift);
+        let shells = eq.set.shells.len();
+        self.f.par_chunks_mut(pop.row_len()).zip(self.mac.par_chunks_mut(macro_layout.row_len())).enumerate().for_each_init(
+            || (vec![0.0; shells], vec![0.0; nv]),
+            |(w, fe), (row, (f, mac))| {
+                for x in 0..pop.px {
+                    let m = &at(row * pop.px + x);
+                    eq.feq_into(m, w, fe);
+                    pop.scatter_populations(f, x, shift, fe);
+                    macro_layout.scatter(mac, x, &[m.rho, m.u[0], m.u[1], m.u[2], m.theta]);
+                }
+            },
+        );
+        let chunk = pop.row_len();
+        for copy in [&mut self.f1, &mut self.f2, &mut self.h] {
+            copy.par_chunks_mut(chunk).zip(self.f.par_chunks(chunk)).for_each(|(to, from)| to.copy_from_slice(from));
         }
-        self.f1.copy_from_slice(&self.f);
-        self.f2.copy_from_slice(&self.f);
-        self.h.copy_from_slice(&self.f);
     }
 
     /// Sets every value of f, f¹, fⁿ⁺¹, h and the macroscopic fields at the periodic halo nodes

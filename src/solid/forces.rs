@@ -71,11 +71,13 @@ impl StressField {
 /// Kernel 1, `strain_stress`: deformation gradient, co-rotated strain, gradient-model stress,
 /// Q_i and the gradient-part torque of every particle.
 pub fn strain_stress(d: &Discretisation, x: &[DVec3], rot: &[DMat3], mode: Mode, out: &mut StressField) {
-    if d.bonds.periodic { strain_stress_with::<true>(d, x, rot, mode, out) } else { strain_stress_with::<false>(d, x, rot, mode, out) }
+    if d.bonds.periodic { strain_stress_with::<true, false>(d, x, rot, mode, out) } else { strain_stress_with::<false, false>(d, x, rot, mode, out) }
 }
 
-/// [`strain_stress`] for bonds that do (`PERIODIC`) or do not cross a periodic face.
-fn strain_stress_with<const PERIODIC: bool>(d: &Discretisation, x: &[DVec3], rot: &[DMat3], mode: Mode, out: &mut StressField) {
+/// [`strain_stress`] for bonds that do (`PERIODIC`) or do not cross a periodic face. With
+/// `AT_REFERENCE` (see [`reference_stiffness_forces`]) every R_i is I without reading `rot`, and
+/// only Q is written (the same operations, so the same bits as with identity rotations).
+fn strain_stress_with<const PERIODIC: bool, const AT_REFERENCE: bool>(d: &Discretisation, x: &[DVec3], rot: &[DMat3], mode: Mode, out: &mut StressField) {
     let b = &d.bonds;
     let plane = d.dim == 2;
     (out.q.par_iter_mut(), out.torque.par_iter_mut(), out.energy.par_iter_mut(), out.strain.par_iter_mut()).into_par_iter().enumerate().for_each(
@@ -92,7 +94,7 @@ fn strain_stress_with<const PERIODIC: bool>(d: &Discretisation, x: &[DVec3], rot
             if plane && mode == Mode::Full {
                 f.z_axis.z = 1.0;
             }
-            let r_i = rot[i];
+            let r_i = if AT_REFERENCE { DMat3::IDENTITY } else { rot[i] };
             let mut h = r_i.transpose() * f;
             if mode == Mode::Full {
                 h -= DMat3::IDENTITY;
@@ -103,6 +105,9 @@ fn strain_stress_with<const PERIODIC: bool>(d: &Discretisation, x: &[DVec3], rot
             let sigma = from_voigt(&sv);
             let v = d.volume[i];
             *q = v * r_i * sigma;
+            if AT_REFERENCE {
+                return;
+            }
             // τ = V axial(B), B = F σ Rᵀ (derivative of the energy w.r.t. a rotation of R_i).
             let bm = f * sigma * r_i.transpose();
             // (In linear mode this torque is of second order at small strain and is dropped.)
@@ -180,15 +185,37 @@ pub fn bond_forces(
     out: &mut ForceField,
 ) {
     if d.bonds.periodic {
-        bond_forces_with::<true>(d, x, v, spin, rot, stress, mode, follow, out)
+        bond_forces_with::<true, false>(d, x, v, spin, rot, stress, mode, follow, out)
     } else {
-        bond_forces_with::<false>(d, x, v, spin, rot, stress, mode, follow, out)
+        bond_forces_with::<false, false>(d, x, v, spin, rot, stress, mode, follow, out)
     }
 }
 
-/// [`bond_forces`] for bonds that do (`PERIODIC`) or do not cross a periodic face.
+/// The stiffness K of the linearised forces at the reference configuration applied to the
+/// displacement increments `x` (forces in dyn per unit increment, i.e. K x): what
+/// [`strain_stress`] and [`bond_forces`] give in [`Mode::Linear`] with every rotation the
+/// identity, no velocity, no spin and no followed rotation — bit for bit (test
+/// `the_reference_stiffness_is_the_linear_kernels_at_identity_bit_for_bit`) — without reading
+/// the rotations, the bond vectors r⁰ and the damping, and without the torques and energies. The
+/// power iteration of [`super::timestep::stable_time_step`] applies it 60 times to every
+/// particle before a scene's first step. `stress.q` and `out.force` are written; the other
+/// fields are left as they were.
+pub fn reference_stiffness_forces(d: &Discretisation, x: &[DVec3], stress: &mut StressField, out: &mut ForceField) {
+    let rot: &[DMat3] = &[];
+    if d.bonds.periodic {
+        strain_stress_with::<true, true>(d, x, rot, Mode::Linear, stress);
+        bond_forces_with::<true, true>(d, x, &[], None, rot, stress, Mode::Linear, None, out)
+    } else {
+        strain_stress_with::<false, true>(d, x, rot, Mode::Linear, stress);
+        bond_forces_with::<false, true>(d, x, &[], None, rot, stress, Mode::Linear, None, out)
+    }
+}
+
+/// [`bond_forces`] for bonds that do (`PERIODIC`) or do not cross a periodic face; with
+/// `AT_REFERENCE`, the force of [`Mode::Linear`] at identity rotations and rest alone (see
+/// [`reference_stiffness_forces`]).
 #[allow(clippy::too_many_arguments)]
-fn bond_forces_with<const PERIODIC: bool>(
+fn bond_forces_with<const PERIODIC: bool, const AT_REFERENCE: bool>(
     d: &Discretisation,
     x: &[DVec3],
     v: &[DVec3],
@@ -200,6 +227,22 @@ fn bond_forces_with<const PERIODIC: bool>(
     out: &mut ForceField,
 ) {
     let b = &d.bonds;
+    if AT_REFERENCE {
+        // u_ij = x_j − x_i (R = I, no followed rotation); the torque, energy and damping
+        // (zero velocity) terms of the loop below are left out
+        out.force.par_iter_mut().enumerate().for_each(|(i, fo)| {
+            let mut f = DVec3::ZERO;
+            let mut g_sum = DVec3::ZERO;
+            for k in b.of(i) {
+                let j = b.neighbour[k] as usize;
+                g_sum += b.grad[k];
+                f -= stress.q[j] * b.grad_reverse[k];
+                f += b.stiffness[k] * (x[j] - x[i]);
+            }
+            *fo = f + stress.q[i] * g_sum;
+        });
+        return;
+    }
     (out.force.par_iter_mut(), out.torque.par_iter_mut(), out.energy.par_iter_mut()).into_par_iter().enumerate().for_each(|(i, (fo, to, en))| {
         let mut f = DVec3::ZERO;
         let mut t = stress.torque[i];
@@ -287,16 +330,16 @@ mod tests {
         let bits = |v: &[DVec3]| v.iter().flat_map(|p| p.to_array()).map(f64::to_bits).collect::<Vec<_>>();
         let mat_bits = |m: &[DMat3]| m.iter().flat_map(|m| m.to_cols_array()).map(f64::to_bits).collect::<Vec<_>>();
         let (mut a, mut b) = (StressField::new(n), StressField::new(n));
-        strain_stress_with::<false>(d, &x, &rot, Mode::Full, &mut a);
-        strain_stress_with::<true>(d, &x, &rot, Mode::Full, &mut b);
+        strain_stress_with::<false, false>(d, &x, &rot, Mode::Full, &mut a);
+        strain_stress_with::<true, false>(d, &x, &rot, Mode::Full, &mut b);
         assert_eq!(mat_bits(&a.q), mat_bits(&b.q));
         assert_eq!(bits(&a.torque), bits(&b.torque));
         assert!(a.energy.iter().zip(&b.energy).all(|(p, q)| p.to_bits() == q.to_bits()));
         let stressed = a.q.iter().map(|q| q.to_cols_array().iter().fold(0.0f64, |m, e| m.max(e.abs()))).fold(0.0, f64::max);
         assert!(stressed > 1.0, "the block is strained: largest |Q| {stressed}");
         let (mut fa, mut fb) = (ForceField::new(n), ForceField::new(n));
-        bond_forces_with::<false>(d, &x, &v, Some(&spin), &rot, &a, Mode::Full, None, &mut fa);
-        bond_forces_with::<true>(d, &x, &v, Some(&spin), &rot, &a, Mode::Full, None, &mut fb);
+        bond_forces_with::<false, false>(d, &x, &v, Some(&spin), &rot, &a, Mode::Full, None, &mut fa);
+        bond_forces_with::<true, false>(d, &x, &v, Some(&spin), &rot, &a, Mode::Full, None, &mut fb);
         assert_eq!(bits(&fa.force), bits(&fb.force));
         assert_eq!(bits(&fa.torque), bits(&fb.torque));
         assert!(fa.energy.iter().zip(&fb.energy).all(|(p, q)| p.to_bits() == q.to_bits()));
@@ -312,5 +355,61 @@ mod tests {
         let periodic = SolidSolver::new(p, vec![m], SolidOptions { periods: [Some(0.8), None, None], ..Default::default() }).unwrap();
         let wrapping = periodic.disc.bonds.shift.iter().filter(|s| s.x.abs() > 0.7).count();
         assert!(periodic.disc.bonds.periodic && wrapping > 0, "{wrapping} bonds wrap the face");
+    }
+
+    /// [`reference_stiffness_forces`] is what the general kernels give in `Mode::Linear` at
+    /// identity rotations with no velocity: the same Q bit for bit and the same forces (as
+    /// numbers: a zero may differ in sign, since the general kernel adds the damping's
+    /// c·(0 − 0 − 0 × r) = ±0), on an orthotropic viscous 3D block with a clamped face, a 2D
+    /// block and a periodic slab; and the power iteration of the stable step gives the same λ
+    /// to the bit through either.
+    #[test]
+    fn the_reference_stiffness_is_the_linear_kernels_at_identity_bit_for_bit() {
+        use crate::solid::timestep::largest_eigenvalue;
+        let general = |d: &Discretisation, x: &[DVec3], s: &mut StressField, f: &mut ForceField| {
+            let n = x.len();
+            let rot = vec![DMat3::IDENTITY; n];
+            strain_stress(d, x, &rot, Mode::Linear, s);
+            bond_forces(d, x, &vec![DVec3::ZERO; n], None, &rot, s, Mode::Linear, None, f);
+        };
+        let mat = Orthotropic { young: [1.0e6, 3.0e6, 2.0e6], poisson: [0.2, 0.25, 0.3], shear: [4.0e5, 5.0e5, 6.0e5], density: 1.0, viscosity: 2.0 };
+        let mut plane = Particles::new(2, 0.1);
+        for x in sample_box(2, DVec3::ZERO, DVec3::new(1.2, 0.7, 0.0), 0.1) {
+            plane.push(x, 1.0, 0, 0, x.y < 0.1);
+        }
+        let mut slab = Particles::new(3, 0.1);
+        for x in sample_box(3, DVec3::ZERO, DVec3::new(0.8, 0.4, 0.4), 0.1) {
+            slab.push(x, 1.0, 0, 0, false);
+        }
+        let bodies = [
+            benchmark_block(6, Integrator::Explicit),
+            SolidSolver::new(plane, vec![mat.clone()], SolidOptions::default()).unwrap(),
+            SolidSolver::new(slab, vec![mat], SolidOptions { periods: [Some(0.8), None, None], ..Default::default() }).unwrap(),
+        ];
+        assert!(bodies[0].disc.bonds.damping.iter().all(|c| *c > 0.0) && bodies[2].disc.bonds.periodic);
+        for (m, body) in bodies.iter().enumerate() {
+            let (d, p) = (&body.disc, &body.particles);
+            let n = p.len();
+            let x: Vec<DVec3> =
+                (0..n).map(|i| noisy(7 * n as u32 + i as u32, 0.01) * if p.dim == 2 { DVec3::new(1.0, 1.0, 0.0) } else { DVec3::ONE }).collect();
+            let (mut sa, mut fa) = (StressField::new(n), ForceField::new(n));
+            let (mut sb, mut fb) = (StressField::new(n), ForceField::new(n));
+            general(d, &x, &mut sa, &mut fa);
+            reference_stiffness_forces(d, &x, &mut sb, &mut fb);
+            let q_bits = |s: &StressField| s.q.iter().flat_map(|q| q.to_cols_array()).map(f64::to_bits).collect::<Vec<_>>();
+            assert_eq!(q_bits(&sa), q_bits(&sb), "body {m}: Q");
+            assert!(fa.force.iter().zip(&fb.force).all(|(a, b)| a == b), "body {m}: forces");
+            let largest = fa.force.iter().map(|f| f.length()).fold(0.0, f64::max);
+            assert!(largest > 10.0, "body {m} is loaded: largest force {largest}");
+            let lambda_general = largest_eigenvalue(p, |x, out| {
+                general(d, x, &mut sa, &mut fa);
+                out.copy_from_slice(&fa.force);
+            });
+            let lambda_reference = largest_eigenvalue(p, |x, out| {
+                reference_stiffness_forces(d, x, &mut sb, &mut fb);
+                out.copy_from_slice(&fb.force);
+            });
+            assert!(lambda_general > 0.0 && lambda_general.to_bits() == lambda_reference.to_bits(), "body {m}: λ {lambda_general:e} vs {lambda_reference:e}");
+        }
     }
 }
