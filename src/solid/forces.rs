@@ -191,14 +191,14 @@ pub fn bond_forces(
     }
 }
 
-/// The stiffness K of the linearised forces at the reference configuration applied to the
-/// displacement increments `x` (forces in dyn per unit increment, i.e. K x): what
-/// [`strain_stress`] and [`bond_forces`] give in [`Mode::Linear`] with every rotation the
-/// identity, no velocity, no spin and no followed rotation — bit for bit (test
-/// `the_reference_stiffness_is_the_linear_kernels_at_identity_bit_for_bit`) — without reading
-/// the rotations, the bond vectors r⁰ and the damping, and without the torques and energies. The
-/// power iteration of [`super::timestep::stable_time_step`] applies it 60 times to every
-/// particle before a scene's first step. `stress.q` and `out.force` are written; the other
+/// The linearised internal forces −K x at the reference configuration for the displacement
+/// increments `x` (dyn for x in cm): what [`strain_stress`] and [`bond_forces`] give in
+/// [`Mode::Linear`] with every rotation the identity, no velocity, no spin and no followed
+/// rotation — the same Q bits, the same forces (a zero's sign aside) and so the same stable step
+/// to the bit (test `the_reference_stiffness_is_the_linear_kernels_at_identity_bit_for_bit`) —
+/// without reading the rotations, the bond vectors r⁰ and the damping, and without the torques
+/// and energies. The power iteration of [`super::timestep::stable_time_step`] applies it 60
+/// times to every particle before a scene's first step. `stress.q` and `out.force` are written; the other
 /// fields are left as they were.
 pub fn reference_stiffness_forces(d: &Discretisation, x: &[DVec3], stress: &mut StressField, out: &mut ForceField) {
     let rot: &[DMat3] = &[];
