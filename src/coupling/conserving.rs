@@ -209,20 +209,15 @@ impl CoupledSolver {
     /// The level set of every body at the particles' current positions and velocities
     /// (method 2; φ = 0 under method 1, which has no calibration).
     pub fn level_sets(&self) -> Vec<KernelLevelSet> {
-        self.level_sets_through(&self.lattice_positions())
-    }
-
-    /// The particles' current positions in lattice coordinates (cells), on the pool's threads.
-    fn lattice_positions(&self) -> Vec<[f64; 3]> {
-        self.solid.particles.position.par_iter().with_min_len(4096).map(|x| self.to_lattice(*x)).collect()
-    }
-
-    /// [`Self::level_sets`] with the particles at lattice positions `x` (cells: the current
-    /// positions, [`Self::lattice_positions`]).
-    fn level_sets_through(&self, x: &[[f64; 3]]) -> Vec<KernelLevelSet> {
         let p = &self.solid.particles;
-        let v: Vec<[f64; 3]> = p.velocity.par_iter().with_min_len(4096).map(|v| (*v / self.units.velocity).to_array()).collect();
-        self.level_sets_of(x, &v)
+        self.level_sets_through(|i| self.to_lattice(p.position[i]))
+    }
+
+    /// [`Self::level_sets`] with particle i at lattice position `x(i)` (cells: the current
+    /// positions), moving at its current velocity.
+    fn level_sets_through(&self, x: impl Fn(usize) -> [f64; 3] + Sync) -> Vec<KernelLevelSet> {
+        let (p, unit) = (&self.solid.particles, self.units.velocity);
+        self.level_sets_of(x, |i| (p.velocity[i] / unit).to_array())
     }
 
     /// The level set of every body for drawing its surface (lattice coordinates): method 2's
@@ -240,11 +235,12 @@ impl CoupledSolver {
 
     /// The level sets of particles at lattice positions `points`, at rest.
     pub(super) fn level_sets_at(&self, points: &[DVec3]) -> Vec<KernelLevelSet> {
-        let x: Vec<[f64; 3]> = points.iter().map(|p| p.to_array()).collect();
-        self.level_sets_of(&x, &vec![[0.0; 3]; x.len()])
+        self.level_sets_of(|i| points[i].to_array(), |_| [0.0; 3])
     }
 
-    fn level_sets_of(&self, x: &[[f64; 3]], v: &[[f64; 3]]) -> Vec<KernelLevelSet> {
+    /// Each body's level set with particle i at `x(i)` moving at `v(i)` (lattice units), each
+    /// body's members gathered straight from them (no whole-solid copy between).
+    fn level_sets_of(&self, x: impl Fn(usize) -> [f64; 3] + Sync, v: impl Fn(usize) -> [f64; 3] + Sync) -> Vec<KernelLevelSet> {
         // the bodies' sets built side by side on the pool (each set's own loops share it too)
         let members: Vec<&[usize]> = self.members.bodies().collect();
         members
@@ -252,8 +248,9 @@ impl CoupledSolver {
             .enumerate()
             .map(|(k, members)| {
                 let phi = self.surface_levels().get(k).copied().unwrap_or(0.0);
-                let gather = |a: &[[f64; 3]]| members.par_iter().with_min_len(4096).map(|&i| a[i]).collect();
-                KernelLevelSet::new(gather(x), gather(v), self.kernel_radius(), self.r_min(), phi)
+                let positions = members.par_iter().with_min_len(4096).map(|&i| x(i)).collect();
+                let velocities = members.par_iter().with_min_len(4096).map(|&i| v(i)).collect();
+                KernelLevelSet::new(positions, velocities, self.kernel_radius(), self.r_min(), phi)
             })
             .collect()
     }
@@ -282,8 +279,7 @@ impl CoupledSolver {
     pub fn next_level_set_walls_with(&self, queries: &dyn crate::fluid::LevelSetQueries) -> Result<LevelSetWalls, Instability> {
         let super::solver::Method::Conserving(o) = self.method else { panic!("level-set walls are method 2's") };
         // on the pool's threads: the 3D glottis moves 665,344 particles a step
-        let x = self.lattice_positions();
-        let points: Vec<DVec3> = x.par_iter().with_min_len(4096).map(|p| DVec3::from_array(*p)).collect();
+        let points: Vec<DVec3> = self.solid.particles.position.par_iter().with_min_len(4096).map(|x| DVec3::from_array(self.to_lattice(*x))).collect();
         let ex = self.exchange.as_ref().expect("method 2 has its exchange state");
         if let Some(old) = &ex.built {
             // the farthest move, the first particle of those that moved as far
@@ -300,7 +296,7 @@ impl CoupledSolver {
                 return Err(self.moved_too_far(Site::Particle(i), "particle displacement in one step (cells)", d, o.max_cells_per_step));
             }
         }
-        let sets: Vec<Arc<KernelLevelSet>> = self.level_sets_through(&x).into_iter().map(Arc::new).collect();
+        let sets: Vec<Arc<KernelLevelSet>> = self.level_sets_through(|i| points[i].to_array()).into_iter().map(Arc::new).collect();
         let mut all = self.obstacles.clone();
         all.extend(self.body_walls(sets.iter().cloned().map(Shape::KernelLevelSet)));
         Ok(LevelSetWalls { layout: self.fluid.layout_with_level_sets(&all, queries), sets, points, change: Default::default() })
