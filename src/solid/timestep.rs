@@ -8,25 +8,23 @@ use super::contact::ContactParams;
 use super::forces::{Discretisation, ForceField, StressField, reference_stiffness_forces};
 use super::particles::Particles;
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Largest stable explicit step (no safety factor).
 pub fn stable_time_step(d: &Discretisation, p: &Particles, contact: Option<&ContactParams>) -> f64 {
-    let n = p.len();
-    let mut s = StressField::new(n);
-    let mut f = ForceField::new(n);
-    let lambda = largest_eigenvalue(p, |x, force| {
-        reference_stiffness_forces(d, x, &mut s, &mut f);
-        force.copy_from_slice(&f.force);
-    });
+    let mut s = StressField::new(p.len());
+    let lambda = largest_eigenvalue(p, |x, f| reference_stiffness_forces(d, x, &mut s, f));
     stable_step_from(d, p, contact, lambda)
 }
 
 /// λ_max of M⁻¹K by 60 power iterations from a deterministic pseudo-random start (Rayleigh
 /// quotients in the mass inner product; clamped particles held at zero). `stiffness_forces(x,
-/// out)` writes the linearised internal forces −K x (dyn) of the displacements x (cm).
-pub(crate) fn largest_eigenvalue(p: &Particles, mut stiffness_forces: impl FnMut(&[DVec3], &mut [DVec3])) -> f64 {
+/// out)` writes into `out.force` the linearised internal forces −K x (dyn) of the
+/// displacements x (cm). The iterates live in two buffers made once (the 3D glottis's are
+/// 16 MB each); the sums run in particle order.
+pub(crate) fn largest_eigenvalue(p: &Particles, mut stiffness_forces: impl FnMut(&[DVec3], &mut ForceField)) -> f64 {
     let n = p.len();
-    let mut force = vec![DVec3::ZERO; n];
+    let mut f = ForceField::new(n);
     // Deterministic pseudo-random start.
     let mut x: Vec<DVec3> = (0..n)
         .map(|i| {
@@ -34,10 +32,11 @@ pub(crate) fn largest_eigenvalue(p: &Particles, mut stiffness_forces: impl FnMut
             if p.fixed[i] { DVec3::ZERO } else { DVec3::new(h(1), h(2), if p.dim == 3 { h(3) } else { 0.0 }) }
         })
         .collect();
+    let mut y = vec![DVec3::ZERO; n];
     let mut lambda = 0.0;
     for _ in 0..60 {
-        stiffness_forces(&x, &mut force);
-        let y: Vec<DVec3> = (0..n).map(|i| if p.fixed[i] { DVec3::ZERO } else { -force[i] / p.mass[i] }).collect();
+        stiffness_forces(&x, &mut f);
+        y.par_iter_mut().enumerate().with_min_len(4096).for_each(|(i, y)| *y = if p.fixed[i] { DVec3::ZERO } else { -f.force[i] / p.mass[i] });
         let num: f64 = (0..n).map(|i| p.mass[i] * x[i].dot(y[i])).sum();
         let den: f64 = (0..n).map(|i| p.mass[i] * x[i].length_squared()).sum();
         if den == 0.0 {
@@ -48,7 +47,7 @@ pub(crate) fn largest_eigenvalue(p: &Particles, mut stiffness_forces: impl FnMut
         if norm == 0.0 {
             break;
         }
-        x = y.into_iter().map(|v| v / norm).collect();
+        x.par_iter_mut().zip(&y).with_min_len(4096).for_each(|(x, y)| *x = *y / norm);
     }
     lambda
 }
