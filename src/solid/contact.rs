@@ -8,6 +8,7 @@
 
 use super::grid::SearchGrid;
 use glam::{DMat3, DVec3};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
@@ -77,19 +78,41 @@ fn friction(p: &ContactParams, cs: DVec3, fn_mag: f64) -> (DVec3, bool) {
 }
 
 /// Whether each particle lies within `reach` (a little more, for round-off) of the bounding box
-/// of a body other than its own.
-fn near_another_body(x: &[DVec3], body: &[u16], reach: f64) -> Vec<bool> {
+/// of a body other than its own; `None` when no two bodies' boxes come that close, so that no
+/// particle can (a particle lies in its own body's box: its distance to another box is at
+/// least the distance between the boxes). Both passes on the pool's threads (the boxes' min and
+/// max are exact in any order).
+fn near_another_body(x: &[DVec3], body: &[u16], reach: f64) -> Option<Vec<bool>> {
     let bodies = body.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
-    let mut boxes = vec![(DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)); bodies];
-    for (p, &b) in x.iter().zip(body) {
-        let (lo, hi) = &mut boxes[b as usize];
-        (*lo, *hi) = (lo.min(*p), hi.max(*p));
-    }
-    let reach2 = (1.01 * reach).powi(2);
-    x.iter()
+    let empty = vec![(DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)); bodies];
+    let boxes = x
+        .par_iter()
         .zip(body)
-        .map(|(p, &b)| boxes.iter().enumerate().any(|(k, (lo, hi))| k != b as usize && lo.x <= hi.x && (p.clamp(*lo, *hi) - *p).length_squared() <= reach2))
-        .collect()
+        .fold(
+            || empty.clone(),
+            |mut boxes, (p, &b)| {
+                let (lo, hi) = &mut boxes[b as usize];
+                (*lo, *hi) = (lo.min(*p), hi.max(*p));
+                boxes
+            },
+        )
+        .reduce(|| empty.clone(), |a, b| a.iter().zip(&b).map(|((la, ha), (lb, hb))| (la.min(*lb), ha.max(*hb))).collect());
+    let reach2 = (1.01 * reach).powi(2);
+    // the gap between two boxes, with a margin far above round-off
+    let apart = |(la, ha): &(DVec3, DVec3), (lb, hb): &(DVec3, DVec3)| {
+        let gap = (*la - *hb).max(*lb - *ha).max(DVec3::ZERO);
+        gap.length_squared() > 1.001 * reach2
+    };
+    let occupied: Vec<&(DVec3, DVec3)> = boxes.iter().filter(|(lo, hi)| lo.x <= hi.x).collect();
+    if occupied.iter().enumerate().all(|(k, a)| occupied[k + 1..].iter().all(|b| apart(a, b))) {
+        return None;
+    }
+    Some(
+        x.par_iter()
+            .zip(body)
+            .map(|(p, &b)| boxes.iter().enumerate().any(|(k, (lo, hi))| k != b as usize && lo.x <= hi.x && (p.clamp(*lo, *hi) - *p).length_squared() <= reach2))
+            .collect(),
+    )
 }
 
 impl Contacts {
@@ -111,8 +134,8 @@ impl Contacts {
         // Only a particle within l₀ of another body's bounding box can touch that body: the
         // others are not searched from (for two folds apart, none is). The grid holds every
         // particle, so each search meets its neighbours in the same order as without the filter.
-        let near_other = if multi_body { near_another_body(inp.x, inp.body, l0) } else { Vec::new() };
-        if near_other.iter().any(|&b| b) {
+        let near_other = if multi_body { near_another_body(inp.x, inp.body, l0) } else { None };
+        if let Some(near_other) = near_other.filter(|near| near.iter().any(|&b| b)) {
             let grid = SearchGrid::build(inp.x, l0, [None; 3]);
             for i in (0..n).filter(|&i| near_other[i]) {
                 let mut near: Vec<(usize, DVec3)> = Vec::new();
@@ -230,7 +253,7 @@ mod tests {
             x.push(origin + DVec3::new((t * 0.618_034).fract(), (t * 0.414_214).fract(), (t * 0.732_051).fract()));
             body.push(b);
         }
-        let near = near_another_body(&x, &body, l0);
+        let near = near_another_body(&x, &body, l0).expect("two bodies' boxes overlap");
         let mut touching = 0;
         for i in 0..x.len() {
             for j in 0..x.len() {
@@ -245,5 +268,46 @@ mod tests {
         assert!((0..x.len()).filter(|&i| body[i] == 2).all(|i| !near[i]), "the far body is never searched from");
         // the two interleaved bodies overlap in a slab 0.05 wide, flagged with l₀ either side
         assert!(flagged > 200 && flagged < 700, "{flagged} of {} flagged", x.len());
+    }
+
+    /// Bodies whose boxes lie farther apart than the reach give no flags at all (`None`: no
+    /// search, no per-particle pass); a gap just inside the reach flags the particles facing it,
+    /// as the per-particle test does.
+    #[test]
+    fn bodies_apart_are_not_searched_at_all() {
+        let l0 = 0.1;
+        let scatter = |gap: f64| {
+            let (mut x, mut body) = (Vec::new(), Vec::new());
+            for k in 0..2000u32 {
+                let t = k as f64;
+                let b = (k % 2) as u16;
+                let origin = DVec3::new(b as f64 * (1.0 + gap), 0.0, 0.0);
+                // the first two particles of each body pin its box to the unit cube
+                let unit = match k / 2 {
+                    0 => DVec3::ZERO,
+                    1 => DVec3::ONE,
+                    _ => DVec3::new((t * 0.618_034).fract(), (t * 0.414_214).fract(), (t * 0.732_051).fract()),
+                };
+                x.push(origin + unit);
+                body.push(b);
+            }
+            (x, body)
+        };
+        for gap in [1.1 * l0, 2.0 * l0, 5.0] {
+            let (x, body) = scatter(gap);
+            assert!(near_another_body(&x, &body, l0).is_none(), "gap {gap}: no particle can be near");
+        }
+        let gap = 0.9 * l0;
+        let (x, body) = scatter(gap);
+        let near = near_another_body(&x, &body, l0).expect("the boxes are within reach");
+        let flagged = near.iter().filter(|&&b| b).count();
+        // within 1.01 l₀ of the other box: the slabs 0.011 deep on either side of the gap
+        assert!(flagged > 10 && flagged < 100, "{flagged} of {} flagged", x.len());
+        for i in 0..x.len() {
+            let distance = if body[i] == 0 { 1.0 + gap - x[i].x } else { x[i].x - 1.0 };
+            if (distance - 1.01 * l0).abs() > 1e-9 {
+                assert_eq!(near[i], distance <= 1.01 * l0, "particle {i} {distance:.4} from the other box");
+            }
+        }
     }
 }

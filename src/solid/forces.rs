@@ -25,6 +25,7 @@
 //! force c_ij v_ij and torque ½ c_ij r_ij × v_ij (a Rayleigh dissipation function).
 
 use super::bonds::{Bonds, outer};
+use super::forces_plane::{bond_forces_plane, strain_stress_plane};
 use super::material::{Voigt6, from_voigt, mul6, to_voigt};
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
@@ -70,14 +71,27 @@ impl StressField {
 
 /// Kernel 1, `strain_stress`: deformation gradient, co-rotated strain, gradient-model stress,
 /// Q_i and the gradient-part torque of every particle.
+/// In the plane (`dim` 2) at `Mode::Full`, the explicit step's case, the bond loop runs on the
+/// in-plane components alone ([`super::forces_plane`]; the same bits).
 pub fn strain_stress(d: &Discretisation, x: &[DVec3], rot: &[DMat3], mode: Mode, out: &mut StressField) {
-    if d.bonds.periodic { strain_stress_with::<true, false>(d, x, rot, mode, out) } else { strain_stress_with::<false, false>(d, x, rot, mode, out) }
+    match (d.dim == 2 && mode == Mode::Full, d.bonds.periodic) {
+        (true, true) => strain_stress_plane::<true>(d, x, rot, out),
+        (true, false) => strain_stress_plane::<false>(d, x, rot, out),
+        (false, true) => strain_stress_with::<true, false>(d, x, rot, mode, out),
+        (false, false) => strain_stress_with::<false, false>(d, x, rot, mode, out),
+    }
 }
 
 /// [`strain_stress`] for bonds that do (`PERIODIC`) or do not cross a periodic face. With
 /// `AT_REFERENCE` (see [`reference_stiffness_forces`]) every R_i is I without reading `rot`, and
 /// only Q is written (the same operations, so the same bits as with identity rotations).
-fn strain_stress_with<const PERIODIC: bool, const AT_REFERENCE: bool>(d: &Discretisation, x: &[DVec3], rot: &[DMat3], mode: Mode, out: &mut StressField) {
+pub(super) fn strain_stress_with<const PERIODIC: bool, const AT_REFERENCE: bool>(
+    d: &Discretisation,
+    x: &[DVec3],
+    rot: &[DMat3],
+    mode: Mode,
+    out: &mut StressField,
+) {
     let b = &d.bonds;
     let plane = d.dim == 2;
     (out.q.par_iter_mut(), out.torque.par_iter_mut(), out.energy.par_iter_mut(), out.strain.par_iter_mut()).into_par_iter().enumerate().for_each(
@@ -95,28 +109,43 @@ fn strain_stress_with<const PERIODIC: bool, const AT_REFERENCE: bool>(d: &Discre
                 f.z_axis.z = 1.0;
             }
             let r_i = if AT_REFERENCE { DMat3::IDENTITY } else { rot[i] };
-            let mut h = r_i.transpose() * f;
-            if mode == Mode::Full {
-                h -= DMat3::IDENTITY;
-            }
-            let eps = 0.5 * (h + h.transpose());
-            let ev = to_voigt(&eps);
-            let sv = mul6(&d.grad_stiffness[i], &ev);
-            let sigma = from_voigt(&sv);
-            let v = d.volume[i];
-            *q = v * r_i * sigma;
-            if AT_REFERENCE {
-                return;
-            }
-            // τ = V axial(B), B = F σ Rᵀ (derivative of the energy w.r.t. a rotation of R_i).
-            let bm = f * sigma * r_i.transpose();
-            // (In linear mode this torque is of second order at small strain and is dropped.)
-            *tq =
-                if mode == Mode::Full { v * DVec3::new(bm.z_axis.y - bm.y_axis.z, bm.x_axis.z - bm.z_axis.x, bm.y_axis.x - bm.x_axis.y) } else { DVec3::ZERO };
-            *en = 0.5 * v * ev.iter().zip(&sv).map(|(a, b)| a * b).sum::<f64>();
-            *st = ev;
+            particle_stress::<AT_REFERENCE>(d, i, f, r_i, mode, (q, tq, en, st));
         },
     );
+}
+
+/// The per-particle part of `strain_stress` from the gradient F_i (with F_zz = 1 in the plane
+/// at `Mode::Full`): the co-rotated strain, σ = C' ε, Q_i = V_i R_i σ and, unless
+/// `AT_REFERENCE`, the gradient-part torque, energy and strain. Shared by the general and the
+/// plane kernels ([`super::forces_plane`]), so that both give the same bits from the same F.
+#[inline(always)]
+pub(super) fn particle_stress<const AT_REFERENCE: bool>(
+    d: &Discretisation,
+    i: usize,
+    f: DMat3,
+    r_i: DMat3,
+    mode: Mode,
+    (q, tq, en, st): (&mut DMat3, &mut DVec3, &mut f64, &mut [f64; 6]),
+) {
+    let mut h = r_i.transpose() * f;
+    if mode == Mode::Full {
+        h -= DMat3::IDENTITY;
+    }
+    let eps = 0.5 * (h + h.transpose());
+    let ev = to_voigt(&eps);
+    let sv = mul6(&d.grad_stiffness[i], &ev);
+    let sigma = from_voigt(&sv);
+    let v = d.volume[i];
+    *q = v * r_i * sigma;
+    if AT_REFERENCE {
+        return;
+    }
+    // τ = V axial(B), B = F σ Rᵀ (derivative of the energy w.r.t. a rotation of R_i).
+    let bm = f * sigma * r_i.transpose();
+    // (In linear mode this torque is of second order at small strain and is dropped.)
+    *tq = if mode == Mode::Full { v * DVec3::new(bm.z_axis.y - bm.y_axis.z, bm.x_axis.z - bm.z_axis.x, bm.y_axis.x - bm.x_axis.y) } else { DVec3::ZERO };
+    *en = 0.5 * v * ev.iter().zip(&sv).map(|(a, b)| a * b).sum::<f64>();
+    *st = ev;
 }
 
 /// Per-particle output of `bond_forces`.
@@ -171,7 +200,9 @@ pub fn rotation_chain(d: &Discretisation, rot: &[DMat3], jinv: &[DMat3], torque:
 /// (Laplacian) elastic force and torque and the viscous force and torque, and adds the
 /// gradient-part torque from `stress`. `spin` is ω. In `Mode::Linear`, `follow` carries the
 /// linearised rotations of the increments (θ for the position field, ω for the velocity
-/// field) so that the rigid part of an increment is not penalised.
+/// field) so that the rigid part of an increment is not penalised. In the plane (`dim` 2) at
+/// `Mode::Full` the bond loop runs on the in-plane components alone ([`super::forces_plane`];
+/// the same forces, torques and energies).
 #[allow(clippy::too_many_arguments)]
 pub fn bond_forces(
     d: &Discretisation,
@@ -184,10 +215,11 @@ pub fn bond_forces(
     follow: Option<(&[DVec3], &[DVec3])>,
     out: &mut ForceField,
 ) {
-    if d.bonds.periodic {
-        bond_forces_with::<true, false>(d, x, v, spin, rot, stress, mode, follow, out)
-    } else {
-        bond_forces_with::<false, false>(d, x, v, spin, rot, stress, mode, follow, out)
+    match (d.dim == 2 && mode == Mode::Full, d.bonds.periodic) {
+        (true, true) => bond_forces_plane::<true>(d, x, v, spin, rot, stress, out),
+        (true, false) => bond_forces_plane::<false>(d, x, v, spin, rot, stress, out),
+        (false, true) => bond_forces_with::<true, false>(d, x, v, spin, rot, stress, mode, follow, out),
+        (false, false) => bond_forces_with::<false, false>(d, x, v, spin, rot, stress, mode, follow, out),
     }
 }
 
@@ -215,7 +247,7 @@ pub fn reference_stiffness_forces(d: &Discretisation, x: &[DVec3], stress: &mut 
 /// `AT_REFERENCE`, the force of [`Mode::Linear`] at identity rotations and rest alone (see
 /// [`reference_stiffness_forces`]).
 #[allow(clippy::too_many_arguments)]
-fn bond_forces_with<const PERIODIC: bool, const AT_REFERENCE: bool>(
+pub(super) fn bond_forces_with<const PERIODIC: bool, const AT_REFERENCE: bool>(
     d: &Discretisation,
     x: &[DVec3],
     v: &[DVec3],

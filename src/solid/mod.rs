@@ -27,6 +27,7 @@ pub mod contact;
 mod dense;
 pub mod fold;
 pub mod forces;
+mod forces_plane;
 pub mod grid;
 pub mod implicit;
 mod linear;

@@ -386,9 +386,8 @@ impl SolidSolver {
             }
             SolidStageKind::Contact => {
                 let g = self.options.gravity;
-                for i in 0..p.len() {
-                    self.total_force[i] += p.load[i] + p.mass[i] * g;
-                }
+                let (load, mass) = (&p.load, &p.mass);
+                self.total_force.par_iter_mut().enumerate().for_each(|(i, f)| *f += load[i] + mass[i] * g);
                 if let Some(cp) = &self.options.contact {
                     let inp = ContactInput { x: &p.position, v: &p.velocity, rot: &self.rot, body: &p.body, fixed: &p.fixed, diameter: p.spacing };
                     self.contacts.apply(cp, &self.options.walls, &inp, &mut self.total_force, &mut self.total_torque);
