@@ -39,10 +39,11 @@ fn percent(f: Option<f64>) -> String {
 /// One table row of a solid speed measurement (`extra` appended, e.g. a ratio to the CPU).
 fn solid_row(v: &phonation::solid::bench::SolidSpeed, extra: &str) {
     println!(
-        "{:9} {:>10} {:>10} {:>14.3e} {:>9.0} {:>8} {:>8} {:>8} {:>9.1} {:>8.1}{extra}",
+        "{:11} {:>8} {:>10} {:>14.3e} {:>9.0} {:>8} {:>8} {:>8} {:>9.1} {:>8.1}{extra}",
         match v.preconditioner {
             Some(phonation::solid::Preconditioner::BlockJacobi) => "impl/bj".to_string(),
             Some(phonation::solid::Preconditioner::Patches) => "impl/ptch".to_string(),
+            None if v.dim == 2 => format!("{:?} 2D", v.integrator),
             None => format!("{:?}", v.integrator),
         },
         v.particles,
@@ -183,10 +184,10 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         }
         if !r.solid.is_empty() {
             println!(
-                "MPS solid (3D, r_e = 2.1 l0; implicit at 10× the explicit limit, CG to 1e-8 with the coarse space and the patch (ptch) or block-Jacobi (bj) smoother):"
+                "MPS solid (3D unless marked 2D, r_e = 2.1 l0; implicit at 10× the explicit limit, CG to 1e-8 with the coarse space and the patch (ptch) or block-Jacobi (bj) smoother):"
             );
             println!(
-                "{:9} {:>10} {:>10} {:>14} {:>9} {:>8} {:>8} {:>8} {:>9} {:>8}",
+                "{:11} {:>8} {:>10} {:>14} {:>9} {:>8} {:>8} {:>8} {:>9} {:>8}",
                 "step", "particles", "bonds", "updates/s", "B/update", "of b/w", "of flops", "scalar", "CG it.", "Δt/lim"
             );
         }
@@ -412,7 +413,10 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             .and_then(|s| s.as_array())
             .map(|a| {
                 a.iter()
-                    .map(|v| (format!("{}/{}", v["integrator"].as_str().unwrap_or(""), v["particles"]), v["particle_updates_per_s"].as_f64().unwrap_or(0.0)))
+                    .map(|v| {
+                        let key = format!("{}/{}/{}d", v["integrator"].as_str().unwrap_or(""), v["particles"], v["dim"]);
+                        (key.to_lowercase(), v["particle_updates_per_s"].as_f64().unwrap_or(0.0))
+                    })
                     .collect()
             })
             .unwrap_or_default();
@@ -438,7 +442,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             ] {
                 match phonation::gpu::bench::solid_speed(&ctx, side, integ, pre, steps, bw) {
                     Ok(v) => {
-                        let key = format!("{:?}/{}", v.integrator, v.particles).to_lowercase();
+                        let key = format!("{:?}/{}/{}d", v.integrator, v.particles, v.dim).to_lowercase();
                         // against the CPU's default (patches and the coarse space)
                         let vs = (pre == Preconditioner::Patches)
                             .then(|| cpu_solid.iter().find(|(k, _)| *k == key))

@@ -33,8 +33,17 @@ use std::time::Instant;
 /// f += c v_ij 6, ½c r × v_ij 16).
 pub const FLOPS_PER_BOND: f64 = 24.0 + 139.0;
 
+/// Flops per bond of an explicit step in the plane (`dim` 2), counted in `forces_plane.rs` the
+/// same way: `strain_stress` 10 (r 2, r ⊗ g on the x–y block 4 and its sum 4); `bond_forces`
+/// 65 (Σ g 2; Q_j g_ji 6 and its subtraction 2; R_i r⁰ and R_j r⁰ 12; r 2; u 6; f += k u 4; the
+/// torque ½k (a_i × u)_z 6; the energy 6; the viscous part 19: w̄ 2, v_ij 7, f += c v_ij 4,
+/// ½c (r × v_ij)_z 6).
+pub const FLOPS_PER_BOND_PLANE: f64 = 10.0 + 65.0;
+
 #[derive(Clone, Debug, Serialize)]
 pub struct SolidSpeed {
+    /// 3 for the benchmark cube, 2 for the plate ([`plane_solid_speed`]).
+    pub dim: usize,
     pub integrator: Integrator,
     /// The implicit step's smoother (`None` for explicit steps).
     pub preconditioner: Option<Preconditioner>,
@@ -45,7 +54,8 @@ pub struct SolidSpeed {
     /// Of the triad bandwidth measured in the same process; `None` when the particles' data
     /// fits in the cache ([`crate::machine::fraction_of_bandwidth`]).
     pub bandwidth_fraction: Option<f64>,
-    /// Explicit steps: [`FLOPS_PER_BOND`] × bonds per particle (a lower bound); `None` for the
+    /// Explicit steps: [`FLOPS_PER_BOND`] (in the plane [`FLOPS_PER_BOND_PLANE`]) × bonds per
+    /// particle (a lower bound); `None` for the
     /// implicit step (its CG work depends on the iterations).
     pub flops_per_update: Option<f64>,
     /// Of the f64 peak measured in the same process (the bench fills it in:
@@ -89,6 +99,21 @@ pub fn solid_speed_with(side: usize, integrator: Integrator, preconditioner: Pre
     speed_of(true, &s, steps, wall, iters, setup, s.stage_shares(), bandwidth)
 }
 
+/// [`solid_speed`]'s explicit step in the plane: a `side`² plate ([`benchmark_plate`]), what
+/// the 2D glottis's folds run on (the plane kernels of `forces_plane.rs`).
+pub fn plane_solid_speed(side: usize, steps: u64, bandwidth: f64) -> SolidSpeed {
+    let t0 = Instant::now();
+    let mut s = benchmark_plate(side);
+    let setup = t0.elapsed().as_secs_f64();
+    s.step().expect("the benchmark plate stays finite");
+    let t = Instant::now();
+    for _ in 0..steps {
+        s.step().expect("the benchmark plate stays finite");
+    }
+    let wall = t.elapsed().as_secs_f64();
+    speed_of(true, &s, steps, wall, 0, setup, s.stage_shares(), bandwidth)
+}
+
 /// The figures of `steps` steps that took `wall` seconds (and `iters` CG iterations in all);
 /// `cpu`: the bandwidth is the CPU triad, and no fraction is given when the particles fit in the
 /// CPU's cache.
@@ -107,7 +132,9 @@ pub fn speed_of(
     let bonds = s.disc.bonds.len();
     let ups = n as f64 * steps as f64 / wall;
     let bytes = 2.0 * 104.0 * bonds as f64 / n as f64 + 700.0;
+    let per_bond = if s.disc.dim == 2 { FLOPS_PER_BOND_PLANE } else { FLOPS_PER_BOND };
     SolidSpeed {
+        dim: s.disc.dim,
         integrator: s.options.integrator,
         preconditioner: (s.options.integrator == Integrator::Implicit).then_some(s.options.preconditioner),
         particles: n,
@@ -115,7 +142,7 @@ pub fn speed_of(
         particle_updates_per_s: ups,
         bytes_per_update: bytes,
         bandwidth_fraction: if cpu { crate::machine::fraction_of_bandwidth(ups * bytes, footprint(s), bandwidth) } else { Some(ups * bytes / bandwidth) },
-        flops_per_update: (s.options.integrator == Integrator::Explicit).then(|| FLOPS_PER_BOND * bonds as f64 / n as f64),
+        flops_per_update: (s.options.integrator == Integrator::Explicit).then(|| per_bond * bonds as f64 / n as f64),
         flop_fraction: None,
         scalar_flop_fraction: None,
         cg_iterations: iters as f64 / steps as f64,
@@ -132,6 +159,22 @@ pub fn benchmark_block(side: usize, integrator: Integrator) -> SolidSolver {
 
 /// The benchmark material's viscosity (model units: the block's E ~ 10⁶, ρ = 1, l₀ = 0.1).
 pub const BENCHMARK_VISCOSITY: f64 = 1.0;
+
+/// The benchmark body in the plane: a `side`² plate of the same material, spacing and
+/// viscosity, clamped on one edge, released from the same small shear.
+pub fn benchmark_plate(side: usize) -> SolidSolver {
+    let mat =
+        Orthotropic { young: [1.0e6, 3.0e6, 2.0e6], poisson: [0.2, 0.25, 0.3], shear: [4.0e5, 5.0e5, 6.0e5], density: 1.0, viscosity: BENCHMARK_VISCOSITY };
+    let l0 = 0.1;
+    let mut p = Particles::new(2, l0);
+    for x in sample_box(2, DVec3::ZERO, DVec3::new(side as f64 * l0, side as f64 * l0, 0.0), l0) {
+        p.push(x, 1.0, 0, 0, x.x < l0);
+    }
+    for i in 0..p.len() {
+        p.velocity[i] = DVec3::new(0.0, 0.1 * p.reference[i].x, 0.0);
+    }
+    SolidSolver::new(p, vec![mat], SolidOptions::default()).expect("valid benchmark plate")
+}
 
 /// [`benchmark_block`] with the material's viscosity set to `viscosity`.
 pub fn benchmark_block_with_viscosity(side: usize, integrator: Integrator, viscosity: f64) -> SolidSolver {
@@ -306,6 +349,13 @@ mod tests {
                 Integrator::Explicit => assert_eq!(v.flops_per_update, Some(163.0 * s.disc.bonds.len() as f64 / s.particles.len() as f64)),
                 Integrator::Implicit => assert_eq!(v.flops_per_update, None),
             }
+            assert_eq!(v.dim, 3);
         }
+        // the plate: the plane kernels' 75 flops a bond, at most 12 bonds a particle in 2D
+        let s = benchmark_plate(8);
+        let v = speed_of(true, &s, 1, 1.0, 0, 0.0, Vec::new(), 1e10);
+        let per_particle = s.disc.bonds.len() as f64 / s.particles.len() as f64;
+        assert!(per_particle > 6.0 && per_particle <= 12.0, "{per_particle} bonds per particle");
+        assert_eq!((v.dim, v.flops_per_update), (2, Some(75.0 * s.disc.bonds.len() as f64 / s.particles.len() as f64)));
     }
 }
