@@ -109,43 +109,28 @@ pub(super) fn strain_stress_with<const PERIODIC: bool, const AT_REFERENCE: bool>
                 f.z_axis.z = 1.0;
             }
             let r_i = if AT_REFERENCE { DMat3::IDENTITY } else { rot[i] };
-            particle_stress::<AT_REFERENCE>(d, i, f, r_i, mode, (q, tq, en, st));
+            let mut h = r_i.transpose() * f;
+            if mode == Mode::Full {
+                h -= DMat3::IDENTITY;
+            }
+            let eps = 0.5 * (h + h.transpose());
+            let ev = to_voigt(&eps);
+            let sv = mul6(&d.grad_stiffness[i], &ev);
+            let sigma = from_voigt(&sv);
+            let v = d.volume[i];
+            *q = v * r_i * sigma;
+            if AT_REFERENCE {
+                return;
+            }
+            // τ = V axial(B), B = F σ Rᵀ (derivative of the energy w.r.t. a rotation of R_i).
+            let bm = f * sigma * r_i.transpose();
+            // (In linear mode this torque is of second order at small strain and is dropped.)
+            *tq =
+                if mode == Mode::Full { v * DVec3::new(bm.z_axis.y - bm.y_axis.z, bm.x_axis.z - bm.z_axis.x, bm.y_axis.x - bm.x_axis.y) } else { DVec3::ZERO };
+            *en = 0.5 * v * ev.iter().zip(&sv).map(|(a, b)| a * b).sum::<f64>();
+            *st = ev;
         },
     );
-}
-
-/// The per-particle part of `strain_stress` from the gradient F_i (with F_zz = 1 in the plane
-/// at `Mode::Full`): the co-rotated strain, σ = C' ε, Q_i = V_i R_i σ and, unless
-/// `AT_REFERENCE`, the gradient-part torque, energy and strain. Shared by the general and the
-/// plane kernels ([`super::forces_plane`]), so that both give the same bits from the same F.
-#[inline(always)]
-pub(super) fn particle_stress<const AT_REFERENCE: bool>(
-    d: &Discretisation,
-    i: usize,
-    f: DMat3,
-    r_i: DMat3,
-    mode: Mode,
-    (q, tq, en, st): (&mut DMat3, &mut DVec3, &mut f64, &mut [f64; 6]),
-) {
-    let mut h = r_i.transpose() * f;
-    if mode == Mode::Full {
-        h -= DMat3::IDENTITY;
-    }
-    let eps = 0.5 * (h + h.transpose());
-    let ev = to_voigt(&eps);
-    let sv = mul6(&d.grad_stiffness[i], &ev);
-    let sigma = from_voigt(&sv);
-    let v = d.volume[i];
-    *q = v * r_i * sigma;
-    if AT_REFERENCE {
-        return;
-    }
-    // τ = V axial(B), B = F σ Rᵀ (derivative of the energy w.r.t. a rotation of R_i).
-    let bm = f * sigma * r_i.transpose();
-    // (In linear mode this torque is of second order at small strain and is dropped.)
-    *tq = if mode == Mode::Full { v * DVec3::new(bm.z_axis.y - bm.y_axis.z, bm.x_axis.z - bm.z_axis.x, bm.y_axis.x - bm.x_axis.y) } else { DVec3::ZERO };
-    *en = 0.5 * v * ev.iter().zip(&sv).map(|(a, b)| a * b).sum::<f64>();
-    *st = ev;
 }
 
 /// Per-particle output of `bond_forces`.
