@@ -39,7 +39,7 @@ fn percent(f: Option<f64>) -> String {
 /// One table row of a solid speed measurement (`extra` appended, e.g. a ratio to the CPU).
 fn solid_row(v: &phonation::solid::bench::SolidSpeed, extra: &str) {
     println!(
-        "{:11} {:>8} {:>10} {:>14.3e} {:>9.0} {:>8} {:>8} {:>8} {:>9.1} {:>8.1}{extra}",
+        "{:11} {:>9} {:>10} {:>14.3e} {:>9.0} {:>8} {:>8} {:>8} {:>9.1} {:>8.1}{extra}",
         match v.preconditioner {
             Some(phonation::solid::Preconditioner::BlockJacobi) => "impl/bj".to_string(),
             Some(phonation::solid::Preconditioner::Patches) => "impl/ptch".to_string(),
@@ -187,7 +187,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                 "MPS solid (3D unless marked 2D, r_e = 2.1 l0; implicit at 10× the explicit limit, CG to 1e-8 with the coarse space and the patch (ptch) or block-Jacobi (bj) smoother):"
             );
             println!(
-                "{:11} {:>8} {:>10} {:>14} {:>9} {:>8} {:>8} {:>8} {:>9} {:>8}",
+                "{:11} {:>9} {:>10} {:>14} {:>9} {:>8} {:>8} {:>8} {:>9} {:>8}",
                 "step", "particles", "bonds", "updates/s", "B/update", "of b/w", "of flops", "scalar", "CG it.", "Δt/lim"
             );
         }

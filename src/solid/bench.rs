@@ -55,8 +55,8 @@ pub struct SolidSpeed {
     /// fits in the cache ([`crate::machine::fraction_of_bandwidth`]).
     pub bandwidth_fraction: Option<f64>,
     /// Explicit steps: [`FLOPS_PER_BOND`] (in the plane [`FLOPS_PER_BOND_PLANE`]) × bonds per
-    /// particle (a lower bound); `None` for the
-    /// implicit step (its CG work depends on the iterations).
+    /// particle (a lower bound); `None` for the implicit step (its CG work depends on the
+    /// iterations).
     pub flops_per_update: Option<f64>,
     /// Of the f64 peak measured in the same process (the bench fills it in:
     /// `bench::fma_peak`).
@@ -103,7 +103,7 @@ pub fn solid_speed_with(side: usize, integrator: Integrator, preconditioner: Pre
 /// the 2D glottis's folds run on (the plane kernels of `forces_plane.rs`).
 pub fn plane_solid_speed(side: usize, steps: u64, bandwidth: f64) -> SolidSpeed {
     let t0 = Instant::now();
-    let mut s = benchmark_plate(side);
+    let mut s = benchmark_plate(side, Integrator::Explicit);
     let setup = t0.elapsed().as_secs_f64();
     s.step().expect("the benchmark plate stays finite");
     let t = Instant::now();
@@ -161,33 +161,32 @@ pub fn benchmark_block(side: usize, integrator: Integrator) -> SolidSolver {
 pub const BENCHMARK_VISCOSITY: f64 = 1.0;
 
 /// The benchmark body in the plane: a `side`² plate of the same material, spacing and
-/// viscosity, clamped on one edge, released from the same small shear.
-pub fn benchmark_plate(side: usize) -> SolidSolver {
-    let mat =
-        Orthotropic { young: [1.0e6, 3.0e6, 2.0e6], poisson: [0.2, 0.25, 0.3], shear: [4.0e5, 5.0e5, 6.0e5], density: 1.0, viscosity: BENCHMARK_VISCOSITY };
-    let l0 = 0.1;
-    let mut p = Particles::new(2, l0);
-    for x in sample_box(2, DVec3::ZERO, DVec3::new(side as f64 * l0, side as f64 * l0, 0.0), l0) {
-        p.push(x, 1.0, 0, 0, x.x < l0);
-    }
-    for i in 0..p.len() {
-        p.velocity[i] = DVec3::new(0.0, 0.1 * p.reference[i].x, 0.0);
-    }
-    SolidSolver::new(p, vec![mat], SolidOptions::default()).expect("valid benchmark plate")
+/// viscosity, clamped on one edge, released from the same small shear; implicit at 10× the
+/// explicit limit as [`benchmark_block`].
+pub fn benchmark_plate(side: usize, integrator: Integrator) -> SolidSolver {
+    benchmark_body(2, side, integrator, BENCHMARK_VISCOSITY)
 }
 
 /// [`benchmark_block`] with the material's viscosity set to `viscosity`.
 pub fn benchmark_block_with_viscosity(side: usize, integrator: Integrator, viscosity: f64) -> SolidSolver {
+    benchmark_body(3, side, integrator, viscosity)
+}
+
+/// The benchmark body in `dim` dimensions: a `side`-particle cube (3) or square (2) of spacing
+/// l₀ = 0.1, clamped on its x < l₀ face, released from the shear v_y = 0.1 x.
+fn benchmark_body(dim: usize, side: usize, integrator: Integrator, viscosity: f64) -> SolidSolver {
     let mat = Orthotropic { young: [1.0e6, 3.0e6, 2.0e6], poisson: [0.2, 0.25, 0.3], shear: [4.0e5, 5.0e5, 6.0e5], density: 1.0, viscosity };
     let l0 = 0.1;
-    let mut p = Particles::new(3, l0);
-    for x in sample_box(3, DVec3::ZERO, DVec3::splat(side as f64 * l0), l0) {
+    let edge = side as f64 * l0;
+    let extent = if dim == 3 { DVec3::splat(edge) } else { DVec3::new(edge, edge, 0.0) };
+    let mut p = Particles::new(dim, l0);
+    for x in sample_box(dim, DVec3::ZERO, extent, l0) {
         p.push(x, 1.0, 0, 0, x.x < l0);
     }
     for i in 0..p.len() {
         p.velocity[i] = DVec3::new(0.0, 0.1 * p.reference[i].x, 0.0);
     }
-    let mut s = SolidSolver::new(p, vec![mat], SolidOptions { integrator, ..Default::default() }).expect("valid benchmark block");
+    let mut s = SolidSolver::new(p, vec![mat], SolidOptions { integrator, ..Default::default() }).expect("valid benchmark body");
     if integrator == Integrator::Implicit {
         s.dt = 10.0 * s.explicit_limit;
     }
@@ -352,7 +351,7 @@ mod tests {
             assert_eq!(v.dim, 3);
         }
         // the plate: the plane kernels' 75 flops a bond, at most 12 bonds a particle in 2D
-        let s = benchmark_plate(8);
+        let s = benchmark_plate(8, Integrator::Explicit);
         let v = speed_of(true, &s, 1, 1.0, 0, 0.0, Vec::new(), 1e10);
         let per_particle = s.disc.bonds.len() as f64 / s.particles.len() as f64;
         assert!(per_particle > 6.0 && per_particle <= 12.0, "{per_particle} bonds per particle");

@@ -1,6 +1,6 @@
 //! The explicit step's force kernels in the plane: [`super::forces::strain_stress`] and
-//! [`super::forces::bond_forces`] at `Mode::Full` for a 2D solid, with the bond loops on the
-//! in-plane components alone.
+//! [`super::forces::bond_forces`] at `Mode::Full` for a 2D solid, on the in-plane components
+//! alone.
 //!
 //! In 2D every position, velocity, bond vector r⁰_ij and gradient weight g_ij has a zero z
 //! component, every rotation turns about z and every spin points along it (the bonds and the
@@ -28,7 +28,7 @@ fn in_plane_vector<const PERIODIC: bool>(d: &Discretisation, x: &[DVec3], i: usi
 }
 
 /// `strain_stress` at `Mode::Full` in the plane: F_i = Σ_j r_ij ⊗ g_ij on its x–y block (the
-/// rest of F is zero, F_zz = 1), then the general per-particle part.
+/// rest of F is zero, F_zz = 1), then the per-particle part in the plane.
 pub(super) fn strain_stress_plane<const PERIODIC: bool>(d: &Discretisation, x: &[DVec3], rot: &[DMat3], out: &mut StressField) {
     let b = &d.bonds;
     (out.q.par_iter_mut(), out.torque.par_iter_mut(), out.energy.par_iter_mut(), out.strain.par_iter_mut()).into_par_iter().enumerate().for_each(
@@ -49,8 +49,9 @@ pub(super) fn strain_stress_plane<const PERIODIC: bool>(d: &Discretisation, x: &
     );
 }
 
-/// The per-particle part of `strain_stress` (the general kernel's at `Mode::Full`) for F = [[F_xx, F_yx, 0], [F_xy, F_yy, 0], [0, 0, 1]] (columns `f` = F_xx, F_xy,
-/// F_yx, F_yy) and R_i a rotation about z: the co-rotated strain ε = sym(Rᵀ F) − I (ε_zz and the
+/// The per-particle part of `strain_stress` (the general kernel's at `Mode::Full`) for F with
+/// its x–y block `f` (glam's column order: x_axis.x, x_axis.y, y_axis.x, y_axis.y), F_zz = 1 and
+/// the rest zero, and R_i a rotation about z: the co-rotated strain ε = sym(Rᵀ F) − I (ε_zz and the
 /// out-of-plane shears zero), σ = C' ε, Q_i = V R σ, τ = V axial(F σ Rᵀ) and the energy, each
 /// entry the general kernel's sum of products in its order with the products by the zero
 /// entries of F, R and ε left out: about 120 flops instead of 310, the same numbers (a zero's
@@ -158,9 +159,10 @@ pub(super) fn bond_forces_plane<const PERIODIC: bool>(
 mod tests {
     use super::*;
     use crate::hash::mix32;
+    use crate::solid::bench::benchmark_plate;
     use crate::solid::forces::{Mode, bond_forces, bond_forces_with, strain_stress, strain_stress_with};
     use crate::solid::particles::{Particles, sample_box};
-    use crate::solid::{Orthotropic, SolidOptions, SolidSolver};
+    use crate::solid::{Integrator, Orthotropic, SolidOptions, SolidSolver};
     use glam::DQuat;
 
     /// A pseudo-random number in [−1, 1) from a counter.
@@ -170,23 +172,19 @@ mod tests {
 
     /// The plane kernels (through the public `strain_stress` and `bond_forces`, which pick them
     /// for a 2D solid at `Mode::Full`) against the general kernels on a deformed, moving,
-    /// spinning, rotated orthotropic viscous 2D block with a clamped row, and on a 2D strip
-    /// periodic in x: Q, the gradient torque, energy and strain, the forces, torques and pair
+    /// spinning, rotated orthotropic viscous 2D plate clamped on an edge (the bench's), and on a
+    /// 2D strip periodic in x: Q, the gradient torque, energy and strain, the forces, torques and pair
     /// energies equal as numbers (bits, a zero's sign aside: the general kernel adds ±0 where
     /// these leave a product out), the out-of-plane force and in-plane torque components zero.
     #[test]
     fn the_plane_kernels_give_the_general_kernels_numbers() {
         let mat = Orthotropic { young: [1.0e6, 3.0e6, 2.0e6], poisson: [0.2, 0.25, 0.3], shear: [4.0e5, 5.0e5, 6.0e5], density: 1.0, viscosity: 2.0 };
-        let mut block = Particles::new(2, 0.1);
-        for x in sample_box(2, DVec3::ZERO, DVec3::new(1.2, 0.7, 0.0), 0.1) {
-            block.push(x, 1.0, 0, 0, x.y < 0.1);
-        }
         let mut strip = Particles::new(2, 0.1);
         for x in sample_box(2, DVec3::ZERO, DVec3::new(0.8, 0.4, 0.0), 0.1) {
             strip.push(x, 1.0, 0, 0, false);
         }
         let bodies = [
-            SolidSolver::new(block, vec![mat.clone()], SolidOptions::default()).unwrap(),
+            benchmark_plate(12, Integrator::Explicit),
             SolidSolver::new(strip, vec![mat], SolidOptions { periods: [Some(0.8), None, None], ..Default::default() }).unwrap(),
         ];
         assert!(!bodies[0].disc.bonds.periodic && bodies[1].disc.bonds.periodic);

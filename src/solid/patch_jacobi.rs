@@ -337,31 +337,16 @@ fn symmetric_inverse_packed(a: &mut [f64], m: usize) -> Vec<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::solid::bench::benchmark_block;
+    use crate::solid::bench::{benchmark_block, benchmark_plate};
     use crate::solid::forces::{ForceField, Mode, StressField, bond_forces, strain_stress};
     use crate::solid::implicit::BlockJacobi;
-    use crate::solid::particles::sample_box;
-    use crate::solid::{Integrator, Orthotropic, Preconditioner, SolidOptions, SolidSolver};
+    use crate::solid::{Integrator, Preconditioner, SolidSolver};
     use glam::DMat3;
 
     /// A viscous `side`² (2D) or `side`³ (3D) block of the benchmark's orthotropic material,
     /// clamped on its x = 0 face, implicit at 10× the explicit limit.
     fn block(dim: usize, side: usize) -> SolidSolver {
-        if dim == 3 {
-            return benchmark_block(side, Integrator::Implicit);
-        }
-        let mat = Orthotropic { young: [1.0e6, 3.0e6, 2.0e6], poisson: [0.2, 0.25, 0.3], shear: [4.0e5, 5.0e5, 6.0e5], density: 1.0, viscosity: 1.0 };
-        let l0 = 0.1;
-        let mut p = Particles::new(2, l0);
-        for x in sample_box(2, DVec3::ZERO, DVec3::new(side as f64 * l0, side as f64 * l0, 0.0), l0) {
-            p.push(x, 1.0, 0, 0, x.x < l0);
-        }
-        for i in 0..p.len() {
-            p.velocity[i] = DVec3::new(0.0, 0.1 * p.reference[i].x, 0.0);
-        }
-        let mut s = SolidSolver::new(p, vec![mat], SolidOptions { integrator: Integrator::Implicit, ..Default::default() }).unwrap();
-        s.dt = 10.0 * s.explicit_limit;
-        s
+        if dim == 3 { benchmark_block(side, Integrator::Implicit) } else { benchmark_plate(side, Integrator::Implicit) }
     }
 
     /// The frozen-rotation linear operator at the reference configuration, x ↦ (M + M_a) x −
