@@ -71,7 +71,7 @@ impl StressField {
 
 /// Kernel 1, `strain_stress`: deformation gradient, co-rotated strain, gradient-model stress,
 /// Q_i and the gradient-part torque of every particle. In the plane (`dim` 2) at `Mode::Full`,
-/// the explicit step's case, it runs on the in-plane components alone ([`super::forces_plane`]:
+/// the explicit step's case, it runs on the in-plane components alone (`solid/forces_plane.rs`:
 /// the same numbers, a zero's sign aside, and the same state bits).
 pub fn strain_stress(d: &Discretisation, x: &[DVec3], rot: &[DMat3], mode: Mode, out: &mut StressField) {
     match (d.dim == 2 && mode == Mode::Full, d.bonds.periodic) {
@@ -186,7 +186,7 @@ pub fn rotation_chain(d: &Discretisation, rot: &[DMat3], jinv: &[DMat3], torque:
 /// gradient-part torque from `stress`. `spin` is ω. In `Mode::Linear`, `follow` carries the
 /// linearised rotations of the increments (θ for the position field, ω for the velocity
 /// field) so that the rigid part of an increment is not penalised. In the plane (`dim` 2) at
-/// `Mode::Full` the bond loop runs on the in-plane components alone ([`super::forces_plane`]:
+/// `Mode::Full` the bond loop runs on the in-plane components alone (`solid/forces_plane.rs`:
 /// the same forces, torques and energies as numbers).
 #[allow(clippy::too_many_arguments)]
 pub fn bond_forces(
