@@ -84,34 +84,37 @@ pub fn solid_speed(side: usize, integrator: Integrator, steps: u64, bandwidth: f
 
 /// [`solid_speed`] with the implicit step preconditioned by `preconditioner`'s smoother.
 pub fn solid_speed_with(side: usize, integrator: Integrator, preconditioner: Preconditioner, steps: u64, bandwidth: f64) -> SolidSpeed {
-    let t0 = Instant::now();
-    let mut s = benchmark_block(side, integrator);
-    s.options.preconditioner = preconditioner;
-    let setup = t0.elapsed().as_secs_f64();
-    s.step().expect("the benchmark block stays finite");
-    let t = Instant::now();
-    let mut iters = 0usize;
-    for _ in 0..steps {
-        s.step().expect("the benchmark block stays finite");
-        iters += s.last.cg.iterations;
-    }
-    let wall = t.elapsed().as_secs_f64();
-    speed_of(true, &s, steps, wall, iters, setup, s.stage_shares(), bandwidth)
+    timed_steps(
+        || {
+            let mut s = benchmark_block(side, integrator);
+            s.options.preconditioner = preconditioner;
+            s
+        },
+        steps,
+        bandwidth,
+    )
 }
 
 /// [`solid_speed`]'s explicit step in the plane: a `side`² plate ([`benchmark_plate`]), what
 /// the 2D glottis's folds run on (the plane kernels of `forces_plane.rs`).
 pub fn plane_solid_speed(side: usize, steps: u64, bandwidth: f64) -> SolidSpeed {
+    timed_steps(|| benchmark_plate(side, Integrator::Explicit), steps, bandwidth)
+}
+
+/// The body `build` makes (its setup timed), one step untimed, then `steps` timed steps.
+fn timed_steps(build: impl FnOnce() -> SolidSolver, steps: u64, bandwidth: f64) -> SolidSpeed {
     let t0 = Instant::now();
-    let mut s = benchmark_plate(side, Integrator::Explicit);
+    let mut s = build();
     let setup = t0.elapsed().as_secs_f64();
-    s.step().expect("the benchmark plate stays finite");
+    s.step().expect("the benchmark body stays finite");
     let t = Instant::now();
+    let mut iters = 0usize;
     for _ in 0..steps {
-        s.step().expect("the benchmark plate stays finite");
+        s.step().expect("the benchmark body stays finite");
+        iters += s.last.cg.iterations;
     }
     let wall = t.elapsed().as_secs_f64();
-    speed_of(true, &s, steps, wall, 0, setup, s.stage_shares(), bandwidth)
+    speed_of(true, &s, steps, wall, iters, setup, s.stage_shares(), bandwidth)
 }
 
 /// The figures of `steps` steps that took `wall` seconds (and `iters` CG iterations in all);

@@ -82,10 +82,10 @@ fn particle_stress_plane(d: &Discretisation, i: usize, f: [f64; 4], r: &DMat3, (
     // F σ (columns), then B = F σ Rᵀ: the entries the axial vector reads
     let fs_x = DVec3::new(fxx * sv[0] + fyx * sv[5], fxy * sv[0] + fyy * sv[5], sv[4]);
     let fs_y = DVec3::new(fxx * sv[5] + fyx * sv[1], fxy * sv[5] + fyy * sv[1], sv[3]);
-    let fs_z = DVec3::new(fxx * sv[4] + fyx * sv[3], fxy * sv[4] + fyy * sv[3], sv[2]);
     let (b_xy, b_yx) = (fs_x.y * rxx + fs_y.y * ryx, fs_x.x * rxy + fs_y.x * ryy);
     let (b_xz, b_yz) = (fs_x.z * rxx + fs_y.z * ryx, fs_x.z * rxy + fs_y.z * ryy);
-    let (b_zx, b_zy) = (fs_z.x, fs_z.y);
+    // B's z column is F σ's (Rᵀ's is e_z)
+    let (b_zx, b_zy) = (fxx * sv[4] + fyx * sv[3], fxy * sv[4] + fyy * sv[3]);
     *tq = v * DVec3::new(b_zy - b_yz, b_xz - b_zx, b_yx - b_xy);
     *en = 0.5 * v * ((ev[0] * sv[0] + ev[1] * sv[1]) + ev[5] * sv[5]);
     *st = ev;
@@ -95,7 +95,6 @@ fn particle_stress_plane(d: &Discretisation, i: usize, f: [f64; 4], r: &DMat3, (
 /// (Laplacian) force and torque on u_ij = r_ij − ½(R_i + R_j) r⁰_ij (2.38) and the viscous force
 /// and torque on v_ij = v_j − v_i − ½(ω_i + ω_j) × r_ij (2.42–2.43), written as the general
 /// kernel's products with the zero components left out; torques about z.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn bond_forces_plane<const PERIODIC: bool>(
     d: &Discretisation,
     x: &[DVec3],
