@@ -304,8 +304,8 @@ impl CoupledSolver {
     /// The air's forces become the particles' loads (on top of the scene's own loads).
     pub(super) fn apply_forces(&mut self) {
         let p = &mut self.solid.particles;
-        for i in 0..p.len() {
-            p.load[i] = self.base_load[i] + self.forces.force[i];
+        for (load, (base, air)) in p.load.iter_mut().zip(self.base_load.iter().zip(&self.forces.force)) {
+            *load = *base + *air;
         }
     }
 

@@ -10,10 +10,12 @@
 //! after the move): a zero-gradient extrapolation with well-defined, admissible values (a convex
 //! combination of admissible states). A node the body covers leaves the fluid with its mass.
 
+use super::boundary::FaceCondition;
 use super::equilibrium::Macro;
 use super::geometry::Obstacle;
 use super::interpolation::multilinear_corners;
 use super::layout::{Layout, NodeKind};
+use super::neighbours::fluid_node;
 use super::solver::FluidSolver;
 use super::storage::Storage;
 
@@ -194,48 +196,64 @@ impl<S: Storage> FluidSolver<S> {
     /// The fluid nodes [`Self::sample`] reads at `p`, with their weights (`None` where it finds
     /// too few).
     pub fn sample_stencil(&self, p: [f64; 3]) -> Option<Vec<(usize, f64)>> {
-        linear_stencil(&self.layout, p)
+        let mut out = Vec::new();
+        linear_stencil(&self.layout, p, &mut out).then_some(out)
+    }
+
+    /// [`Self::sample_stencil`] appended to `out` (the same nodes and weights; nothing appended
+    /// where it finds too few, and then `false`): a caller that lays out many samples (method
+    /// 1's traction plan, two a surface piece each step) allocates nothing per sample.
+    pub fn sample_stencil_into(&self, p: [f64; 3], out: &mut Vec<(usize, f64)>) -> bool {
+        linear_stencil(&self.layout, p, out)
     }
 }
 
 /// Weights (node, w) that reproduce linear fields at `p` from fluid nodes (see
-/// [`FluidSolver::sample`]).
-fn linear_stencil(layout: &Layout, p: [f64; 3]) -> Option<Vec<(usize, f64)>> {
+/// [`FluidSolver::sample`]), appended to `out`; `false` (nothing appended) where the block
+/// around `p` has too few fluid nodes.
+fn linear_stencil(layout: &Layout, p: [f64; 3], out: &mut Vec<(usize, f64)>) -> bool {
     let dim = layout.grid.dim;
-    let corners: Option<Vec<(usize, f64)>> = multilinear_corners(dim, p).map(|(x, w)| layout.fluid_node_at(x).map(|i| (i, w))).collect();
-    if corners.is_some() {
-        return corners;
+    let periodic: [bool; 3] = std::array::from_fn(|a| a < dim && matches!(layout.boundaries.faces[2 * a], FaceCondition::Periodic));
+    let fluid_at = |x: [i64; 3]| fluid_node(&layout.grid, &layout.kind, &periodic, x);
+    let start = out.len();
+    if multilinear_corners(dim, p).all(|(x, w)| fluid_at(x).map(|i| out.push((i, w))).is_some()) {
+        return true;
     }
+    out.truncate(start);
     let base: [i64; 3] = std::array::from_fn(|a| if a < dim { p[a].floor() as i64 } else { p[a].round() as i64 });
     // Least squares: value ≈ a + g·(x − p) over the fluid nodes of the block; the value at p is
     // a = e₀ᵀ (AᵀA)⁻¹ Aᵀ φ, so node k gets weight e₀ᵀ (AᵀA)⁻¹ A_kᵀ.
     let zr = if dim == 3 { -1..=2 } else { 0..=0 };
-    let mut rows: Vec<(usize, [f64; 4])> = Vec::new();
+    let mut rows = [(0usize, [0.0f64; 4]); 64];
+    let mut n_rows = 0;
     for dz in zr {
         for dy in -1..=2i64 {
             for dx in -1..=2i64 {
                 let x = [base[0] + dx, base[1] + dy, base[2] + dz];
-                if let Some(i) = layout.fluid_node_at(x) {
+                if let Some(i) = fluid_at(x) {
                     let r = [1.0, x[0] as f64 - p[0], x[1] as f64 - p[1], if dim == 3 { x[2] as f64 - p[2] } else { 0.0 }];
-                    rows.push((i, r));
+                    rows[n_rows] = (i, r);
+                    n_rows += 1;
                 }
             }
         }
     }
+    let rows = &rows[..n_rows];
     let m = dim + 1;
     if rows.len() < m + 1 {
-        return None;
+        return false;
     }
     let mut ata = [[0.0f64; 4]; 4];
-    for (_, r) in &rows {
+    for (_, r) in rows {
         for i in 0..m {
             for j in 0..m {
                 ata[i][j] += r[i] * r[j];
             }
         }
     }
-    let e0 = solve_small(ata, m)?;
-    Some(rows.into_iter().map(|(i, r)| (i, (0..m).map(|k| e0[k] * r[k]).sum())).collect())
+    let Some(e0) = solve_small(ata, m) else { return false };
+    out.extend(rows.iter().map(|&(i, r)| (i, (0..m).map(|k| e0[k] * r[k]).sum())));
+    true
 }
 
 /// The first row of the inverse of the symmetric m×m matrix `a` (Gauss–Jordan with partial
@@ -336,6 +354,44 @@ mod tests {
             assert!((m.rho - (1.0 + 0.01 * p[0] / 24.0)).abs() < 1e-12, "{p:?}: {m:?}");
         }
         s.step().expect("stays stable after the move");
+    }
+
+    /// `sample_stencil_into` appends to what the caller holds and leaves it as it was where it
+    /// finds too few fluid nodes: over points across a box with a disc (cells all fluid, cells
+    /// with solid corners, points deep in the disc), every stencil it appends reproduces linear
+    /// fields (Σ w = 1, Σ w x_k = p) from fluid nodes only, and a refused point appends nothing
+    /// (each case met: multilinear, least-squares and refused points).
+    #[test]
+    fn a_sample_stencil_appends_a_linear_stencil_or_nothing() {
+        let s = box_solver(&[disc(10.0)]);
+        let g = &s.layout.grid;
+        let prefix = vec![(usize::MAX, -1.0); 3];
+        let (mut corners, mut fitted, mut refused) = (0, 0, 0);
+        for a in 0..60 {
+            for b in 0..60 {
+                let p = [1.0 + 0.37 * a as f64, 1.0 + 0.37 * b as f64, 0.0];
+                let mut out = prefix.clone();
+                let found = s.sample_stencil_into(p, &mut out);
+                assert_eq!(out[..3], prefix[..], "{p:?}: the caller's entries");
+                let st = &out[3..];
+                if !found {
+                    assert!(st.is_empty(), "{p:?}: a refused point appends nothing");
+                    refused += 1;
+                    continue;
+                }
+                assert!(st.iter().all(|&(n, _)| s.layout.kind[n] == layout::NodeKind::Fluid), "{p:?}: fluid nodes only");
+                let sum: f64 = st.iter().map(|&(_, w)| w).sum();
+                let first: [f64; 2] = std::array::from_fn(|k| st.iter().map(|&(n, w)| w * g.coords(n)[k] as f64).sum::<f64>());
+                assert!((sum - 1.0).abs() < 1e-12 && (first[0] - p[0]).abs() < 1e-11 && (first[1] - p[1]).abs() < 1e-11, "{p:?}: {sum} {first:?}");
+                if st.iter().all(|&(_, w)| w >= 0.0) && st.len() == 4 {
+                    corners += 1;
+                } else {
+                    fitted += 1;
+                }
+            }
+        }
+        eprintln!("{corners} multilinear, {fitted} fitted, {refused} refused");
+        assert!(corners > 1000 && fitted > 20 && refused > 20, "{corners} multilinear, {fitted} fitted, {refused} refused");
     }
 
     /// A change of layout reads the populations of `LayoutChange::reads` only and writes those
