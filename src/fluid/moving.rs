@@ -18,6 +18,7 @@ use super::layout::{Layout, NodeKind};
 use super::neighbours::fluid_node;
 use super::solver::FluidSolver;
 use super::storage::Storage;
+use rayon::prelude::*;
 
 /// The nodes a change of layout touches (padded indices, ascending): those that leave the
 /// fluid, and those that join it with the neighbours they take their populations from.
@@ -44,10 +45,9 @@ impl LayoutChange {
         let grid = &new.grid;
         let offsets = neighbour_offsets(grid.dim);
         let fluid = |l: &Layout, k: usize| l.kind[k] == NodeKind::Fluid;
-        let mut nodes = Vec::new();
-        for node in 0..grid.len() {
+        let change = |node: usize| -> Option<(usize, NodeChange)> {
             match (fluid(old, node), fluid(new, node)) {
-                (true, false) => nodes.push((node, NodeChange::Covered)),
+                (true, false) => Some((node, NodeChange::Covered)),
                 (false, true) => {
                     let x = grid.coords(node);
                     let neighbours = offsets
@@ -57,11 +57,23 @@ impl LayoutChange {
                         .map(|y| grid.index(y))
                         .filter(|&k| fluid(old, k) && fluid(new, k))
                         .collect();
-                    nodes.push((node, NodeChange::Uncovered(neighbours)));
+                    Some((node, NodeChange::Uncovered(neighbours)))
                 }
-                _ => {}
+                _ => None,
             }
-        }
+        };
+        // the lattice in chunks on the pool's threads, in node order; a chunk whose kinds did
+        // not change (almost all: a body moves a fraction of a cell a step) is passed over by
+        // one comparison of the two runs of kinds
+        const CHUNK: usize = 4096;
+        let nodes = old
+            .kind
+            .par_chunks(CHUNK)
+            .zip(new.kind.par_chunks(CHUNK))
+            .enumerate()
+            .filter(|(_, (a, b))| a != b)
+            .flat_map_iter(|(c, (a, _))| (c * CHUNK..c * CHUNK + a.len()).filter_map(change))
+            .collect();
         LayoutChange { nodes }
     }
 
@@ -392,6 +404,65 @@ mod tests {
         }
         eprintln!("{corners} multilinear, {fitted} fitted, {refused} refused");
         assert!(corners > 1000 && fitted > 20 && refused > 20, "{corners} multilinear, {fitted} fitted, {refused} refused");
+    }
+
+    /// `LayoutChange::between` (the lattice in chunks on the pool's threads, unchanged chunks
+    /// passed over) lists what a plain scan of every node lists, in the same order: on lattices
+    /// of many chunks, 2D and 3D, with discs that move across chunk boundaries.
+    #[test]
+    fn a_change_of_layout_lists_every_node_that_changes_side_in_order() {
+        use crate::fluid::layout::{Layout, NodeKind};
+        let plain = |old: &Layout, new: &Layout| -> Vec<(usize, NodeChange)> {
+            let g = &new.grid;
+            let fluid = |l: &Layout, k: usize| l.kind[k] == NodeKind::Fluid;
+            let mut out = Vec::new();
+            for node in 0..g.len() {
+                match (fluid(old, node), fluid(new, node)) {
+                    (true, false) => out.push((node, NodeChange::Covered)),
+                    (false, true) => {
+                        let x = g.coords(node);
+                        let mut nb = Vec::new();
+                        for d in super::neighbour_offsets(g.dim) {
+                            let y = [x[0] + d[0], x[1] + d[1], x[2] + d[2]];
+                            if g.contains(y) && fluid(old, g.index(y)) && fluid(new, g.index(y)) {
+                                nb.push(g.index(y));
+                            }
+                        }
+                        out.push((node, NodeChange::Uncovered(nb)));
+                    }
+                    _ => {}
+                }
+            }
+            out
+        };
+        for (dim, n) in [(2, [160, 90, 1]), (3, [40, 36, 30])] {
+            let grid = Grid::new(dim, n);
+            let zc = if dim == 3 { 15.0 } else { 0.0 };
+            let discs = |t: f64| -> Vec<Obstacle> {
+                [[30.0 + t, 40.0 - 0.6 * t], [22.0 - 0.4 * t, 14.0 + t]]
+                    .map(|c| Obstacle { shape: Shape::Sphere { center: [c[0], c[1], zc], radius: 6.3 }, velocity: [0.0; 3], temperature: None })
+                    .into_iter()
+                    .map(|mut o| {
+                        if dim == 2 {
+                            let Shape::Sphere { center, radius } = o.shape else { unreachable!() };
+                            o.shape = Shape::Cylinder { center, radius };
+                        }
+                        o
+                    })
+                    .collect()
+            };
+            let mut layout = Layout::new(grid.clone(), Boundaries::periodic(), &discs(0.0));
+            assert!(grid.len() > 3 * 4096, "{dim}D: {} nodes, several chunks", grid.len());
+            let mut changed = 0;
+            for step in 1..=6 {
+                let next = layout.rebuilt(&discs(0.7 * step as f64));
+                let ch = LayoutChange::between(&layout, &next);
+                assert_eq!(ch.nodes, plain(&layout, &next), "{dim}D step {step}");
+                changed += ch.nodes.len();
+                layout = next;
+            }
+            assert!(changed > 50, "{dim}D: {changed} nodes changed side");
+        }
     }
 
     /// A change of layout reads the populations of `LayoutChange::reads` only and writes those
