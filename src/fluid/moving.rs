@@ -236,6 +236,7 @@ fn linear_stencil(layout: &Layout, p: [f64; 3], out: &mut Vec<(usize, f64)>) -> 
     // Least squares: value ≈ a + g·(x − p) over the fluid nodes of the block; the value at p is
     // a = e₀ᵀ (AᵀA)⁻¹ Aᵀ φ, so node k gets weight e₀ᵀ (AᵀA)⁻¹ A_kᵀ.
     let zr = if dim == 3 { -1..=2 } else { 0..=0 };
+    // at most the 4ᴰ block's 64 nodes (16 in 2D)
     let mut rows = [(0usize, [0.0f64; 4]); 64];
     let mut n_rows = 0;
     for dz in zr {
@@ -438,19 +439,12 @@ mod tests {
         for (dim, n) in [(2, [160, 90, 1]), (3, [40, 36, 30])] {
             let grid = Grid::new(dim, n);
             let zc = if dim == 3 { 15.0 } else { 0.0 };
-            let discs = |t: f64| -> Vec<Obstacle> {
-                [[30.0 + t, 40.0 - 0.6 * t], [22.0 - 0.4 * t, 14.0 + t]]
-                    .map(|c| Obstacle { shape: Shape::Sphere { center: [c[0], c[1], zc], radius: 6.3 }, velocity: [0.0; 3], temperature: None })
-                    .into_iter()
-                    .map(|mut o| {
-                        if dim == 2 {
-                            let Shape::Sphere { center, radius } = o.shape else { unreachable!() };
-                            o.shape = Shape::Cylinder { center, radius };
-                        }
-                        o
-                    })
-                    .collect()
+            let body = |c: [f64; 2]| {
+                let (center, radius) = ([c[0], c[1], zc], 6.3);
+                let shape = if dim == 2 { Shape::Cylinder { center, radius } } else { Shape::Sphere { center, radius } };
+                Obstacle { shape, velocity: [0.0; 3], temperature: None }
             };
+            let discs = |t: f64| vec![body([30.0 + t, 40.0 - 0.6 * t]), body([22.0 - 0.4 * t, 14.0 + t])];
             let mut layout = Layout::new(grid.clone(), Boundaries::periodic(), &discs(0.0));
             assert!(grid.len() > 3 * 4096, "{dim}D: {} nodes, several chunks", grid.len());
             let mut changed = 0;
