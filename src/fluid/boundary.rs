@@ -108,6 +108,12 @@ impl Boundaries {
     pub fn periodic() -> Self {
         Boundaries { faces: std::array::from_fn(|_| FaceCondition::Periodic) }
     }
+
+    /// Which of the first `dim` axes are periodic (their min face periodic; the checks make
+    /// both faces agree), the rest `false`.
+    pub fn periodic_axes(&self, dim: usize) -> [bool; 3] {
+        std::array::from_fn(|a| a < dim && matches!(self.faces[2 * a], FaceCondition::Periodic))
+    }
     pub fn face(&self, f: Face) -> &FaceCondition {
         &self.faces[f as usize]
     }

@@ -185,7 +185,7 @@ impl Layout {
         obstacles.extend_from_slice(user_obstacles);
 
         let n = grid.len();
-        let periodic_axis: [bool; 3] = std::array::from_fn(|a| a < grid.dim && matches!(boundaries.faces[2 * a], FaceCondition::Periodic));
+        let periodic_axis = boundaries.periodic_axes(grid.dim);
         let pos = |x: [i64; 3]| [x[0] as f64, x[1] as f64, x[2] as f64];
         // the nodes recomputed: all, or the region's (the others keep their kinds, ghost
         // entries and thin taps)
@@ -524,8 +524,7 @@ impl Layout {
     /// The padded index of the fluid node at interior coordinates `x`, through periodic
     /// images; `None` when that node is not fluid or lies outside the padded grid.
     pub fn fluid_node_at(&self, x: [i64; 3]) -> Option<usize> {
-        let periodic: [bool; 3] = std::array::from_fn(|a| a < self.grid.dim && matches!(self.boundaries.faces[2 * a], FaceCondition::Periodic));
-        fluid_node(&self.grid, &self.kind, &periodic, x)
+        fluid_node(&self.grid, &self.kind, &self.boundaries.periodic_axes(self.grid.dim), x)
     }
 }
 

@@ -10,7 +10,6 @@
 //! after the move): a zero-gradient extrapolation with well-defined, admissible values (a convex
 //! combination of admissible states). A node the body covers leaves the fluid with its mass.
 
-use super::boundary::FaceCondition;
 use super::equilibrium::Macro;
 use super::geometry::Obstacle;
 use super::interpolation::multilinear_corners;
@@ -225,7 +224,7 @@ impl<S: Storage> FluidSolver<S> {
 /// around `p` has too few fluid nodes.
 fn linear_stencil(layout: &Layout, p: [f64; 3], out: &mut Vec<(usize, f64)>) -> bool {
     let dim = layout.grid.dim;
-    let periodic: [bool; 3] = std::array::from_fn(|a| a < dim && matches!(layout.boundaries.faces[2 * a], FaceCondition::Periodic));
+    let periodic = layout.boundaries.periodic_axes(dim);
     let fluid_at = |x: [i64; 3]| fluid_node(&layout.grid, &layout.kind, &periodic, x);
     let start = out.len();
     if multilinear_corners(dim, p).all(|(x, w)| fluid_at(x).map(|i| out.push((i, w))).is_some()) {

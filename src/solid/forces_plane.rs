@@ -65,10 +65,10 @@ fn particle_stress_plane(d: &Discretisation, i: usize, f: [f64; 4], r: &DMat3, (
     let hxy = ryx * fxx + ryy * fxy;
     let hyx = rxx * fyx + rxy * fyy;
     let hyy = (ryx * fyx + ryy * fyy) - 1.0;
-    // ε = ½(h + hᵀ) in Voigt form with engineering shear
-    let (exx, eyy) = (0.5 * (hxx + hxx), 0.5 * (hyy + hyy));
-    let (exy, eyx) = (0.5 * (hxy + hyx), 0.5 * (hyx + hxy));
-    let ev = [exx, eyy, 0.0, 0.0, 0.0, eyx + exy];
+    // ε = ½(h + hᵀ) in Voigt form with engineering shear: the general kernel's ½(h_xx + h_xx)
+    // is h_xx exactly, and its ε_xy and ε_yx are the same sum (addition commutes exactly)
+    let exy = 0.5 * (hxy + hyx);
+    let ev = [hxx, hyy, 0.0, 0.0, 0.0, exy + exy];
     let c = &d.grad_stiffness[i];
     let sv: [f64; 6] = std::array::from_fn(|p| (c[p][0] * ev[0] + c[p][1] * ev[1]) + c[p][5] * ev[5]);
     let v = d.volume[i];
