@@ -14,6 +14,7 @@ pub mod grid;
 mod interpolation;
 pub mod kernel_level_set;
 pub mod layout;
+mod layout_build;
 pub mod level_set_queries;
 mod memory_hints;
 pub mod moving;
