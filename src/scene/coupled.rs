@@ -77,16 +77,16 @@ pub struct CouplingSpec {
     pub probes: Vec<crate::scene::solid::RegionProbe>,
 }
 
+/// The largest fluid/solid density ratio the weak coupling takes (see the check
+/// `check_stability` that [`CoupledScene::new`] makes).
+pub const MAX_DENSITY_RATIO: f64 = 5.0;
+/// The largest fluid/solid density ratio method 2 takes (with its added mass, 2.129; see the
+/// check `check_stability` that [`CoupledScene::new`] makes).
+pub const MAX_DENSITY_RATIO_CONSERVING: f64 = 1.0e3;
+
 /// Admissible particle spacing per lattice cell l₀/Δx: finer than 0.1 costs particles without
 /// changing what the fluid sees; coarser than 2 leaves surface edges over two cells long,
 /// whose straight walls cut corners of the body.
-/// The largest fluid/solid density ratio the weak coupling takes (see the check in
-/// [`CoupledScene::parse`]).
-pub const MAX_DENSITY_RATIO: f64 = 5.0;
-/// The largest fluid/solid density ratio method 2 takes (with its added mass, 2.129; see the
-/// check in [`CoupledScene::parse`]).
-pub const MAX_DENSITY_RATIO_CONSERVING: f64 = 1.0e3;
-
 pub const SPACING_RATIO: (f64, f64) = (0.1, 2.0);
 
 /// A coupled scene resolved without its lattice ([`CoupledScene::resolve`]).
@@ -113,6 +113,202 @@ fn err<T>(field: impl Into<String>, reason: impl Into<String>) -> Result<T, Scen
     Err(SceneError { field: field.into(), reason: reason.into() })
 }
 
+/// Each method's own settings: none of the other's, method 2's kernel radius in range.
+fn check_method_settings(coupling: &CouplingSpec, s: &SolidSpec, fluid: &FluidScene) -> Result<(), SceneError> {
+    match coupling.method {
+        CouplingMethod::Weak => {
+            if coupling.kernel_radius.is_some() {
+                return err(
+                    "coupling.kernel_radius",
+                    "is a setting of method = \"momentum_conserving\" (the level set's kernel); the weak coupling has a surface polygon",
+                );
+            }
+        }
+        CouplingMethod::MomentumConserving => {
+            if coupling.traction.is_some() {
+                return err("coupling.traction", "is a setting of method = \"weak\"; method 2 hands the body the air's momentum link by link, not a traction");
+            }
+            if coupling.piece_length.is_some() {
+                return err("coupling.piece_length", "is a setting of method = \"weak\" (its traction quadrature)");
+            }
+            if let Some(r) = coupling.kernel_radius {
+                let min = (1.0f64).max(2.0 * s.spacing / fluid.units.dx);
+                if !(r.is_finite() && r >= min && r <= 4.0) {
+                    return err(
+                        "coupling.kernel_radius",
+                        format!("must lie in [{min:.3}, 4] cells (at least one cell and two particle spacings, so that the level set is smooth), got {r}"),
+                    );
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The solid's dimension is the lattice's, the weak coupling runs in 2D with the explicit
+/// solid, and the particle spacing lies in [`SPACING_RATIO`] cells.
+fn check_dimension_and_spacing(coupling: &CouplingSpec, s: &SolidSpec, fluid: &FluidScene) -> Result<(), SceneError> {
+    let dim = fluid.grid.dim;
+    if s.dimension != dim {
+        return err("solid.dimension", format!("the fluid lattice is {dim}D, the solid {}D", s.dimension));
+    }
+    if dim == 3 && coupling.method == CouplingMethod::Weak {
+        return err(
+            "coupling.method",
+            "the weak coupling runs in 2D only (3D surfaces are not triangulated yet); use \"momentum_conserving\", whose level sets need no surface mesh",
+        );
+    }
+    if coupling.method == CouplingMethod::Weak && s.integrator != crate::solid::Integrator::Explicit {
+        return err("solid.integrator", "the weak coupling (method 1) uses the explicit solid step");
+    }
+    let dx = fluid.units.dx;
+    let ratio = s.spacing / dx;
+    if !(ratio >= SPACING_RATIO.0 && ratio <= SPACING_RATIO.1) {
+        return err("solid.spacing", format!("l₀/Δx = {ratio:.3} (l₀ = {}, Δx = {dx:.4e}) must lie in [{}, {}]", s.spacing, SPACING_RATIO.0, SPACING_RATIO.1));
+    }
+    Ok(())
+}
+
+/// The traction's pieces, the particle probes, the output interval and the walls' temperature.
+fn check_settings(coupling: &CouplingSpec, fluid: &FluidScene) -> Result<(), SceneError> {
+    let dim = fluid.grid.dim;
+    if let Some(p) = coupling.piece_length
+        && !(p.is_finite() && p > 0.0 && p <= 4.0)
+    {
+        return err("coupling.piece_length", format!("must be in (0, 4] cells, got {p}"));
+    }
+    for (k, p) in coupling.probes.iter().enumerate() {
+        let f = format!("coupling.probes[{k}]");
+        let lo = crate::scene::solid::vec3(&format!("{f}.min"), &p.min, dim, false)?;
+        let hi = crate::scene::solid::vec3(&format!("{f}.max"), &p.max, dim, false)?;
+        if (0..dim).any(|a| lo[a] > hi[a]) {
+            return err(format!("{f}.max"), "must not be below min on any axis");
+        }
+        if p.name.is_empty() || !p.name.chars().all(|ch| ch.is_ascii_alphanumeric() || ch == '_') {
+            return err(format!("{f}.name"), format!("must be a non-empty column name of letters, digits and _, got {:?}", p.name));
+        }
+    }
+    if coupling.output_every == Some(0) {
+        return err("coupling.output_every", "must be at least 1");
+    }
+    if let Some(r) = coupling.wall_temperature_ratio {
+        if !(r.is_finite() && r > 0.0) {
+            return err("coupling.wall_temperature_ratio", format!("must be a positive multiple of T₀, got {r}"));
+        }
+        super::build::wall_theta_in_window(&fluid.set, r * fluid.units.theta0, "coupling.wall_temperature_ratio")?;
+    }
+    Ok(())
+}
+
+/// The bounds of the explicit exchanges measured or derived for each method: the air's density
+/// against the lightest material's (added mass) and, for the weak coupling, its viscous
+/// traction against the surface particles' mass.
+fn check_stability(coupling: &CouplingSpec, solid: &SolidScene, fluid: &FluidScene) -> Result<(), SceneError> {
+    let (s, dx) = (&solid.file.solid, fluid.units.dx);
+    // The weak coupling hands the air's force to the solid one step late: with air denser
+    // than the body its added mass makes that explicit exchange unstable. Measured: a free
+    // disc hit by a pressure pulse is stable at ρ_f/ρ_s = 5 and diverges at 6.7
+    // (validation::fsi::added_mass_stability); a clamped one (fsi_cylinder) holds to 30;
+    // at 10⁶ it diverged in the first step (the fuzzed reader found it). The free body's
+    // limit is the bound. Method 2 puts the air's added mass into the solid's update
+    // (2.129): the same free disc is stable at every ratio tried up to 10⁶; its bound,
+    // MAX_DENSITY_RATIO_CONSERVING, keeps three decades of that untried elsewhere.
+    let rho_f = fluid.file.gas.density;
+    let (limit, which) = match coupling.method {
+        CouplingMethod::Weak => (MAX_DENSITY_RATIO, "the weak coupling"),
+        CouplingMethod::MomentumConserving => (MAX_DENSITY_RATIO_CONSERVING, "method 2 (measured on a free disc)"),
+    };
+    if let Some(rho_s) = solid.materials.iter().map(|m| m.density).reduce(f64::min)
+        && rho_f / rho_s > limit
+    {
+        return err(
+            "gas.density",
+            format!(
+                "{rho_f} is {:.3e} times the lightest solid material's density {rho_s}; {which} is unstable or untried above a ratio of {limit:e} (added mass)",
+                rho_f / rho_s
+            ),
+        );
+    }
+    // The air's viscous traction on a surface particle acts, across the one-step lag of the
+    // weak coupling, as a damper c ≈ μ l₀^(d−1)/Δx (shear stress μ v/Δx on its face) on a
+    // mass m = ρ_s l₀^d: explicit, it is stable only for Δt c/m < 2, i.e.
+    // Δt < 2 ρ_s l₀ Δx / μ (the fuzzed reader found the divergence at μ × 10⁶).
+    if let Some(rho_s) = solid.materials.iter().map(|m| m.density).reduce(f64::min) {
+        let mu = fluid.file.gas.viscosity;
+        let dt = fluid.params.dt * fluid.units.time();
+        let limit = 2.0 * rho_s * s.spacing * dx / mu;
+        if dt >= limit {
+            return err(
+                "gas.viscosity",
+                format!(
+                    "{mu} makes the air's viscous traction too stiff for the weak coupling: its fluid step {dt:.3e} must stay below 2 ρ_s l₀ Δx / μ = {limit:.3e}"
+                ),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Every body (a fold's free part) inside the domain, a fold attached to its side wall.
+fn check_bodies_inside(s: &SolidSpec, fluid: &FluidScene) -> Result<(), SceneError> {
+    let dim = fluid.grid.dim;
+    let size = &fluid.file.domain.size;
+    for (k, b) in s.bodies.iter().enumerate() {
+        let (lo, hi) = body_bounds(b, dim, s.spacing);
+        let what = if b.fold.is_some() { "its free part (all but the clamped lateral strip)" } else { "it" };
+        for a in 0..dim {
+            if lo[a] < 0.0 || hi[a] > size[a] {
+                return err(
+                    format!("solid.bodies[{k}]"),
+                    format!("{what} extends over [{}, {}] along axis {a}, outside the domain [0, {}]", lo[a], hi[a], size[a]),
+                );
+            }
+        }
+        if let Some(f) = &b.fold {
+            f.check_attached(&format!("solid.bodies[{k}].fold"), size)?;
+        }
+    }
+    Ok(())
+}
+
+/// The prescribed motions: one per body, finite, and their largest speed counted with the
+/// air's set speeds ([`FluidScene::count_set_speed`]: refused above lattice Mach 0.5).
+fn count_motions(coupling: &CouplingSpec, s: &SolidSpec, fluid: &mut FluidScene) -> Result<(), SceneError> {
+    let dim = fluid.grid.dim;
+    for (k, m) in coupling.motions.iter().enumerate() {
+        if m.body >= s.bodies.len() {
+            return err(format!("coupling.motions[{k}].body"), format!("no body {} (there are {})", m.body, s.bodies.len()));
+        }
+        if coupling.motions[..k].iter().any(|o| o.body == m.body) {
+            return err(format!("coupling.motions[{k}].body"), format!("body {} already has a motion", m.body));
+        }
+        let finite = match &m.motion {
+            Motion::Translation { velocity } => velocity.iter().all(|v| v.is_finite()),
+            Motion::Rotation { centre, angular_velocity } => centre.iter().all(|v| v.is_finite()) && angular_velocity.is_finite(),
+            Motion::Harmonic { amplitude, frequency } => amplitude.iter().all(|v| v.is_finite()) && frequency.is_finite() && *frequency >= 0.0,
+        };
+        if !finite {
+            return err(format!("coupling.motions[{k}].motion"), "every value must be finite (and the frequency ≥ 0)");
+        }
+        // the body's largest speed (a rotation's at the farthest corner of its box)
+        let speed = match &m.motion {
+            Motion::Translation { velocity } => DVec3::from_array(*velocity).length(),
+            Motion::Rotation { centre, angular_velocity } => {
+                let (lo, hi) = body_bounds(&s.bodies[m.body], dim, s.spacing);
+                let c = DVec3::from_array(*centre);
+                let far = (0..8)
+                    .map(|i| DVec3::new([lo.x, hi.x][i & 1], [lo.y, hi.y][(i >> 1) & 1], [lo.z, hi.z][i >> 2]) - c)
+                    .map(|d| d.length())
+                    .fold(0.0, f64::max);
+                angular_velocity.abs() * far
+            }
+            Motion::Harmonic { amplitude, frequency } => std::f64::consts::TAU * frequency * DVec3::from_array(*amplitude).length(),
+        };
+        fluid.count_set_speed(&format!("coupling.motions[{k}].motion"), speed)?;
+    }
+    Ok(())
+}
+
 impl CoupledScene {
     pub fn parse(text: &str) -> Result<Self, SceneError> {
         let mut table: toml::Table = toml::from_str(text).map_err(|e| SceneError::from_toml("scene", &e, text))?;
@@ -127,6 +323,8 @@ impl CoupledScene {
         Self::new(file, solid, coupling)
     }
 
+    /// Validates a coupled scene: the air's part ([`FluidScene::new`]), the solid's
+    /// ([`SolidScene::new`]), then what the coupling asks of both — each error names its field.
     pub fn new(file: SceneFile, solid: SolidSpec, coupling: CouplingSpec) -> Result<Self, SceneError> {
         let solid_file = SolidSceneFile {
             name: file.name.clone(),
@@ -142,170 +340,12 @@ impl CoupledScene {
         let mut fluid = FluidScene::new(file)?;
         let solid = SolidScene::new(solid_file)?;
         let s = &solid.file.solid;
-        let dim = fluid.grid.dim;
-        match coupling.method {
-            CouplingMethod::Weak => {
-                if coupling.kernel_radius.is_some() {
-                    return err(
-                        "coupling.kernel_radius",
-                        "is a setting of method = \"momentum_conserving\" (the level set's kernel); the weak coupling has a surface polygon",
-                    );
-                }
-            }
-            CouplingMethod::MomentumConserving => {
-                if coupling.traction.is_some() {
-                    return err(
-                        "coupling.traction",
-                        "is a setting of method = \"weak\"; method 2 hands the body the air's momentum link by link, not a traction",
-                    );
-                }
-                if coupling.piece_length.is_some() {
-                    return err("coupling.piece_length", "is a setting of method = \"weak\" (its traction quadrature)");
-                }
-                if let Some(r) = coupling.kernel_radius {
-                    let min = (1.0f64).max(2.0 * s.spacing / fluid.units.dx);
-                    if !(r.is_finite() && r >= min && r <= 4.0) {
-                        return err(
-                            "coupling.kernel_radius",
-                            format!("must lie in [{min:.3}, 4] cells (at least one cell and two particle spacings, so that the level set is smooth), got {r}"),
-                        );
-                    }
-                }
-            }
-        }
-        if s.dimension != dim {
-            return err("solid.dimension", format!("the fluid lattice is {dim}D, the solid {}D", s.dimension));
-        }
-        if dim == 3 && coupling.method == CouplingMethod::Weak {
-            return err(
-                "coupling.method",
-                "the weak coupling runs in 2D only (3D surfaces are not triangulated yet); use \"momentum_conserving\", whose level sets need no surface mesh",
-            );
-        }
-        if coupling.method == CouplingMethod::Weak && s.integrator != crate::solid::Integrator::Explicit {
-            return err("solid.integrator", "the weak coupling (method 1) uses the explicit solid step");
-        }
-        let dx = fluid.units.dx;
-        let ratio = s.spacing / dx;
-        if !(ratio >= SPACING_RATIO.0 && ratio <= SPACING_RATIO.1) {
-            return err(
-                "solid.spacing",
-                format!("l₀/Δx = {ratio:.3} (l₀ = {}, Δx = {dx:.4e}) must lie in [{}, {}]", s.spacing, SPACING_RATIO.0, SPACING_RATIO.1),
-            );
-        }
-        if let Some(p) = coupling.piece_length
-            && !(p.is_finite() && p > 0.0 && p <= 4.0)
-        {
-            return err("coupling.piece_length", format!("must be in (0, 4] cells, got {p}"));
-        }
-        for (k, p) in coupling.probes.iter().enumerate() {
-            let f = format!("coupling.probes[{k}]");
-            let lo = crate::scene::solid::vec3(&format!("{f}.min"), &p.min, dim, false)?;
-            let hi = crate::scene::solid::vec3(&format!("{f}.max"), &p.max, dim, false)?;
-            if (0..dim).any(|a| lo[a] > hi[a]) {
-                return err(format!("{f}.max"), "must not be below min on any axis");
-            }
-            if p.name.is_empty() || !p.name.chars().all(|ch| ch.is_ascii_alphanumeric() || ch == '_') {
-                return err(format!("{f}.name"), format!("must be a non-empty column name of letters, digits and _, got {:?}", p.name));
-            }
-        }
-        if coupling.output_every == Some(0) {
-            return err("coupling.output_every", "must be at least 1");
-        }
-        if let Some(r) = coupling.wall_temperature_ratio {
-            if !(r.is_finite() && r > 0.0) {
-                return err("coupling.wall_temperature_ratio", format!("must be a positive multiple of T₀, got {r}"));
-            }
-            super::build::wall_theta_in_window(&fluid.set, r * fluid.units.theta0, "coupling.wall_temperature_ratio")?;
-        }
-        // The weak coupling hands the air's force to the solid one step late: with air denser
-        // than the body its added mass makes that explicit exchange unstable. Measured: a free
-        // disc hit by a pressure pulse is stable at ρ_f/ρ_s = 5 and diverges at 6.7
-        // (validation::fsi::added_mass_stability); a clamped one (fsi_cylinder) holds to 30;
-        // at 10⁶ it diverged in the first step (the fuzzed reader found it). The free body's
-        // limit is the bound. Method 2 puts the air's added mass into the solid's update
-        // (2.129): the same free disc is stable at every ratio tried up to 10⁶; its bound,
-        // MAX_DENSITY_RATIO_CONSERVING, keeps three decades of that untried elsewhere.
-        let rho_f = fluid.file.gas.density;
-        let (limit, which) = match coupling.method {
-            CouplingMethod::Weak => (MAX_DENSITY_RATIO, "the weak coupling"),
-            CouplingMethod::MomentumConserving => (MAX_DENSITY_RATIO_CONSERVING, "method 2 (measured on a free disc)"),
-        };
-        if let Some(rho_s) = solid.materials.iter().map(|m| m.density).reduce(f64::min)
-            && rho_f / rho_s > limit
-        {
-            return err(
-                "gas.density",
-                format!(
-                    "{rho_f} is {:.3e} times the lightest solid material's density {rho_s}; {which} is unstable or untried above a ratio of {limit:e} (added mass)",
-                    rho_f / rho_s
-                ),
-            );
-        }
-        // The air's viscous traction on a surface particle acts, across the one-step lag of the
-        // weak coupling, as a damper c ≈ μ l₀^(d−1)/Δx (shear stress μ v/Δx on its face) on a
-        // mass m = ρ_s l₀^d: explicit, it is stable only for Δt c/m < 2, i.e.
-        // Δt < 2 ρ_s l₀ Δx / μ (the fuzzed reader found the divergence at μ × 10⁶).
-        if let Some(rho_s) = solid.materials.iter().map(|m| m.density).reduce(f64::min) {
-            let mu = fluid.file.gas.viscosity;
-            let dt = fluid.params.dt * fluid.units.time();
-            let limit = 2.0 * rho_s * s.spacing * dx / mu;
-            if dt >= limit {
-                return err(
-                    "gas.viscosity",
-                    format!(
-                        "{mu} makes the air's viscous traction too stiff for the weak coupling: its fluid step {dt:.3e} must stay below 2 ρ_s l₀ Δx / μ = {limit:.3e}"
-                    ),
-                );
-            }
-        }
-        let size = &fluid.file.domain.size;
-        for (k, b) in s.bodies.iter().enumerate() {
-            let (lo, hi) = body_bounds(b, dim, s.spacing);
-            let what = if b.fold.is_some() { "its free part (all but the clamped lateral strip)" } else { "it" };
-            for a in 0..dim {
-                if lo[a] < 0.0 || hi[a] > size[a] {
-                    return err(
-                        format!("solid.bodies[{k}]"),
-                        format!("{what} extends over [{}, {}] along axis {a}, outside the domain [0, {}]", lo[a], hi[a], size[a]),
-                    );
-                }
-            }
-            if let Some(f) = &b.fold {
-                f.check_attached(&format!("solid.bodies[{k}].fold"), size)?;
-            }
-        }
-        for (k, m) in coupling.motions.iter().enumerate() {
-            if m.body >= s.bodies.len() {
-                return err(format!("coupling.motions[{k}].body"), format!("no body {} (there are {})", m.body, s.bodies.len()));
-            }
-            if coupling.motions[..k].iter().any(|o| o.body == m.body) {
-                return err(format!("coupling.motions[{k}].body"), format!("body {} already has a motion", m.body));
-            }
-            let finite = match &m.motion {
-                Motion::Translation { velocity } => velocity.iter().all(|v| v.is_finite()),
-                Motion::Rotation { centre, angular_velocity } => centre.iter().all(|v| v.is_finite()) && angular_velocity.is_finite(),
-                Motion::Harmonic { amplitude, frequency } => amplitude.iter().all(|v| v.is_finite()) && frequency.is_finite() && *frequency >= 0.0,
-            };
-            if !finite {
-                return err(format!("coupling.motions[{k}].motion"), "every value must be finite (and the frequency ≥ 0)");
-            }
-            // the body's largest speed (a rotation's at the farthest corner of its box)
-            let speed = match &m.motion {
-                Motion::Translation { velocity } => DVec3::from_array(*velocity).length(),
-                Motion::Rotation { centre, angular_velocity } => {
-                    let (lo, hi) = body_bounds(&s.bodies[m.body], dim, s.spacing);
-                    let c = DVec3::from_array(*centre);
-                    let far = (0..8)
-                        .map(|i| DVec3::new([lo.x, hi.x][i & 1], [lo.y, hi.y][(i >> 1) & 1], [lo.z, hi.z][i >> 2]) - c)
-                        .map(|d| d.length())
-                        .fold(0.0, f64::max);
-                    angular_velocity.abs() * far
-                }
-                Motion::Harmonic { amplitude, frequency } => std::f64::consts::TAU * frequency * DVec3::from_array(*amplitude).length(),
-            };
-            fluid.count_set_speed(&format!("coupling.motions[{k}].motion"), speed)?;
-        }
+        check_method_settings(&coupling, s, &fluid)?;
+        check_dimension_and_spacing(&coupling, s, &fluid)?;
+        check_settings(&coupling, &fluid)?;
+        check_stability(&coupling, &solid, &fluid)?;
+        check_bodies_inside(s, &fluid)?;
+        count_motions(&coupling, s, &mut fluid)?;
         Ok(CoupledScene { fluid, solid, coupling })
     }
 
