@@ -253,7 +253,14 @@ impl SolidSolver {
         &self.stress
     }
 
-    /// Net force (internal + contact + external) of the last evaluation.
+    /// The bonds' forces on each particle (with the implicit step's rotation chain) of the
+    /// last `BondForces` stage: what the `Contact` stage adds the loads, gravity and contact to.
+    pub fn internal_force(&self) -> &[DVec3] {
+        &self.forces.force
+    }
+
+    /// Net force (internal + contact + external) of the last evaluation (after its `Contact`
+    /// stage).
     pub fn net_force(&self) -> &[DVec3] {
         &self.total_force
     }
@@ -381,13 +388,16 @@ impl SolidSolver {
                     // rotations slaved to positions (2.74): torques become forces
                     rotation_chain(&self.disc, &self.rot, &self.jinv, &self.forces.torque, &mut self.forces.force);
                 }
-                self.total_force.copy_from_slice(&self.forces.force);
-                self.total_torque.copy_from_slice(&self.forces.torque);
             }
             SolidStageKind::Contact => {
+                // the totals start from the bond forces and torques (the same sums as copying
+                // them and adding the loads: f + (load + m g))
                 let g = self.options.gravity;
-                let (load, mass) = (&p.load, &p.mass);
-                self.total_force.par_iter_mut().enumerate().for_each(|(i, f)| *f += load[i] + mass[i] * g);
+                let (load, mass, internal) = (&p.load, &p.mass, &self.forces);
+                (self.total_force.par_iter_mut(), self.total_torque.par_iter_mut()).into_par_iter().enumerate().for_each(|(i, (f, t))| {
+                    *f = internal.force[i] + (load[i] + mass[i] * g);
+                    *t = internal.torque[i];
+                });
                 if let Some(cp) = &self.options.contact {
                     let inp = ContactInput { x: &p.position, v: &p.velocity, rot: &self.rot, body: &p.body, fixed: &p.fixed, diameter: p.spacing };
                     self.contacts.apply(cp, &self.options.walls, &inp, &mut self.total_force, &mut self.total_torque);

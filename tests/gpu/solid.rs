@@ -29,7 +29,7 @@ fn solid_kernels_match_their_cpu_twins() {
                     }
                     phonation::stages::SolidStageKind::BondForces => {
                         // the CPU adds loads and gravity in its Contact stage: compare internal forces
-                        let f = cpu.net_force().to_vec();
+                        let f = cpu.internal_force().to_vec();
                         ("forces", rel_vec(&gpu.download_vectors(SolidArray::Force), &f), 1e-4)
                     }
                     phonation::stages::SolidStageKind::Contact => continue,
@@ -280,7 +280,7 @@ fn solid_contact_matches_the_cpu() {
             cpu.run_single_stage(st.kind);
             gpu.run_stage(st.kind);
             if st.kind == phonation::stages::SolidStageKind::BondForces {
-                before = cpu.net_force().to_vec();
+                before = cpu.internal_force().to_vec();
             }
             if st.kind == phonation::stages::SolidStageKind::Contact {
                 let p = &cpu.particles;
