@@ -4,13 +4,14 @@
 //! goes unstable stops with the diagnosis and keeps everything written so far (plus a last
 //! snapshot of the last finite state).
 
+use super::glottal_record::{GLOTTAL_COLUMNS, GlottalRecord, glottal_from_values, glottal_values};
 use super::{RunOptions, checkpoint};
 use crate::analysis::voice::VoiceOptions;
 use crate::coupling::CoupledSolver;
-use crate::coupling::glottis::GlottalSample;
+use crate::coupling::glottis::{GlottalSample, Glottis};
 use crate::fluid::Totals;
 use crate::output::probes::ProbeWriter;
-use crate::output::voice::{GlottalSeries, write_voice_outputs};
+use crate::output::voice::write_voice_outputs;
 pub use crate::run::particle_probes::ParticleProbeReport;
 use crate::run::particle_probes::probe_reports;
 use crate::run::solid::write_vtk;
@@ -124,77 +125,6 @@ pub struct GlottisReport {
     pub no_voice: Option<String>,
 }
 
-/// Glottal samples of a run, one per probe interval, each also written and flushed to
-/// `glottal_flow.csv` as it is taken (a run that stops keeps them).
-struct GlottalRecord {
-    samples: Vec<GlottalSample>,
-    csv: std::io::BufWriter<std::fs::File>,
-    dt: f64,
-}
-
-/// The columns of `glottal_flow.csv` after `t_s` (the flow first, as `phonation analyze` reads).
-/// The air's power on the folds by part ([`crate::coupling::glottis::AIR_POWER_PARTS`]) and
-/// their kinetic energy come last: `voice::AIR_POWER_PREFIX`, `voice::KINETIC_ENERGY_COLUMN`; the
-/// margins are read by name too (`voice::LOWER_MARGIN_COLUMN`, `voice::UPPER_MARGIN_COLUMN`).
-const GLOTTAL_COLUMNS: [&str; 10] = [
-    "flow_cm3_s",
-    "area_cm2",
-    "gap_cm",
-    "narrowest_y_cm",
-    crate::output::voice::LOWER_MARGIN_COLUMN,
-    crate::output::voice::UPPER_MARGIN_COLUMN,
-    "air_power_inferior_erg_s",
-    "air_power_medial_erg_s",
-    "air_power_superior_erg_s",
-    crate::output::voice::KINETIC_ENERGY_COLUMN,
-];
-
-fn glottal_values(s: &GlottalSample) -> [f64; 10] {
-    let [pi, pm, ps] = s.air_power;
-    [s.flow, s.area, s.gap, s.narrowest_y, s.lower_margin, s.upper_margin, pi, pm, ps, s.kinetic_energy]
-}
-
-/// The inverse of [`glottal_values`].
-fn glottal_from_values(v: &[f64]) -> GlottalSample {
-    GlottalSample {
-        flow: v[0],
-        area: v[1],
-        gap: v[2],
-        narrowest_y: v[3],
-        lower_margin: v[4],
-        upper_margin: v[5],
-        air_power: [v[6], v[7], v[8]],
-        kinetic_energy: v[9],
-    }
-}
-
-impl GlottalRecord {
-    /// A new file with its header, or (`resumed`) the existing one continued.
-    fn open(path: &Path, dt: f64, resumed: bool) -> std::io::Result<Self> {
-        let mut csv = std::io::BufWriter::new(checkpoint::output_file(path, resumed)?);
-        if !resumed {
-            writeln!(csv, "t_s,{}", GLOTTAL_COLUMNS.join(","))?;
-        }
-        Ok(Self { samples: Vec::new(), csv, dt })
-    }
-
-    fn push(&mut self, s: GlottalSample) -> std::io::Result<()> {
-        write!(self.csv, "{:.9e}", self.samples.len() as f64 * self.dt)?;
-        for v in glottal_values(&s) {
-            write!(self.csv, ",{v:.9e}")?;
-        }
-        writeln!(self.csv)?;
-        self.csv.flush()?;
-        self.samples.push(s);
-        Ok(())
-    }
-
-    fn series(&self) -> GlottalSeries {
-        let col = |k: usize| (GLOTTAL_COLUMNS[k].to_string(), self.samples.iter().map(|s| glottal_values(s)[k]).collect::<Vec<f64>>());
-        GlottalSeries { dt: self.dt, flow: col(0).1, columns: (1..GLOTTAL_COLUMNS.len()).map(col).collect() }
-    }
-}
-
 /// The particles of each of the scene's particle probes (`coupling.probes`; the build refused
 /// a probe that selects none).
 fn particle_probes(sc: &CoupledScene, c: &CoupledSolver) -> Vec<(String, Vec<usize>)> {
@@ -263,6 +193,125 @@ fn csv_row(c: &CoupledSolver, probe_d: &[glam::DVec3], totals: &Totals, cg: (usi
     r
 }
 
+/// What a coupled run writes as it goes — `coupling.csv`, the fluid probes, the glottal record,
+/// the snapshots — each row flushed as it is written (a run that stops keeps them), with what
+/// its summary and checkpoints need of them.
+struct Outputs<'a> {
+    sc: &'a CoupledScene,
+    dir: &'a Path,
+    csv: std::io::BufWriter<std::fs::File>,
+    probes: ProbeWriter,
+    glottal: Option<GlottalRecord>,
+    particle_probes: Vec<(String, Vec<usize>)>,
+    /// Each particle probe's transverse displacement, sampled every `output_every` steps.
+    probe_samples: Vec<(f64, Vec<f64>)>,
+    files: Vec<PathBuf>,
+    /// The snapshots written.
+    k_snap: u64,
+    /// The air's mass at the start (the run's, not the resumed part's).
+    m0: f64,
+}
+
+impl<'a> Outputs<'a> {
+    /// The files of a run of `sc` into `dir` (continued when `resumed`), the glottal record
+    /// for a glottis (`glottis`) sampled every `probe_every` steps.
+    fn open(sc: &'a CoupledScene, dir: &'a Path, c: &CoupledSolver, glottis: bool, probe_every: u64, resumed: bool) -> anyhow::Result<Self> {
+        let files = vec![dir.join("coupling.csv"), dir.join("probes.csv")];
+        let csv = std::io::BufWriter::new(checkpoint::output_file(&files[0], resumed)?);
+        let probes = ProbeWriter::open(&files[1], &c.fluid, &sc.fluid.probes, resumed)?;
+        let mut out =
+            Outputs { sc, dir, csv, probes, glottal: None, particle_probes: particle_probes(sc, c), probe_samples: Vec::new(), files, k_snap: 0, m0: 0.0 };
+        if glottis {
+            let path = out.glottal_path();
+            out.glottal = Some(GlottalRecord::open(&path, c.dt() * probe_every as f64, resumed)?);
+            out.files.push(path);
+        }
+        Ok(out)
+    }
+
+    fn glottal_path(&self) -> PathBuf {
+        self.dir.join("glottal_flow.csv")
+    }
+
+    /// A fresh run's first rows: the header and the state at step 0.
+    fn start(&mut self, c: &CoupledSolver, glottis: Option<&Glottis>) -> anyhow::Result<()> {
+        writeln!(self.csv, "{}", csv_header(c, &self.particle_probes))?;
+        let d = probe_displacements(c, &self.particle_probes);
+        writeln!(self.csv, "{}", csv_row(c, &d, &c.fluid.totals(), (0, 0.0)))?;
+        self.probe_samples.push((c.time, d.iter().map(|d| d.y).collect()));
+        self.csv.flush()?;
+        self.probes.sample(&c.fluid, &self.sc.fluid.units)?;
+        if let (Some(g), Some(r)) = (glottis, &mut self.glottal) {
+            r.push(g.sample(c))?;
+        }
+        self.m0 = c.fluid.totals().mass;
+        Ok(())
+    }
+
+    /// A resumed run's record (`r`, the checkpoint's): the files, snapshots and glottal
+    /// samples written before, the air's initial mass.
+    fn resume(&mut self, r: &serde_json::Value) -> anyhow::Result<()> {
+        self.files.extend(checkpoint::names(&r["files"]).into_iter().map(|n| self.dir.join(n)));
+        if let Some(g) = &mut self.glottal {
+            let v = checkpoint::from_bits(&r["glottal_samples"], "glottal_samples")?;
+            // written before the air's power joined the record: 6 columns
+            let columns = r["glottal_columns"].as_u64().unwrap_or(6) as usize;
+            if columns != GLOTTAL_COLUMNS.len() {
+                anyhow::bail!(
+                    "--resume: the checkpoint's glottal record has {columns} columns and this version writes {} (glottal_flow.csv gained the air's power on the folds); rerun the scene from its start",
+                    GLOTTAL_COLUMNS.len()
+                );
+            }
+            g.samples = v.chunks_exact(GLOTTAL_COLUMNS.len()).map(glottal_from_values).collect();
+        }
+        self.m0 = checkpoint::from_bits(&r["m0"], "m0")?[0];
+        self.k_snap = r["k_snap"].as_u64().unwrap_or(0);
+        Ok(())
+    }
+
+    /// A `coupling.csv` row of the state `c` (its last CG solve `cg`); `sampled`: a row of the
+    /// uniform schedule (not the last step's extra row), whose probe displacements the
+    /// oscillation's analysis takes.
+    fn row(&mut self, c: &CoupledSolver, totals: &Totals, cg: (usize, f64), sampled: bool) -> std::io::Result<()> {
+        let d = probe_displacements(c, &self.particle_probes);
+        writeln!(self.csv, "{}", csv_row(c, &d, totals, cg))?;
+        self.csv.flush()?;
+        if sampled {
+            self.probe_samples.push((c.time, d.iter().map(|d| d.y).collect()));
+        }
+        Ok(())
+    }
+
+    /// Snapshot `k`: the air's fields, the particles and the bodies' surfaces.
+    fn snapshot(&mut self, c: &CoupledSolver, k: u64) -> std::io::Result<()> {
+        super::snapshot(&c.fluid, &self.sc.fluid, self.dir, k, &mut self.files)?;
+        let path = self.dir.join(format!("particles_{k:03}.vtk"));
+        write_vtk(&c.solid, &path)?;
+        self.files.push(path);
+        let path = self.dir.join(format!("surface_{k:03}.vtk"));
+        crate::output::mesh::write_mesh_vtk(&path, &super::surface::coupled_surface(c), &format!("phonation body surfaces t = {:.6e} s", c.time))?;
+        self.files.push(path);
+        Ok(())
+    }
+
+    /// What a checkpoint records of the outputs so that a resumed run continues them.
+    fn checkpoint_record(&self) -> serde_json::Value {
+        let glottal_path = self.glottal_path();
+        let names = checkpoint::file_names(self.files[2..].iter().filter(|f| **f != glottal_path));
+        let samples: Vec<f64> = self.glottal.iter().flat_map(|r| r.samples.iter().flat_map(glottal_values)).collect();
+        serde_json::json!({"m0": checkpoint::bits(&[self.m0]), "k_snap": self.k_snap, "files": names, "glottal_samples": checkpoint::bits(&samples), "glottal_columns": GLOTTAL_COLUMNS.len()})
+    }
+
+    /// The output files a checkpoint stands with.
+    fn checkpointed_outputs(&self) -> Vec<&'static str> {
+        let mut outputs = vec!["coupling.csv", "probes.csv"];
+        if self.glottal.is_some() {
+            outputs.push("glottal_flow.csv");
+        }
+        outputs
+    }
+}
+
 /// Runs `sc` for its duration (or `opts.steps`), writing into `dir`, with checkpoints and
 /// resume as `opts.checkpoint` says, on the backend `opts.backend` picks (the GPU runs method 2,
 /// [`crate::gpu::coupled::GpuCoupled`]; `auto` takes it only on a hardware GPU).
@@ -271,76 +320,26 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
     ck.validate()?;
     let built = std::time::Instant::now();
     let mut c = sc.build()?;
-    let particle_probes = particle_probes(sc, &c);
-    let mut probe_samples: Vec<(f64, Vec<f64>)> = Vec::new();
     std::fs::create_dir_all(dir)?;
     let record = ck.restore(&mut c, dir)?.cloned();
     let mut engine = super::CoupledEngine::new(opts.backend, c, sc.solid.file.solid.cg_tolerance)?;
     engine.ask_level_sets(opts.level_sets);
     let build_s = built.elapsed().as_secs_f64();
     let c = engine.solver();
-    let resumed = record.is_some();
-    let resumed_from_step = resumed.then_some(c.step_count);
+    let resumed_from_step = record.is_some().then_some(c.step_count);
     let total = ck.total(opts.steps, sc.fluid.steps);
     let every = sc.coupling.output_every.unwrap_or(10);
-    let fluid_scene = &sc.fluid;
-    let mut files = vec![dir.join("coupling.csv"), dir.join("probes.csv")];
-    let mut csv = std::io::BufWriter::new(checkpoint::output_file(&files[0], resumed)?);
-    let mut probes = ProbeWriter::open(&files[1], &c.fluid, &fluid_scene.probes, resumed)?;
-    let snaps = fluid_scene.file.output.snapshots;
+    let snaps = sc.fluid.file.output.snapshots;
     let snap_every = total.checked_div(snaps).map_or(u64::MAX, |k| k.max(1));
-    let probe_every = fluid_scene.file.output.probe_every.max(1);
+    let probe_every = sc.fluid.file.output.probe_every.max(1);
     let glottis = sc.glottis(c);
-    let glottal_path = dir.join("glottal_flow.csv");
-    let mut record_g = match &glottis {
-        Some(_) => {
-            files.push(glottal_path.clone());
-            Some(GlottalRecord::open(&glottal_path, c.dt() * probe_every as f64, resumed)?)
-        }
-        None => None,
-    };
-    let (m0, mut k_snap) = match &record {
-        Some(r) => {
-            files.extend(checkpoint::names(&r["files"]).into_iter().map(|n| dir.join(n)));
-            if let Some(g) = &mut record_g {
-                let v = checkpoint::from_bits(&r["glottal_samples"], "glottal_samples")?;
-                // written before the air's power joined the record: 6 columns
-                let columns = r["glottal_columns"].as_u64().unwrap_or(6) as usize;
-                if columns != GLOTTAL_COLUMNS.len() {
-                    anyhow::bail!(
-                        "--resume: the checkpoint's glottal record has {columns} columns and this version writes {} (glottal_flow.csv gained the air's power on the folds); rerun the scene from its start",
-                        GLOTTAL_COLUMNS.len()
-                    );
-                }
-                g.samples = v.chunks_exact(GLOTTAL_COLUMNS.len()).map(glottal_from_values).collect();
-            }
-            (checkpoint::from_bits(&r["m0"], "m0")?[0], r["k_snap"].as_u64().unwrap_or(0))
-        }
-        None => {
-            writeln!(csv, "{}", csv_header(c, &particle_probes))?;
-            let d = probe_displacements(c, &particle_probes);
-            writeln!(csv, "{}", csv_row(c, &d, &c.fluid.totals(), (0, 0.0)))?;
-            probe_samples.push((c.time, d.iter().map(|d| d.y).collect()));
-            csv.flush()?;
-            probes.sample(&c.fluid, &fluid_scene.units)?;
-            if let (Some(g), Some(r)) = (&glottis, &mut record_g) {
-                r.push(g.sample(c))?;
-            }
-            (c.fluid.totals().mass, 0)
-        }
-    };
-    let snapshot = |c: &CoupledSolver, k: u64, files: &mut Vec<PathBuf>| -> std::io::Result<()> {
-        super::snapshot(&c.fluid, fluid_scene, dir, k, files)?;
-        let path = dir.join(format!("particles_{k:03}.vtk"));
-        write_vtk(&c.solid, &path)?;
-        files.push(path);
-        let path = dir.join(format!("surface_{k:03}.vtk"));
-        crate::output::mesh::write_mesh_vtk(&path, &super::surface::coupled_surface(c), &format!("phonation body surfaces t = {:.6e} s", c.time))?;
-        files.push(path);
-        Ok(())
-    };
+    let mut out = Outputs::open(sc, dir, c, glottis.is_some(), probe_every, record.is_some())?;
+    match &record {
+        Some(r) => out.resume(r)?,
+        None => out.start(c, glottis.as_ref())?,
+    }
     let progress = opts.show_progress.then_some("coupled steps");
-    let probe_nodes = probes.nodes();
+    let probe_nodes = out.probes.nodes();
     let outcome = super::driver::drive_until(&mut engine, total, opts.stop_at, &[every, probe_every, snap_every, ck.period()], progress, |e, t| {
         // on the GPU each read brings back what it needs (see run::coupled_engine); a read that
         // fails writes nothing, and the next advance (or the end) stops the run with it
@@ -348,14 +347,9 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
             let Ok(totals) = e.totals() else { return Ok(()) };
             let (_, last_cg) = e.cg();
             let Ok(c) = e.observe(|_| Vec::new()) else { return Ok(()) };
-            let d = probe_displacements(c, &particle_probes);
-            writeln!(csv, "{}", csv_row(c, &d, &totals, last_cg))?;
-            csv.flush()?;
             // uniformly sampled (not the last step's extra row): the oscillation needs a
             // constant interval
-            if t.hit[0] {
-                probe_samples.push((c.time, d.iter().map(|d| d.y).collect()));
-            }
+            out.row(c, &totals, last_cg, t.hit[0])?;
         }
         if t.hit[1] || t.last {
             let mut section = None;
@@ -370,35 +364,28 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
             }) else {
                 return Ok(());
             };
-            probes.sample(&c.fluid, &fluid_scene.units)?;
+            out.probes.sample(&c.fluid, &sc.fluid.units)?;
             // uniformly sampled: the voice measures need a constant interval
             if t.hit[1]
-                && let Some(r) = &mut record_g
+                && let Some(r) = &mut out.glottal
             {
                 let s = section.unwrap_or_else(|| glottis.as_ref().expect("a glottal record has a glottis").section(c));
                 r.push(s.sample(&c.fluid))?;
             }
         }
-        if t.hit[2] && k_snap < snaps {
+        if t.hit[2] && out.k_snap < snaps {
             let Ok(c) = e.state() else { return Ok(()) };
-            k_snap += 1;
-            snapshot(c, k_snap, &mut files)?;
+            out.k_snap += 1;
+            out.snapshot(c, out.k_snap)?;
         }
         if t.hit[3] {
             let Ok(c) = e.state() else { return Ok(()) };
-            let names = checkpoint::file_names(files[2..].iter().filter(|f| **f != glottal_path));
-            let samples: Vec<f64> = record_g.iter().flat_map(|r| r.samples.iter().flat_map(glottal_values)).collect();
-            let record = serde_json::json!({"m0": checkpoint::bits(&[m0]), "k_snap": k_snap, "files": names, "glottal_samples": checkpoint::bits(&samples), "glottal_columns": GLOTTAL_COLUMNS.len()});
-            let mut outputs = vec!["coupling.csv", "probes.csv"];
-            if record_g.is_some() {
-                outputs.push("glottal_flow.csv");
-            }
-            ck.save(dir, t.step, total, c, record, &outputs)?;
+            ck.save(dir, t.step, total, c, out.checkpoint_record(), &out.checkpointed_outputs())?;
         }
         Ok(())
     })?;
     if ck.writes() {
-        files.push(dir.join(checkpoint::FILE_NAME));
+        out.files.push(dir.join(checkpoint::FILE_NAME));
     }
     let wall = outcome.wall_s;
     let instability = outcome.instability;
@@ -410,19 +397,20 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
     let (cg_tally, _) = engine.cg();
     let c = engine.solver();
     if instability.is_some() {
-        snapshot(c, 999, &mut files)?;
+        out.snapshot(c, 999)?;
     }
-    let glottis_report = match &record_g {
-        Some(r) => Some(glottal_outputs(sc, dir, r, &mut files)?),
+    let glottis_report = match &out.glottal {
+        Some(r) => Some(glottal_outputs(sc, dir, r, &mut out.files)?),
         None => None,
     };
     let p = &c.solid.particles;
     let steps_here = c.step_count - resumed_from_step.unwrap_or(0);
-    let report = CoupledReport {
-        name: fluid_scene.file.name.clone(),
+    let m0 = out.m0;
+    let mut report = CoupledReport {
+        name: sc.fluid.file.name.clone(),
         backend: engine.name.clone(),
         method: sc.coupling.method.name().into(),
-        nodes: fluid_scene.grid.n,
+        nodes: sc.fluid.grid.n,
         particles: p.len(),
         substeps: c.substeps,
         dt: c.dt(),
@@ -445,14 +433,13 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
             wall_frame_momentum: e.wall_frame.to_array(),
         }),
         solid_cg: implicit(c).then_some(cg_tally),
-        particle_probes: probe_reports(&particle_probes.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(), &probe_samples, 0.5),
+        particle_probes: probe_reports(&out.particle_probes.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(), &out.probe_samples, 0.5),
         glottis: glottis_report,
         instability: instability.map(|e| e.to_string()),
         state_hash: state_hash(c),
         resumed_from_step,
-        files: files.clone(),
+        files: out.files,
     };
-    let mut report = report;
     report.files.push(super::write_summary(dir, &report)?);
     Ok(report)
 }

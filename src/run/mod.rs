@@ -18,6 +18,7 @@ pub mod checkpoint;
 pub mod coupled;
 mod coupled_engine;
 pub mod driver;
+mod glottal_record;
 pub mod lattice_gas;
 mod mirror;
 pub mod particle_probes;
