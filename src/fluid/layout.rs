@@ -1,7 +1,7 @@
 //! Classification of every padded node (fluid, ghost, inlet/outlet halo, periodic halo,
 //! inactive), the tables the boundary fill walks through and the stencils (with side ghosts) next to
 //! thin walls. Built once per scene, and once per step when bodies move ([`super::moving`]);
-//! the build's passes are in [`super::layout_build`].
+//! the build's passes are in `fluid/layout_build.rs`.
 
 use super::boundary::{Boundaries, Face};
 use super::geometry::{Obstacle, Shape, dot};
@@ -145,7 +145,7 @@ pub const PINCH: f64 = 0.5;
 
 impl Layout {
     /// Every node of `grid` classified, with `boundaries`' faces and `user_obstacles` (the
-    /// passes: [`super::layout_build`]).
+    /// passes: `fluid/layout_build.rs`).
     pub fn new(grid: Grid, boundaries: Boundaries, user_obstacles: &[Obstacle]) -> Self {
         Self::build(grid, boundaries, user_obstacles, None, &OnThePool)
     }
