@@ -76,6 +76,72 @@ pub fn write_vtk(s: &SolidSolver, path: &Path) -> std::io::Result<()> {
     w.flush()
 }
 
+/// The particles of each of the scene's region probes (name, particles whose reference
+/// position lies in its box).
+fn region_probes(sc: &SolidScene, s: &SolidSolver) -> Vec<(String, Vec<usize>)> {
+    let dim = sc.file.solid.dimension;
+    sc.file
+        .probes
+        .iter()
+        .map(|pr| {
+            let (lo, hi) = (vec3("", &pr.min, dim, false).unwrap(), vec3("", &pr.max, dim, false).unwrap());
+            (pr.name.clone(), (0..s.particles.len()).filter(|&i| inside(s.particles.reference[i], lo, hi, dim)).collect())
+        })
+        .collect()
+}
+
+/// The header of `solid.csv`: the energies, momenta, the last CG solve, the contact's largest
+/// overlap, then each probe's mean displacement.
+fn csv_header(probes: &[(String, Vec<usize>)]) -> String {
+    let mut header = "step,time,kinetic,elastic,external,total,px,py,pz,lx,ly,lz,cg_iterations,cg_residual,max_overlap".to_string();
+    for (n, _) in probes {
+        header += &format!(",{n}_ux,{n}_uy,{n}_uz");
+    }
+    header
+}
+
+/// One row of `solid.csv` for the state of `s`, written and flushed; returns its energies.
+fn csv_row(s: &mut SolidSolver, probes: &[(String, Vec<usize>)], csv: &mut std::io::BufWriter<std::fs::File>) -> anyhow::Result<crate::solid::Energies> {
+    let e = s.energies();
+    let (pm, am) = (s.particles.linear_momentum(), s.particles.angular_momentum());
+    let mut line = format!(
+        "{},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{},{:.3e},{:.4e}",
+        s.step_count,
+        s.time,
+        e.kinetic,
+        e.elastic,
+        e.external,
+        e.total(),
+        pm.x,
+        pm.y,
+        pm.z,
+        am.x,
+        am.y,
+        am.z,
+        s.last.cg.iterations,
+        s.last.cg.relative_residual,
+        s.contacts().max_overlap
+    );
+    for (_, idx) in probes {
+        let u: DVec3 = idx.iter().map(|&i| s.particles.position[i] - s.particles.reference[i]).sum::<DVec3>() / idx.len().max(1) as f64;
+        line += &format!(",{:.9e},{:.9e},{:.9e}", u.x, u.y, u.z);
+    }
+    writeln!(csv, "{line}")?;
+    csv.flush()?;
+    Ok(e)
+}
+
+/// Snapshot `k` into `dir`: the particles and the solid's surface (VTK).
+fn write_snapshot(s: &SolidSolver, dir: &Path, k: u64, files: &mut Vec<PathBuf>) -> std::io::Result<()> {
+    let f = dir.join(format!("particles_{k:04}.vtk"));
+    write_vtk(s, &f)?;
+    files.push(f);
+    let f = dir.join(format!("surface_{k:04}.vtk"));
+    crate::output::mesh::write_mesh_vtk(&f, &super::surface::solid_surface(s), &format!("phonation solid surface t = {:.6e}", s.time))?;
+    files.push(f);
+    Ok(())
+}
+
 /// Runs a solid scene, writing `solid.csv` (flushed per row), VTK snapshots and
 /// `summary.json` into `dir`. A non-finite state stops the run with a diagnosis; everything
 /// written so far is kept (plus a final snapshot).
@@ -100,60 +166,13 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, opts: &RunOptions) -> anyhow
     // GPU: the CPU solver mirrors the GPU state at every output (rows, snapshots)
     let mut engine = SolidEngine::new(backend, solver, sc.file.solid.cg_tolerance)?;
     let s = &mut engine.solver;
-    let dim = sc.file.solid.dimension;
     let total = ck.total(opts.steps, (sc.file.run.duration / s.dt).ceil() as u64).max(1);
     let every = sc.file.run.output_every.unwrap_or(10).max(1);
     let snaps = sc.file.run.snapshots.unwrap_or(10).max(1);
     let snap_every = (total / snaps).max(1);
-    let probes: Vec<(String, Vec<usize>)> = sc
-        .file
-        .probes
-        .iter()
-        .map(|pr| {
-            let (lo, hi) = (vec3("", &pr.min, dim, false).unwrap(), vec3("", &pr.max, dim, false).unwrap());
-            (pr.name.clone(), (0..s.particles.len()).filter(|&i| inside(s.particles.reference[i], lo, hi, dim)).collect())
-        })
-        .collect();
+    let probes = region_probes(sc, s);
     let mut files = vec![dir.join("solid.csv")];
     let mut csv = std::io::BufWriter::new(checkpoint::output_file(&files[0], record.is_some())?);
-    let row = |s: &mut SolidSolver, csv: &mut std::io::BufWriter<std::fs::File>| -> anyhow::Result<crate::solid::Energies> {
-        let e = s.energies();
-        let (pm, am) = (s.particles.linear_momentum(), s.particles.angular_momentum());
-        let mut line = format!(
-            "{},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{},{:.3e},{:.4e}",
-            s.step_count,
-            s.time,
-            e.kinetic,
-            e.elastic,
-            e.external,
-            e.total(),
-            pm.x,
-            pm.y,
-            pm.z,
-            am.x,
-            am.y,
-            am.z,
-            s.last.cg.iterations,
-            s.last.cg.relative_residual,
-            s.contacts().max_overlap
-        );
-        for (_, idx) in &probes {
-            let u: DVec3 = idx.iter().map(|&i| s.particles.position[i] - s.particles.reference[i]).sum::<DVec3>() / idx.len().max(1) as f64;
-            line += &format!(",{:.9e},{:.9e},{:.9e}", u.x, u.y, u.z);
-        }
-        writeln!(csv, "{line}")?;
-        csv.flush()?;
-        Ok(e)
-    };
-    let snap = |s: &SolidSolver, k: u64, files: &mut Vec<PathBuf>| -> std::io::Result<()> {
-        let f = dir.join(format!("particles_{k:04}.vtk"));
-        write_vtk(s, &f)?;
-        files.push(f);
-        let f = dir.join(format!("surface_{k:04}.vtk"));
-        crate::output::mesh::write_mesh_vtk(&f, &super::surface::solid_surface(s), &format!("phonation solid surface t = {:.6e}", s.time))?;
-        files.push(f);
-        Ok(())
-    };
     // (initial energy, largest drift so far, largest kinetic + elastic energy so far)
     let (e0, mut drift, mut scale_e) = match &record {
         Some(r) => {
@@ -163,27 +182,23 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, opts: &RunOptions) -> anyhow
             (v[0], v[1], v[2])
         }
         None => {
-            let mut header = "step,time,kinetic,elastic,external,total,px,py,pz,lx,ly,lz,cg_iterations,cg_residual,max_overlap".to_string();
-            for (n, _) in &probes {
-                header += &format!(",{n}_ux,{n}_uy,{n}_uz");
-            }
-            writeln!(csv, "{header}")?;
-            let first = row(s, &mut csv)?;
-            snap(s, 0, &mut files)?;
+            writeln!(csv, "{}", csv_header(&probes))?;
+            let first = csv_row(s, &probes, &mut csv)?;
+            write_snapshot(s, dir, 0, &mut files)?;
             (first.total(), 0.0, first.kinetic + first.elastic)
         }
     };
     let outcome = driver::drive_until(&mut engine, total, opts.stop_at, &[every, snap_every, ck.period()], Some("steps"), |e, t| {
         let s = &mut e.solver;
         if t.hit[0] || t.last {
-            let e = row(s, &mut csv)?;
+            let e = csv_row(s, &probes, &mut csv)?;
             scale_e = scale_e.max(e.kinetic + e.elastic);
             if scale_e > 0.0 {
                 drift = drift.max((e.total() - e0).abs() / scale_e);
             }
         }
         if t.hit[1] {
-            snap(s, t.step / snap_every, &mut files)?;
+            write_snapshot(s, dir, t.step / snap_every, &mut files)?;
         }
         if t.hit[2] {
             let record = serde_json::json!({"energy": checkpoint::bits(&[e0, drift, scale_e]), "files": checkpoint::file_names(&files[1..])});
@@ -193,7 +208,7 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, opts: &RunOptions) -> anyhow
     })?;
     let s = &engine.solver;
     if outcome.instability.is_some() {
-        snap(s, 999, &mut files)?;
+        write_snapshot(s, dir, 999, &mut files)?;
     }
     if ck.writes() {
         files.push(dir.join(checkpoint::FILE_NAME));
