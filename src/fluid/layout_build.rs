@@ -10,8 +10,9 @@
 //! 7. **thin taps**: the stencils next to walls thinner than the upwind stencil;
 //! 8. **wall faces**: the fluid nodes next to a wall.
 //!
-//! Each pass runs on the pool's threads in node order (the same answers as one by one) and
-//! tells [`LevelSetQueries::part_timed`] how long it took ([`LayoutPart`]). Units: lattice cells.
+//! The passes over the recomputed nodes and the ghosts run on the pool's threads, collected in
+//! node order (the same answers as one by one); the lists' merges are serial. Each part tells
+//! [`LevelSetQueries::part_timed`] how long it took ([`LayoutPart`]). Units: lattice cells.
 
 use super::boundary::{Boundaries, Face, FaceCondition};
 use super::geometry::{Obstacle, Outside, Shape};
