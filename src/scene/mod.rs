@@ -3,6 +3,7 @@
 
 pub mod build;
 pub mod coupled;
+mod fluid_parts;
 pub mod fold;
 pub mod glottis;
 pub mod kind;

@@ -5,12 +5,18 @@ use super::cpu::CpuRates;
 use super::{lattice_gas_header, lattice_gas_row, percent, solid_row, stages};
 use phonation::gpu::GpuContext;
 
-/// What the GPU suites measure (`wants`: whether a suite was asked for).
+/// What the GPU suites measure (`only`: the one suite asked for, all when `None`).
 pub struct GpuRun<'a> {
     pub quick: bool,
     pub only: Option<&'a str>,
-    pub wants: &'a dyn Fn(&str) -> bool,
     pub cpu: &'a CpuRates,
+}
+
+impl GpuRun<'_> {
+    /// Whether `suite` was asked for.
+    fn wants(&self, suite: &str) -> bool {
+        self.only.is_none_or(|o| o == suite)
+    }
 }
 
 /// The drawing kernels (marching cubes, tracers, the glottis's fold surface): their CPU twins
@@ -56,7 +62,7 @@ pub fn measure(run: &GpuRun) -> anyhow::Result<serde_json::Value> {
 /// The FDLB on the device against the copy kernel's bandwidth `bw` and the CPU's rate.
 fn fdlb(ctx: &GpuContext, run: &GpuRun, bw: f64) -> Vec<phonation::bench::LatticeSpeed> {
     use phonation::fluid::VelocitySetKind::{D2q21, D3q39};
-    let sizes: Vec<(phonation::fluid::VelocitySetKind, [usize; 3])> = if !(run.wants)("fdlb") {
+    let sizes: Vec<(phonation::fluid::VelocitySetKind, [usize; 3])> = if !run.wants("fdlb") {
         vec![]
     } else if run.quick {
         vec![(D2q21, [256, 256, 1]), (D3q39, [32, 32, 32])]
@@ -113,7 +119,7 @@ fn fdlb(ctx: &GpuContext, run: &GpuRun, bw: f64) -> Vec<phonation::bench::Lattic
 fn solid(ctx: &GpuContext, run: &GpuRun, bw: f64) -> Vec<phonation::solid::bench::SolidSpeed> {
     use phonation::solid::{Integrator, Preconditioner};
     let mut rows = Vec::new();
-    if !(run.wants)("solid") {
+    if !run.wants("solid") {
         return rows;
     }
     println!("GPU MPS solid:");
@@ -147,7 +153,7 @@ fn solid(ctx: &GpuContext, run: &GpuRun, bw: f64) -> Vec<phonation::solid::bench
 /// The lattice gas on the device up to the seed's lattice, with what a probe sample costs.
 fn lattice_gas(ctx: &GpuContext, run: &GpuRun, bw: f64) -> (Vec<phonation::lattice_gas::bench::LatticeGasSpeed>, Vec<phonation::bench::ReadbackCost>) {
     let (mut rows, mut readback) = (Vec::new(), Vec::new());
-    if !(run.wants)("lattice_gas") {
+    if !run.wants("lattice_gas") {
         return (rows, readback);
     }
     lattice_gas_header();
@@ -180,13 +186,13 @@ fn lattice_gas(ctx: &GpuContext, run: &GpuRun, bw: f64) -> (Vec<phonation::latti
 /// work per step and the ceiling it puts on any device.
 fn coupled(run: &GpuRun) -> anyhow::Result<Vec<phonation::gpu::bench::CoupledGpuSpeed>> {
     let mut scenes: Vec<(&str, String)> = Vec::new();
-    if (run.wants)("coupled") {
+    if run.wants("coupled") {
         // the Wall flap (method 2) at its built-in resolution (D = 20 cells) and at D = 30
         let flap = phonation::scene::builtin("wall_flap_conserving").expect("built in");
         let finer = flap.replace("cells = [390, 240]", "cells = [585, 360]").replace("kernel_radius = 1.0 ", "kernel_radius = 1.5 ");
         scenes.extend([("wall_flap_conserving, D = 20", flap.to_string()), ("wall_flap_conserving, D = 30", finer)]);
     }
-    if (run.wants)("glottis") {
+    if run.wants("glottis") {
         // the coupled 2D glottis (method 1, as the seed): the coarse scene and the seed's lattice
         scenes.push(("glottis_2d_coarse", phonation::scene::builtin("glottis_2d_coarse").expect("built in").to_string()));
         // the coarse 3D glottis (method 2): thick folds, whose ghosts' wall points the

@@ -99,7 +99,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         report.insert("drawing".into(), gpu::drawing(ctx.as_ref(), quick)?);
     }
     if backend != BenchBackend::Cpu {
-        let run = gpu::GpuRun { quick, only: only.as_deref(), wants: &wants, cpu: &cpu_rates };
+        let run = gpu::GpuRun { quick, only: only.as_deref(), cpu: &cpu_rates };
         report.insert("gpu".into(), gpu::measure(&run)?);
     }
     if let Some(p) = json {
