@@ -22,14 +22,13 @@ use glam::{DMat3, DQuat, DVec3};
 mod bindings;
 mod contact;
 mod solve;
+mod upload;
 
 pub use contact::CONTACT_SLOTS;
 use contact::GpuContact;
 pub use solve::PATCH_MAX_PARTICLES;
-use solve::{PatchArrays, device_coarse, device_patches};
 
-use bindings::{Buf, Buffers, G0, G1, Kernel, Pipelines};
-use wgpu::util::DeviceExt;
+use bindings::{Buf, Buffers, Kernel, Pipelines};
 
 /// shaders/solid.wgsl (state, forces, explicit step) and shaders/solid_implicit.wgsl (the
 /// implicit method), one module.
@@ -119,148 +118,23 @@ impl GpuSolid {
     /// taken from the CPU solver (built at the reference configuration).
     pub fn from_solver(ctx: &GpuContext, s: &mut SolidSolver) -> Result<Self, GpuError> {
         let device = ctx.device.clone();
-        let n = s.particles.len();
-        let implicit = s.options.integrator == Integrator::Implicit;
-        let pre: Vec<[f32; 12]> = if implicit { s.preconditioner().blocks().iter().map(m3).collect() } else { vec![[0f32; 12]; n] };
         let limit = ctx.limits.max_storage_buffer_binding_size;
-        let wants_patches = implicit && s.options.preconditioner == Preconditioner::Patches;
-        if implicit {
-            // the options' smoother and the coarse space, as the CPU step builds them
-            s.prepare_preconditioner();
-        }
+        let blocks = upload::prepare_preconditioner(s);
         // the rest reads the solver only: the inverses go up from the solver's own array
         let s = &*s;
-        let patches = wants_patches.then(|| device_patches(s.built_patch_smoother().expect("built above"), limit));
-        let (preconditioner, patch_arrays, preconditioner_note) = match patches {
-            Some(Ok(a)) => (Preconditioner::Patches, a, None),
-            Some(Err(why)) => (Preconditioner::BlockJacobi, PatchArrays::default(), Some(why)),
-            None => (Preconditioner::BlockJacobi, PatchArrays::default(), None),
-        };
-        let coarse = match (implicit, s.coarse_space()) {
-            (false, _) => Err(None),
-            (true, None) => Err(Some(
-                "no coarse space (a periodic solid, an A_c not positive definite, or dropped by `SolidSolver::drop_coarse_space`): the smoother alone"
-                    .to_string(),
-            )),
-            (true, Some(c)) => device_coarse(c, &s.particles.reference, 4 * patch_arrays.inverse.len() as u64, limit).map_err(Some),
-        };
-        let (coarse, coarse_note) = match coarse {
-            Ok(c) => (Some(c), None),
-            Err(why) => (None, why),
-        };
-        let b = &s.disc.bonds;
-        let nb = b.len();
-        for (what, bytes) in [("bond arrays", 16 * nb as u64), ("stiffness array", 144 * n as u64), ("CG vectors", 112 * n as u64)] {
-            if bytes > limit {
-                return Err(GpuError::TooLarge { what, bytes, limit, unit: "bytes", limit_name: "max_storage_buffer_binding_size" });
-            }
-        }
-        let storage = |label: &str, data: &[u8]| {
-            let data: &[u8] = if data.is_empty() { &[0u8; 64] } else { data };
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: data,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-            })
-        };
+        let pre = upload::DevicePreconditioner::of(s, blocks, limit);
+        upload::check_sizes(s, limit)?;
+        let buffers = upload::create_buffers(ctx, s, &pre);
+        let (groups, pipelines) = upload::bind_and_compile(&device, &buffers);
         let p = &s.particles;
-        let zeros4 = vec![[0f32; 4]; n];
-        let zeros12 = vec![[0f32; 12]; n];
-        let params = Params { n: n as u32, dim: p.dim as u32, contact: 0, pad: 0, dt: s.dt as f32, _p: [0.0; 3], gravity: v4(s.options.gravity, 0.0) };
-        let r0: Vec<[f32; 4]> = (0..nb).map(|k| v4(b.r0[k], b.w_hat[k])).collect();
-        let stiffness: Vec<f32> = b.stiffness.iter().map(|k| *k as f32).collect();
-        let gr: Vec<[f32; 4]> = (0..nb).map(|k| v4(b.grad[k], b.damping[k])).collect();
-        let cs: Vec<f32> = s.disc.grad_stiffness.iter().flat_map(|c| c.iter().flat_map(|row| row.iter().map(|x| *x as f32))).collect();
-        let info: Vec<[f32; 4]> = (0..n).map(|i| [p.mass[i] as f32, p.inertia[i] as f32, p.volume[i] as f32, if p.fixed[i] { 1.0 } else { 0.0 }]).collect();
-        let bufs = Buffers::new(|buf| {
-            let name = buf.name();
-            match buf {
-                Buf::Params => device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("solid params"),
-                    contents: bytemuck::bytes_of(&params),
-                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                }),
-                Buf::Offs => storage(name, bytemuck::cast_slice(&b.offset)),
-                Buf::Nbr => storage(name, bytemuck::cast_slice(&b.neighbour)),
-                Buf::Rev => storage(name, bytemuck::cast_slice(&b.reverse)),
-                Buf::BondR0 => storage(name, bytemuck::cast_slice(&r0)),
-                Buf::BondStiffness => storage(name, bytemuck::cast_slice(&stiffness)),
-                Buf::BondGrad => storage(name, bytemuck::cast_slice(&gr)),
-                Buf::Cstiff => storage(name, bytemuck::cast_slice(&cs)),
-                Buf::Pinfo => storage(name, bytemuck::cast_slice(&info)),
-                Buf::Rot | Buf::Qmat | Buf::Jinv => storage(name, bytemuck::cast_slice(&zeros12)),
-                Buf::Theta => storage(name, bytemuck::cast_slice(&vec![[0f32; 4]; 2 * n])),
-                Buf::Cg => storage(name, bytemuck::cast_slice(&vec![[0f32; 4]; 7 * n])),
-                Buf::Precond => storage(name, bytemuck::cast_slice(&pre)),
-                // the dot products' partial sums, then the coarse space's g and u
-                Buf::Partials => {
-                    storage(name, bytemuck::cast_slice(&vec![0f32; 4 * n.div_ceil(256) + 4 + 2 * coarse.as_ref().map_or(0, |c| c.unknowns as usize)]))
-                }
-                Buf::Scalars => storage(name, bytemuck::cast_slice(&[0f32; 8])),
-                // block Jacobi: Q = 0 (the smoother is never dispatched then); the coarse
-                // space's arrays follow the patches'
-                Buf::PatchIndex => match &coarse {
-                    Some(c) => storage(name, bytemuck::cast_slice(&[&patch_arrays.index[..], &c.index].concat())),
-                    None => storage(name, bytemuck::cast_slice(&patch_arrays.index)),
-                },
-                Buf::PatchInverse => match &coarse {
-                    Some(c) => {
-                        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                            label: Some(name),
-                            size: 4 * (patch_arrays.inverse.len() + c.values.len()) as u64,
-                            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-                            mapped_at_creation: false,
-                        });
-                        ctx.queue.write_buffer(&buffer, 0, bytemuck::cast_slice(patch_arrays.inverse));
-                        ctx.queue.write_buffer(&buffer, 4 * patch_arrays.inverse.len() as u64, bytemuck::cast_slice(&c.values));
-                        buffer
-                    }
-                    None => storage(name, bytemuck::cast_slice(patch_arrays.inverse)),
-                },
-                // the per-particle vectors
-                Buf::Pos
-                | Buf::Vel
-                | Buf::Spin
-                | Buf::Quat
-                | Buf::Load
-                | Buf::TorqueG
-                | Buf::Force
-                | Buf::Torque
-                | Buf::ExtraForce
-                | Buf::ExtraTorque
-                | Buf::LinX
-                | Buf::LinV
-                | Buf::Lambda => storage(name, bytemuck::cast_slice(&zeros4)),
-            }
-        });
-
-        let layout_of = |g: &[(Buf, bool)]| {
-            let kinds: Vec<(bool, bool)> = g.iter().map(|(buf, ro)| (*buf == Buf::Params, *ro)).collect();
-            super::context::buffer_layout(&device, "solid", &kinds)
-        };
-        let l0 = layout_of(&G0);
-        let l1 = layout_of(&G1);
-        let group = |layout: &wgpu::BindGroupLayout, g: &[(Buf, bool)]| {
-            let entries: Vec<wgpu::BindGroupEntry> =
-                g.iter().enumerate().map(|(k, (buf, _))| wgpu::BindGroupEntry { binding: k as u32, resource: bufs[*buf].as_entire_binding() }).collect();
-            device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("solid"), layout, entries: &entries })
-        };
-        let groups = [group(&l0, &G0), group(&l1, &G1)];
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("solid"),
-            bind_group_layouts: &[Some(&l0), Some(&l1)],
-            immediate_size: 0,
-        });
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("solid.wgsl"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
-        let pipelines = Pipelines::new(&device, &module, &pl);
         let mut g = Self {
             device,
             queue: ctx.queue.clone(),
-            n,
+            n: p.len(),
             dim: p.dim,
             integrator: s.options.integrator,
             dt: s.dt,
-            buffers: bufs,
+            buffers,
             pipelines,
             groups,
             // f32 cannot reach the CPU default (1e-8); the run layer sets the scene's value
@@ -268,12 +142,12 @@ impl GpuSolid {
             cg_max_iterations: s.options.cg_max_iterations,
             last_cg: (0, 0.0),
             cg_tally: Default::default(),
-            preconditioner,
-            preconditioner_note,
-            patch_count: patch_arrays.patches(),
-            coarse_aggregates: coarse.as_ref().map_or(0, |c| c.aggregates),
-            coarse_unknowns: coarse.as_ref().map_or(0, |c| c.unknowns),
-            coarse_note,
+            preconditioner: pre.smoother,
+            patch_count: pre.patches.patches(),
+            coarse_aggregates: pre.coarse.as_ref().map_or(0, |c| c.aggregates),
+            coarse_unknowns: pre.coarse.as_ref().map_or(0, |c| c.unknowns),
+            preconditioner_note: pre.note,
+            coarse_note: pre.coarse_note,
             step_count: 0,
             contact: None,
             reference: p.reference.clone(),
