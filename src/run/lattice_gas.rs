@@ -4,7 +4,7 @@
 use super::backend::LatticeGasEngine;
 use super::{RunOptions, checkpoint, driver};
 use crate::lattice_gas::coarse::coarse_grain;
-use crate::lattice_gas::lattice::Diagonals;
+use crate::lattice_gas::lattice::{Diagonals, LatticeGas};
 use crate::lattice_gas::spectrum::{Peak, dominant_frequency};
 use crate::output::coarse::{write_csv, write_pngs, write_vtk};
 use crate::scene::lattice_gas::{LatticeGasScene, region_rows, region_velocity};
@@ -76,23 +76,9 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, opts: &RunOptions
     let mut engine = LatticeGasEngine::new(opts.backend, gas)?.starting_at(start);
     let total = ck.total(opts.steps, s.steps).max(1);
     let o = &s.output;
-    let upstream = s.cylinder.as_ref().map(|c| [(c.center[0] - c.radius) * 0.5, c.center[1]]);
-    let mut probe_csv = std::io::BufWriter::new(checkpoint::output_file(&dir.join("probe.csv"), record.is_some())?);
     let mut files = vec!["probe.csv".to_string()];
-    // (particles at the start, probe samples: transverse velocity and upstream velocity)
-    let (particles_start, mut samples) = match &record {
-        Some(r) => {
-            files.extend(checkpoint::names(&r["files"]));
-            let uy = checkpoint::from_bits(&r["samples_uy"], "samples_uy")?;
-            let up = checkpoint::from_bits(&r["samples_upstream"], "samples_upstream")?;
-            let up: Vec<Option<f64>> = if up.is_empty() { vec![None; uy.len()] } else { up.into_iter().map(Some).collect() };
-            (r["particles_start"].as_u64().unwrap_or(0), uy.into_iter().zip(up).collect::<Vec<(f64, Option<f64>)>>())
-        }
-        None => {
-            writeln!(probe_csv, "step,u_x,u_y,upstream_u_x")?;
-            (engine.mirror().invariants().particles, Vec::new())
-        }
-    };
+    let mut probe = ProbeSeries::open(dir, record.as_ref(), &engine, &mut files)?;
+    let upstream = s.cylinder.as_ref().map(|c| [(c.center[0] - c.radius) * 0.5, c.center[1]]);
     let half = 2.0 * o.coarse_block as f64;
     let outcome = driver::drive_until(&mut engine, total, opts.stop_at, &[o.probe_every, o.every, ck.period()], Some("steps"), |e, t| {
         let done = t.step;
@@ -102,42 +88,17 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, opts: &RunOptions
         if t.hit[0]
             && let Some(p) = sc.probe
         {
-            let (y0, y1) = region_rows(e.mirror().dims, p, half);
-            let Ok(g) = e.state_rows(y0, y1) else { return Ok(()) };
-            let u = region_velocity(g, p, half);
-            let up = match upstream {
-                Some(a) => {
-                    let (y0, y1) = region_rows(g.dims, a, half);
-                    let Ok(g) = e.state_rows(y0, y1) else { return Ok(()) };
-                    Some(region_velocity(g, a, half)[0])
-                }
-                None => None,
-            };
-            writeln!(probe_csv, "{done},{:.6},{:.6},{}", u[0], u[1], up.map(|v| format!("{v:.6}")).unwrap_or_default())?;
-            samples.push((u[1], up));
+            probe.sample(e, done, p, upstream, half)?;
         }
         if t.hit[1] || t.last {
             let Ok(g) = e.state() else { return Ok(()) };
-            probe_csv.flush()?;
-            let f = coarse_grain(g, o.coarse_block);
-            let stem = format!("coarse_{done:07}");
-            write_csv(&dir.join(format!("{stem}.csv")), &f)?;
-            write_vtk(&dir.join(format!("{stem}.vtk")), &f, &format!("{} step {done}", sc.file.name))?;
-            write_pngs(&dir.join(format!("{stem}_speed.png")), &dir.join(format!("{stem}_uy.png")), &f)?;
-            files.extend([format!("{stem}.csv"), format!("{stem}.vtk"), format!("{stem}_speed.png"), format!("{stem}_uy.png")]);
+            probe.csv.flush()?;
+            files.extend(write_coarse_fields(dir, g, o.coarse_block, &sc.file.name, done)?);
         }
         if t.hit[2] {
             let Ok(g) = e.state() else { return Ok(()) };
-            probe_csv.flush()?;
-            let uy: Vec<f64> = samples.iter().map(|s| s.0).collect();
-            let up: Vec<f64> = samples.iter().filter_map(|s| s.1).collect();
-            let record = serde_json::json!({
-                "particles_start": particles_start,
-                "samples_uy": checkpoint::bits(&uy),
-                "samples_upstream": checkpoint::bits(&up),
-                "files": files[1..],
-            });
-            ck.save(dir, done, total, g, record, &["probe.csv"])?;
+            probe.csv.flush()?;
+            ck.save(dir, done, total, g, probe.record(&files[1..]), &["probe.csv"])?;
         }
         Ok(())
     })?;
@@ -152,20 +113,8 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, opts: &RunOptions
     let stage_shares = engine.stage_shares().into_iter().map(|(n, f)| (n.to_string(), f)).collect();
     let backend = engine.name.clone();
     let g = &engine.into_gas();
-    probe_csv.flush()?;
-    let last_half = &samples[samples.len() / 2..];
-    let wake_peak = dominant_frequency(&last_half.iter().map(|s| s.0).collect::<Vec<_>>(), o.probe_every as f64);
-    let upstream_velocity = {
-        let v: Vec<f64> = last_half.iter().filter_map(|s| s.1).collect();
-        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-    };
-    let diameter = s.cylinder.as_ref().map(|c| 2.0 * c.radius);
-    let inlet_velocity = s.inlet.as_ref().map(|i| i.velocity);
-    let shedding_periodic = wake_peak.is_some_and(|p| p.prominence >= 50.0 && p.periods >= 3.0);
-    let strouhal = match (shedding_periodic, wake_peak, diameter, inlet_velocity) {
-        (true, Some(p), Some(d), Some(u)) if u > 0.0 => Some(p.frequency * d / u),
-        _ => None,
-    };
+    probe.csv.flush()?;
+    let wake = Wake::of(&probe.samples, o.probe_every, s);
     let sites = 16 * g.cells() as u64;
     let report = LatticeGasReport {
         name: sc.file.name.clone(),
@@ -179,14 +128,14 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, opts: &RunOptions
         wall_s: wall,
         site_updates_per_s: sites as f64 * steps_here as f64 / wall.max(1e-12),
         stage_shares,
-        particles_start,
+        particles_start: probe.particles_start,
         particles_end: g.invariants().particles,
-        inlet_velocity,
-        upstream_velocity,
-        diameter,
-        wake_peak,
-        shedding_periodic,
-        strouhal,
+        inlet_velocity: wake.inlet_velocity,
+        upstream_velocity: wake.upstream_velocity,
+        diameter: wake.diameter,
+        wake_peak: wake.peak,
+        shedding_periodic: wake.shedding_periodic,
+        strouhal: wake.strouhal,
         state_hash: state_hash(g),
         resumed_from_step: (start > 0).then_some(start),
         device_failure: instability.map(|e| e.to_string()),
@@ -195,6 +144,106 @@ pub fn run_lattice_gas_scene(sc: &LatticeGasScene, dir: &Path, opts: &RunOptions
     };
     std::fs::write(dir.join("summary.json"), serde_json::to_string_pretty(&report)?)?;
     Ok(report)
+}
+
+/// The probe's series: `probe.csv`, the samples the wake's measures read (the transverse
+/// velocity at the probe; the streamwise velocity upstream of the cylinder, where there is
+/// one) and the particle count at the run's start, which a checkpoint carries.
+struct ProbeSeries {
+    csv: std::io::BufWriter<std::fs::File>,
+    samples: Vec<(f64, Option<f64>)>,
+    particles_start: u64,
+}
+
+impl ProbeSeries {
+    /// A new `probe.csv` with its header; resuming (a checkpoint's `record`), the file appended
+    /// to and the samples, particle count and `files` written before it taken from the record.
+    fn open(dir: &Path, record: Option<&serde_json::Value>, engine: &LatticeGasEngine, files: &mut Vec<String>) -> anyhow::Result<Self> {
+        let mut csv = std::io::BufWriter::new(checkpoint::output_file(&dir.join("probe.csv"), record.is_some())?);
+        let Some(r) = record else {
+            writeln!(csv, "step,u_x,u_y,upstream_u_x")?;
+            return Ok(Self { csv, samples: Vec::new(), particles_start: engine.mirror().invariants().particles });
+        };
+        files.extend(checkpoint::names(&r["files"]));
+        let uy = checkpoint::from_bits(&r["samples_uy"], "samples_uy")?;
+        let up = checkpoint::from_bits(&r["samples_upstream"], "samples_upstream")?;
+        let up: Vec<Option<f64>> = if up.is_empty() { vec![None; uy.len()] } else { up.into_iter().map(Some).collect() };
+        Ok(Self { csv, samples: uy.into_iter().zip(up).collect(), particles_start: r["particles_start"].as_u64().unwrap_or(0) })
+    }
+
+    /// The mean velocity over a block of half-side `half` (ℓ) at the probe `p`, and upstream
+    /// of the cylinder at `upstream`, after `done` steps: one row and one sample. Only the rows
+    /// it reads come back from a GPU; a read that fails writes nothing.
+    fn sample(&mut self, e: &mut LatticeGasEngine, done: u64, p: [f64; 2], upstream: Option<[f64; 2]>, half: f64) -> anyhow::Result<()> {
+        let (y0, y1) = region_rows(e.mirror().dims, p, half);
+        let Ok(g) = e.state_rows(y0, y1) else { return Ok(()) };
+        let u = region_velocity(g, p, half);
+        let up = match upstream {
+            Some(a) => {
+                let (y0, y1) = region_rows(g.dims, a, half);
+                let Ok(g) = e.state_rows(y0, y1) else { return Ok(()) };
+                Some(region_velocity(g, a, half)[0])
+            }
+            None => None,
+        };
+        writeln!(self.csv, "{done},{:.6},{:.6},{}", u[0], u[1], up.map(|v| format!("{v:.6}")).unwrap_or_default())?;
+        self.samples.push((u[1], up));
+        Ok(())
+    }
+
+    /// A checkpoint's record: the samples (bit-exact), the particle count at the start and the
+    /// outputs written so far (`files`, `probe.csv` left out).
+    fn record(&self, files: &[String]) -> serde_json::Value {
+        let uy: Vec<f64> = self.samples.iter().map(|s| s.0).collect();
+        let up: Vec<f64> = self.samples.iter().filter_map(|s| s.1).collect();
+        serde_json::json!({
+            "particles_start": self.particles_start,
+            "samples_uy": checkpoint::bits(&uy),
+            "samples_upstream": checkpoint::bits(&up),
+            "files": files,
+        })
+    }
+}
+
+/// The coarse-grained field of `g` (blocks of `block` cells) after `done` steps as
+/// `coarse_NNNNNNN.{csv,vtk}` and `coarse_NNNNNNN_{speed,uy}.png` in `dir`: their names.
+fn write_coarse_fields(dir: &Path, g: &LatticeGas, block: usize, scene: &str, done: u64) -> anyhow::Result<[String; 4]> {
+    let f = coarse_grain(g, block);
+    let stem = format!("coarse_{done:07}");
+    write_csv(&dir.join(format!("{stem}.csv")), &f)?;
+    write_vtk(&dir.join(format!("{stem}.vtk")), &f, &format!("{scene} step {done}"))?;
+    write_pngs(&dir.join(format!("{stem}_speed.png")), &dir.join(format!("{stem}_uy.png")), &f)?;
+    Ok([format!("{stem}.csv"), format!("{stem}.vtk"), format!("{stem}_speed.png"), format!("{stem}_uy.png")])
+}
+
+/// The wake's measures over the last half of the probe's samples (see [`LatticeGasReport`]).
+struct Wake {
+    inlet_velocity: Option<f64>,
+    upstream_velocity: Option<f64>,
+    diameter: Option<f64>,
+    peak: Option<Peak>,
+    shedding_periodic: bool,
+    strouhal: Option<f64>,
+}
+
+impl Wake {
+    /// From `samples` taken every `probe_every` steps, the scene's inlet and cylinder `s`.
+    fn of(samples: &[(f64, Option<f64>)], probe_every: u64, s: &crate::scene::lattice_gas::LatticeGasSection) -> Self {
+        let last_half = &samples[samples.len() / 2..];
+        let peak = dominant_frequency(&last_half.iter().map(|s| s.0).collect::<Vec<_>>(), probe_every as f64);
+        let upstream_velocity = {
+            let v: Vec<f64> = last_half.iter().filter_map(|s| s.1).collect();
+            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+        };
+        let diameter = s.cylinder.as_ref().map(|c| 2.0 * c.radius);
+        let inlet_velocity = s.inlet.as_ref().map(|i| i.velocity);
+        let shedding_periodic = peak.is_some_and(|p| p.prominence >= 50.0 && p.periods >= 3.0);
+        let strouhal = match (shedding_periodic, peak, diameter, inlet_velocity) {
+            (true, Some(p), Some(d), Some(u)) if u > 0.0 => Some(p.frequency * d / u),
+            _ => None,
+        };
+        Self { inlet_velocity, upstream_velocity, diameter, peak, shedding_periodic, strouhal }
+    }
 }
 
 #[cfg(test)]
