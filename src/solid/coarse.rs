@@ -25,7 +25,11 @@
 use super::coarse_sparse::{BlockSparse, Groups, SparseCoarse};
 use super::dense::{cholesky_inverse, cholesky_solve, symmetrised_cholesky};
 use glam::DVec3;
+use probing::{Aggregates, Probes, Storage, particle_vectors};
 use rayon::prelude::*;
+
+#[path = "coarse_probing.rs"]
+mod probing;
 
 /// Largest number of coarse unknowns (aggregates × modes): the dense factor then holds
 /// ≤ 2000² f64 (32 MB) and takes ≈ 3·10⁹ flops once.
@@ -182,7 +186,9 @@ impl CoarseSpace {
         Self::build_with(reference, fixed, dim, side, reach, false, apply)
     }
 
-    /// [`CoarseSpace::build`] with the aggregates' side and A_c's storage given.
+    /// [`CoarseSpace::build`] with the aggregates' side and A_c's storage given: the aggregates,
+    /// each one's orthonormal affine basis, P's entries at the particles, A_c probed
+    /// ([`probing`]) and factorised (dense: Cholesky; sparse: symmetrised, with a third level).
     pub fn build_with(
         reference: &[DVec3],
         fixed: &[bool],
@@ -190,134 +196,30 @@ impl CoarseSpace {
         side: f64,
         reach: f64,
         sparse: bool,
-        mut apply: impl FnMut(&[DVec3], &mut [DVec3]),
+        apply: impl FnMut(&[DVec3], &mut [DVec3]),
     ) -> Option<Self> {
-        let n = reference.len();
-        let modes = mode_count(dim);
         let grid = AggregateGrid::new(reference, dim, side);
-        let nc = grid.cells;
-        // dense ids of the aggregates that hold a free particle
-        let mut id = vec![u32::MAX; nc.iter().product()];
-        let mut grid_of = Vec::new();
-        let mut aggregate = vec![u32::MAX; n];
-        let mut members: Vec<Vec<usize>> = Vec::new();
-        for i in 0..n {
-            if fixed[i] {
-                continue;
-            }
-            let c = grid.coords(reference[i]);
-            let f = grid.flat(c);
-            if id[f] == u32::MAX {
-                id[f] = grid_of.len() as u32;
-                grid_of.push(c);
-                members.push(Vec::new());
-            }
-            aggregate[i] = id[f];
-            members[id[f] as usize].push(i);
-        }
-        let count = grid_of.len();
-        if count == 0 {
+        let aggregates = Aggregates::new(reference, fixed, &grid);
+        if aggregates.len() == 0 {
             return None;
         }
-        let centre: Vec<DVec3> = grid_of.iter().map(|c| grid.centre(*c)).collect();
-        let basis: Vec<Vec<[f64; 12]>> = members.iter().zip(&centre).map(|(m, c)| affine_basis(m, reference, *c, side, dim)).collect();
+        let centre: Vec<DVec3> = aggregates.cell.iter().map(|c| grid.centre(*c)).collect();
+        let basis: Vec<Vec<[f64; 12]>> = aggregates.members.iter().zip(&centre).map(|(m, c)| affine_basis(m, reference, *c, side, dim)).collect();
         let mut offset = vec![0];
         for b in &basis {
             offset.push(offset.last().unwrap() + b.len());
         }
         let m = *offset.last().unwrap();
-        let value = |j: usize, b: &[f64; 12], i: usize| -> DVec3 { basis_value(b, dim, reference[i], centre[j], side) };
         // aggregates within reach differ by at most r in each index; colour period 2r + 1
         let r = (reach / side).floor() as usize + 1;
-        let period = 2 * r + 1;
-        let neighbours_of = |c: &[usize; 3]| -> Vec<u32> {
-            let mut list = Vec::new();
-            for k in 0..period.pow(dim as u32) {
-                let mut o = [0usize; 3];
-                let mut inside = true;
-                for ax in 0..dim {
-                    let v = c[ax] as isize + (k / period.pow(ax as u32) % period) as isize - r as isize;
-                    inside &= v >= 0 && (v as usize) < nc[ax];
-                    o[ax] = v.max(0) as usize;
-                }
-                if inside && id[grid.flat(o)] != u32::MAX {
-                    list.push(id[grid.flat(o)]);
-                }
-            }
-            list
-        };
         // each particle's basis vectors, made once: the probes and the responses read them
-        let mut start = Vec::with_capacity(n + 1);
-        let mut vectors = Vec::new();
-        for i in 0..n {
-            start.push(vectors.len());
-            if aggregate[i] != u32::MAX {
-                let j = aggregate[i] as usize;
-                vectors.extend(basis[j].iter().map(|b| value(j, b, i)));
-            }
-        }
-        start.push(vectors.len());
+        let (start, vectors) = particle_vectors(reference, &aggregates, &centre, &basis, &grid);
         let mut storage = if sparse {
-            Storage::Sparse(BlockSparse::new(offset.clone(), grid_of.iter().map(neighbours_of).collect()))
+            Storage::Sparse(BlockSparse::new(offset.clone(), aggregates.cell.iter().map(|c| aggregates.neighbours(&grid, c, r)).collect()))
         } else {
             Storage::Dense(vec![0.0; m * m])
         };
-        let colours: Vec<[usize; 3]> =
-            (0..period.pow(dim as u32)).map(|k| std::array::from_fn(|ax| if ax < dim { (k / period.pow(ax as u32)) % period } else { 0 })).collect();
-        let mut x = vec![DVec3::ZERO; n];
-        let mut y = vec![DVec3::ZERO; n];
-        for colour in &colours {
-            let pushed = |c: &[usize; 3]| (0..dim).all(|ax| c[ax] % period == colour[ax]);
-            if !grid_of.iter().any(pushed) {
-                continue;
-            }
-            for d in 0..modes {
-                let probed = |j: usize| pushed(&grid_of[j]) && d < basis[j].len();
-                if !(0..count).any(probed) {
-                    continue;
-                }
-                // the probe vector and the responses: each particle and each aggregate on its
-                // own (the pool's threads; every sum in the same order as one by one)
-                x.par_iter_mut().enumerate().with_min_len(4096).for_each(|(i, v)| {
-                    let j = aggregate[i];
-                    *v = if j != u32::MAX && probed(j as usize) { vectors[start[i] + d] } else { DVec3::ZERO };
-                });
-                apply(&x, &mut y);
-                let responses: Vec<Option<(usize, Vec<f64>)>> = grid_of
-                    .par_iter()
-                    .enumerate()
-                    .map(|(j, cj)| {
-                        // the pushed aggregate within reach of j: index ≡ colour (mod period), |Δ| ≤ r
-                        let mut ci = [0usize; 3];
-                        let mut inside = true;
-                        for ax in 0..dim {
-                            let off = (colour[ax] + period - cj[ax] % period) % period;
-                            let off = if off > r { off as isize - period as isize } else { off as isize };
-                            let v = cj[ax] as isize + off;
-                            inside &= v >= 0 && (v as usize) < nc[ax];
-                            ci[ax] = v.max(0) as usize;
-                        }
-                        if !inside || id[grid.flat(ci)] == u32::MAX {
-                            return None;
-                        }
-                        let i = id[grid.flat(ci)] as usize;
-                        if d >= basis[i].len() {
-                            return None;
-                        }
-                        Some((i, (0..basis[j].len()).map(|e| members[j].iter().map(|&p| vectors[start[p] + e].dot(y[p])).sum()).collect()))
-                    })
-                    .collect();
-                for (j, r) in responses.into_iter().enumerate() {
-                    let Some((i, response)) = r else { continue };
-                    for (e, response) in response.into_iter().enumerate() {
-                        match &mut storage {
-                            Storage::Dense(a) => a[(offset[j] + e) * m + offset[i] + d] = response,
-                            Storage::Sparse(a) => *a.entry_mut(j, e, i, d).expect("a pushed aggregate within reach is a neighbour") = response,
-                        }
-                    }
-                }
-            }
-        }
+        Probes { grid: &grid, aggregates: &aggregates, basis: &basis, offset: &offset, start: &start, vectors: &vectors, r }.fill(&mut storage, apply);
         let solve = match storage {
             Storage::Dense(mut a) => {
                 // symmetric in exact arithmetic; symmetrised against round-off
@@ -328,11 +230,11 @@ impl CoarseSpace {
             }
             Storage::Sparse(mut a) => {
                 a.symmetrise();
-                let groups = third_level(reference, &grid, &grid_of, &members, &centre, &basis);
+                let groups = third_level(reference, &grid, &aggregates.cell, &aggregates.members, &centre, &basis);
                 CoarseSolve::Sparse(Box::new(SparseCoarse::new(a, groups)?))
             }
         };
-        Some(Self { aggregate, offset, solve, side, vectors, start, centre, basis, dim })
+        Some(Self { aggregate: aggregates.of_particle, offset, solve, side, vectors, start, centre, basis, dim })
     }
 
     /// Aggregate of each particle (`u32::MAX` at clamped particles).
@@ -472,12 +374,6 @@ impl CoarseSpace {
             }
         });
     }
-}
-
-/// A_c while it is probed.
-enum Storage {
-    Dense(Vec<f64>),
-    Sparse(BlockSparse),
 }
 
 /// The third level of a block-sparse coarse space: the aggregates grouped into cubes of g³
