@@ -164,193 +164,296 @@ pub fn schafer_turek_2d1_with_outlet(
     body: CylinderBody,
     outlet_density: f64,
 ) -> ChannelCylinderResult {
-    assert!(cells_per_diameter.is_multiple_of(10), "the channel height 4.1 D must be a whole number of cells");
-    let (d_phys, h_phys, l_phys, nu_phys, u_max) = (0.1, 0.41, 2.2, 1.0e-3, 0.3);
-    let u_mean = 2.0 / 3.0 * u_max;
-    let dx = d_phys / cells_per_diameter as f64;
-    let (nx, ny) = ((l_phys / dx).round() as usize, (h_phys / dx).round() as usize);
-    let (eq, l1) = d2q21_air();
-    let theta0 = 0.6;
-    let cs_lat = eq.sound_speed(theta0);
-    let units = Units::new(dx, 1.0, u_max / mach, theta0, eq.gamma());
-    let nu = units.kinematic_viscosity_to_lattice(nu_phys);
-    let params = timestep::choose(nu, theta0, l1, None, timestep::DEFAULT_COURANT_SAFETY).expect("admissible time step");
-    let u_lat = units.velocity_to_lattice(u_max);
-    debug_assert!((u_lat / cs_lat - mach).abs() < 1e-12);
-    let mut b = Boundaries::periodic();
-    b.faces[0] = FaceCondition::VelocityInlet { velocity: [u_lat, 0.0, 0.0], theta: theta0, profile: InletProfile::Parabolic };
-    // Constant pressure at the outlet (the reference pressure; velocity and non-equilibrium part
-    // from the last interior node): a zero-gradient outlet lets the density of a compressible
-    // channel drift upward under a velocity inlet (C_D grew by 4 % over 6 s at D = 10 cells).
-    b.faces[1] = FaceCondition::PressureInlet { rho: outlet_density, theta: theta0 };
-    b.faces[2] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
-    b.faces[3] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
-    let grid = Grid::new(2, [nx, ny, 1]);
-    let n_y = ny as f64;
-    let u0 = u_lat * start.inflow_factor(0.0);
-    let init = move |x: [f64; 3]| {
-        let s = (x[1] + 0.5) / n_y;
-        Macro { rho: 1.0, u: [u0 * 4.0 * s * (1.0 - s), 0.0, 0.0], theta: theta0 }
-    };
-    b.set_inlet_velocity(Face::XMin, [u0, 0.0, 0.0]).expect("x_min is the velocity inlet");
-    // the inlet velocity before step k (k = 1, 2, …): U_max at the step's start time
-    let step_time = params.dt * units.time();
-    let inflow = move |k: u64| [u_lat * start.inflow_factor((k - 1) as f64 * step_time), 0.0, 0.0];
-    let damping = |f: &FluidSolver| match start {
-        ChannelStart::Damped { gain, filter_width } => {
-            Some(SelectiveFrequencyDamping::new(f, gain * units.time(), filter_width / units.time()).expect("positive damping"))
-        }
-        _ => None,
-    };
-    let residual: Option<f64>;
-    let centre = DVec3::new(0.2, 0.2, 0.0);
-    let radius = 0.5 * d_phys;
-    // The disc's particles: spacing half a cell, so that every surface edge is shorter than a
-    // cell. E = 200 Pa keeps the deformation under 10⁻³ D (drag ≈ 0.011 N/m) at a solid step
-    // close to the fluid's; viscosity 0.01 Pa·s damps its ringing.
-    let l0 = dx / 2.0;
-    let material = Orthotropic::isotropic(200.0, 0.3, 1.0, 0.01);
-    let (particles, surface) =
-        disc_body(centre, radius, l0, material.density, |x| body == CylinderBody::WeakCoupledRigid || (x - centre).length() < 0.5 * radius);
-    let lat = |p: DVec3| [units.position_to_lattice(p.x), units.position_to_lattice(p.y), 0.0];
-    let coefficient = 2.0 / (1.0 * u_mean * u_mean * d_phys);
+    let ch = Channel::new(cells_per_diameter, mach, start, duration, outlet_density);
     let t0 = Instant::now();
-    let steps = (duration / (params.dt * units.time())).ceil() as u64;
-    let mut history = Vec::new();
-    let sample_every = (steps / 50).max(1);
-    // Acoustic waves ring between the inlet and the outlet of the compressible channel (unless
-    // `ChannelStart::Damped` settles them): the figures are averages over the last quarter of
-    // the run, sampled every step.
-    let average_from = steps - steps / 4;
-    let mut window = Window::default();
-    let drop_probes = [lat(DVec3::new(0.15, 0.2, 0.0)), lat(DVec3::new(0.25, 0.2, 0.0))];
-    // Δp two ways: the field sampled at the two wall points (fluid nodes only, a linear fit
-    // where the cell around the point is cut by the wall), and the pressure extrapolated to the
-    // wall along its normal from the air, quadratically through 1, 2 and 3 cells out
-    // (p_w = 3p₁ − 3p₂ + p₃, exact for a quadratic profile; the normals are −x and +x).
-    let pressure_drop = |f: &FluidSolver| {
-        let p = |x: [f64; 3]| f.sample(x).map(|m| units.gauge_pressure_to_physical(m.pressure())).unwrap_or(f64::NAN);
-        let extrapolated = |x: [f64; 3], normal: f64| {
-            let out = |k: f64| p([x[0] + normal * k, x[1], x[2]]);
-            3.0 * out(1.0) - 3.0 * out(2.0) + out(3.0)
-        };
-        (p(drop_probes[0]) - p(drop_probes[1]), extrapolated(drop_probes[0], -1.0) - extrapolated(drop_probes[1], 1.0))
+    let run = match body {
+        CylinderBody::RigidObstacle => ch.run_rigid(),
+        CylinderBody::WeakCoupled(_) | CylinderBody::WeakCoupledRigid | CylinderBody::ConservingCoupled => ch.run_coupled(body),
     };
-    // the nodes whose distance from the cylinder's centre (cells) passes `keep`
-    let r_lat = units.length_to_lattice(radius);
-    let nodes_at = |g: &crate::fluid::Grid, keep: &dyn Fn(f64) -> bool| -> Vec<usize> {
-        let cc = DVec3::from_array(lat(centre));
-        (0..g.len()).filter(|&n| keep((DVec3::from_array(g.coords(n).map(|x| x as f64)) - cc).length())).collect()
-    };
-    // the air within one diameter of the cylinder's surface: nodes 1.2–2 radii from its centre
-    // (fluid whatever the body does), for the density the forces see
-    let near_nodes = |g: &crate::fluid::Grid| nodes_at(g, &|d| (1.2 * r_lat..=2.0 * r_lat).contains(&d));
-    let near_density = |f: &FluidSolver, nodes: &[usize]| nodes.iter().map(|&n| f.macro_at(n).rho).sum::<f64>() / nodes.len() as f64;
-    let mut exchange_drag = None;
-    let (stage_shares, substeps, max_displacement, n_particles) = match body {
-        CylinderBody::RigidObstacle => {
-            let c = lat(centre);
-            let obstacle = Obstacle { shape: Shape::Cylinder { center: c, radius: units.length_to_lattice(radius) }, velocity: [0.0; 3], temperature: None };
-            let mut f = FluidSolver::new(eq, grid, b, &[obstacle], params, init);
-            let drag = |f: &FluidSolver| surface_forces(f, &units, std::slice::from_ref(&surface), &particles, TractionModel::PressureAndShear, 1.0).total[0];
-            // the cylinder's wall nodes: within 3 cells of its surface (the channel walls lie
-            // 15 radii away)
-            let cylinder_walls = nodes_at(&f.layout.grid, &|d| d < r_lat + 3.0);
-            // lattice momentum per step → N per m of span
-            let force_unit = units.density * units.velocity * units.dx * units.dx / (params.dt * units.time());
-            let mut exchanged = DVec3::ZERO;
-            let near = near_nodes(&f.layout.grid);
-            let mut sfd = damping(&f);
-            for k in 1..=steps {
-                f.layout.boundaries.set_inlet_velocity(Face::XMin, inflow(k)).expect("x_min is the velocity inlet");
-                let (averaged, sampled) = (k > average_from, k % sample_every == 0);
-                if averaged {
-                    let wall = crate::coupling::momentum_exchange::step_with_exchange(&mut f, None).expect("Schäfer–Turek stays stable");
-                    exchanged += cylinder_walls.iter().map(|&n| wall[n].truncate()).sum::<DVec3>() * force_unit;
-                } else {
-                    f.step().expect("Schäfer–Turek stays stable");
-                }
-                if let Some(d) = sfd.as_mut() {
-                    d.apply(&mut f);
-                }
-                if averaged || sampled {
-                    let fk = drag(&f);
-                    if averaged {
-                        window.add(fk, pressure_drop(&f), coefficient);
-                        window.density += near_density(&f, &near);
-                    }
-                    if sampled {
-                        history.push(fk.x * coefficient);
-                    }
-                }
-            }
-            exchange_drag = Some(exchanged.x / window.samples * coefficient);
-            residual = sfd.map(|d| d.residual(&f));
-            (Vec::new(), 0, 0.0, 0)
-        }
-        CylinderBody::WeakCoupled(_) | CylinderBody::WeakCoupledRigid | CylinderBody::ConservingCoupled => {
-            let method = match body {
-                CylinderBody::WeakCoupled(traction) => Method::Weak(WeakOptions { traction, ..Default::default() }),
-                CylinderBody::WeakCoupledRigid => Method::Weak(WeakOptions { traction: TractionModel::PressureAndShear, ..Default::default() }),
-                _ => Method::Conserving(ConservingOptions::default()),
-            };
-            let f = FluidSolver::new(eq, grid, b, &[], params, init);
-            let solid = SolidSolver::new(particles.clone(), vec![material], SolidOptions::default()).expect("valid disc");
-            let bodies = vec![CoupledBody::adiabatic(surface.clone(), None)];
-            let mut c = CoupledSolver::new(f, solid, units, bodies, Vec::new(), method).expect("valid coupling");
-            let near = near_nodes(&c.fluid.layout.grid);
-            let mut sfd = damping(&c.fluid);
-            for k in 1..=steps {
-                c.fluid.layout.boundaries.set_inlet_velocity(Face::XMin, inflow(k)).expect("x_min is the velocity inlet");
-                c.step().expect("Schäfer–Turek stays stable");
-                if let Some(d) = sfd.as_mut() {
-                    d.apply(&mut c.fluid);
-                }
-                // method 1: the traction quadrature; method 2: the momentum the particles received
-                let force = c.forces.total[0];
-                if k > average_from {
-                    window.add(force, pressure_drop(&c.fluid), coefficient);
-                    window.density += near_density(&c.fluid, &near);
-                }
-                if k % sample_every == 0 {
-                    history.push(force.x * coefficient);
-                }
-            }
-            residual = sfd.map(|d| d.residual(&c.fluid));
-            let p = &c.solid.particles;
-            let max_d = (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max);
-            let shares = c.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
-            (shares, c.substeps, max_d, p.len())
-        }
-    };
-    let n = window.samples;
+    let (window, n) = (&run.window, run.window.samples);
     let force = window.force / n;
-    let (drag, drop) = (force.x * coefficient, window.drop / n);
+    let (drag, drop) = (force.x * ch.coefficient, window.drop / n);
     let spread = |squares: f64, mean: f64| (squares / n - mean * mean).max(0.0).sqrt();
     ChannelCylinderResult {
         body,
         start,
         diameter_cells: cells_per_diameter as f64,
         mach,
-        steps,
-        simulated_s: steps as f64 * params.dt * units.time(),
+        steps: ch.steps,
+        simulated_s: ch.steps as f64 * ch.params.dt * ch.units.time(),
         wall_s: t0.elapsed().as_secs_f64(),
         drag_coefficient: drag,
-        exchange_drag_coefficient: exchange_drag,
-        lift_coefficient: force.y * coefficient,
+        exchange_drag_coefficient: run.exchange_drag,
+        lift_coefficient: force.y * ch.coefficient,
         pressure_drop: drop,
         pressure_drop_extrapolated: window.extrapolated_drop / n,
         drag_spread: spread(window.drag_squares, drag),
         pressure_drop_spread: spread(window.drop_squares, drop),
         outlet_density,
         density_near_cylinder: window.density / n,
-        damping_residual: residual,
-        particles: n_particles,
-        substeps,
-        max_displacement,
-        stage_shares,
-        drag_history: history,
+        damping_residual: run.residual,
+        particles: run.particles,
+        substeps: run.substeps,
+        max_displacement: run.max_displacement,
+        stage_shares: run.stage_shares,
+        drag_history: run.history,
     }
+}
+
+/// The channel at one resolution (lattice units): the air, its faces, its time step, the
+/// cylinder's particles and surface, the run's length and what it samples.
+struct Channel {
+    start: ChannelStart,
+    units: Units,
+    params: timestep::StepParams,
+    /// U_max (ℓ/step) and the reference temperature θ₀.
+    u_lat: f64,
+    theta0: f64,
+    eq: crate::fluid::Equilibrium,
+    grid: Grid,
+    boundaries: Boundaries,
+    /// The disc's particle spacing (half a cell, so that every surface edge is shorter than a
+    /// cell) and material.
+    l0: f64,
+    material: Orthotropic,
+    centre: DVec3,
+    radius: f64,
+    /// 2 / (ρ U_mean² D): a force per unit span (N/m) → C_D.
+    coefficient: f64,
+    steps: u64,
+    sample_every: u64,
+    /// The first step of the averaging window (the last quarter of the run).
+    average_from: u64,
+    /// The two wall points of Δp (lattice coordinates).
+    drop_probes: [[f64; 3]; 2],
+}
+
+/// What a run leaves: the window's sums, C_D's history, and the body's figures.
+struct ChannelRun {
+    window: Window,
+    history: Vec<f64>,
+    exchange_drag: Option<f64>,
+    residual: Option<f64>,
+    stage_shares: Vec<(String, f64)>,
+    substeps: u32,
+    max_displacement: f64,
+    particles: usize,
+}
+
+impl Channel {
+    fn new(cells_per_diameter: usize, mach: f64, start: ChannelStart, duration: f64, outlet_density: f64) -> Self {
+        assert!(cells_per_diameter.is_multiple_of(10), "the channel height 4.1 D must be a whole number of cells");
+        let (d_phys, h_phys, l_phys, nu_phys, u_max) = (0.1, 0.41, 2.2, 1.0e-3, 0.3);
+        let u_mean = 2.0 / 3.0 * u_max;
+        let dx = d_phys / cells_per_diameter as f64;
+        let (nx, ny) = ((l_phys / dx).round() as usize, (h_phys / dx).round() as usize);
+        let (eq, l1) = d2q21_air();
+        let theta0 = 0.6;
+        let cs_lat = eq.sound_speed(theta0);
+        let units = Units::new(dx, 1.0, u_max / mach, theta0, eq.gamma());
+        let nu = units.kinematic_viscosity_to_lattice(nu_phys);
+        let params = timestep::choose(nu, theta0, l1, None, timestep::DEFAULT_COURANT_SAFETY).expect("admissible time step");
+        let u_lat = units.velocity_to_lattice(u_max);
+        debug_assert!((u_lat / cs_lat - mach).abs() < 1e-12);
+        let mut boundaries = Boundaries::periodic();
+        boundaries.faces[0] = FaceCondition::VelocityInlet { velocity: [u_lat, 0.0, 0.0], theta: theta0, profile: InletProfile::Parabolic };
+        // Constant pressure at the outlet (the reference pressure; velocity and non-equilibrium part
+        // from the last interior node): a zero-gradient outlet lets the density of a compressible
+        // channel drift upward under a velocity inlet (C_D grew by 4 % over 6 s at D = 10 cells).
+        boundaries.faces[1] = FaceCondition::PressureInlet { rho: outlet_density, theta: theta0 };
+        boundaries.faces[2] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
+        boundaries.faces[3] = FaceCondition::Wall { velocity: [0.0; 3], temperature: None };
+        boundaries.set_inlet_velocity(Face::XMin, [u_lat * start.inflow_factor(0.0), 0.0, 0.0]).expect("x_min is the velocity inlet");
+        let centre = DVec3::new(0.2, 0.2, 0.0);
+        let radius = 0.5 * d_phys;
+        // The disc's particles: spacing half a cell, so that every surface edge is shorter than a
+        // cell. E = 200 Pa keeps the deformation under 10⁻³ D (drag ≈ 0.011 N/m) at a solid step
+        // close to the fluid's; viscosity 0.01 Pa·s damps its ringing.
+        let material = Orthotropic::isotropic(200.0, 0.3, 1.0, 0.01);
+        let steps = (duration / (params.dt * units.time())).ceil() as u64;
+        let lat = |p: DVec3| [units.position_to_lattice(p.x), units.position_to_lattice(p.y), 0.0];
+        Self {
+            start,
+            units,
+            params,
+            u_lat,
+            theta0,
+            eq,
+            grid: Grid::new(2, [nx, ny, 1]),
+            boundaries,
+            l0: dx / 2.0,
+            material,
+            centre,
+            radius,
+            coefficient: 2.0 / (1.0 * u_mean * u_mean * d_phys),
+            steps,
+            sample_every: (steps / 50).max(1),
+            // Acoustic waves ring between the inlet and the outlet of the compressible channel
+            // (unless `ChannelStart::Damped` settles them): the figures are averages over the
+            // last quarter of the run, sampled every step.
+            average_from: steps - steps / 4,
+            drop_probes: [lat(DVec3::new(0.15, 0.2, 0.0)), lat(DVec3::new(0.25, 0.2, 0.0))],
+        }
+    }
+
+    /// The disc's particles and surface: clamped within half its radius, or whole (`rigid`).
+    fn disc(&self, rigid: bool) -> (crate::solid::Particles, crate::coupling::BodySurface) {
+        let centre = self.centre;
+        disc_body(centre, self.radius, self.l0, self.material.density, |x| rigid || (x - centre).length() < 0.5 * self.radius)
+    }
+
+    /// The air at the start: the inflow's Poiseuille profile across the channel (at the start's
+    /// share of U_max), at rest elsewhere along it, ρ₀ and θ₀; `obstacles` as given.
+    fn fluid(&self, obstacles: &[Obstacle]) -> FluidSolver {
+        let (n_y, theta0) = (self.grid.n[1] as f64, self.theta0);
+        let u0 = self.u_lat * self.start.inflow_factor(0.0);
+        let init = move |x: [f64; 3]| {
+            let s = (x[1] + 0.5) / n_y;
+            Macro { rho: 1.0, u: [u0 * 4.0 * s * (1.0 - s), 0.0, 0.0], theta: theta0 }
+        };
+        FluidSolver::new(self.eq.clone(), self.grid.clone(), self.boundaries.clone(), obstacles, self.params, init)
+    }
+
+    /// The inlet velocity before step k (k = 1, 2, …): U_max at the step's start time.
+    fn inflow(&self, k: u64) -> [f64; 3] {
+        [self.u_lat * self.start.inflow_factor((k - 1) as f64 * (self.params.dt * self.units.time())), 0.0, 0.0]
+    }
+
+    /// Selective frequency damping of `f` with [`ChannelStart::Damped`]'s gain and width.
+    fn damping(&self, f: &FluidSolver) -> Option<SelectiveFrequencyDamping> {
+        match self.start {
+            ChannelStart::Damped { gain, filter_width } => {
+                Some(SelectiveFrequencyDamping::new(f, gain * self.units.time(), filter_width / self.units.time()).expect("positive damping"))
+            }
+            _ => None,
+        }
+    }
+
+    fn lat(&self, p: DVec3) -> [f64; 3] {
+        [self.units.position_to_lattice(p.x), self.units.position_to_lattice(p.y), 0.0]
+    }
+
+    /// Δp two ways: the field sampled at the two wall points (fluid nodes only, a linear fit
+    /// where the cell around the point is cut by the wall), and the pressure extrapolated to the
+    /// wall along its normal from the air, quadratically through 1, 2 and 3 cells out
+    /// (p_w = 3p₁ − 3p₂ + p₃, exact for a quadratic profile; the normals are −x and +x).
+    fn pressure_drop(&self, f: &FluidSolver) -> (f64, f64) {
+        let p = |x: [f64; 3]| f.sample(x).map(|m| self.units.gauge_pressure_to_physical(m.pressure())).unwrap_or(f64::NAN);
+        let extrapolated = |x: [f64; 3], normal: f64| {
+            let out = |k: f64| p([x[0] + normal * k, x[1], x[2]]);
+            3.0 * out(1.0) - 3.0 * out(2.0) + out(3.0)
+        };
+        let [a, b] = self.drop_probes;
+        (p(a) - p(b), extrapolated(a, -1.0) - extrapolated(b, 1.0))
+    }
+
+    /// The nodes of the solver's grid `g` whose distance from the cylinder's centre (cells)
+    /// passes `keep`.
+    fn nodes_at(&self, g: &Grid, keep: impl Fn(f64) -> bool) -> Vec<usize> {
+        let cc = DVec3::from_array(self.lat(self.centre));
+        (0..g.len()).filter(|&n| keep((DVec3::from_array(g.coords(n).map(|x| x as f64)) - cc).length())).collect()
+    }
+
+    /// The air within one diameter of the cylinder's surface: nodes 1.2–2 radii from its
+    /// centre (fluid whatever the body does), for the density the forces see.
+    fn near_nodes(&self, g: &Grid) -> Vec<usize> {
+        let r_lat = self.units.length_to_lattice(self.radius);
+        self.nodes_at(g, |d| (1.2 * r_lat..=2.0 * r_lat).contains(&d))
+    }
+
+    /// The rigid ghost-node obstacle: C_D by the traction quadrature every sampled step, and by
+    /// the momentum its wall nodes take out of the air over the window.
+    fn run_rigid(&self) -> ChannelRun {
+        let obstacle = Obstacle {
+            shape: Shape::Cylinder { center: self.lat(self.centre), radius: self.units.length_to_lattice(self.radius) },
+            velocity: [0.0; 3],
+            temperature: None,
+        };
+        let (particles, surface) = self.disc(false);
+        let mut f = self.fluid(&[obstacle]);
+        let drag = |f: &FluidSolver| surface_forces(f, &self.units, std::slice::from_ref(&surface), &particles, TractionModel::PressureAndShear, 1.0).total[0];
+        // the cylinder's wall nodes: within 3 cells of its surface (the channel walls lie
+        // 15 radii away)
+        let r_lat = self.units.length_to_lattice(self.radius);
+        let cylinder_walls = self.nodes_at(&f.layout.grid, |d| d < r_lat + 3.0);
+        // lattice momentum per step → N per m of span
+        let u = &self.units;
+        let force_unit = u.density * u.velocity * u.dx * u.dx / (self.params.dt * u.time());
+        let mut exchanged = DVec3::ZERO;
+        let near = self.near_nodes(&f.layout.grid);
+        let mut sfd = self.damping(&f);
+        let (mut window, mut history) = (Window::default(), Vec::new());
+        for k in 1..=self.steps {
+            f.layout.boundaries.set_inlet_velocity(Face::XMin, self.inflow(k)).expect("x_min is the velocity inlet");
+            let (averaged, sampled) = (k > self.average_from, k % self.sample_every == 0);
+            if averaged {
+                let wall = crate::coupling::momentum_exchange::step_with_exchange(&mut f, None).expect("Schäfer–Turek stays stable");
+                exchanged += cylinder_walls.iter().map(|&n| wall[n].truncate()).sum::<DVec3>() * force_unit;
+            } else {
+                f.step().expect("Schäfer–Turek stays stable");
+            }
+            if let Some(d) = sfd.as_mut() {
+                d.apply(&mut f);
+            }
+            if averaged || sampled {
+                let fk = drag(&f);
+                if averaged {
+                    window.add(fk, self.pressure_drop(&f), self.coefficient);
+                    window.density += near_density(&f, &near);
+                }
+                if sampled {
+                    history.push(fk.x * self.coefficient);
+                }
+            }
+        }
+        let exchange_drag = Some(exchanged.x / window.samples * self.coefficient);
+        let residual = sfd.map(|d| d.residual(&f));
+        ChannelRun { window, history, exchange_drag, residual, stage_shares: Vec::new(), substeps: 0, max_displacement: 0.0, particles: 0 }
+    }
+
+    /// The disc through the coupling (`body`: method 1, elastic or every particle clamped, or
+    /// method 2): the force is method 1's traction quadrature or the momentum method 2's
+    /// particles received.
+    fn run_coupled(&self, body: CylinderBody) -> ChannelRun {
+        let method = match body {
+            CylinderBody::WeakCoupled(traction) => Method::Weak(WeakOptions { traction, ..Default::default() }),
+            CylinderBody::WeakCoupledRigid => Method::Weak(WeakOptions { traction: TractionModel::PressureAndShear, ..Default::default() }),
+            _ => Method::Conserving(ConservingOptions::default()),
+        };
+        let (particles, surface) = self.disc(body == CylinderBody::WeakCoupledRigid);
+        let solid = SolidSolver::new(particles, vec![self.material.clone()], SolidOptions::default()).expect("valid disc");
+        let bodies = vec![CoupledBody::adiabatic(surface, None)];
+        let mut c = CoupledSolver::new(self.fluid(&[]), solid, self.units, bodies, Vec::new(), method).expect("valid coupling");
+        let near = self.near_nodes(&c.fluid.layout.grid);
+        let mut sfd = self.damping(&c.fluid);
+        let (mut window, mut history) = (Window::default(), Vec::new());
+        for k in 1..=self.steps {
+            c.fluid.layout.boundaries.set_inlet_velocity(Face::XMin, self.inflow(k)).expect("x_min is the velocity inlet");
+            c.step().expect("Schäfer–Turek stays stable");
+            if let Some(d) = sfd.as_mut() {
+                d.apply(&mut c.fluid);
+            }
+            // method 1: the traction quadrature; method 2: the momentum the particles received
+            let force = c.forces.total[0];
+            if k > self.average_from {
+                window.add(force, self.pressure_drop(&c.fluid), self.coefficient);
+                window.density += near_density(&c.fluid, &near);
+            }
+            if k % self.sample_every == 0 {
+                history.push(force.x * self.coefficient);
+            }
+        }
+        let residual = sfd.map(|d| d.residual(&c.fluid));
+        let p = &c.solid.particles;
+        let max_displacement = (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max);
+        let stage_shares = c.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
+        ChannelRun { window, history, exchange_drag: None, residual, stage_shares, substeps: c.substeps, max_displacement, particles: p.len() }
+    }
+}
+
+/// The mean density over `nodes` of `f`.
+fn near_density(f: &FluidSolver, nodes: &[usize]) -> f64 {
+    nodes.iter().map(|&n| f.macro_at(n).rho).sum::<f64>() / nodes.len() as f64
 }
 
 #[cfg(test)]
