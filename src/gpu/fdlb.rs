@@ -28,7 +28,7 @@ pub use readback::{FlagReadFailed, GpuArray, compare_nodes};
 use super::codegen::{self, Split, WORKGROUP};
 use super::context::{GpuContext, GpuError};
 use super::growing::GrowingBuffer;
-use crate::fluid::FluidSolver;
+use crate::fluid::{Equilibrium, FluidSolver};
 use crate::stages::{FDLB_STEP, Stage, StageKind};
 use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
@@ -254,29 +254,7 @@ impl GpuFluid {
         });
         let t = geometry::Tables::of(s, stride).expect("the room is made for twice the side ghosts of s");
         let kind = storage(&device, "kind", bytemuck::cast_slice(&t.kind));
-        let window = s.temperature_window();
-        let base = Params {
-            n_nodes: stride as u32,
-            px: g.padded[0] as u32,
-            py: g.padded[1] as u32,
-            pz: g.padded[2] as u32,
-            nx: g.n[0] as u32,
-            ny: g.n[1] as u32,
-            nz: g.n[2] as u32,
-            hx: g.halo[0] as u32,
-            hy: g.halo[1] as u32,
-            hz: g.halo[2] as u32,
-            count: 0,
-            stage: 1,
-            dt: s.params.dt as f32,
-            tau: s.params.tau as f32,
-            a: s.params.a as f32,
-            window_lo: window.0 as f32,
-            window_hi: window.1 as f32,
-            gx: s.body_force[0] as f32,
-            gy: s.body_force[1] as f32,
-            gz: s.body_force[2] as f32,
-        };
+        let base = Params::of(s, stride);
         let uniform = |p: Params| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("params"),
@@ -290,16 +268,8 @@ impl GpuFluid {
         let thin_count = t.thin_ranges.len() as u32;
         let params_thin = [uniform(Params { stage: 1, count: thin_count, ..base }), uniform(Params { stage: 2, count: thin_count, ..base })];
 
-        let bsrc = codegen::boundaries(eq, split);
         let mut gpu = GpuFluid {
-            pipelines: [
-                pipeline_of(&device, "moments_collide", &codegen::moments_collide(eq, split), "main"),
-                pipeline_of(&device, "advect", &codegen::advect(eq, split), "main"),
-                pipeline_of(&device, "ghost_fill", &bsrc, "ghost_fill"),
-                pipeline_of(&device, "face_fill", &bsrc, "face_fill"),
-                pipeline_of(&device, "periodic_copy", &bsrc, "periodic_copy"),
-                pipeline_of(&device, "thin_wall", &codegen::thin_wall(eq, split), "main"),
-            ],
+            pipelines: pipelines(&device, eq, split),
             thin: (
                 GrowingBuffer::storage(&device, "thin taps", bytemuck::cast_slice(&t.thin_taps)),
                 GrowingBuffer::storage(&device, "thin ranges", bytemuck::cast_slice(&t.thin_ranges)),
@@ -526,6 +496,51 @@ impl GpuFluid {
     pub fn macro_buffers(&self) -> (&wgpu::Buffer, &wgpu::Buffer, u32) {
         (&self.mac, &self.kind, (self.mac.size() / (5 * 4)) as u32)
     }
+}
+
+impl Params {
+    /// The uniform of `s`'s lattice (`stride` nodes a population array) for the first RK2 stage
+    /// and no count; the dispatches' uniforms copy it with their stage or count.
+    fn of(s: &FluidSolver, stride: usize) -> Self {
+        let g = &s.layout.grid;
+        let window = s.temperature_window();
+        Params {
+            n_nodes: stride as u32,
+            px: g.padded[0] as u32,
+            py: g.padded[1] as u32,
+            pz: g.padded[2] as u32,
+            nx: g.n[0] as u32,
+            ny: g.n[1] as u32,
+            nz: g.n[2] as u32,
+            hx: g.halo[0] as u32,
+            hy: g.halo[1] as u32,
+            hz: g.halo[2] as u32,
+            count: 0,
+            stage: 1,
+            dt: s.params.dt as f32,
+            tau: s.params.tau as f32,
+            a: s.params.a as f32,
+            window_lo: window.0 as f32,
+            window_hi: window.1 as f32,
+            gx: s.body_force[0] as f32,
+            gy: s.body_force[1] as f32,
+            gz: s.body_force[2] as f32,
+        }
+    }
+}
+
+/// The six kernels of a step, compiled from the WGSL generated for `eq` and `split`: moments
+/// and collision, advection, the ghost, face and periodic fills, the thin walls' taps.
+fn pipelines(device: &wgpu::Device, eq: &Equilibrium, split: Split) -> [wgpu::ComputePipeline; 6] {
+    let bsrc = codegen::boundaries(eq, split);
+    [
+        pipeline_of(device, "moments_collide", &codegen::moments_collide(eq, split), "main"),
+        pipeline_of(device, "advect", &codegen::advect(eq, split), "main"),
+        pipeline_of(device, "ghost_fill", &bsrc, "ghost_fill"),
+        pipeline_of(device, "face_fill", &bsrc, "face_fill"),
+        pipeline_of(device, "periodic_copy", &bsrc, "periodic_copy"),
+        pipeline_of(device, "thin_wall", &codegen::thin_wall(eq, split), "main"),
+    ]
 }
 
 #[cfg(test)]
