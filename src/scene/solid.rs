@@ -197,122 +197,159 @@ pub struct SolidScene {
 /// Largest particle count a scene may ask for.
 pub const MAX_PARTICLES: f64 = 5.0e7;
 
+/// The dimension (2 or 3), the spacing (> 0) and the materials (at least one, each with a
+/// positive definite stiffness): the materials.
+fn check_materials(s: &SolidSpec) -> Result<Vec<Orthotropic>, SceneError> {
+    let dim = s.dimension;
+    if dim != 2 && dim != 3 {
+        return err("solid.dimension", format!("must be 2 or 3, got {dim}"));
+    }
+    if !(s.spacing.is_finite() && s.spacing > 0.0) {
+        return err("solid.spacing", format!("must be finite and > 0, got {}", s.spacing));
+    }
+    if s.materials.is_empty() {
+        return err("solid.materials", "at least one material is needed");
+    }
+    let materials: Vec<Orthotropic> = s.materials.iter().map(|m| m.material()).collect();
+    for (k, m) in materials.iter().enumerate() {
+        m.stiffness(&format!("solid.materials[{k}]"))?;
+    }
+    Ok(materials)
+}
+
+/// Every body (at least one) with its material among the `materials` given, its velocity and
+/// its shape: a fold, a ball or a box. The estimated particle count of all of them.
+fn check_bodies(file: &SolidSceneFile, materials: usize) -> Result<f64, SceneError> {
+    let s = &file.solid;
+    if s.bodies.is_empty() {
+        return err("solid.bodies", "at least one body is needed");
+    }
+    let mut count = 0.0;
+    for (k, b) in s.bodies.iter().enumerate() {
+        let f = format!("solid.bodies[{k}]");
+        if b.material >= materials {
+            return err(format!("{f}.material"), format!("no material {} (there are {materials})", b.material));
+        }
+        vec3(&format!("{f}.velocity"), &b.velocity, s.dimension, true)?;
+        if let Some(v) = b.first_mode_tip_speed
+            && !v.is_finite()
+        {
+            return err(format!("{f}.first_mode_tip_speed"), format!("must be finite, got {v}"));
+        }
+        count += match &b.fold {
+            Some(fold) => {
+                if b.radius.is_some() || !b.min.is_empty() || !b.max.is_empty() || !b.center.is_empty() {
+                    return err(format!("{f}.fold"), "a body is a box, a ball or a fold, not several");
+                }
+                check_fold(fold, &f, s, file.units, materials)?
+            }
+            None => ball_or_box_particles(b, &f, s)?,
+        };
+    }
+    Ok(count)
+}
+
+/// A ball (center, radius ≥ one spacing) or a box (min, max, at least one spacing along every
+/// axis) named `f`: its estimated particle count.
+fn ball_or_box_particles(b: &BodySpec, f: &str, s: &SolidSpec) -> Result<f64, SceneError> {
+    let dim = s.dimension;
+    match b.radius {
+        Some(r) => {
+            if !b.min.is_empty() || !b.max.is_empty() {
+                return err(format!("{f}.radius"), "a body is a box (min, max) or a ball (center, radius), not both");
+            }
+            vec3(&format!("{f}.center"), &b.center, dim, false)?;
+            if !(r.is_finite() && r >= s.spacing) {
+                return err(format!("{f}.radius"), format!("must be finite and at least one particle spacing ({}), got {r}", s.spacing));
+            }
+            let ball = if dim == 2 { std::f64::consts::PI * r * r } else { 4.0 / 3.0 * std::f64::consts::PI * r.powi(3) };
+            Ok(ball / s.spacing.powi(dim as i32))
+        }
+        None => {
+            if !b.center.is_empty() {
+                return err(format!("{f}.center"), "a ball needs a radius");
+            }
+            let (lo, hi) = (vec3(&format!("{f}.min"), &b.min, dim, false)?, vec3(&format!("{f}.max"), &b.max, dim, false)?);
+            for a in 0..dim {
+                if hi[a] - lo[a] < s.spacing {
+                    return err(format!("{f}.max"), format!("the box is thinner than one particle spacing along axis {a} ({} < {})", hi[a] - lo[a], s.spacing));
+                }
+            }
+            Ok((0..dim).map(|a| ((hi[a] - lo[a]) / s.spacing).floor()).product::<f64>())
+        }
+    }
+}
+
+/// The layers (with a material among the `materials` given), clamps, loads and walls (a
+/// non-zero normal): their vectors of the scene's dimension.
+fn check_regions(s: &SolidSpec, materials: usize) -> Result<(), SceneError> {
+    let dim = s.dimension;
+    for (k, r) in s.layers.iter().enumerate() {
+        vec3(&format!("solid.layers[{k}].min"), &r.min, dim, false)?;
+        vec3(&format!("solid.layers[{k}].max"), &r.max, dim, false)?;
+        if r.material >= materials {
+            return err(format!("solid.layers[{k}].material"), format!("no material {} (there are {materials})", r.material));
+        }
+    }
+    for (k, r) in s.clamps.iter().enumerate() {
+        vec3(&format!("solid.clamps[{k}].min"), &r.min, dim, false)?;
+        vec3(&format!("solid.clamps[{k}].max"), &r.max, dim, false)?;
+    }
+    for (k, l) in s.loads.iter().enumerate() {
+        vec3(&format!("solid.loads[{k}].min"), &l.min, dim, false)?;
+        vec3(&format!("solid.loads[{k}].max"), &l.max, dim, false)?;
+        vec3(&format!("solid.loads[{k}].total_force"), &l.total_force, dim, false)?;
+    }
+    for (k, w) in s.walls.iter().enumerate() {
+        let n = vec3(&format!("solid.walls[{k}].normal"), &w.normal, dim, false)?;
+        if n.length() == 0.0 {
+            return err(format!("solid.walls[{k}].normal"), "must not be zero");
+        }
+    }
+    Ok(())
+}
+
+/// The contact parameters (stiffnesses > 0, friction and damping ≥ 0, μ_d ≤ μ_s), which walls
+/// need.
+fn check_contact(s: &SolidSpec) -> Result<(), SceneError> {
+    let Some(c) = &s.contact else {
+        return if s.walls.is_empty() { Ok(()) } else { err("solid.contact", "walls need contact parameters") };
+    };
+    for (f, v) in [("normal_stiffness", c.normal_stiffness), ("tangential_stiffness", c.tangential_stiffness)] {
+        if !(v.is_finite() && v > 0.0) {
+            return err(format!("solid.contact.{f}"), format!("must be finite and > 0, got {v}"));
+        }
+    }
+    for (f, v) in [("static_friction", c.static_friction), ("dynamic_friction", c.dynamic_friction), ("damping", c.damping)] {
+        if !(v.is_finite() && v >= 0.0) {
+            return err(format!("solid.contact.{f}"), format!("must be finite and ≥ 0, got {v}"));
+        }
+    }
+    if c.dynamic_friction > c.static_friction {
+        return err("solid.contact.dynamic_friction", format!("μ_d = {} exceeds μ_s = {}", c.dynamic_friction, c.static_friction));
+    }
+    Ok(())
+}
+
 impl SolidScene {
     pub fn parse(text: &str) -> Result<Self, SceneError> {
         let file: SolidSceneFile = toml::from_str(text).map_err(|e| SceneError::from_toml("solid", &e, text))?;
         Self::new(file)
     }
 
+    /// Checks every field (the first bad one is the error, named) before anything is sampled:
+    /// the dimension, spacing and materials, the bodies and their particle count, the regions,
+    /// contact and walls, gravity, the run and the probes.
     pub fn new(file: SolidSceneFile) -> Result<Self, SceneError> {
-        let s = &file.solid;
-        let dim = s.dimension;
-        if dim != 2 && dim != 3 {
-            return err("solid.dimension", format!("must be 2 or 3, got {dim}"));
-        }
-        if !(s.spacing.is_finite() && s.spacing > 0.0) {
-            return err("solid.spacing", format!("must be finite and > 0, got {}", s.spacing));
-        }
-        if s.materials.is_empty() {
-            return err("solid.materials", "at least one material is needed");
-        }
-        let materials: Vec<Orthotropic> = s.materials.iter().map(|m| m.material()).collect();
-        for (k, m) in materials.iter().enumerate() {
-            m.stiffness(&format!("solid.materials[{k}]"))?;
-        }
-        if s.bodies.is_empty() {
-            return err("solid.bodies", "at least one body is needed");
-        }
-        let mut count = 0.0;
-        for (k, b) in s.bodies.iter().enumerate() {
-            let f = format!("solid.bodies[{k}]");
-            if b.material >= materials.len() {
-                return err(format!("{f}.material"), format!("no material {} (there are {})", b.material, materials.len()));
-            }
-            vec3(&format!("{f}.velocity"), &b.velocity, dim, true)?;
-            if let Some(v) = b.first_mode_tip_speed
-                && !v.is_finite()
-            {
-                return err(format!("{f}.first_mode_tip_speed"), format!("must be finite, got {v}"));
-            }
-            if let Some(fold) = &b.fold {
-                if b.radius.is_some() || !b.min.is_empty() || !b.max.is_empty() || !b.center.is_empty() {
-                    return err(format!("{f}.fold"), "a body is a box, a ball or a fold, not several");
-                }
-                count += check_fold(fold, &f, s, file.units, materials.len())?;
-                continue;
-            }
-            count += match b.radius {
-                Some(r) => {
-                    if !b.min.is_empty() || !b.max.is_empty() {
-                        return err(format!("{f}.radius"), "a body is a box (min, max) or a ball (center, radius), not both");
-                    }
-                    vec3(&format!("{f}.center"), &b.center, dim, false)?;
-                    if !(r.is_finite() && r >= s.spacing) {
-                        return err(format!("{f}.radius"), format!("must be finite and at least one particle spacing ({}), got {r}", s.spacing));
-                    }
-                    let ball = if dim == 2 { std::f64::consts::PI * r * r } else { 4.0 / 3.0 * std::f64::consts::PI * r.powi(3) };
-                    ball / s.spacing.powi(dim as i32)
-                }
-                None => {
-                    if !b.center.is_empty() {
-                        return err(format!("{f}.center"), "a ball needs a radius");
-                    }
-                    let (lo, hi) = (vec3(&format!("{f}.min"), &b.min, dim, false)?, vec3(&format!("{f}.max"), &b.max, dim, false)?);
-                    for a in 0..dim {
-                        if hi[a] - lo[a] < s.spacing {
-                            return err(
-                                format!("{f}.max"),
-                                format!("the box is thinner than one particle spacing along axis {a} ({} < {})", hi[a] - lo[a], s.spacing),
-                            );
-                        }
-                    }
-                    (0..dim).map(|a| ((hi[a] - lo[a]) / s.spacing).floor()).product::<f64>()
-                }
-            };
-        }
+        let materials = check_materials(&file.solid)?;
+        let count = check_bodies(&file, materials.len())?;
         if count > MAX_PARTICLES {
             return err("solid.spacing", format!("{count:.3e} particles exceed the limit {MAX_PARTICLES:.0e}"));
         }
-        for (k, r) in s.layers.iter().enumerate() {
-            vec3(&format!("solid.layers[{k}].min"), &r.min, dim, false)?;
-            vec3(&format!("solid.layers[{k}].max"), &r.max, dim, false)?;
-            if r.material >= materials.len() {
-                return err(format!("solid.layers[{k}].material"), format!("no material {} (there are {})", r.material, materials.len()));
-            }
-        }
-        for (k, r) in s.clamps.iter().enumerate() {
-            vec3(&format!("solid.clamps[{k}].min"), &r.min, dim, false)?;
-            vec3(&format!("solid.clamps[{k}].max"), &r.max, dim, false)?;
-        }
-        for (k, l) in s.loads.iter().enumerate() {
-            vec3(&format!("solid.loads[{k}].min"), &l.min, dim, false)?;
-            vec3(&format!("solid.loads[{k}].max"), &l.max, dim, false)?;
-            vec3(&format!("solid.loads[{k}].total_force"), &l.total_force, dim, false)?;
-        }
-        for (k, w) in s.walls.iter().enumerate() {
-            let n = vec3(&format!("solid.walls[{k}].normal"), &w.normal, dim, false)?;
-            if n.length() == 0.0 {
-                return err(format!("solid.walls[{k}].normal"), "must not be zero");
-            }
-        }
-        if let Some(c) = &s.contact {
-            for (f, v) in [("normal_stiffness", c.normal_stiffness), ("tangential_stiffness", c.tangential_stiffness)] {
-                if !(v.is_finite() && v > 0.0) {
-                    return err(format!("solid.contact.{f}"), format!("must be finite and > 0, got {v}"));
-                }
-            }
-            for (f, v) in [("static_friction", c.static_friction), ("dynamic_friction", c.dynamic_friction), ("damping", c.damping)] {
-                if !(v.is_finite() && v >= 0.0) {
-                    return err(format!("solid.contact.{f}"), format!("must be finite and ≥ 0, got {v}"));
-                }
-            }
-            if c.dynamic_friction > c.static_friction {
-                return err("solid.contact.dynamic_friction", format!("μ_d = {} exceeds μ_s = {}", c.dynamic_friction, c.static_friction));
-            }
-        } else if !s.walls.is_empty() {
-            return err("solid.contact", "walls need contact parameters");
-        }
-        vec3("solid.gravity", &s.gravity, dim, true)?;
+        check_regions(&file.solid, materials.len())?;
+        check_contact(&file.solid)?;
+        let dim = file.solid.dimension;
+        vec3("solid.gravity", &file.solid.gravity, dim, true)?;
         if !(file.run.duration.is_finite() && file.run.duration > 0.0) {
             return err("run.duration", format!("must be finite and > 0, got {}", file.run.duration));
         }
