@@ -119,11 +119,12 @@ impl GpuSolid {
     pub fn from_solver(ctx: &GpuContext, s: &mut SolidSolver) -> Result<Self, GpuError> {
         let device = ctx.device.clone();
         let limit = ctx.limits.max_storage_buffer_binding_size;
+        // refused before the device's preconditioner arrays are made
+        upload::check_sizes(s, limit)?;
         let blocks = upload::prepare_preconditioner(s);
         // the rest reads the solver only: the inverses go up from the solver's own array
         let s = &*s;
         let pre = upload::DevicePreconditioner::of(s, blocks, limit);
-        upload::check_sizes(s, limit)?;
         let buffers = upload::create_buffers(ctx, s, &pre);
         let (groups, pipelines) = upload::bind_and_compile(&device, &buffers);
         let p = &s.particles;

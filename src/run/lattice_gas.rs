@@ -171,9 +171,9 @@ impl ProbeSeries {
         Ok(Self { csv, samples: uy.into_iter().zip(up).collect(), particles_start: r["particles_start"].as_u64().unwrap_or(0) })
     }
 
-    /// The mean velocity over a block of half-side `half` (ℓ) at the probe `p`, and upstream
-    /// of the cylinder at `upstream`, after `done` steps: one row and one sample. Only the rows
-    /// it reads come back from a GPU; a read that fails writes nothing.
+    /// The mean velocity (ℓ/step) over a square of half-width `half` ℓ around the probe `p`,
+    /// and upstream of the cylinder at `upstream`, after `done` steps: one row and one sample.
+    /// Only the rows it reads come back from a GPU; a read that fails writes nothing.
     fn sample(&mut self, e: &mut LatticeGasEngine, done: u64, p: [f64; 2], upstream: Option<[f64; 2]>, half: f64) -> anyhow::Result<()> {
         let (y0, y1) = region_rows(e.mirror().dims, p, half);
         let Ok(g) = e.state_rows(y0, y1) else { return Ok(()) };

@@ -188,7 +188,8 @@ impl CoarseSpace {
 
     /// [`CoarseSpace::build`] with the aggregates' side and A_c's storage given: the aggregates,
     /// each one's orthonormal affine basis, P's entries at the particles, A_c probed
-    /// (src/solid/coarse_probing.rs) and factorised (dense: Cholesky; sparse: symmetrised, with a third level).
+    /// (src/solid/coarse_probing.rs) and factorised (dense: Cholesky; sparse: symmetrised,
+    /// with a third level).
     pub fn build_with(
         reference: &[DVec3],
         fixed: &[bool],
