@@ -236,15 +236,13 @@ impl<'a> Outputs<'a> {
     /// A fresh run's first rows: the header and the state at step 0.
     fn start(&mut self, c: &CoupledSolver, glottis: Option<&Glottis>) -> anyhow::Result<()> {
         writeln!(self.csv, "{}", csv_header(c, &self.particle_probes))?;
-        let d = probe_displacements(c, &self.particle_probes);
-        writeln!(self.csv, "{}", csv_row(c, &d, &c.fluid.totals(), (0, 0.0)))?;
-        self.probe_samples.push((c.time, d.iter().map(|d| d.y).collect()));
-        self.csv.flush()?;
+        let totals = c.fluid.totals();
+        self.row(c, &totals, (0, 0.0), true)?;
         self.probes.sample(&c.fluid, &self.sc.fluid.units)?;
         if let (Some(g), Some(r)) = (glottis, &mut self.glottal) {
             r.push(g.sample(c))?;
         }
-        self.m0 = c.fluid.totals().mass;
+        self.m0 = totals.mass;
         Ok(())
     }
 

@@ -73,7 +73,8 @@ impl GlottalRecord {
     }
 
     pub(super) fn series(&self) -> GlottalSeries {
-        let col = |k: usize| (GLOTTAL_COLUMNS[k].to_string(), self.samples.iter().map(|s| glottal_values(s)[k]).collect::<Vec<f64>>());
+        let rows: Vec<[f64; 10]> = self.samples.iter().map(glottal_values).collect();
+        let col = |k: usize| (GLOTTAL_COLUMNS[k].to_string(), rows.iter().map(|r| r[k]).collect::<Vec<f64>>());
         GlottalSeries { dt: self.dt, flow: col(0).1, columns: (1..GLOTTAL_COLUMNS.len()).map(col).collect() }
     }
 }

@@ -271,7 +271,6 @@ impl Channel {
         // close to the fluid's; viscosity 0.01 Pa·s damps its ringing.
         let material = Orthotropic::isotropic(200.0, 0.3, 1.0, 0.01);
         let steps = (duration / (params.dt * units.time())).ceil() as u64;
-        let lat = |p: DVec3| [units.position_to_lattice(p.x), units.position_to_lattice(p.y), 0.0];
         Self {
             start,
             units,
@@ -292,7 +291,7 @@ impl Channel {
             // (unless `ChannelStart::Damped` settles them): the figures are averages over the
             // last quarter of the run, sampled every step.
             average_from: steps - steps / 4,
-            drop_probes: [lat(DVec3::new(0.15, 0.2, 0.0)), lat(DVec3::new(0.25, 0.2, 0.0))],
+            drop_probes: [lattice_point(&units, DVec3::new(0.15, 0.2, 0.0)), lattice_point(&units, DVec3::new(0.25, 0.2, 0.0))],
         }
     }
 
@@ -329,10 +328,6 @@ impl Channel {
         }
     }
 
-    fn lat(&self, p: DVec3) -> [f64; 3] {
-        [self.units.position_to_lattice(p.x), self.units.position_to_lattice(p.y), 0.0]
-    }
-
     /// Δp two ways: the field sampled at the two wall points (fluid nodes only, a linear fit
     /// where the cell around the point is cut by the wall), and the pressure extrapolated to the
     /// wall along its normal from the air, quadratically through 1, 2 and 3 cells out
@@ -350,7 +345,7 @@ impl Channel {
     /// The nodes of the solver's grid `g` whose distance from the cylinder's centre (cells)
     /// passes `keep`.
     fn nodes_at(&self, g: &Grid, keep: impl Fn(f64) -> bool) -> Vec<usize> {
-        let cc = DVec3::from_array(self.lat(self.centre));
+        let cc = DVec3::from_array(lattice_point(&self.units, self.centre));
         (0..g.len()).filter(|&n| keep((DVec3::from_array(g.coords(n).map(|x| x as f64)) - cc).length())).collect()
     }
 
@@ -361,11 +356,29 @@ impl Channel {
         self.nodes_at(g, |d| (1.2 * r_lat..=2.0 * r_lat).contains(&d))
     }
 
+    /// After step `k`: the force on the cylinder (N/m, `force`, asked only when it is needed),
+    /// Δp and the density near it (`near`) into the window's sums over the last quarter of the
+    /// run, and C_D into the history every `sample_every` steps.
+    fn record(&self, k: u64, f: &FluidSolver, near: &[usize], force: impl FnOnce() -> DVec3, window: &mut Window, history: &mut Vec<f64>) {
+        let (averaged, sampled) = (k > self.average_from, k.is_multiple_of(self.sample_every));
+        if !(averaged || sampled) {
+            return;
+        }
+        let force = force();
+        if averaged {
+            window.add(force, self.pressure_drop(f), self.coefficient);
+            window.density += near_density(f, near);
+        }
+        if sampled {
+            history.push(force.x * self.coefficient);
+        }
+    }
+
     /// The rigid ghost-node obstacle: C_D by the traction quadrature every sampled step, and by
     /// the momentum its wall nodes take out of the air over the window.
     fn run_rigid(&self) -> ChannelRun {
         let obstacle = Obstacle {
-            shape: Shape::Cylinder { center: self.lat(self.centre), radius: self.units.length_to_lattice(self.radius) },
+            shape: Shape::Cylinder { center: lattice_point(&self.units, self.centre), radius: self.units.length_to_lattice(self.radius) },
             velocity: [0.0; 3],
             temperature: None,
         };
@@ -385,8 +398,7 @@ impl Channel {
         let (mut window, mut history) = (Window::default(), Vec::new());
         for k in 1..=self.steps {
             f.layout.boundaries.set_inlet_velocity(Face::XMin, self.inflow(k)).expect("x_min is the velocity inlet");
-            let (averaged, sampled) = (k > self.average_from, k % self.sample_every == 0);
-            if averaged {
+            if k > self.average_from {
                 let wall = crate::coupling::momentum_exchange::step_with_exchange(&mut f, None).expect("Schäfer–Turek stays stable");
                 exchanged += cylinder_walls.iter().map(|&n| wall[n].truncate()).sum::<DVec3>() * force_unit;
             } else {
@@ -395,16 +407,7 @@ impl Channel {
             if let Some(d) = sfd.as_mut() {
                 d.apply(&mut f);
             }
-            if averaged || sampled {
-                let fk = drag(&f);
-                if averaged {
-                    window.add(fk, self.pressure_drop(&f), self.coefficient);
-                    window.density += near_density(&f, &near);
-                }
-                if sampled {
-                    history.push(fk.x * self.coefficient);
-                }
-            }
+            self.record(k, &f, &near, || drag(&f), &mut window, &mut history);
         }
         let exchange_drag = Some(exchanged.x / window.samples * self.coefficient);
         let residual = sfd.map(|d| d.residual(&f));
@@ -434,14 +437,7 @@ impl Channel {
                 d.apply(&mut c.fluid);
             }
             // method 1: the traction quadrature; method 2: the momentum the particles received
-            let force = c.forces.total[0];
-            if k > self.average_from {
-                window.add(force, self.pressure_drop(&c.fluid), self.coefficient);
-                window.density += near_density(&c.fluid, &near);
-            }
-            if k % self.sample_every == 0 {
-                history.push(force.x * self.coefficient);
-            }
+            self.record(k, &c.fluid, &near, || c.forces.total[0], &mut window, &mut history);
         }
         let residual = sfd.map(|d| d.residual(&c.fluid));
         let p = &c.solid.particles;
@@ -449,6 +445,11 @@ impl Channel {
         let stage_shares = c.stage_shares().into_iter().map(|(n, s)| (n.to_string(), s)).collect();
         ChannelRun { window, history, exchange_drag: None, residual, stage_shares, substeps: c.substeps, max_displacement, particles: p.len() }
     }
+}
+
+/// A point `p` (m) of the channel in lattice coordinates.
+fn lattice_point(units: &Units, p: DVec3) -> [f64; 3] {
+    [units.position_to_lattice(p.x), units.position_to_lattice(p.y), 0.0]
 }
 
 /// The mean density over `nodes` of `f`.
