@@ -86,76 +86,23 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
     let wants = |suite: &str| only.is_none_or(|o| o == suite);
     let llc = last_level_cache_bytes();
     let triad = triad(if quick { 1 << 23 } else { triad_elements(llc) }, 10);
-    let bw = triad.best;
     let fma = fma_peak(5);
     let scalar_fma = scalar_fma_peak(5);
-    let (n2, n3, st) =
-        if quick { (128, 32, 3) } else { (side_beyond_cache(VelocitySetKind::D2q21, 512, llc), side_beyond_cache(VelocitySetKind::D3q39, 96, llc), 10) };
-    let lattices = if wants("fdlb") {
-        vec![lattice_speed(VelocitySetKind::D2q21, [n2, n2, 1], st, 5, bw), lattice_speed(VelocitySetKind::D3q39, [n3, n3, n3], st.min(5), 5, bw)]
-    } else {
-        Vec::new()
-    };
-    let speed_vs_error = if wants("fdlb") { [32usize, 64, 128].as_slice() } else { &[] }
-        .iter()
-        .map(|&n| {
-            let mut c = TaylorGreenCase::new(VelocitySetKind::D2q21, n);
-            // Fixed physical problem: Re = U L / ν = 0.02 · n / (0.002 · n) = 10 at every resolution.
-            c.decay_times = if quick { 0.1 } else { 0.5 };
-            c.run()
-        })
-        .collect();
-    use crate::solid::{Integrator, Preconditioner, bench::plane_solid_speed, bench::solid_speed, bench::solid_speed_with};
-    let mut solid = Vec::new();
-    for side in if !wants("solid") {
-        vec![]
-    } else if quick {
-        vec![20]
-    } else {
-        vec![46, 100]
-    } {
-        solid.push(solid_speed(side, Integrator::Explicit, if quick { 3 } else { 5 }, bw));
-        solid.push(solid_speed(side, Integrator::Implicit, if quick { 2 } else { 3 }, bw));
-        // the smoother against block Jacobi, in the same process (not at 10⁶ particles, where
-        // block Jacobi's ~110 iterations per step would add a quarter of an hour here)
-        if side < 100 {
-            solid.push(solid_speed_with(side, Integrator::Implicit, Preconditioner::BlockJacobi, if quick { 2 } else { 3 }, bw));
-        }
-    }
-    // the explicit step in the plane: a plate of the 2D glottis's size (17,000 particles, in the
-    // cache) and one of 10⁶ particles (out of it)
-    if wants("solid") {
-        for side in if quick { vec![40] } else { vec![130, 1000] } {
-            solid.push(plane_solid_speed(side, if quick { 3 } else { 20 }, bw));
-        }
-    }
-    // the crossover: the benchmark material (its step limited by the elastic waves) and the same
-    // block 100, 1000 and 10⁴ times as viscous (the viscous term limits the explicit step)
-    let solid_crossover = match (wants("solid") || only == Some("crossover"), quick) {
-        (false, _) => Vec::new(),
-        (true, true) => crate::solid::bench::crossover(8, &[crate::solid::bench::BENCHMARK_VISCOSITY, 1000.0], &[2.0, 10.0], 2),
-        (true, false) => {
-            crate::solid::bench::crossover(12, &[crate::solid::bench::BENCHMARK_VISCOSITY, 100.0, 1000.0, 10000.0], &[10.0, 30.0, 100.0, 300.0], 2)
-        }
-    };
+    let sizes = Sizes::of(quick, llc, triad.best);
+    let (lattices, speed_vs_error) = if wants("fdlb") { fdlb_suite(&sizes) } else { (Vec::new(), Vec::new()) };
+    let mut solid = if wants("solid") { solid_suite(&sizes) } else { Vec::new() };
+    let solid_crossover = if wants("solid") || only == Some("crossover") { crossover_suite(quick) } else { Vec::new() };
     for v in &mut solid {
         v.flop_fraction = v.flops_per_update.map(|f| f * v.particle_updates_per_s / fma.best);
         v.scalar_flop_fraction = v.flops_per_update.zip(scalar_fma).map(|(f, peak)| f * v.particle_updates_per_s / peak.best);
     }
-    let lattice_gas = if wants("lattice_gas") {
-        let (cells, steps) = if quick { ([32, 16, 8], 3) } else { ([256, 128, 64], 4) };
-        vec![crate::lattice_gas::bench::cpu_speed(cells, steps, bw), crate::lattice_gas::bench::cpu_speed_site_by_site(cells, steps, bw)]
-    } else {
-        Vec::new()
-    };
+    let lattice_gas = if wants("lattice_gas") { lattice_gas_suite(&sizes) } else { Vec::new() };
     let coupled = if wants("coupled") { coupled_speed_vs_error(quick) } else { Vec::new() };
     let two_mass = if wants("two_mass") { two_mass_speed_vs_error() } else { Vec::new() };
-    let glottis = if !wants("glottis") {
-        Vec::new()
-    } else if quick {
-        glottis_speed(&["glottis_2d_coarse"], 20)
-    } else {
-        glottis_speed(&["glottis_2d_coarse", "glottis_2d_c"], 300)
+    let glottis = match (wants("glottis"), quick) {
+        (false, _) => Vec::new(),
+        (true, true) => glottis_speed(&["glottis_2d_coarse"], 20),
+        (true, false) => glottis_speed(&["glottis_2d_coarse", "glottis_2d_c"], 300),
     };
     let scaling = if only == Some("scaling") { scaling::scaling_table(quick) } else { Vec::new() };
     let geometry = match (only == Some("geometry"), quick) {
@@ -163,20 +110,13 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
         (true, true) => geometry_speed(&["glottis_2d_coarse", "glottis_3d_coarse"], 4),
         (true, false) => geometry_speed(&["glottis_2d_c", "glottis_3d_coarse", "glottis_3d"], 8),
     };
-    let (storage, storage_errors) = if wants("storage") {
-        (
-            vec![storage_speed(VelocitySetKind::D2q21, [n2, n2, 1], st, 5, bw), storage_speed(VelocitySetKind::D3q39, [n3, n3, n3], st.min(5), 5, bw)],
-            storage_errors(),
-        )
-    } else {
-        (Vec::new(), Vec::new())
-    };
+    let (storage, storage_errors) = if wants("storage") { storage_suite(&sizes) } else { (Vec::new(), Vec::new()) };
     BenchReport {
         storage,
         storage_errors,
         scaling,
         threads: rayon::current_num_threads(),
-        triad_bandwidth_gb_s: bw / 1e9,
+        triad_bandwidth_gb_s: triad.best / 1e9,
         triad,
         fma_peak: fma,
         scalar_fma_peak: scalar_fma,
@@ -191,6 +131,90 @@ pub fn run(quick: bool, only: Option<&str>) -> BenchReport {
         glottis,
         geometry,
     }
+}
+
+/// The sizes of one benchmark run: the FDLB lattices' sides (2D, 3D; beyond the last-level
+/// cache unless `quick`) and steps, and the triad bandwidth (B/s) the fractions are taken of.
+struct Sizes {
+    quick: bool,
+    n2: usize,
+    n3: usize,
+    steps: u64,
+    bandwidth: f64,
+}
+
+impl Sizes {
+    fn of(quick: bool, llc: usize, bandwidth: f64) -> Self {
+        let (n2, n3, steps) =
+            if quick { (128, 32, 3) } else { (side_beyond_cache(VelocitySetKind::D2q21, 512, llc), side_beyond_cache(VelocitySetKind::D3q39, 96, llc), 10) };
+        Sizes { quick, n2, n3, steps, bandwidth }
+    }
+}
+
+/// The FDLB's node updates per second (D2Q21, D3Q39) and Taylor–Green's speed against error
+/// at three resolutions.
+fn fdlb_suite(z: &Sizes) -> (Vec<LatticeSpeed>, Vec<TaylorGreenResult>) {
+    let (n2, n3, st, bw) = (z.n2, z.n3, z.steps, z.bandwidth);
+    let lattices = vec![lattice_speed(VelocitySetKind::D2q21, [n2, n2, 1], st, 5, bw), lattice_speed(VelocitySetKind::D3q39, [n3, n3, n3], st.min(5), 5, bw)];
+    let speed_vs_error = [32usize, 64, 128]
+        .iter()
+        .map(|&n| {
+            let mut c = TaylorGreenCase::new(VelocitySetKind::D2q21, n);
+            // Fixed physical problem: Re = U L / ν = 0.02 · n / (0.002 · n) = 10 at every resolution.
+            c.decay_times = if z.quick { 0.1 } else { 0.5 };
+            c.run()
+        })
+        .collect();
+    (lattices, speed_vs_error)
+}
+
+/// The solid's particle updates per second: the explicit and implicit steps of cubes of two
+/// sides (the smoother against block Jacobi on the smaller), and the explicit step in the plane.
+fn solid_suite(z: &Sizes) -> Vec<crate::solid::bench::SolidSpeed> {
+    use crate::solid::{Integrator, Preconditioner, bench::plane_solid_speed, bench::solid_speed, bench::solid_speed_with};
+    let (quick, bw) = (z.quick, z.bandwidth);
+    let mut solid = Vec::new();
+    for side in if quick { vec![20] } else { vec![46, 100] } {
+        solid.push(solid_speed(side, Integrator::Explicit, if quick { 3 } else { 5 }, bw));
+        solid.push(solid_speed(side, Integrator::Implicit, if quick { 2 } else { 3 }, bw));
+        // the smoother against block Jacobi, in the same process (not at 10⁶ particles, where
+        // block Jacobi's ~110 iterations per step would add a quarter of an hour here)
+        if side < 100 {
+            solid.push(solid_speed_with(side, Integrator::Implicit, Preconditioner::BlockJacobi, if quick { 2 } else { 3 }, bw));
+        }
+    }
+    // the explicit step in the plane: a plate of the 2D glottis's size (17,000 particles, in the
+    // cache) and one of 10⁶ particles (out of it)
+    for side in if quick { vec![40] } else { vec![130, 1000] } {
+        solid.push(plane_solid_speed(side, if quick { 3 } else { 20 }, bw));
+    }
+    solid
+}
+
+/// The crossover: the benchmark material (its step limited by the elastic waves) and the same
+/// block 100, 1000 and 10⁴ times as viscous (the viscous term limits the explicit step).
+fn crossover_suite(quick: bool) -> Vec<crate::solid::bench::CrossoverRow> {
+    use crate::solid::bench::{BENCHMARK_VISCOSITY, crossover};
+    if quick {
+        crossover(8, &[BENCHMARK_VISCOSITY, 1000.0], &[2.0, 10.0], 2)
+    } else {
+        crossover(12, &[BENCHMARK_VISCOSITY, 100.0, 1000.0, 10000.0], &[10.0, 30.0, 100.0, 300.0], 2)
+    }
+}
+
+/// The lattice gas's site updates per second, word-parallel and site by site.
+fn lattice_gas_suite(z: &Sizes) -> Vec<crate::lattice_gas::bench::LatticeGasSpeed> {
+    let (cells, steps) = if z.quick { ([32, 16, 8], 3) } else { ([256, 128, 64], 4) };
+    vec![crate::lattice_gas::bench::cpu_speed(cells, steps, z.bandwidth), crate::lattice_gas::bench::cpu_speed_site_by_site(cells, steps, z.bandwidth)]
+}
+
+/// The FDLB's storage options' speed (D2Q21, D3Q39) and their errors.
+fn storage_suite(z: &Sizes) -> (Vec<StorageSpeed>, Vec<StorageError>) {
+    let (n2, n3, st, bw) = (z.n2, z.n3, z.steps, z.bandwidth);
+    (
+        vec![storage_speed(VelocitySetKind::D2q21, [n2, n2, 1], st, 5, bw), storage_speed(VelocitySetKind::D3q39, [n3, n3, n3], st.min(5), 5, bw)],
+        storage_errors(),
+    )
 }
 
 #[cfg(test)]

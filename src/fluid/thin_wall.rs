@@ -256,16 +256,40 @@ impl WallGeometry<'_> {
 /// An image node across a periodic face counts at its nearest periodic copy. `only`: the
 /// reading nodes to consider (ascending), all when None.
 pub fn thin_taps(geo: &WallGeometry, only: Option<&[usize]>) -> Vec<ThinTap> {
-    let (grid, kind, ghosts, periodic) = (geo.grid, geo.kind, geo.ghosts, geo.periodic);
-    // the ghost at a node by bisection of the ghosts' nodes (in node order), not a lattice-sized
-    // index made at every step: only the nodes next to a wall ask. The nodes are bisected as a
-    // list of their own (4 B each: the 3D glottis's 173,000 ghosts in 0.7 MB, where their
-    // records take 12 MB), which keeps the bisections' last steps in the cache
-    debug_assert!(ghosts.windows(2).all(|w| w[0].node < w[1].node), "ghosts in node order");
-    let ghost_nodes: Vec<u32> = ghosts.par_iter().with_min_len(PAR_NODES).map(|g| u32::try_from(g.node).expect("fewer than 2³² nodes")).collect();
-    let ghost_of = |node: usize| u32::try_from(node).ok().and_then(|n| ghost_nodes.binary_search(&n).ok());
-    // Image point of each ghost (mean of its image nodes' coordinates, by weight).
-    let image: Vec<[f64; 3]> = ghosts
+    let finder = TapFinder::new(geo);
+    let all: Vec<usize>;
+    let nodes = match only {
+        Some(v) => v,
+        None => {
+            all = (0..geo.grid.len()).collect();
+            &all
+        }
+    };
+    // in node order (rayon's collect keeps the sequential order), with no list per node
+    let readers: Vec<usize> = nodes.par_iter().with_min_len(PAR_NODES).copied().filter(|&n| reads_a_wall(geo, n)).collect();
+    readers.par_iter().with_min_len(PAR_NODES / 8).flat_map_iter(|&node| finder.taps(node)).collect()
+}
+
+/// Whether fluid node `node` has a node other than fluid within two cells along an axis.
+/// Most nodes are not fluid, or have only fluid within two cells along every axis: those read
+/// no ghost and no wall, so no tap is made for them (`one_sided_weights` of three falses is
+/// None) — answered first from the kinds alone, by strides (a fluid node is interior, and the
+/// lattice's halo is two nodes deep), in a pass of its own: the 3D glottis's 1.23·10⁶ rebuilt
+/// nodes leave 100,000 readers next to a wall.
+fn reads_a_wall(geo: &WallGeometry, node: usize) -> bool {
+    let (grid, kind) = (geo.grid, geo.kind);
+    kind[node] == NodeKind::Fluid
+        && !(0..grid.dim).all(|a| {
+            let s = grid.stride[a];
+            [node - 2 * s, node - s, node + s, node + 2 * s].into_iter().all(|y| kind[y] == NodeKind::Fluid)
+        })
+}
+
+/// Image point of each ghost (the mean of its image nodes' coordinates, by weight; an image
+/// node across a periodic face at its nearest periodic copy), lattice cells.
+fn image_points(geo: &WallGeometry) -> Vec<[f64; 3]> {
+    let (grid, periodic) = (geo.grid, geo.periodic);
+    geo.ghosts
         .par_iter()
         .with_min_len(PAR_NODES)
         .map(|g| {
@@ -284,84 +308,91 @@ pub fn thin_taps(geo: &WallGeometry, only: Option<&[usize]>) -> Vec<ThinTap> {
             }
             c
         })
-        .collect();
-    let all: Vec<usize>;
-    let nodes = match only {
-        Some(v) => v,
-        None => {
-            all = (0..grid.len()).collect();
-            &all
-        }
-    };
-    // Most nodes are not fluid, or have only fluid within two cells along every axis: those
-    // read no ghost and no wall, so no tap below is made (`one_sided_weights` of three falses
-    // is None) — answered first from the kinds alone, by strides (a fluid node is interior, and
-    // the lattice's halo is two nodes deep), in a pass of its own: the 3D glottis's 1.23·10⁶
-    // rebuilt nodes leave 100,000 readers next to a wall
-    let reads_a_wall = |node: usize| {
-        kind[node] == NodeKind::Fluid
-            && !(0..grid.dim).all(|a| {
-                let s = grid.stride[a];
-                [node - 2 * s, node - s, node + s, node + 2 * s].into_iter().all(|y| kind[y] == NodeKind::Fluid)
+        .collect()
+}
+
+/// What the readers' taps read of the ghosts besides the geometry: their nodes, in node order,
+/// to find the ghost at a node by bisection (not a lattice-sized index made at every step:
+/// only the nodes next to a wall ask; 4 B each, so the 3D glottis's 173,000 ghosts take 0.7 MB
+/// where their records take 12 MB, which keeps the bisections' last steps in the cache), and
+/// their image points ([`image_points`]).
+struct TapFinder<'a, 'g> {
+    geo: &'a WallGeometry<'g>,
+    ghost_nodes: Vec<u32>,
+    image: Vec<[f64; 3]>,
+}
+
+impl<'a, 'g> TapFinder<'a, 'g> {
+    fn new(geo: &'a WallGeometry<'g>) -> Self {
+        debug_assert!(geo.ghosts.windows(2).all(|w| w[0].node < w[1].node), "ghosts in node order");
+        let ghost_nodes = geo.ghosts.par_iter().with_min_len(PAR_NODES).map(|g| u32::try_from(g.node).expect("fewer than 2³² nodes")).collect();
+        TapFinder { geo, ghost_nodes, image: image_points(geo) }
+    }
+
+    /// The index of the ghost at `node`, if it is one.
+    fn ghost_of(&self, node: usize) -> Option<usize> {
+        u32::try_from(node).ok().and_then(|n| self.ghost_nodes.binary_search(&n).ok())
+    }
+
+    /// Whether node `i`, at `d` steps of `sign` along `axis` from the reader at `r`, is a ghost
+    /// whose image lies on the far side of it from the reader (a ghost of another wall than
+    /// the one the reader faces).
+    fn far_ghost(&self, i: usize, r: [i64; 3], axis: usize, sign: i64, d: i64) -> bool {
+        self.geo.kind[i] == NodeKind::Ghost
+            && self.ghost_of(i).is_some_and(|k| {
+                let t = r[axis] + d * sign;
+                (self.image[k][axis] - t as f64) * ((r[axis] - t) as f64) < 0.0
             })
-    };
-    // each reader's taps apart (on the pool's threads below, gathered in node order)
-    let taps_of = |node: usize| -> Vec<ThinTap> {
-        let mut out = Vec::new();
-        let r = grid.coords(node);
-        for axis in 0..grid.dim {
-            for sign in [1i64, -1] {
-                let x_at = |d: i64| {
-                    let mut y = r;
-                    y[axis] += d * sign;
-                    y
-                };
-                let at = |d: i64| grid.index(x_at(d));
-                // Is the ghost at displacement d (in units of s) on the reader's side?
-                let far_ghost = |i: usize, d: i64| {
-                    kind[i] == NodeKind::Ghost
-                        && ghost_of(i).is_some_and(|k| {
-                            let t = r[axis] + d * sign;
-                            (image[k][axis] - t as f64) * ((r[axis] - t) as f64) < 0.0
-                        })
-                };
-                let (ahead, behind, behind2) = (at(1), at(-1), at(-2));
-                let far_ahead = far_ghost(ahead, 1);
-                let far_behind = far_ghost(behind, -1);
-                let far_behind2 = far_ghost(behind2, -2) || (kind[behind2] == NodeKind::Fluid && kind[behind] != NodeKind::Fluid);
-                let Some(weights) = one_sided_weights(far_ahead, far_behind, far_behind2) else { continue };
-                // The far taps (index into (0, +s, −s, −2s)) with the line's last fluid node
-                // and first solid node on the way to each.
-                let mut far: Vec<(usize, i64, i64, i64)> = Vec::new();
-                if far_ahead {
-                    far.push((1, 1, 0, 1));
-                }
-                if far_behind {
-                    far.push((2, -1, 0, -1));
-                    far.push((3, -2, 0, -1));
-                } else if far_behind2 {
-                    let first_solid = if kind[behind] != NodeKind::Fluid { (0, -1) } else { (-1, -2) };
-                    far.push((3, -2, first_solid.0, first_solid.1));
-                }
-                let sides: Option<Vec<SideGhost>> =
-                    far.iter().map(|&(tap, d, a, b)| geo.side_ghost(x_at(d), x_at(a), x_at(b)).map(|ghost| SideGhost { tap, ghost })).collect();
-                match sides {
-                    Some(sides) => {
-                        let mut w = FULL;
-                        for sg in &sides {
-                            w[sg.tap] = 0.0;
-                        }
-                        out.push(ThinTap { node, axis, sign, weights: w, sides });
-                    }
-                    None => out.push(ThinTap { node, axis, sign, weights, sides: Vec::new() }),
-                }
-            }
+    }
+
+    /// The taps of reader `node`, axis by axis, + before −.
+    fn taps(&self, node: usize) -> Vec<ThinTap> {
+        let r = self.geo.grid.coords(node);
+        (0..self.geo.grid.dim).flat_map(|axis| [1i64, -1].into_iter().filter_map(move |sign| self.tap(node, r, axis, sign))).collect()
+    }
+
+    /// The tap of reader `node` (at interior coordinates `r`) along `axis` for the velocities of
+    /// sign `sign`: side ghosts for its far taps where they can all be built, else the
+    /// one-sided weights; None where no tap is far.
+    fn tap(&self, node: usize, r: [i64; 3], axis: usize, sign: i64) -> Option<ThinTap> {
+        let (grid, kind) = (self.geo.grid, self.geo.kind);
+        let x_at = |d: i64| {
+            let mut y = r;
+            y[axis] += d * sign;
+            y
+        };
+        let at = |d: i64| grid.index(x_at(d));
+        let (ahead, behind, behind2) = (at(1), at(-1), at(-2));
+        let far_ahead = self.far_ghost(ahead, r, axis, sign, 1);
+        let far_behind = self.far_ghost(behind, r, axis, sign, -1);
+        let far_behind2 = self.far_ghost(behind2, r, axis, sign, -2) || (kind[behind2] == NodeKind::Fluid && kind[behind] != NodeKind::Fluid);
+        let weights = one_sided_weights(far_ahead, far_behind, far_behind2)?;
+        // The far taps (index into (0, +s, −s, −2s)) with the line's last fluid node and first
+        // solid node on the way to each.
+        let mut far: Vec<(usize, i64, i64, i64)> = Vec::new();
+        if far_ahead {
+            far.push((1, 1, 0, 1));
         }
-        out
-    };
-    // in node order (rayon's collect keeps the sequential order), with no list per node
-    let readers: Vec<usize> = nodes.par_iter().with_min_len(PAR_NODES).copied().filter(|&n| reads_a_wall(n)).collect();
-    readers.par_iter().with_min_len(PAR_NODES / 8).flat_map_iter(|&node| taps_of(node)).collect()
+        if far_behind {
+            far.push((2, -1, 0, -1));
+            far.push((3, -2, 0, -1));
+        } else if far_behind2 {
+            let first_solid = if kind[behind] != NodeKind::Fluid { (0, -1) } else { (-1, -2) };
+            far.push((3, -2, first_solid.0, first_solid.1));
+        }
+        let sides: Option<Vec<SideGhost>> =
+            far.iter().map(|&(tap, d, a, b)| self.geo.side_ghost(x_at(d), x_at(a), x_at(b)).map(|ghost| SideGhost { tap, ghost })).collect();
+        Some(match sides {
+            Some(sides) => {
+                let mut w = FULL;
+                for sg in &sides {
+                    w[sg.tap] = 0.0;
+                }
+                ThinTap { node, axis, sign, weights: w, sides }
+            }
+            None => ThinTap { node, axis, sign, weights, sides: Vec::new() },
+        })
+    }
 }
 
 #[cfg(test)]

@@ -4,8 +4,9 @@
 //! goes unstable stops with the diagnosis and keeps everything written so far (plus a last
 //! snapshot of the last finite state).
 
+use super::driver::{Outcome, Tick};
 use super::glottal_record::{GLOTTAL_COLUMNS, GlottalRecord, glottal_from_values, glottal_values};
-use super::{RunOptions, checkpoint};
+use super::{CoupledEngine, RunOptions, checkpoint};
 use crate::analysis::voice::VoiceOptions;
 use crate::coupling::CoupledSolver;
 use crate::coupling::glottis::{GlottalSample, Glottis};
@@ -320,126 +321,186 @@ pub fn run_coupled_scene(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> an
     let mut c = sc.build()?;
     std::fs::create_dir_all(dir)?;
     let record = ck.restore(&mut c, dir)?.cloned();
-    let mut engine = super::CoupledEngine::new(opts.backend, c, sc.solid.file.solid.cg_tolerance)?;
+    let mut engine = CoupledEngine::new(opts.backend, c, sc.solid.file.solid.cg_tolerance)?;
     engine.ask_level_sets(opts.level_sets);
     let build_s = built.elapsed().as_secs_f64();
     let c = engine.solver();
     let resumed_from_step = record.is_some().then_some(c.step_count);
-    let total = ck.total(opts.steps, sc.fluid.steps);
-    let every = sc.coupling.output_every.unwrap_or(10);
-    let snaps = sc.fluid.file.output.snapshots;
-    let snap_every = total.checked_div(snaps).map_or(u64::MAX, |k| k.max(1));
-    let probe_every = sc.fluid.file.output.probe_every.max(1);
+    let schedule = Schedule::of(sc, opts);
     let glottis = sc.glottis(c);
-    let mut out = Outputs::open(sc, dir, c, glottis.is_some(), probe_every, record.is_some())?;
+    let mut out = Outputs::open(sc, dir, c, glottis.is_some(), schedule.probe_every, record.is_some())?;
     match &record {
         Some(r) => out.resume(r)?,
         None => out.start(c, glottis.as_ref())?,
     }
+    let events = Events { schedule, glottis: glottis.as_ref(), probe_nodes: out.probes.nodes(), checkpoint: ck };
     let progress = opts.show_progress.then_some("coupled steps");
-    let probe_nodes = out.probes.nodes();
-    let outcome = super::driver::drive_until(&mut engine, total, opts.stop_at, &[every, probe_every, snap_every, ck.period()], progress, |e, t| {
-        // on the GPU each read brings back what it needs (see run::coupled_engine); a read that
-        // fails writes nothing, and the next advance (or the end) stops the run with it
-        if t.hit[0] || t.last {
-            let Ok(totals) = e.totals() else { return Ok(()) };
-            let (_, last_cg) = e.cg();
-            let Ok(c) = e.observe(|_| Vec::new()) else { return Ok(()) };
-            // uniformly sampled (not the last step's extra row): the oscillation needs a
-            // constant interval
-            out.row(c, &totals, last_cg, t.hit[0])?;
-        }
-        if t.hit[1] || t.last {
-            let mut section = None;
-            let Ok(c) = e.observe(|c| {
-                let mut nodes = probe_nodes.clone();
-                if let Some(g) = &glottis {
-                    let s = g.section(c);
-                    nodes.extend(&s.nodes);
-                    section = Some(s);
-                }
-                nodes
-            }) else {
-                return Ok(());
-            };
-            out.probes.sample(&c.fluid, &sc.fluid.units)?;
-            // uniformly sampled: the voice measures need a constant interval
-            if t.hit[1]
-                && let Some(r) = &mut out.glottal
-            {
-                let s = section.unwrap_or_else(|| glottis.as_ref().expect("a glottal record has a glottis").section(c));
-                r.push(s.sample(&c.fluid))?;
-            }
-        }
-        if t.hit[2] && out.k_snap < snaps {
-            let Ok(c) = e.state() else { return Ok(()) };
-            out.k_snap += 1;
-            out.snapshot(c, out.k_snap)?;
-        }
-        if t.hit[3] {
-            let Ok(c) = e.state() else { return Ok(()) };
-            ck.save(dir, t.step, total, c, out.checkpoint_record(), &out.checkpointed_outputs())?;
-        }
-        Ok(())
-    })?;
+    let outcome = super::driver::drive_until(&mut engine, schedule.total, opts.stop_at, &schedule.periods(ck), progress, |e, t| out.at(e, t, &events))?;
     if ck.writes() {
         out.files.push(dir.join(checkpoint::FILE_NAME));
     }
-    let wall = outcome.wall_s;
-    let instability = outcome.instability;
-    // the air's mass at the end from the same sums as the csv rows (on the GPU, the device's)
-    let final_mass = engine.totals().map(|t| t.mass).unwrap_or(f64::NAN);
-    // the whole state of the step reached (after a device failure: the last one brought back)
-    let _ = engine.state();
-    let readback = engine.is_gpu().then(|| engine.readback());
-    let (cg_tally, _) = engine.cg();
-    let c = engine.solver();
-    if instability.is_some() {
-        out.snapshot(c, 999)?;
+    out.finish(&mut engine, outcome, build_s, resumed_from_step)
+}
+
+/// When a coupled run writes what (steps): `coupling.csv`'s rows every `every`, the fluid
+/// probes and the glottal record every `probe_every`, `snaps` snapshots spread over the run.
+#[derive(Clone, Copy, Debug)]
+struct Schedule {
+    total: u64,
+    every: u64,
+    probe_every: u64,
+    snaps: u64,
+    snap_every: u64,
+}
+
+impl Schedule {
+    /// The schedule of `sc` run as `opts` says (its duration or `opts.steps`).
+    fn of(sc: &CoupledScene, opts: &RunOptions) -> Self {
+        let total = opts.checkpoint.total(opts.steps, sc.fluid.steps);
+        let snaps = sc.fluid.file.output.snapshots;
+        Schedule {
+            total,
+            every: sc.coupling.output_every.unwrap_or(10),
+            probe_every: sc.fluid.file.output.probe_every.max(1),
+            snaps,
+            snap_every: total.checked_div(snaps).map_or(u64::MAX, |k| k.max(1)),
+        }
     }
-    let glottis_report = match &out.glottal {
-        Some(r) => Some(glottal_outputs(sc, dir, r, &mut out.files)?),
-        None => None,
-    };
-    let p = &c.solid.particles;
-    let steps_here = c.step_count - resumed_from_step.unwrap_or(0);
-    let m0 = out.m0;
-    let mut report = CoupledReport {
-        name: sc.fluid.file.name.clone(),
-        backend: engine.name.clone(),
-        method: sc.coupling.method.name().into(),
-        nodes: sc.fluid.grid.n,
-        particles: p.len(),
-        substeps: c.substeps,
-        dt: c.dt(),
-        steps: c.step_count,
-        simulated_s: c.time,
-        wall_s: wall,
-        build_s,
-        coupled_steps_per_s: steps_here as f64 / wall.max(1e-9),
-        stage_shares: crate::step::Solver::stage_shares(&engine).into_iter().map(|(n, s)| (n.to_string(), s)).collect(),
-        final_forces: c.forces.total.iter().map(|f| f.to_array()).collect(),
-        max_displacement: (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max),
-        fluid_mass_drift: (final_mass - m0) / m0,
-        readback,
-        uncovered: c.geometry.uncovered,
-        covered: c.geometry.covered,
-        exchange: c.exchange().map(|e| ExchangeReport {
-            momentum_to_walls: e.walls.to_array(),
-            node_changes: e.node_changes.to_array(),
-            mass_to_walls: e.mass_to_walls,
-            wall_frame_momentum: e.wall_frame.to_array(),
-        }),
-        solid_cg: implicit(c).then_some(cg_tally),
-        particle_probes: probe_reports(&out.particle_probes.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(), &out.probe_samples, 0.5),
-        glottis: glottis_report,
-        instability: instability.map(|e| e.to_string()),
-        state_hash: state_hash(c),
-        resumed_from_step,
-        files: out.files,
-    };
-    report.files.push(super::write_summary(dir, &report)?);
-    Ok(report)
+
+    /// The run loop's periods, in the order [`Outputs::at`] reads its tick's hits: the csv
+    /// rows, the probes, the snapshots, the checkpoints.
+    fn periods(&self, ck: &checkpoint::Checkpointing) -> [u64; 4] {
+        [self.every, self.probe_every, self.snap_every, ck.period()]
+    }
+}
+
+/// What the output events of a run read besides the state: the schedule, the glottis (a
+/// glottis scene), the fluid probes' nodes and the checkpoints to write.
+struct Events<'a> {
+    schedule: Schedule,
+    glottis: Option<&'a Glottis>,
+    probe_nodes: Vec<usize>,
+    checkpoint: &'a checkpoint::Checkpointing,
+}
+
+impl Outputs<'_> {
+    /// The writes of one event of the run loop (`t.hit` in [`Schedule::periods`]' order). On
+    /// the GPU each read brings back what it needs (see run::coupled_engine); a read that fails
+    /// writes nothing more at this event, and the next advance (or the end) stops the run with
+    /// it.
+    fn at(&mut self, e: &mut CoupledEngine, t: &Tick, ev: &Events) -> anyhow::Result<()> {
+        let answered = (!(t.hit[0] || t.last) || self.csv_event(e, t.hit[0])?)
+            && (!(t.hit[1] || t.last) || self.probe_event(e, t.hit[1], ev)?)
+            && (!(t.hit[2] && self.k_snap < ev.schedule.snaps) || self.snapshot_event(e)?);
+        if answered && t.hit[3] {
+            let Ok(c) = e.state() else { return Ok(()) };
+            ev.checkpoint.save(self.dir, t.step, ev.schedule.total, c, self.checkpoint_record(), &self.checkpointed_outputs())?;
+        }
+        Ok(())
+    }
+
+    /// A `coupling.csv` row (`sampled`: of the uniform schedule, not the last step's extra
+    /// row: the oscillation needs a constant interval); false where the device did not answer.
+    fn csv_event(&mut self, e: &mut CoupledEngine, sampled: bool) -> anyhow::Result<bool> {
+        let Ok(totals) = e.totals() else { return Ok(false) };
+        let (_, last_cg) = e.cg();
+        let Ok(c) = e.observe(|_| Vec::new()) else { return Ok(false) };
+        self.row(c, &totals, last_cg, sampled)?;
+        Ok(true)
+    }
+
+    /// The fluid probes' row and (`sampled`: of the uniform schedule, which the voice measures
+    /// need) the glottal record's sample, the glottis's narrowest section read with the probes'
+    /// nodes; false where the device did not answer.
+    fn probe_event(&mut self, e: &mut CoupledEngine, sampled: bool, ev: &Events) -> anyhow::Result<bool> {
+        let mut section = None;
+        let Ok(c) = e.observe(|c| {
+            let mut nodes = ev.probe_nodes.clone();
+            if let Some(g) = ev.glottis {
+                let s = g.section(c);
+                nodes.extend(&s.nodes);
+                section = Some(s);
+            }
+            nodes
+        }) else {
+            return Ok(false);
+        };
+        self.probes.sample(&c.fluid, &self.sc.fluid.units)?;
+        if sampled && let Some(r) = &mut self.glottal {
+            let s = section.unwrap_or_else(|| ev.glottis.expect("a glottal record has a glottis").section(c));
+            r.push(s.sample(&c.fluid))?;
+        }
+        Ok(true)
+    }
+
+    /// The next snapshot; false where the device did not answer.
+    fn snapshot_event(&mut self, e: &mut CoupledEngine) -> anyhow::Result<bool> {
+        let Ok(c) = e.state() else { return Ok(false) };
+        self.k_snap += 1;
+        self.snapshot(c, self.k_snap)?;
+        Ok(true)
+    }
+
+    /// The run's end: a last snapshot after an instability, the voice outputs of a glottis,
+    /// and the report, written as `summary.json`.
+    fn finish(mut self, engine: &mut CoupledEngine, outcome: Outcome, build_s: f64, resumed_from_step: Option<u64>) -> anyhow::Result<CoupledReport> {
+        let (sc, dir) = (self.sc, self.dir);
+        let wall = outcome.wall_s;
+        let instability = outcome.instability;
+        // the air's mass at the end from the same sums as the csv rows (on the GPU, the device's)
+        let final_mass = engine.totals().map(|t| t.mass).unwrap_or(f64::NAN);
+        // the whole state of the step reached (after a device failure: the last one brought back)
+        let _ = engine.state();
+        let readback = engine.is_gpu().then(|| engine.readback());
+        let (cg_tally, _) = engine.cg();
+        let c = engine.solver();
+        if instability.is_some() {
+            self.snapshot(c, 999)?;
+        }
+        let glottis_report = match &self.glottal {
+            Some(r) => Some(glottal_outputs(sc, dir, r, &mut self.files)?),
+            None => None,
+        };
+        let p = &c.solid.particles;
+        let steps_here = c.step_count - resumed_from_step.unwrap_or(0);
+        let m0 = self.m0;
+        let mut report = CoupledReport {
+            name: sc.fluid.file.name.clone(),
+            backend: engine.name.clone(),
+            method: sc.coupling.method.name().into(),
+            nodes: sc.fluid.grid.n,
+            particles: p.len(),
+            substeps: c.substeps,
+            dt: c.dt(),
+            steps: c.step_count,
+            simulated_s: c.time,
+            wall_s: wall,
+            build_s,
+            coupled_steps_per_s: steps_here as f64 / wall.max(1e-9),
+            stage_shares: crate::step::Solver::stage_shares(engine).into_iter().map(|(n, s)| (n.to_string(), s)).collect(),
+            final_forces: c.forces.total.iter().map(|f| f.to_array()).collect(),
+            max_displacement: (0..p.len()).map(|i| (p.position[i] - p.reference[i]).length()).fold(0.0, f64::max),
+            fluid_mass_drift: (final_mass - m0) / m0,
+            readback,
+            uncovered: c.geometry.uncovered,
+            covered: c.geometry.covered,
+            exchange: c.exchange().map(|e| ExchangeReport {
+                momentum_to_walls: e.walls.to_array(),
+                node_changes: e.node_changes.to_array(),
+                mass_to_walls: e.mass_to_walls,
+                wall_frame_momentum: e.wall_frame.to_array(),
+            }),
+            solid_cg: implicit(c).then_some(cg_tally),
+            particle_probes: probe_reports(&self.particle_probes.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(), &self.probe_samples, 0.5),
+            glottis: glottis_report,
+            instability: instability.map(|e| e.to_string()),
+            state_hash: state_hash(c),
+            resumed_from_step,
+            files: self.files,
+        };
+        report.files.push(super::write_summary(dir, &report)?);
+        Ok(report)
+    }
 }
 
 /// Writes the voice outputs of a glottis run (what it has, even when it
