@@ -126,94 +126,163 @@ fn panel_ui(
         // the scene's parameters only where the panel owns a simulation (a PanelTarget)
         ui.add_enabled_ui(has_target, |ui| scene_controls(ui, &mut state));
         ui.separator();
-        ui.horizontal(|ui| {
-            ui.checkbox(&mut control.paused, "paused");
-            if ui.button("step").clicked() {
-                control.paused = true;
-                control.single_steps += 1;
-            }
-        });
-        ui.add(egui::Slider::new(&mut control.steps_per_frame, 1..=500).logarithmic(true).text("steps per frame"));
+        run_controls(ui, &mut control);
         ui.separator();
-        ui.checkbox(&mut settings.folds, "folds (marching cubes)");
-        ui.checkbox(&mut settings.folds_on_gpu, "folds made on the GPU (when rendering)");
-        ui.checkbox(&mut settings.tracers, "tracers (FDLB air)");
-        let mut field = settings.slice;
-        egui::ComboBox::from_label("slice").selected_text(field.map_or("none".to_string(), |f| format!("{f:?}").to_lowercase())).show_ui(ui, |ui| {
-            ui.selectable_value(&mut field, None, "none");
-            for f in [Field::Speed, Field::Pressure, Field::Vorticity, Field::Temperature, Field::Density] {
-                ui.selectable_value(&mut field, Some(f), format!("{f:?}").to_lowercase());
-            }
-        });
-        settings.slice = field;
+        draw_controls(ui, &mut settings);
         let rates = format!("{:.0} frames/s · {:.0} steps/s", 1.0 / time.delta_secs().max(1e-6), smoothed.get(&STEPS_PER_SECOND));
-        for (sim, target, diag, voice, g, status, plots, slice, (cpu_folds, gpu_folds, on_gpu)) in &coupled {
+        let shown = Shown { settings: &settings, smoothed: &smoothed, rates: &rates };
+        for (sim, target, diag, voice, glottis, status, plots, slice, (cpu_folds, gpu_folds, on_gpu)) in &coupled {
             ui.separator();
             target_error(ui, target);
-            if let Some(CoupledStatus::Unstable(why)) = status {
-                ui.colored_label(egui::Color32::LIGHT_RED, format!("stopped: {why}"));
-            }
-            let s = &sim.solver;
-            let backend = if on_gpu { "GPU backend (render device)" } else { "CPU backend" };
-            ui.label(format!("{backend} · {} nodes · {} particles", s.fluid.layout.grid.interior_len(), s.solid.particles.len()));
-            let read = if on_gpu { " read back" } else { "" };
-            ui.label(format!("t = {:.3} ms ({} steps{read})", s.time * 1e3, s.step_count));
-            ui.label(format!("{rates} · {:.2e} nodes/s · max Mach {:.3}", smoothed.get(&NODE_UPDATES_PER_SECOND), smoothed.get(&MAX_MACH)));
-            slice_legend(ui, slice, settings.slice);
-            if let Some(line) = fold_surface_line(cpu_folds, gpu_folds).filter(|_| settings.folds) {
-                ui.label(line);
-            }
-            if let Some(d) = diag {
-                ui.label(format!("air momentum {:.3e} · solid {:.3e}", d.fluid_momentum.length(), d.solid_momentum.length()));
-            }
-            if let Some(v) = voice {
-                ui.label(format!("glottal flow {:.1} cm³/s · area {:.4} cm²", v.flow, v.area));
-                match &v.measures {
-                    Some(m) => ui.label(format!("f0 {:.1} Hz · OQ {:.2}", m.f0_autocorrelation_hz, m.open_quotient)),
-                    None => ui.label(v.no_voice.clone().unwrap_or_default()),
-                };
-            }
-            if let Some(g) = g {
-                show_line(ui, "glottal_flow", "glottal flow (cm³/s)", "t (ms)", glottal_flow_points(g, s.time, s.dt()));
-            }
-            history_plot(ui, plots, F0);
+            let folds = fold_surface_line(cpu_folds, gpu_folds).filter(|_| settings.folds);
+            shown.coupled(ui, CoupledView { sim, diag, voice, glottis, status, plots, slice, folds, on_gpu });
         }
         for (sim, target, status, plots, slice, gpu) in &fluids {
             ui.separator();
             target_error(ui, target);
-            if let Some(FluidStatus::Unstable(why)) = status {
-                ui.colored_label(egui::Color32::LIGHT_RED, format!("stopped: {why}"));
-            }
-            let [backend, time] = fluid_status(sim, gpu);
-            ui.label(backend);
-            ui.label(time);
-            if gpu.is_some() {
-                // its state stays on the device: Mach and mass drift come from a CPU solver,
-                // which is not stepped (its slice is made on the device: render::gpu_slice)
-                ui.label(format!("{rates} · {:.2e} nodes/s", smoothed.get(&NODE_UPDATES_PER_SECOND)));
-                slice_legend(ui, slice, settings.slice);
-            } else {
-                ui.label(format!("{rates} · {:.2e} nodes/s · max Mach {:.3}", smoothed.get(&NODE_UPDATES_PER_SECOND), smoothed.get(&MAX_MACH)));
-                ui.label(format!("mass drift {:.2e}", smoothed.get(&MASS_DRIFT)));
-                slice_legend(ui, slice, settings.slice);
-            }
-            history_plot(ui, plots, PROBE_UY_CM_S);
+            shown.fluid(ui, sim, status, plots, slice, gpu);
         }
         for (sim, target, diag, plots, slice) in &gases {
             ui.separator();
             target_error(ui, target);
-            let g = &sim.gas;
-            let sites = 16 * g.dims.iter().product::<usize>();
-            ui.label(format!("CPU backend · FCHC lattice gas · {} × {} × {} cells ({sites} sites)", g.dims[0], g.dims[1], g.dims[2]));
-            ui.label(format!("{rates} · {:.2e} site updates/s", smoothed.get(&STEPS_PER_SECOND) * sites as f64));
-            if let Some(d) = diag {
-                ui.label(format!("step {} · {} particles · smallest velocity-family share {:.4}", d.steps, d.invariants.particles, d.smallest_family_share));
-            }
-            slice_legend(ui, slice, settings.slice);
-            history_plot(ui, plots, PROBE_UY_LATTICE);
+            shown.lattice_gas(ui, sim, diag, plots, slice);
         }
     });
     Ok(())
+}
+
+/// Pause, single step and the steps per frame.
+fn run_controls(ui: &mut egui::Ui, control: &mut SimulationControl) {
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut control.paused, "paused");
+        if ui.button("step").clicked() {
+            control.paused = true;
+            control.single_steps += 1;
+        }
+    });
+    ui.add(egui::Slider::new(&mut control.steps_per_frame, 1..=500).logarithmic(true).text("steps per frame"));
+}
+
+/// What to draw: the folds (and where their mesh is made), the tracers, the slice's field.
+fn draw_controls(ui: &mut egui::Ui, settings: &mut DrawSettings) {
+    ui.checkbox(&mut settings.folds, "folds (marching cubes)");
+    ui.checkbox(&mut settings.folds_on_gpu, "folds made on the GPU (when rendering)");
+    ui.checkbox(&mut settings.tracers, "tracers (FDLB air)");
+    let mut field = settings.slice;
+    egui::ComboBox::from_label("slice").selected_text(field.map_or("none".to_string(), |f| format!("{f:?}").to_lowercase())).show_ui(ui, |ui| {
+        ui.selectable_value(&mut field, None, "none");
+        for f in [Field::Speed, Field::Pressure, Field::Vorticity, Field::Temperature, Field::Density] {
+            ui.selectable_value(&mut field, Some(f), format!("{f:?}").to_lowercase());
+        }
+    });
+    settings.slice = field;
+}
+
+/// One coupled simulation as the panel shows it: its components, the folds' surface line (when
+/// the folds are drawn) and whether it is stepped on the GPU.
+struct CoupledView<'a> {
+    sim: &'a CoupledSimulation,
+    diag: Option<&'a CoupledDiagnostics>,
+    voice: Option<&'a VoiceDiagnostics>,
+    glottis: Option<&'a CoupledGlottis>,
+    status: Option<&'a CoupledStatus>,
+    plots: Option<&'a PlotHistory>,
+    slice: Option<&'a SliceView>,
+    folds: Option<String>,
+    on_gpu: bool,
+}
+
+/// What every simulation's section reads: the draw settings, Bevy's smoothed diagnostics and
+/// the frame and step rates' line.
+struct Shown<'a> {
+    settings: &'a DrawSettings,
+    smoothed: &'a Smoothed<'a>,
+    rates: &'a str,
+}
+
+impl Shown<'_> {
+    /// A coupled simulation's section: where it runs, its time, rates and Mach, the slice's
+    /// legend, the folds' surface, the momenta, the voice and the glottal flow's plot, f0's
+    /// history.
+    fn coupled(&self, ui: &mut egui::Ui, v: CoupledView) {
+        if let Some(CoupledStatus::Unstable(why)) = v.status {
+            ui.colored_label(egui::Color32::LIGHT_RED, format!("stopped: {why}"));
+        }
+        let s = &v.sim.solver;
+        let backend = if v.on_gpu { "GPU backend (render device)" } else { "CPU backend" };
+        ui.label(format!("{backend} · {} nodes · {} particles", s.fluid.layout.grid.interior_len(), s.solid.particles.len()));
+        let read = if v.on_gpu { " read back" } else { "" };
+        ui.label(format!("t = {:.3} ms ({} steps{read})", s.time * 1e3, s.step_count));
+        ui.label(format!("{} · {:.2e} nodes/s · max Mach {:.3}", self.rates, self.smoothed.get(&NODE_UPDATES_PER_SECOND), self.smoothed.get(&MAX_MACH)));
+        slice_legend(ui, v.slice, self.settings.slice);
+        if let Some(line) = v.folds {
+            ui.label(line);
+        }
+        if let Some(d) = v.diag {
+            ui.label(format!("air momentum {:.3e} · solid {:.3e}", d.fluid_momentum.length(), d.solid_momentum.length()));
+        }
+        if let Some(voice) = v.voice {
+            ui.label(format!("glottal flow {:.1} cm³/s · area {:.4} cm²", voice.flow, voice.area));
+            match &voice.measures {
+                Some(m) => ui.label(format!("f0 {:.1} Hz · OQ {:.2}", m.f0_autocorrelation_hz, m.open_quotient)),
+                None => ui.label(voice.no_voice.clone().unwrap_or_default()),
+            };
+        }
+        if let Some(g) = v.glottis {
+            show_line(ui, "glottal_flow", "glottal flow (cm³/s)", "t (ms)", glottal_flow_points(g, s.time, s.dt()));
+        }
+        history_plot(ui, v.plots, F0);
+    }
+
+    /// An air-only simulation's section: where it runs, its time, rates (and on the CPU Mach
+    /// and the mass drift), the slice's legend, the probe's history.
+    fn fluid(
+        &self,
+        ui: &mut egui::Ui,
+        sim: &FluidSimulation,
+        status: Option<&FluidStatus>,
+        plots: Option<&PlotHistory>,
+        slice: Option<&SliceView>,
+        gpu: Option<&GpuProbes>,
+    ) {
+        if let Some(FluidStatus::Unstable(why)) = status {
+            ui.colored_label(egui::Color32::LIGHT_RED, format!("stopped: {why}"));
+        }
+        let [backend, time] = fluid_status(sim, gpu);
+        ui.label(backend);
+        ui.label(time);
+        if gpu.is_some() {
+            // its state stays on the device: Mach and mass drift come from a CPU solver,
+            // which is not stepped (its slice is made on the device: render::gpu_slice)
+            ui.label(format!("{} · {:.2e} nodes/s", self.rates, self.smoothed.get(&NODE_UPDATES_PER_SECOND)));
+        } else {
+            ui.label(format!("{} · {:.2e} nodes/s · max Mach {:.3}", self.rates, self.smoothed.get(&NODE_UPDATES_PER_SECOND), self.smoothed.get(&MAX_MACH)));
+            ui.label(format!("mass drift {:.2e}", self.smoothed.get(&MASS_DRIFT)));
+        }
+        slice_legend(ui, slice, self.settings.slice);
+        history_plot(ui, plots, PROBE_UY_CM_S);
+    }
+
+    /// A lattice gas's section: its cells and sites, rates, invariants and isotropy, the slice's
+    /// legend, the probe's history.
+    fn lattice_gas(
+        &self,
+        ui: &mut egui::Ui,
+        sim: &LatticeGasSimulation,
+        diag: Option<&LatticeGasDiagnostics>,
+        plots: Option<&PlotHistory>,
+        slice: Option<&SliceView>,
+    ) {
+        let g = &sim.gas;
+        let sites = 16 * g.dims.iter().product::<usize>();
+        ui.label(format!("CPU backend · FCHC lattice gas · {} × {} × {} cells ({sites} sites)", g.dims[0], g.dims[1], g.dims[2]));
+        ui.label(format!("{} · {:.2e} site updates/s", self.rates, self.smoothed.get(&STEPS_PER_SECOND) * sites as f64));
+        if let Some(d) = diag {
+            ui.label(format!("step {} · {} particles · smallest velocity-family share {:.4}", d.steps, d.invariants.particles, d.smallest_family_share));
+        }
+        slice_legend(ui, slice, self.settings.slice);
+        history_plot(ui, plots, PROBE_UY_LATTICE);
+    }
 }
 
 /// The panel's first two lines for a fluid: where it is stepped, and its time and step — for
