@@ -350,27 +350,25 @@ struct Schedule {
     every: u64,
     probe_every: u64,
     snaps: u64,
-    snap_every: u64,
 }
 
 impl Schedule {
     /// The schedule of `sc` run as `opts` says (its duration or `opts.steps`).
     fn of(sc: &CoupledScene, opts: &RunOptions) -> Self {
-        let total = opts.checkpoint.total(opts.steps, sc.fluid.steps);
-        let snaps = sc.fluid.file.output.snapshots;
         Schedule {
-            total,
+            total: opts.checkpoint.total(opts.steps, sc.fluid.steps),
             every: sc.coupling.output_every.unwrap_or(10),
             probe_every: sc.fluid.file.output.probe_every.max(1),
-            snaps,
-            snap_every: total.checked_div(snaps).map_or(u64::MAX, |k| k.max(1)),
+            snaps: sc.fluid.file.output.snapshots,
         }
     }
 
     /// The run loop's periods, in the order [`Outputs::at`] reads its tick's hits: the csv
     /// rows, the probes, the snapshots, the checkpoints.
     fn periods(&self, ck: &checkpoint::Checkpointing) -> [u64; 4] {
-        [self.every, self.probe_every, self.snap_every, ck.period()]
+        // the snapshots spread evenly over the run (never, without any)
+        let snap_every = self.total.checked_div(self.snaps).map_or(u64::MAX, |k| k.max(1));
+        [self.every, self.probe_every, snap_every, ck.period()]
     }
 }
 

@@ -284,20 +284,22 @@ fn ball_or_box_particles(b: &BodySpec, f: &str, s: &SolidSpec) -> Result<f64, Sc
 /// non-zero normal): their vectors of the scene's dimension.
 fn check_regions(s: &SolidSpec, materials: usize) -> Result<(), SceneError> {
     let dim = s.dimension;
+    let corners = |f: String, min: &[f64], max: &[f64]| -> Result<(), SceneError> {
+        vec3(&format!("{f}.min"), min, dim, false)?;
+        vec3(&format!("{f}.max"), max, dim, false)?;
+        Ok(())
+    };
     for (k, r) in s.layers.iter().enumerate() {
-        vec3(&format!("solid.layers[{k}].min"), &r.min, dim, false)?;
-        vec3(&format!("solid.layers[{k}].max"), &r.max, dim, false)?;
+        corners(format!("solid.layers[{k}]"), &r.min, &r.max)?;
         if r.material >= materials {
             return err(format!("solid.layers[{k}].material"), format!("no material {} (there are {materials})", r.material));
         }
     }
     for (k, r) in s.clamps.iter().enumerate() {
-        vec3(&format!("solid.clamps[{k}].min"), &r.min, dim, false)?;
-        vec3(&format!("solid.clamps[{k}].max"), &r.max, dim, false)?;
+        corners(format!("solid.clamps[{k}]"), &r.min, &r.max)?;
     }
     for (k, l) in s.loads.iter().enumerate() {
-        vec3(&format!("solid.loads[{k}].min"), &l.min, dim, false)?;
-        vec3(&format!("solid.loads[{k}].max"), &l.max, dim, false)?;
+        corners(format!("solid.loads[{k}]"), &l.min, &l.max)?;
         vec3(&format!("solid.loads[{k}].total_force"), &l.total_force, dim, false)?;
     }
     for (k, w) in s.walls.iter().enumerate() {
