@@ -223,38 +223,78 @@ fn mode_row(label: &str, m: &anyhow::Result<FoldMode>) -> (String, f64, String, 
     }
 }
 
-/// The rows of `validate --case glottis_fold_modes`: every case's fold mode in both readings of
-/// the seed's list, the similarity and convergence checks, the coupled case C's f0 against its
-/// fold's mode, and the orderings.
-pub fn rows() -> Vec<(String, f64, String, bool)> {
-    use rayon::prelude::*;
-    let cases = [BodyCoverCase::A, BodyCoverCase::B, BodyCoverCase::C, BodyCoverCase::D];
-    // (label, spacing, cover, body, duration)
-    let mut jobs: Vec<(String, f64, f64, f64, f64)> = Vec::new();
-    for c in cases {
+/// One fold released for a row of [`rows`]: the row's label, the particle spacing (cm), the
+/// (cover, body) Young's moduli (dyn/cm²) and the ringing time (s).
+struct ModeJob {
+    label: String,
+    spacing: f64,
+    cover: f64,
+    body: f64,
+    duration: f64,
+}
+
+/// The folds [`rows`] rings along the flow: cases A–D in the narrative's reading and as the
+/// seed lists them, and case C at half the spacing (convergence).
+fn mode_jobs() -> Vec<ModeJob> {
+    let mut jobs = Vec::new();
+    for c in CASES {
         let (cover, body) = c.young();
         let slow = matches!(c, BodyCoverCase::A | BodyCoverCase::B);
-        jobs.push((format!("{c:?}"), COARSE_SPACING, cover, body, if slow { NARRATIVE_DURATION } else { NARRATIVE_DURATION / 2.0 }));
+        let duration = if slow { NARRATIVE_DURATION } else { NARRATIVE_DURATION / 2.0 };
+        jobs.push(ModeJob { label: format!("{c:?}"), spacing: COARSE_SPACING, cover, body, duration });
     }
-    for c in cases {
+    for c in CASES {
         let (cover, body) = written_list_young(c);
-        jobs.push((format!("{c:?} as listed"), COARSE_SPACING, cover, body, WRITTEN_LIST_DURATION));
+        jobs.push(ModeJob { label: format!("{c:?} as listed"), spacing: COARSE_SPACING, cover, body, duration: WRITTEN_LIST_DURATION });
     }
-    let (cover_c, body_c) = BodyCoverCase::C.young();
-    jobs.push(("C, l₀/2".into(), COARSE_SPACING / 2.0, cover_c, body_c, 0.01));
-    let modes: Vec<anyhow::Result<FoldMode>> = jobs.par_iter().with_max_len(1).map(|(_, sp, cover, body, d)| lowest_mode(*sp, *cover, *body, *d)).collect();
-    let mut out = Vec::new();
-    let mut f = std::collections::HashMap::new();
-    for ((label, sp, cover, body, _), m) in jobs.iter().zip(modes) {
+    let (cover, body) = BodyCoverCase::C.young();
+    jobs.push(ModeJob { label: "C, l₀/2".into(), spacing: COARSE_SPACING / 2.0, cover, body, duration: 0.01 });
+    jobs
+}
+
+/// The four cases in the seed's order of letters.
+const CASES: [BodyCoverCase; 4] = [BodyCoverCase::A, BodyCoverCase::B, BodyCoverCase::C, BodyCoverCase::D];
+
+/// The lowest modes rung, by their job's label (Hz; NaN for one that did not ring).
+struct Modes(std::collections::HashMap<String, f64>);
+
+impl Modes {
+    fn get(&self, label: &str) -> f64 {
+        self.0.get(label).copied().unwrap_or(f64::NAN)
+    }
+
+    /// Whether the modes of `labels` rise in that order.
+    fn ordered(&self, labels: [&str; 4]) -> bool {
+        labels.windows(2).all(|w| self.get(w[0]) < self.get(w[1]))
+    }
+}
+
+/// Rings every job of [`mode_jobs`] (on the pool's threads, one job a task): one row each, and
+/// the modes for the rows that compare them.
+fn fold_mode_rows() -> (Vec<(String, f64, String, bool)>, Modes) {
+    use rayon::prelude::*;
+    let jobs = mode_jobs();
+    let modes: Vec<anyhow::Result<FoldMode>> = jobs.par_iter().with_max_len(1).map(|j| lowest_mode(j.spacing, j.cover, j.body, j.duration)).collect();
+    let mut rows = Vec::new();
+    let mut found = std::collections::HashMap::new();
+    for (j, m) in jobs.iter().zip(modes) {
         if let Ok(m) = &m {
-            f.insert(label.clone(), m.frequency);
+            found.insert(j.label.clone(), m.frequency);
         }
-        out.push(mode_row(&format!("fold mode, case {label} (cover {cover:.0e}, body {body:.0e} dyn/cm², l₀ {sp:.4} cm)"), &m));
+        let label = format!("fold mode, case {} (cover {:.0e}, body {:.0e} dyn/cm², l₀ {:.4} cm)", j.label, j.cover, j.body, j.spacing);
+        rows.push(mode_row(&label, &m));
     }
-    let get = |k: &str| f.get(k).copied().unwrap_or(f64::NAN);
+    (rows, Modes(found))
+}
+
+/// The checks on the modes themselves: every modulus doubled raises them by √2, case C's is
+/// converged in the particle spacing, case A's lies near the seed's f0, and the body sets the
+/// narrative reading's mode.
+fn scaling_rows(f: &Modes) -> Vec<(String, f64, String, bool)> {
+    let mut out = Vec::new();
     let sqrt2 = std::f64::consts::SQRT_2;
     for (hi, lo) in [("B", "A"), ("D", "C"), ("B as listed", "A as listed"), ("D as listed", "C as listed")] {
-        let r = get(hi) / get(lo);
+        let r = f.get(hi) / f.get(lo);
         out.push((
             format!("  f({hi}) / f({lo}) (every modulus doubled)"),
             r,
@@ -262,15 +302,11 @@ pub fn rows() -> Vec<(String, f64, String, bool)> {
             (r / sqrt2 - 1.0).abs() <= SIMILARITY_BOUND,
         ));
     }
-    let conv = get("C, l₀/2") / get("C") - 1.0;
+    let conv = f.get("C, l₀/2") / f.get("C") - 1.0;
     out.push(("  case C: f(l₀/2) / f(l₀) − 1".into(), conv, format!("|·| ≤ {SPACING_BOUND} (converged in particle spacing)"), conv.abs() <= SPACING_BOUND));
-    let (fa, fc) = (get("A"), get("C"));
-    out.push((
-        "  case A's fold mode against the seed's f0 (110 Hz)".into(),
-        fa / BodyCoverCase::A.seed_f0() - 1.0,
-        "within ±20 %".into(),
-        (fa / BodyCoverCase::A.seed_f0() - 1.0).abs() <= 0.2,
-    ));
+    let (fa, fc) = (f.get("A"), f.get("C"));
+    let off = fa / BodyCoverCase::A.seed_f0() - 1.0;
+    out.push(("  case A's fold mode against the seed's f0 (110 Hz)".into(), off, "within ±20 %".into(), off.abs() <= 0.2));
     // the body sets the narrative reading's mode: body ×10 at a fixed cover multiplies it by
     // nearly √10; the seed's A → C raised its f0 by 145/110 = 1.32
     out.push((
@@ -279,7 +315,13 @@ pub fn rows() -> Vec<(String, f64, String, bool)> {
         "> 2.5 (√10 = 3.16: the body sets the mode; the seed's 1.32)".into(),
         fc / fa > 2.5,
     ));
-    // the modes that open and close the glottis, against the one it vibrates in
+    out
+}
+
+/// The modes that open and close the glottis (cases A and C released across the flow, in phase
+/// and rocking), against the one it vibrates in.
+fn lateral_rows(f: &Modes) -> Vec<(String, f64, String, bool)> {
+    use rayon::prelude::*;
     let lateral: Vec<(BodyCoverCase, LateralRelease, anyhow::Result<FoldMode>)> = [BodyCoverCase::A, BodyCoverCase::C]
         .into_iter()
         .flat_map(|c| [(c, LateralRelease::InPhase), (c, LateralRelease::Rocking)])
@@ -291,6 +333,7 @@ pub fn rows() -> Vec<(String, f64, String, bool)> {
             (c, r, lateral_mode(COARSE_SPACING, cover, body, LATERAL_DURATION, r))
         })
         .collect();
+    let mut out = Vec::new();
     for c in [BodyCoverCase::A, BodyCoverCase::C] {
         let mut lowest = f64::INFINITY;
         for (_, r, m) in lateral.iter().filter(|(k, _, _)| *k == c) {
@@ -299,7 +342,7 @@ pub fn rows() -> Vec<(String, f64, String, bool)> {
             }
             out.push(mode_row(&format!("lateral mode, case {c:?}, {r:?} release"), m));
         }
-        let r = lowest / get(&format!("{c:?}"));
+        let r = lowest / f.get(&format!("{c:?}"));
         out.push((
             format!("  case {c:?}: lowest lateral mode / the fold mode (along the flow)"),
             r,
@@ -307,15 +350,26 @@ pub fn rows() -> Vec<(String, f64, String, bool)> {
             r > LATERAL_ABOVE,
         ));
     }
-    let ordered = |a: &str, b: &str, c: &str, d: &str| get(a) < get(b) && get(b) < get(c) && get(c) < get(d);
-    out.push((
-        "  the seed's list as written rings in the seed's order A < C < B < D".into(),
-        get("C as listed") / get("A as listed"),
-        "f(C)/f(A) as listed (the seed's 1.32); holds".into(),
-        ordered("A as listed", "C as listed", "B as listed", "D as listed"),
-    ));
-    out.push(("  the narrative reading rings A < B < C < D".into(), get("D") / get("A"), "f(D)/f(A); holds".into(), ordered("A", "B", "C", "D")));
-    // the coupled case C on the coarse lattice: its f0 against its fold's mode
+    out
+}
+
+/// The order the modes rise in: the seed's list as written against its narrative's reading.
+fn ordering_rows(f: &Modes) -> Vec<(String, f64, String, bool)> {
+    vec![
+        (
+            "  the seed's list as written rings in the seed's order A < C < B < D".into(),
+            f.get("C as listed") / f.get("A as listed"),
+            "f(C)/f(A) as listed (the seed's 1.32); holds".into(),
+            f.ordered(["A as listed", "C as listed", "B as listed", "D as listed"]),
+        ),
+        ("  the narrative reading rings A < B < C < D".into(), f.get("D") / f.get("A"), "f(D)/f(A); holds".into(), f.ordered(["A", "B", "C", "D"])),
+    ]
+}
+
+/// The coupled case C on the coarse lattice (`glottis_2d_coarse` for [`COUPLED_DURATION`] from
+/// rest): its f0 against its fold's own mode `fc` (Hz).
+fn coupled_case_c_row(fc: f64) -> (String, f64, String, bool) {
+    let (cover_c, body_c) = BodyCoverCase::C.young();
     let coupled = (|| -> anyhow::Result<f64> {
         let text = crate::run::sweep::set_key(crate::scene::builtin("glottis_2d_coarse").expect("built in"), "run.duration", COUPLED_DURATION)?;
         let mut sc = CoupledScene::parse(&text)?;
@@ -329,14 +383,25 @@ pub fn rows() -> Vec<(String, f64, String, bool)> {
         r.glottis.and_then(|g| g.f0_hz).ok_or_else(|| anyhow::anyhow!("no f0 in {COUPLED_DURATION} s"))
     })();
     match coupled {
-        Ok(f0) => out.push((
+        Ok(f0) => (
             format!("  coupled case C (glottis_2d_coarse, {:.0} ms from rest): f0 / fold mode − 1", COUPLED_DURATION * 1e3),
             f0 / fc - 1.0,
             format!("|·| ≤ {COUPLED_BOUND} (f0 {f0:.1} Hz: the fold's own mode)"),
             (f0 / fc - 1.0).abs() <= COUPLED_BOUND,
-        )),
-        Err(e) => out.push((format!("  coupled case C: {e}"), f64::NAN, "runs".into(), false)),
+        ),
+        Err(e) => (format!("  coupled case C: {e}"), f64::NAN, "runs".into(), false),
     }
+}
+
+/// The rows of `validate --case glottis_fold_modes`: every case's fold mode in both readings of
+/// the seed's list, the similarity and convergence checks, the lateral modes, the orderings, and
+/// the coupled case C's f0 against its fold's mode — in that order.
+pub fn rows() -> Vec<(String, f64, String, bool)> {
+    let (mut out, f) = fold_mode_rows();
+    out.extend(scaling_rows(&f));
+    out.extend(lateral_rows(&f));
+    out.extend(ordering_rows(&f));
+    out.push(coupled_case_c_row(f.get("C")));
     out
 }
 
