@@ -16,6 +16,10 @@ use wgpu::util::DeviceExt;
 
 pub(crate) const SHADER: &str = include_str!("../../shaders/level_set_grid.wgsl");
 
+/// (uniform?, read-only?) per binding of the shader, in binding order (checked against it by the
+/// `Params` mirror test).
+const LAYOUT: [(bool, bool); 5] = [(true, true), (false, true), (false, true), (false, true), (false, false)];
+
 /// The level-set kernel's uniform (`Params` in the shader).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -42,7 +46,7 @@ impl GpuFoldSurface {
     pub fn new(device: &wgpu::Device) -> Self {
         let module =
             device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("level_set_grid"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
-        let layout = buffer_layout(device, "level_set_grid", &[(true, true), (false, true), (false, true), (false, true), (false, false)]);
+        let layout = buffer_layout(device, "level_set_grid", &LAYOUT);
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("level_set_grid"),
             bind_group_layouts: &[Some(&layout)],
@@ -136,10 +140,11 @@ fn field_buffer(device: &wgpu::Device, nodes: usize) -> wgpu::Buffer {
 #[cfg(test)]
 mod mirror_tests {
     use super::Params;
-    use crate::gpu::wgsl_check::{check_mirror, mirror};
+    use crate::gpu::wgsl_check::{check_bindings, check_mirror, mirror};
 
     #[test]
     fn params_match_the_shader_layout() {
         check_mirror("shaders/level_set_grid.wgsl", super::SHADER, "Params", mirror!(Params { lo, hi, bins, origin, dims, phi, iso, row, _pad }));
+        check_bindings("shaders/level_set_grid.wgsl", super::SHADER, 0, &super::LAYOUT);
     }
 }

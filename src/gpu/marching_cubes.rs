@@ -14,6 +14,10 @@ use wgpu::util::DeviceExt;
 
 const SHADER: &str = include_str!("../../shaders/marching_cubes.wgsl");
 
+/// (uniform?, read-only?) per binding of the shader, in binding order (checked against it by the
+/// `Params` mirror test).
+const LAYOUT: [(bool, bool); 6] = [(true, true), (false, true), (false, true), (false, false), (false, false), (false, false)];
+
 /// The kernel's uniform (`Params` in the shader).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -72,7 +76,7 @@ impl GpuMarchingCubes {
     pub fn on_device(device: &wgpu::Device) -> Self {
         let module =
             device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("marching_cubes"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
-        let layout = buffer_layout(device, "marching_cubes", &[(true, true), (false, true), (false, true), (false, false), (false, false), (false, false)]);
+        let layout = buffer_layout(device, "marching_cubes", &LAYOUT);
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("marching_cubes"),
             bind_group_layouts: &[Some(&layout)],
@@ -210,10 +214,11 @@ impl OwnedSurface {
 #[cfg(test)]
 mod mirror_tests {
     use super::Params;
-    use crate::gpu::wgsl_check::{check_mirror, mirror};
+    use crate::gpu::wgsl_check::{check_bindings, check_mirror, mirror};
 
     #[test]
     fn params_match_the_shader_layout() {
         check_mirror("shaders/marching_cubes.wgsl", super::SHADER, "Params", mirror!(Params { dims, origin, iso, capacity, row, body }));
+        check_bindings("shaders/marching_cubes.wgsl", super::SHADER, 0, &super::LAYOUT);
     }
 }

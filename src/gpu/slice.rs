@@ -14,6 +14,10 @@ use wgpu::util::DeviceExt;
 
 pub(crate) const SHADER: &str = include_str!("../../shaders/slice.wgsl");
 
+/// (uniform?, read-only?) per binding of the shader, in binding order (checked against it by the
+/// `Params` mirror test).
+const LAYOUT: [(bool, bool); 6] = [(true, true), (false, true), (false, true), (false, false), (false, false), (false, false)];
+
 /// What a pixel shows: the lattice quantity q and the map to scene units, (q − `offset`) ·
 /// `scale` (vorticity: ω_z · `scale`), on the signed (diverging) map or not.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -73,7 +77,7 @@ impl GpuSlice {
         let plane: Vec<usize> = (0..grid.n[1] as i64).flat_map(|y| (0..grid.n[0] as i64).map(move |x| grid.index([x, y, z]))).collect();
         let moments_at = fluid.moments_at(&plane);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("slice"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
-        let layout = buffer_layout(device, "slice", &[(true, true), (false, true), (false, true), (false, false), (false, false), (false, false)]);
+        let layout = buffer_layout(device, "slice", &LAYOUT);
         let pl =
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("slice"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
         let mut map_of = compute_pipelines(device, &module, &pl, &["slice_values", "slice_range", "slice_colour"]);
@@ -160,10 +164,11 @@ impl GpuSlice {
 #[cfg(test)]
 mod mirror_tests {
     use super::Params;
-    use crate::gpu::wgsl_check::{check_mirror, mirror};
+    use crate::gpu::wgsl_check::{check_bindings, check_mirror, mirror};
 
     #[test]
     fn params_match_the_shader_layout() {
         check_mirror("shaders/slice.wgsl", super::SHADER, "Params", mirror!(Params { n, halo, padded, scale, offset, row_words, _pad }));
+        check_bindings("shaders/slice.wgsl", super::SHADER, 0, &super::LAYOUT);
     }
 }

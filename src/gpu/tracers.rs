@@ -12,6 +12,10 @@ use wgpu::util::DeviceExt;
 /// shaders/tracers.wgsl with the hash it uses (shaders/hash.wgsl).
 pub const SHADER: &str = concat!(include_str!("../../shaders/hash.wgsl"), include_str!("../../shaders/tracers.wgsl"));
 
+/// (uniform?, read-only?) per binding of the shader, in binding order (checked against it by the
+/// `Params` mirror test).
+const LAYOUT: [(bool, bool); 5] = [(true, true), (false, true), (false, true), (false, false), (false, false)];
+
 /// The kernel's uniform (`Params` in the shader).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -76,7 +80,7 @@ impl GpuTracers {
     /// [`Self::new`] on any wgpu device (Bevy's render device).
     pub fn on_device(device: &wgpu::Device, t: &Tracers, grid: &crate::fluid::Grid, stride: u32) -> Self {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("tracers"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
-        let layout = buffer_layout(device, "tracers", &[(true, true), (false, true), (false, true), (false, false), (false, false)]);
+        let layout = buffer_layout(device, "tracers", &LAYOUT);
         let pl =
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("tracers"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
         let pipeline = compute_pipelines(device, &module, &pl, &["advect"]).remove("advect").expect("the entry point");
@@ -166,10 +170,11 @@ impl GpuTracers {
 #[cfg(test)]
 mod mirror_tests {
     use super::Params;
-    use crate::gpu::wgsl_check::{check_mirror, mirror};
+    use crate::gpu::wgsl_check::{check_bindings, check_mirror, mirror};
 
     #[test]
     fn params_match_the_shader_layout() {
         check_mirror("shaders/tracers.wgsl", super::SHADER, "Params", mirror!(Params { n, halo, padded, seed_lo, seed_size }));
+        check_bindings("shaders/tracers.wgsl", super::SHADER, 0, &super::LAYOUT);
     }
 }

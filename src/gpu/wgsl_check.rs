@@ -57,6 +57,30 @@ pub(crate) fn check_mirror(name: &str, src: &str, wgsl_struct: &str, (size, fiel
     assert_eq!(rust, wgsl, "{name}: {wgsl_struct}: Rust (name, offset, size) ≠ WGSL");
 }
 
+/// Compares a bind group layout's `(uniform?, read-only?)` per binding — what
+/// `gpu::context::buffer_layout` is given — with the buffers `src` declares in bind group
+/// `group`: the same bindings 0, 1, … in order, each a uniform where the layout says so, else a
+/// storage buffer read-only exactly where the layout says so.
+pub(crate) fn check_bindings(name: &str, src: &str, group: u32, kinds: &[(bool, bool)]) {
+    let module = validate(name, src);
+    let mut declared: Vec<(u32, (bool, bool))> = module
+        .global_variables
+        .iter()
+        .filter_map(|(_, g)| {
+            let b = g.binding.as_ref().filter(|b| b.group == group)?;
+            let kind = match g.space {
+                naga::AddressSpace::Uniform => (true, true),
+                naga::AddressSpace::Storage { access } => (false, !access.contains(naga::StorageAccess::STORE)),
+                _ => return None,
+            };
+            Some((b.binding, kind))
+        })
+        .collect();
+    declared.sort_by_key(|d| d.0);
+    let ours: Vec<(u32, (bool, bool))> = kinds.iter().enumerate().map(|(k, &kind)| (k as u32, kind)).collect();
+    assert_eq!(ours, declared, "{name}: group {group}: the layout's (binding, (uniform?, read-only?)) ≠ the shader's");
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

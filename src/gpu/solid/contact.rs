@@ -63,30 +63,28 @@ pub(super) struct GpuContact {
     cell_count: wgpu::Buffer,
 }
 
-impl GpuSolid {
-    pub(super) fn build_contact(&self, s: &SolidSolver, cp: &crate::solid::ContactParams) -> GpuContact {
-        let device = &self.device;
+impl ContactUniform {
+    /// The contact law of `cp` and the grid of `s`'s particles: it covers the bodies' reference
+    /// box grown by its size on every side (beyond: the edge cells), in cells of l₀.
+    fn of(s: &SolidSolver, cp: &crate::solid::ContactParams) -> Self {
         let p = &s.particles;
-        let n = p.len();
         let l0 = p.spacing;
         let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
         for x in &p.reference {
             lo = lo.min(*x);
             hi = hi.max(*x);
         }
-        // the grid covers the bodies' box grown by its size on every side (beyond: edge cells)
         let ext = (hi - lo).max(DVec3::splat(2.0 * l0));
         let origin = lo - ext;
         let mut dims = [1u32; 3];
         for a in 0..p.dim {
             dims[a] = ((3.0 * ext[a]) / l0).ceil() as u32 + 1;
         }
-        let cells = dims[0] * dims[1] * dims[2];
         let mut walls = [[0f32; 4]; 4];
         for (k, w) in s.options.walls.iter().enumerate() {
             walls[k] = v4(w.normal, w.offset);
         }
-        let uni = ContactUniform {
+        ContactUniform {
             kn: cp.normal_stiffness as f32,
             kt: cp.tangential_stiffness as f32,
             mu_s: cp.static_friction as f32,
@@ -98,76 +96,123 @@ impl GpuSolid {
             origin: v4(origin, 0.0),
             dims: [dims[0], dims[1], dims[2], 0],
             walls,
-            n: n as u32,
+            n: p.len() as u32,
             dim: p.dim as u32,
             slots: CONTACT_SLOTS,
-            cells,
-        };
+            cells: dims[0] * dims[1] * dims[2],
+        }
+    }
+}
+
+/// The contact stage's own buffers (the particles' are the solid's).
+struct ContactBuffers {
+    uniform: wgpu::Buffer,
+    /// Each particle's body index.
+    body: wgpu::Buffer,
+    /// The grid's counting sort: each particle's cell, the cells' counts and starts, the
+    /// particles in cell order.
+    cell_of: wgpu::Buffer,
+    cell_count: wgpu::Buffer,
+    cell_start: wgpu::Buffer,
+    sorted: wgpu::Buffer,
+    /// The anchors' history, ping-pong ([`CONTACT_SLOTS`] per particle, twice: pairs and walls),
+    /// empty slots marked by an all-ones tag.
+    hist: [wgpu::Buffer; 2],
+    /// The particles' reference positions.
+    reference: wgpu::Buffer,
+}
+
+impl ContactBuffers {
+    fn create(device: &wgpu::Device, p: &crate::solid::Particles, uni: &ContactUniform) -> Self {
+        let n = p.len();
+        let cells = uni.cells as usize;
         let init = |label: &str, data: &[u8], usage: wgpu::BufferUsages| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: data, usage })
         };
         let st = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
-        let uniform = init("contact uniform", bytemuck::bytes_of(&uni), wgpu::BufferUsages::UNIFORM);
         let body: Vec<u32> = p.body.iter().map(|&b| b as u32).collect();
-        let body = init("body", bytemuck::cast_slice(&body), st);
-        let cell_of = init("cell_of", bytemuck::cast_slice(&vec![0u32; n]), st);
-        let cell_count = init("cell_count", bytemuck::cast_slice(&vec![0u32; cells as usize]), st);
-        let cell_start = init("cell_start", bytemuck::cast_slice(&vec![0u32; cells as usize + 1]), st);
-        let sorted = init("sorted", bytemuck::cast_slice(&vec![0u32; n]), st);
         let empty: Vec<[f32; 4]> = (0..2 * n * CONTACT_SLOTS as usize).map(|_| [0.0, 0.0, 0.0, f32::from_bits(u32::MAX)]).collect();
-        let hist = [init("hist a", bytemuck::cast_slice(&empty), st), init("hist b", bytemuck::cast_slice(&empty), st)];
-        // (uniform?, read-only?) per binding of shaders/solid_contact.wgsl
-        let kinds: [(bool, bool); 15] = [
-            (true, true),
-            (false, true),
-            (false, true),
-            (false, true),
-            (false, true),
-            (false, true),
-            (false, false),
-            (false, false),
-            (false, false),
-            (false, false),
-            (false, false),
-            (false, false),
-            (false, true),
-            (false, false),
-            (false, true),
-        ];
-        let layout = crate::gpu::context::buffer_layout(device, "contact", &kinds);
         let reference: Vec<[f32; 4]> = p.reference.iter().map(|x| v4(*x, 0.0)).collect();
-        let reference = init("reference positions", bytemuck::cast_slice(&reference), st);
-        let b = &self.buffers;
-        let group = |inp: &wgpu::Buffer, out: &wgpu::Buffer| {
-            let res = [
-                &uniform,
-                &b[Buf::Pos],
-                &b[Buf::Vel],
-                &b[Buf::Rot],
-                &b[Buf::Pinfo],
-                &body,
-                &b[Buf::ExtraForce],
-                &b[Buf::ExtraTorque],
-                &cell_of,
-                &cell_count,
-                &cell_start,
-                &sorted,
-                inp,
-                out,
-                &reference,
-            ];
-            let entries: Vec<wgpu::BindGroupEntry> =
-                res.iter().enumerate().map(|(k, buf)| wgpu::BindGroupEntry { binding: k as u32, resource: buf.as_entire_binding() }).collect();
-            device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("contact"), layout: &layout, entries: &entries })
-        };
-        let groups = [group(&hist[0], &hist[1]), group(&hist[1], &hist[0])];
+        ContactBuffers {
+            uniform: init("contact uniform", bytemuck::bytes_of(uni), wgpu::BufferUsages::UNIFORM),
+            body: init("body", bytemuck::cast_slice(&body), st),
+            cell_of: init("cell_of", bytemuck::cast_slice(&vec![0u32; n]), st),
+            cell_count: init("cell_count", bytemuck::cast_slice(&vec![0u32; cells]), st),
+            cell_start: init("cell_start", bytemuck::cast_slice(&vec![0u32; cells + 1]), st),
+            sorted: init("sorted", bytemuck::cast_slice(&vec![0u32; n]), st),
+            hist: [init("hist a", bytemuck::cast_slice(&empty), st), init("hist b", bytemuck::cast_slice(&empty), st)],
+            reference: init("reference positions", bytemuck::cast_slice(&reference), st),
+        }
+    }
+}
+
+/// (uniform?, read-only?) per binding of shaders/solid_contact.wgsl, in the order
+/// [`GpuSolid::contact_bind_groups`] binds them (checked against the shader by
+/// `the_contact_uniform_and_kernels_match_the_shader`).
+const CONTACT_BINDINGS: [(bool, bool); 15] = [
+    (true, true),
+    (false, true),
+    (false, true),
+    (false, true),
+    (false, true),
+    (false, true),
+    (false, false),
+    (false, false),
+    (false, false),
+    (false, false),
+    (false, false),
+    (false, false),
+    (false, true),
+    (false, false),
+    (false, true),
+];
+
+impl GpuSolid {
+    /// The contact stage of `s` with the law `cp`: its grid and buffers, its two bind groups
+    /// (the anchors' history read from one buffer and written to the other, then the other way)
+    /// and the four kernels.
+    pub(super) fn build_contact(&self, s: &SolidSolver, cp: &crate::solid::ContactParams) -> GpuContact {
+        let device = &self.device;
+        let uni = ContactUniform::of(s, cp);
+        let c = ContactBuffers::create(device, &s.particles, &uni);
+        let layout = crate::gpu::context::buffer_layout(device, "contact", &CONTACT_BINDINGS);
+        let groups = self.contact_bind_groups(&layout, &c);
         let pl =
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("contact"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
         let module = device
             .create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("solid_contact.wgsl"), source: wgpu::ShaderSource::Wgsl(CONTACT_SHADER.into()) });
         let mut map = crate::gpu::context::compute_pipelines(device, &module, &pl, &ContactKernel::ALL.map(ContactKernel::entry));
         let pipelines = ContactKernel::ALL.map(|k| map.remove(k.entry()).expect("one pipeline per entry point"));
-        GpuContact { pipelines, groups, cur: 0, cell_count }
+        GpuContact { pipelines, groups, cur: 0, cell_count: c.cell_count }
+    }
+
+    /// The contact kernels' two bind groups over the solid's particle buffers and `c`'s, the
+    /// anchors' history `hist[0] → hist[1]` in the first and back in the second.
+    fn contact_bind_groups(&self, layout: &wgpu::BindGroupLayout, c: &ContactBuffers) -> [wgpu::BindGroup; 2] {
+        let b = &self.buffers;
+        let group = |inp: &wgpu::Buffer, out: &wgpu::Buffer| {
+            let res = [
+                &c.uniform,
+                &b[Buf::Pos],
+                &b[Buf::Vel],
+                &b[Buf::Rot],
+                &b[Buf::Pinfo],
+                &c.body,
+                &b[Buf::ExtraForce],
+                &b[Buf::ExtraTorque],
+                &c.cell_of,
+                &c.cell_count,
+                &c.cell_start,
+                &c.sorted,
+                inp,
+                out,
+                &c.reference,
+            ];
+            let entries: Vec<wgpu::BindGroupEntry> =
+                res.iter().enumerate().map(|(k, buf)| wgpu::BindGroupEntry { binding: k as u32, resource: buf.as_entire_binding() }).collect();
+            self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("contact"), layout, entries: &entries })
+        };
+        [group(&c.hist[0], &c.hist[1]), group(&c.hist[1], &c.hist[0])]
     }
 
     /// Records the contact stage (grid rebuild and contact forces) into `enc`.
@@ -194,8 +239,8 @@ impl GpuSolid {
 
 #[cfg(test)]
 mod tests {
-    use super::{CONTACT_SHADER, ContactKernel, ContactUniform};
-    use crate::gpu::wgsl_check::{check_mirror, mirror, validate};
+    use super::{CONTACT_BINDINGS, CONTACT_SHADER, ContactKernel, ContactUniform};
+    use crate::gpu::wgsl_check::{check_bindings, check_mirror, mirror, validate};
 
     #[test]
     fn the_contact_uniform_and_kernels_match_the_shader() {
@@ -211,5 +256,6 @@ mod tests {
         entries.sort();
         ours.sort();
         assert_eq!(entries, ours);
+        check_bindings("solid_contact.wgsl", CONTACT_SHADER, 0, &CONTACT_BINDINGS);
     }
 }
