@@ -19,6 +19,25 @@ use wgpu::util::DeviceExt;
 
 const SHADER: &str = include_str!("../../shaders/coupling.wgsl");
 
+/// (uniform?, read-only?) per binding of the shader: the uniform, then storage bindings 1–13
+/// (checked against it by the `Params` mirror test).
+const LAYOUT: [(bool, bool); 14] = [
+    (true, true),
+    (false, true),
+    (false, true),
+    (false, true),
+    (false, true),
+    (false, true),
+    (false, false),
+    (false, false),
+    (false, false),
+    (false, false),
+    (false, true),
+    (false, true),
+    (false, false),
+    (false, true),
+];
+
 /// The kernels' uniform (`Params` in the shader).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -201,24 +220,7 @@ impl CouplingKernels {
     pub fn new(ctx: &GpuContext) -> Self {
         let device = &ctx.device;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("coupling"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
-        // uniform, then (read-only?) storage bindings 1–13
-        let kinds = [
-            (true, true),
-            (false, true),
-            (false, true),
-            (false, true),
-            (false, true),
-            (false, true),
-            (false, false),
-            (false, false),
-            (false, false),
-            (false, false),
-            (false, true),
-            (false, true),
-            (false, false),
-            (false, true),
-        ];
-        let layout = buffer_layout(device, "coupling", &kinds);
+        let layout = buffer_layout(device, "coupling", &LAYOUT);
         let pl =
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("coupling"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
         let mut map = compute_pipelines(device, &module, &pl, &Kernel::ALL.map(Kernel::entry));
@@ -437,11 +439,12 @@ impl CouplingKernels {
 #[cfg(test)]
 mod mirror_tests {
     use super::{Params, SetGrid};
-    use crate::gpu::wgsl_check::{check_mirror, mirror};
+    use crate::gpu::wgsl_check::{check_bindings, check_mirror, mirror};
 
     #[test]
     fn params_match_the_shader_layout() {
         check_mirror("shaders/coupling.wgsl", super::SHADER, "Params", mirror!(Params { padded, halo, re, r_min, phi, factor, count, sets, _pad1, _pad2 }));
+        check_bindings("shaders/coupling.wgsl", super::SHADER, 0, &super::LAYOUT);
     }
 
     #[test]

@@ -16,6 +16,11 @@ use wgpu::util::DeviceExt;
 
 const WG: u32 = 64;
 
+/// (uniform?, read-only?) per binding of the generated shader: the uniform, the step counter and
+/// the two state buffers read and written, the solid mask and the collision table's three arrays
+/// read-only (checked against it by the `Params` mirror test).
+const LAYOUT: [(bool, bool); 8] = [(true, true), (false, false), (false, false), (false, false), (false, true), (false, true), (false, true), (false, true)];
+
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
@@ -141,11 +146,7 @@ impl GpuLatticeGas {
         let key_class = init("class of key", bytemuck::cast_slice(&table.key_class), wgpu::BufferUsages::STORAGE);
         let start = init("class starts", bytemuck::cast_slice(&table.start), wgpu::BufferUsages::STORAGE);
         let members = init("class members", bytemuck::cast_slice(&table.members), wgpu::BufferUsages::STORAGE);
-        let layout = buffer_layout(
-            &device,
-            "lattice gas",
-            &[(true, true), (false, false), (false, false), (false, false), (false, true), (false, true), (false, true), (false, true)],
-        );
+        let layout = buffer_layout(&device, "lattice gas", &LAYOUT);
         let groups = [0usize, 1].map(|s| {
             let bufs = [&params, &step_buffer, &states[s], &states[1 - s], &solid, &key_class, &start, &members];
             let entries: Vec<wgpu::BindGroupEntry> =
@@ -358,7 +359,7 @@ pub fn readback_cost(ctx: &GpuContext, cells: [usize; 3], rows: usize, step_s: f
 #[cfg(test)]
 mod mirror_tests {
     use super::Params;
-    use crate::gpu::wgsl_check::{check_mirror, mirror};
+    use crate::gpu::wgsl_check::{check_bindings, check_mirror, mirror};
 
     #[test]
     fn params_match_the_shader_layout() {
@@ -369,6 +370,7 @@ mod mirror_tests {
             "Params",
             mirror!(Params { row_words, ny, nz, words, seed, interference, inlet, groups_x, outlet, diagonals, pad, inlet_thresholds }),
         );
+        check_bindings("lattice_gas", &src, 0, &super::LAYOUT);
     }
 
     /// The kernels by name are exactly the generated shader's entry points.

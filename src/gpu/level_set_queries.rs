@@ -28,6 +28,10 @@ use std::time::{Duration, Instant};
 
 const SHADER: &str = include_str!("../../shaders/level_set_queries.wgsl");
 
+/// (uniform?, read-only?) per binding of the shader: the uniform, the [`BINDINGS`] storage
+/// buffers, the answers written last (checked against it by the `Params` mirror test).
+const LAYOUT: [(bool, bool); 1 + BINDINGS] = [(true, true), (false, true), (false, true), (false, true), (false, true), (false, true), (false, false)];
+
 /// The kernel's uniform (`Params` in the shader).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -134,8 +138,7 @@ impl LevelSetKernels {
         let device = &ctx.device;
         let module =
             device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("level set queries"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
-        let kinds = [(true, true), (false, true), (false, true), (false, true), (false, true), (false, true), (false, false)];
-        let layout = buffer_layout(device, "level set queries", &kinds);
+        let layout = buffer_layout(device, "level set queries", &LAYOUT);
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("level set queries"),
             bind_group_layouts: &[Some(&layout)],
@@ -305,7 +308,7 @@ impl LevelSetQueries for LevelSetKernels {
 #[cfg(test)]
 mod mirror_tests {
     use super::Params;
-    use crate::gpu::wgsl_check::{check_mirror, mirror};
+    use crate::gpu::wgsl_check::{check_bindings, check_mirror, mirror};
 
     #[test]
     fn params_match_the_shader_layout() {
@@ -315,5 +318,6 @@ mod mirror_tests {
             "Params",
             mirror!(Params { lo, hi, re, r_min, phi, _pad0, bins, count, _pad1, _pad2, _pad3 }),
         );
+        check_bindings("shaders/level_set_queries.wgsl", super::SHADER, 0, &super::LAYOUT);
     }
 }
