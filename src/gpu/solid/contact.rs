@@ -115,8 +115,9 @@ struct ContactBuffers {
     cell_count: wgpu::Buffer,
     cell_start: wgpu::Buffer,
     sorted: wgpu::Buffer,
-    /// The anchors' history, ping-pong ([`CONTACT_SLOTS`] per particle, twice: pairs and walls),
-    /// empty slots marked by an all-ones tag.
+    /// The anchors' history, ping-pong: [`CONTACT_SLOTS`] slots per particle of two vec4 each
+    /// (the lower particle's anchor with the partner's tag, the higher one's anchor or the wall
+    /// point), an empty slot's tag all ones.
     hist: [wgpu::Buffer; 2],
     /// The particles' reference positions.
     reference: wgpu::Buffer,
