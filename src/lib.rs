@@ -12,7 +12,7 @@
 //! | [`fluid`] | FDLB: velocity sets, equilibrium, boundaries, CPU reference solver |
 //! | [`mesh`] | marching cubes (a generated, watertight case table shared with the GPU kernel) and the surface of a body of particles: the fold mesh drawn and written for ParaView |
 //! | [`lattice_gas`] | FCHC integer lattice gas (second fluid backend, seed 002): collision classes, interference, bit-parallel propagation, channel and cylinder, coarse-graining, viscosity tables, scenes; GPU twin in [`gpu::lattice_gas`] |
-//! | [`analysis`] | fits, spectra, f0, the glottal-flow (voice) measures, band-limited resampling, synthetic test signals |
+//! | [`analysis`] | fits, spectra, f0, the glottal-flow (voice) measures, a cylinder wake's Strouhal number against Williamson's fit, band-limited resampling, synthetic test signals |
 //! | [`two_mass`] | the Ishizaka–Flanagan two-mass model of the folds (the yardstick of the glottis) |
 //! | [`hash`] | the counter-based hash shared by CPU and GPU random streams (lattice gas, tracers) |
 //! | [`error`] | the field-naming input error shared by every layer |

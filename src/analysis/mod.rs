@@ -1,5 +1,5 @@
 //! Analysis of measured series (physics core: imports nothing above it): least-squares fits,
-//! spectra, the work a force does per period, where the glottis closes, f0, the glottal-flow (voice) measures, band-limited resampling and synthetic test
+//! spectra, the work a force does per period, where the glottis closes, f0, the glottal-flow (voice) measures, a wake's Strouhal number, band-limited resampling and synthetic test
 //! signals with known answers.
 
 pub mod closure;
@@ -13,3 +13,4 @@ pub mod resample;
 pub mod spectrum;
 pub mod synthetic;
 pub mod voice;
+pub mod wake;

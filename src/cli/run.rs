@@ -196,12 +196,37 @@ fn run_fluid(sc: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::Result<(
         "{} steps, {:.4e} s simulated in {:.1} s wall ({:.3e} node updates/s), mass drift {:.2e}, max Mach {:.3}",
         report.steps_done, report.simulated_time_s, report.wall_time_s, report.node_updates_per_s, report.mass_drift, report.max_mach
     );
+    if let Some(w) = &report.wake {
+        print_wake(w);
+    }
     eprintln!("state hash {} (BLAKE3 of the final state: equal for bit-identical runs)", report.state_hash);
     eprintln!("outputs in {}", dir.display());
     if let RunStatus::Unstable { diagnosis, .. } = &report.status {
         bail!("run stopped: {diagnosis} (outputs written so far are kept in {})", dir.display());
     }
     Ok(())
+}
+
+/// The wake's Strouhal number at each probe, against Williamson's where his fit holds.
+fn print_wake(w: &phonation::run::wake::WakeReport) {
+    let reference = match w.williamson_strouhal {
+        Some(st) => format!("Williamson's St at Re = {:.1}: {st:.4}", w.reynolds),
+        None => format!("Re = {:.1}, outside Williamson's fit (49–178)", w.reynolds),
+    };
+    eprintln!("wake of the cylinder (D = {}, U = {}; {}, from t = {:.3} s): {reference}", w.diameter, w.inflow_speed, w.transverse, w.from_time_s);
+    for p in &w.probes {
+        match (&p.shedding, p.error_vs_williamson) {
+            (Some(s), err) => eprintln!(
+                "  probe {}: St = {:.4} ({:.4} Hz, {} cycles){}",
+                p.probe,
+                s.strouhal,
+                s.frequency,
+                s.cycles,
+                err.map_or(String::new(), |e| format!(", {:+.1} % against Williamson", 100.0 * e))
+            ),
+            (None, _) => eprintln!("  probe {}: no periodic shedding (fewer than three cycles)", p.probe),
+        }
+    }
 }
 
 /// Validate a scene and print what it resolves to.

@@ -28,6 +28,7 @@ pub mod solid;
 pub mod surface;
 pub mod sweep;
 pub mod two_mass;
+pub mod wake;
 
 /// How a run ended.
 #[derive(Clone, Debug, Serialize)]
@@ -69,6 +70,10 @@ pub struct RunReport {
     /// the end; the probes' nodes for each probe sample).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub readback: Option<backend::Readback>,
+    /// One cylinder in a uniform stream: the Strouhal number at each probe against Williamson's
+    /// ([`wake::wake_report`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wake: Option<wake::WakeReport>,
     pub files: Vec<PathBuf>,
 }
 
@@ -191,6 +196,7 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
         state_hash: state_hash(s),
         resumed_from_step,
         readback,
+        wake: wake::wake_report(scene, &dir.join("probes.csv"))?,
         files,
     };
     if ck.writes() {
