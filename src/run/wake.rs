@@ -46,11 +46,14 @@ struct CylinderInAStream {
     /// The stream's velocity in the x–y plane and its speed.
     velocity: [f64; 2],
     speed: f64,
-    /// The in-plane axis across the stream (the cylinder's axis is z).
-    transverse: usize,
 }
 
 impl CylinderInAStream {
+    /// The in-plane axis across the stream (the cylinder's axis is z): the wake swings along it.
+    fn transverse(&self) -> usize {
+        if self.velocity[0].abs() >= self.velocity[1].abs() { 1 } else { 0 }
+    }
+
     /// Whether a probe at `position` lies downstream of the cylinder: more than a radius past
     /// its centre along the stream.
     fn downstream(&self, position: &[f64]) -> bool {
@@ -65,16 +68,15 @@ fn cylinder_in_a_stream(scene: &FluidScene) -> Option<CylinderInAStream> {
     let f = &scene.file;
     let [ObstacleSpec::Cylinder { radius, center }] = f.obstacles.as_slice() else { return None };
     let mut inlets = f.boundaries.named().into_iter().filter_map(|(_, face)| match face {
-        Some(FaceSpec::VelocityInlet { velocity, profile, .. }) if *profile == crate::fluid::boundary::InletProfile::Uniform => Some(velocity.clone()),
+        Some(FaceSpec::VelocityInlet { velocity, profile, .. }) if *profile == crate::fluid::boundary::InletProfile::Uniform => Some(velocity.as_slice()),
         _ => None,
     });
     let (velocity, None) = (inlets.next()?, inlets.next()) else { return None };
     let component = |v: &[f64], a: usize| v.get(a).copied().unwrap_or(0.0);
-    let (ux, uy) = (component(&velocity, 0), component(&velocity, 1));
+    let (ux, uy) = (component(velocity, 0), component(velocity, 1));
     let speed = ux.hypot(uy);
-    let transverse = if ux.abs() >= uy.abs() { 1 } else { 0 };
     let center = [component(center, 0), component(center, 1)];
-    (speed > 0.0).then_some(CylinderInAStream { center, diameter: 2.0 * radius, velocity: [ux, uy], speed, transverse })
+    (speed > 0.0).then_some(CylinderInAStream { center, diameter: 2.0 * radius, velocity: [ux, uy], speed })
 }
 
 /// The wake report of a run of `scene` whose probes are in `probes_csv`; `None` for a scene that
@@ -84,7 +86,7 @@ pub fn wake_report(scene: &FluidScene, probes_csv: &Path) -> anyhow::Result<Opti
     let (diameter, inflow_speed) = (c.diameter, c.speed);
     let reynolds = inflow_speed * diameter * scene.file.gas.density / scene.file.gas.viscosity;
     let reference = williamson_strouhal(reynolds);
-    let component = ["ux", "uy"][c.transverse];
+    let component = ["ux", "uy"][c.transverse()];
     let text = std::fs::read_to_string(probes_csv).with_context(|| format!("reading {}", probes_csv.display()))?;
     let columns = Columns::parse(&text).with_context(|| format!("{}", probes_csv.display()))?;
     let time = columns.get("time_s")?;
