@@ -1,7 +1,9 @@
-//! Analysis of measured series (physics core: imports nothing above it): least-squares fits,
+//! Analysis of measured series (physics core: imports nothing above it) and the closed forms they are read against (beam theory): least-squares fits,
 //! spectra, the work a force does per period, where the glottis closes, f0, the glottal-flow (voice) measures, a wake's Strouhal number, band-limited resampling and synthetic test
 //! signals with known answers.
 
+pub mod beam;
+pub mod cavity;
 pub mod closure;
 pub mod energy;
 pub mod fit;

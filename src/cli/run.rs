@@ -134,6 +134,21 @@ fn run_coupled(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> anyhow::Resu
     for p in &r.particle_probes {
         eprintln!("{p}");
     }
+    if let Some(st) = &r.schafer_turek {
+        eprintln!(
+            "Schäfer–Turek 2D-1 (Re = {:.1}; forces over {:.3}–{:.3} s, Δp at the end): C_D {:.4} ({:+.2} % against {:.4}), C_L {:.4}, Δp {:.4e} ({:+.2} % against {:.4e})",
+            st.reynolds,
+            st.averaged_from_s,
+            st.at_time_s,
+            st.drag_coefficient,
+            100.0 * st.drag_error,
+            phonation::run::schafer_turek::DRAG_COEFFICIENT,
+            st.lift_coefficient,
+            st.pressure_drop,
+            100.0 * st.pressure_drop_error,
+            st.pressure_drop_reference
+        );
+    }
     eprintln!("state hash {} (BLAKE3 of the final state: equal for bit-identical runs)", r.state_hash);
     eprintln!("outputs in {}", dir.display());
     if let Some(d) = r.instability {
@@ -166,6 +181,9 @@ fn run_solid(sc: &SolidScene, dir: &Path, opts: &RunOptions) -> anyhow::Result<(
         "{} particles, {} bonds, Δt = {:.3e} (explicit limit {:.3e}), {} steps, {:.4e} s simulated in {:.1} s wall ({:.3e} particle updates/s), energy drift {:.2e}",
         r.particles, r.bonds, r.dt, r.explicit_limit, r.steps, r.simulated_time, r.wall_s, r.particle_updates_per_s, r.energy_drift
     );
+    if let Some(b) = &r.beam {
+        print_beam(b);
+    }
     eprintln!("state hash {} (BLAKE3 of the final state: equal for bit-identical runs)", r.state_hash);
     eprintln!("outputs in {}", dir.display());
     if let Some(d) = r.instability {
@@ -199,12 +217,44 @@ fn run_fluid(sc: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::Result<(
     if let Some(w) = &report.wake {
         print_wake(w);
     }
+    if let Some(c) = &report.cavity {
+        let ghia = c.ghia_max_deviation.map_or(format!("Ghia et al.'s tables are at Re = {}: no comparison", phonation::run::cavity::GHIA_REYNOLDS), |d| {
+            format!("largest |u − Ghia| {:.2} % of the lid's speed", 100.0 * d)
+        });
+        eprintln!("lid-driven cavity (side {}, lid {}, Re = {:.1}, {:.1} lid transits): {ghia}", c.side, c.lid_speed, c.reynolds, c.lid_transits);
+    }
     eprintln!("state hash {} (BLAKE3 of the final state: equal for bit-identical runs)", report.state_hash);
     eprintln!("outputs in {}", dir.display());
     if let RunStatus::Unstable { diagnosis, .. } = &report.status {
         bail!("run stopped: {diagnosis} (outputs written so far are kept in {})", dir.display());
     }
     Ok(())
+}
+
+/// The beam's tip against beam theory: its period and, under a tip load, its deflection.
+fn print_beam(b: &phonation::run::beam::BeamReport) {
+    let t = &b.theory;
+    let section = if t.dim == 2 { "plane strain".to_string() } else { format!("width {}", t.width) };
+    eprintln!(
+        "clamped beam (L = {} from x = {}, h = {}, {section}): beam theory's first period {:.4e} s",
+        t.length, b.root_x, t.thickness, b.first_period_theory
+    );
+    let Some(probe) = &b.tip_probe else {
+        eprintln!("  no probe holds the tip: nothing measured");
+        return;
+    };
+    match &b.vibration {
+        Some(v) => {
+            eprintln!("  tip probe {probe}: period {:.4e} s over {} cycles, {:+.2} % against beam theory", v.period, v.cycles, 100.0 * v.error_vs_theory)
+        }
+        None => eprintln!("  tip probe {probe}: fewer than two cycles, no period"),
+    }
+    if let Some(l) = &b.tip_load
+        && let (Some(d), Some(e)) = (l.deflection_end, l.error_vs_theory)
+    {
+        let swing = l.last_period_swing.map_or(String::new(), |s| format!(" (swinging {:.1} % of it over the last period)", 100.0 * s));
+        eprintln!("  tip load {}: static deflection {:.4e} by beam theory, {d:.4e} at the end, {:+.2} %{swing}", l.load, l.deflection_theory, 100.0 * e);
+    }
 }
 
 /// The wake's Strouhal number at each probe, against Williamson's where his fit holds.

@@ -60,6 +60,10 @@ pub struct CoupledReport {
     pub particle_probes: Vec<ParticleProbeReport>,
     /// A glottis scene (two folds): what the glottis did and the voice measures.
     pub glottis: Option<GlottisReport>,
+    /// The Schäfer–Turek 2D-1 channel: C_D and Δp against the benchmark
+    /// ([`super::schafer_turek::schafer_turek_report`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub schafer_turek: Option<super::schafer_turek::SchaferTurekReport>,
     /// None when the run finished; else what went wrong, where and when.
     pub instability: Option<String>,
     /// BLAKE3 of the final state ([`crate::state::state_hash`]): equal for bit-identical runs.
@@ -491,6 +495,7 @@ impl Outputs<'_> {
             solid_cg: implicit(c).then_some(cg_tally),
             particle_probes: probe_reports(&self.particle_probes.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(), &self.probe_samples, 0.5),
             glottis: glottis_report,
+            schafer_turek: super::schafer_turek::schafer_turek_report(sc, c, &dir.join("coupling.csv"))?,
             instability: instability.map(|e| e.to_string()),
             state_hash: state_hash(c),
             resumed_from_step,

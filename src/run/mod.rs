@@ -14,7 +14,10 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 pub mod backend;
+pub mod beam;
+pub mod cavity;
 pub mod checkpoint;
+mod columns;
 pub mod coupled;
 mod coupled_engine;
 pub mod driver;
@@ -24,6 +27,7 @@ mod mirror;
 pub mod particle_probes;
 #[cfg(test)]
 mod resume_tests;
+pub mod schafer_turek;
 pub mod solid;
 pub mod surface;
 pub mod sweep;
@@ -74,6 +78,10 @@ pub struct RunReport {
     /// ([`wake::wake_report`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub wake: Option<wake::WakeReport>,
+    /// The lid-driven square cavity: its centreline velocities against Ghia et al.'s
+    /// ([`cavity::cavity_report`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cavity: Option<cavity::CavityReport>,
     pub files: Vec<PathBuf>,
 }
 
@@ -197,6 +205,7 @@ pub fn run_scene(scene: &FluidScene, dir: &Path, opts: &RunOptions) -> anyhow::R
         resumed_from_step,
         readback,
         wake: wake::wake_report(scene, &dir.join("probes.csv"))?,
+        cavity: cavity::cavity_report(scene, s),
         files,
     };
     if ck.writes() {

@@ -37,6 +37,10 @@ pub struct SolidReport {
     pub state_hash: String,
     /// The step this run resumed from (a checkpoint), if it did.
     pub resumed_from_step: Option<u64>,
+    /// One clamped–free beam: its tip's period and deflection against beam theory
+    /// ([`super::beam::beam_report`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub beam: Option<super::beam::BeamReport>,
     pub files: Vec<PathBuf>,
 }
 
@@ -232,6 +236,7 @@ pub fn run_solid_scene(sc: &SolidScene, dir: &Path, opts: &RunOptions) -> anyhow
         instability: outcome.instability.map(|e| e.to_string()),
         state_hash: state_hash(s),
         resumed_from_step,
+        beam: super::beam::beam_report(sc, &dir.join("solid.csv"))?,
         files: files.clone(),
     };
     std::fs::write(dir.join("summary.json"), serde_json::to_string_pretty(&report)?)?;

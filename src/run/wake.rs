@@ -4,6 +4,7 @@
 //! speed is read against. Read from `probes.csv` once the run ends, so that a resumed run
 //! analyses its whole history.
 
+use super::columns::Columns;
 use crate::analysis::wake::{Shedding, shedding, williamson_strouhal};
 use crate::scene::FluidScene;
 use crate::scene::schema::{FaceSpec, ObstacleSpec};
@@ -105,30 +106,6 @@ pub fn wake_report(scene: &FluidScene, probes_csv: &Path) -> anyhow::Result<Opti
     }
     let from_time_s = time.get(half).copied().unwrap_or(f64::NAN);
     Ok(Some(WakeReport { diameter, inflow_speed, reynolds, transverse: component, williamson_strouhal: reference, from_time_s, probes }))
-}
-
-/// A CSV file's columns by header name (numbers only).
-struct Columns {
-    names: Vec<String>,
-    rows: Vec<Vec<f64>>,
-}
-
-impl Columns {
-    fn parse(text: &str) -> anyhow::Result<Self> {
-        let mut lines = text.lines();
-        let names = lines.next().context("empty file")?.split(',').map(|s| s.trim().to_string()).collect();
-        let rows = lines
-            .filter(|l| !l.trim().is_empty())
-            .enumerate()
-            .map(|(k, l)| l.split(',').map(|v| v.trim().parse::<f64>().with_context(|| format!("row {}: {v:?} is not a number", k + 1))).collect())
-            .collect::<anyhow::Result<_>>()?;
-        Ok(Columns { names, rows })
-    }
-
-    fn get(&self, name: &str) -> anyhow::Result<Vec<f64>> {
-        let i = self.names.iter().position(|n| n == name).with_context(|| format!("no column {name}"))?;
-        self.rows.iter().enumerate().map(|(k, r)| r.get(i).copied().with_context(|| format!("row {}: no {name}", k + 1))).collect()
-    }
 }
 
 #[cfg(test)]

@@ -410,11 +410,11 @@ impl SolidScene {
             }
         }
         for (range, root, length, v) in first_mode {
-            let fl = crate::validation::beam::first_mode_shape(length, length);
+            let fl = crate::analysis::beam::first_mode_shape(length, length);
             for i in range {
                 let x = p.reference[i].x - root;
                 if !p.fixed[i] && x >= 0.0 {
-                    p.velocity[i] = DVec3::new(0.0, v * crate::validation::beam::first_mode_shape(x, length) / fl, 0.0);
+                    p.velocity[i] = DVec3::new(0.0, v * crate::analysis::beam::first_mode_shape(x, length) / fl, 0.0);
                 }
             }
         }

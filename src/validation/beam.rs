@@ -4,6 +4,7 @@
 //! E/(1−ν²). The beam lies along x (length L from the clamp face x = 0), its thickness h along
 //! y and (3D) its width along z; `clamp_layers` particle layers at x < 0 are fixed.
 
+use crate::analysis::beam::BeamTheory;
 use crate::solid::particles::sample_box;
 use crate::solid::{Integrator, Orthotropic, Particles, SolidOptions, SolidSolver};
 use glam::DVec3;
@@ -49,27 +50,27 @@ impl Cantilever {
         (0..p.len()).filter(|&i| p.reference[i].x > self.length - self.spacing).collect()
     }
 
-    /// Effective modulus (plane strain in 2D), second moment, area.
-    fn section(&self) -> (f64, f64, f64) {
-        let nu = self.poisson;
-        if self.dim == 2 {
-            (self.young / (1.0 - nu * nu), self.thickness.powi(3) / 12.0, self.thickness)
-        } else {
-            (self.young, self.width * self.thickness.powi(3) / 12.0, self.width * self.thickness)
+    /// The beam theory of this cantilever ([`crate::analysis::beam`]).
+    pub fn theory(&self) -> BeamTheory {
+        BeamTheory {
+            dim: self.dim,
+            length: self.length,
+            thickness: self.thickness,
+            width: self.width,
+            young: self.young,
+            poisson: self.poisson,
+            density: self.density,
         }
     }
 
     /// Beam-theory tip deflection under a tip load P (per unit depth in 2D), with the shear term.
     pub fn static_deflection(&self, load: f64) -> f64 {
-        let (e, i, a) = self.section();
-        let g = self.young / (2.0 * (1.0 + self.poisson));
-        load * self.length.powi(3) / (3.0 * e * i) + load * self.length / (5.0 / 6.0 * g * a)
+        self.theory().static_deflection(load)
     }
 
     /// First natural frequency (Hz) of Euler–Bernoulli theory.
     pub fn first_frequency(&self) -> f64 {
-        let (e, i, a) = self.section();
-        1.875104f64.powi(2) / (2.0 * std::f64::consts::PI) * (e * i / (self.density * a * self.length.powi(4))).sqrt()
+        self.theory().first_frequency()
     }
 
     pub fn solver(&self, options: SolidOptions) -> SolidSolver {
@@ -127,13 +128,7 @@ pub fn oscillating_plate(cells: usize) -> Cantilever {
     }
 }
 
-/// First-mode shape of a clamped–free beam (β L = 1.875104).
-pub fn first_mode_shape(x: f64, length: f64) -> f64 {
-    let k = 1.875104 / length;
-    let kl = 1.875104f64;
-    let a = (kl.cos() + kl.cosh()) / (kl.sin() + kl.sinh());
-    ((k * x).cos() - (k * x).cosh()) - a * ((k * x).sin() - (k * x).sinh())
-}
+pub use crate::analysis::beam::first_mode_shape;
 
 /// Sets the first-mode velocity profile with tip speed `tip_speed` on the beam particles.
 pub fn release_in_first_mode(s: &mut SolidSolver, c: &Cantilever, tip_speed: f64) {
