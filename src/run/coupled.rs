@@ -251,8 +251,8 @@ impl<'a> Outputs<'a> {
         Ok(())
     }
 
-    /// A resumed run's record (`r`, the checkpoint's): the files, snapshots and glottal
-    /// samples written before, the air's initial mass.
+    /// A resumed run's record (`r`, the checkpoint's): the files, snapshots, glottal and
+    /// particle-probe samples written before, the air's initial mass.
     fn resume(&mut self, r: &serde_json::Value) -> anyhow::Result<()> {
         self.files.extend(checkpoint::names(&r["files"]).into_iter().map(|n| self.dir.join(n)));
         if let Some(g) = &mut self.glottal {
@@ -269,6 +269,19 @@ impl<'a> Outputs<'a> {
         }
         self.m0 = checkpoint::from_bits(&r["m0"], "m0")?[0];
         self.k_snap = r["k_snap"].as_u64().unwrap_or(0);
+        // the particle probes' samples before the checkpoint (absent from checkpoints written
+        // before 2026-12-08: the analysis then starts at the resume, as it did)
+        if !r["probe_samples"].is_null() {
+            let v = checkpoint::from_bits(&r["probe_samples"], "probe_samples")?;
+            let width = 1 + self.particle_probes.len();
+            anyhow::ensure!(
+                v.len().is_multiple_of(width),
+                "checkpoint run record: probe_samples holds {} values, not a multiple of 1 + {} probes",
+                v.len(),
+                self.particle_probes.len()
+            );
+            self.probe_samples = v.chunks_exact(width).map(|c| (c[0], c[1..].to_vec())).collect();
+        }
         Ok(())
     }
 
@@ -302,7 +315,9 @@ impl<'a> Outputs<'a> {
         let glottal_path = self.glottal_path();
         let names = checkpoint::file_names(self.files[2..].iter().filter(|f| **f != glottal_path));
         let samples: Vec<f64> = self.glottal.iter().flat_map(|r| r.samples.iter().flat_map(glottal_values)).collect();
-        serde_json::json!({"m0": checkpoint::bits(&[self.m0]), "k_snap": self.k_snap, "files": names, "glottal_samples": checkpoint::bits(&samples), "glottal_columns": GLOTTAL_COLUMNS.len()})
+        // each particle-probe sample as (t, dy per probe), so a resumed run analyses the whole run
+        let probe_samples: Vec<f64> = self.probe_samples.iter().flat_map(|(t, dy)| std::iter::once(*t).chain(dy.iter().copied())).collect();
+        serde_json::json!({"m0": checkpoint::bits(&[self.m0]), "k_snap": self.k_snap, "files": names, "glottal_samples": checkpoint::bits(&samples), "glottal_columns": GLOTTAL_COLUMNS.len(), "probe_samples": checkpoint::bits(&probe_samples)})
     }
 
     /// The output files a checkpoint stands with.

@@ -21,8 +21,8 @@ pub struct ParticleProbeReport {
     pub max_abs_dy: f64,
     /// None with fewer than two full cycles in the window.
     pub oscillation: Option<Oscillation>,
-    /// Start of the analysed window (s); for a resumed run only the samples since the resume
-    /// are analysed (`phonation analyze` reads the whole csv).
+    /// Start of the analysed window (s): of the whole run's samples, a resumed run's too (its
+    /// checkpoint carries those before it).
     pub window_start_s: f64,
 }
 

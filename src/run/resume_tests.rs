@@ -141,6 +141,33 @@ fn a_coupled_glottis_run_resumed_is_bit_identical() {
     let _ = std::fs::remove_dir_all(&cut);
 }
 
+/// A particle probe's analysis covers the whole run when the run resumed: its checkpoint
+/// carries the samples before it, so the summary's probe report (window, largest |dy|,
+/// oscillation) is the whole run's, not the part after the resume.
+#[test]
+fn a_resumed_coupled_run_analyses_its_particle_probes_over_the_whole_run() {
+    let text = CONSERVING.replace("[coupling]\n", "[coupling]\nprobes = [{ name = \"rear\", min = [0.24, 0.15], max = [0.26, 0.25] }]\n");
+    assert_ne!(text, CONSERVING);
+    let (whole, cut) = (tmp("probes-whole"), tmp("probes-cut"));
+    let n = 40;
+    run(&text, &whole, &opts(&text, n, None, None, None));
+    run(&text, &cut, &opts(&text, n, Some(n / 2), Some(3 * n / 4), None));
+    let ck = Checkpoint::read(&cut.join(FILE_NAME)).unwrap();
+    run(&text, &cut, &opts(&text, n, None, None, Some(ck)));
+    let probes = |d: &Path| -> serde_json::Value {
+        let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.join("summary.json")).unwrap()).unwrap();
+        v["particle_probes"].clone()
+    };
+    let (a, b) = (probes(&whole), probes(&cut));
+    assert_eq!(a.as_array().map(|p| p.len()), Some(1), "{a}");
+    assert!(a[0]["max_abs_dy"].as_f64().unwrap() > 0.0, "the probe moves: {a}");
+    // the window is the second half of the whole run: it starts at the checkpoint's step
+    assert_eq!(a, b, "the resumed run's probe report is the whole run's");
+    for d in [whole, cut] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
 #[test]
 fn a_method_2_run_resumed_is_bit_identical() {
     // the level-set walls are rebuilt from the particle positions in the checkpoint
