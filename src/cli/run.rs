@@ -102,6 +102,18 @@ fn run_two_mass(sc: &TwoMassScene, dir: &Path, steps: Option<u64>, backend: Back
     if let Some(v) = &r.voice {
         super::voice::print_voice(v);
     }
+    if let Some(rf) = &r.reference {
+        let pct = |e: Option<f64>| e.map_or("no oscillation".to_string(), |e| format!("{:+.1} %", 100.0 * e));
+        eprintln!(
+            "against Ishizaka & Flanagan at 8 cmH₂O (f0 {} Hz, peak flow {} cm³/s, OQ {}): f0 {}, peak flow {}, OQ {}",
+            rf.f0_hz,
+            rf.peak_flow,
+            rf.open_quotient,
+            pct(rf.f0_error),
+            pct(rf.peak_flow_error),
+            pct(rf.open_quotient_error)
+        );
+    }
     eprintln!("outputs in {}", dir.display());
     Ok(())
 }
