@@ -146,6 +146,19 @@ fn run_coupled(sc: &CoupledScene, dir: &Path, opts: &RunOptions) -> anyhow::Resu
     for p in &r.particle_probes {
         eprintln!("{p}");
     }
+    if let Some(f) = &r.flap {
+        let show = |v: Option<f64>, (lo, hi): (f64, f64), inside: bool| match v {
+            Some(v) => format!("{v:.4} ({} {lo:.3}–{hi:.3})", if inside { "inside" } else { "outside" }),
+            None => format!("none (fewer than two cycles; envelope {lo:.3}–{hi:.3})"),
+        };
+        eprintln!(
+            "Wall flap (Re = {:.1}), tip probe {} over the second half: frequency {}, largest displacement {}",
+            f.reynolds,
+            f.tip_probe,
+            show(f.frequency, f.frequency_band, f.frequency_in_band),
+            show(f.tip_displacement, f.tip_displacement_band, f.tip_displacement_in_band)
+        );
+    }
     if let Some(st) = &r.schafer_turek {
         eprintln!(
             "Schäfer–Turek 2D-1 (Re = {:.1}; forces over {:.3}–{:.3} s, Δp at the end): C_D {:.4} ({:+.2} % against {:.4}), C_L {:.4}, Δp {:.4e} ({:+.2} % against {:.4e})",

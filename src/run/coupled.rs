@@ -64,6 +64,10 @@ pub struct CoupledReport {
     /// ([`super::schafer_turek::schafer_turek_report`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub schafer_turek: Option<super::schafer_turek::SchaferTurekReport>,
+    /// The Wall flexible flap: the tip's frequency and largest displacement against the
+    /// published envelope ([`super::flap::flap_report`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flap: Option<super::flap::FlapReport>,
     /// None when the run finished; else what went wrong, where and when.
     pub instability: Option<String>,
     /// BLAKE3 of the final state ([`crate::state::state_hash`]): equal for bit-identical runs.
@@ -480,6 +484,8 @@ impl Outputs<'_> {
         };
         let p = &c.solid.particles;
         let steps_here = c.step_count - resumed_from_step.unwrap_or(0);
+        let particle_probes = probe_reports(&self.particle_probes.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(), &self.probe_samples, 0.5);
+        let flap = super::flap::flap_report(sc, &particle_probes);
         let m0 = self.m0;
         let mut report = CoupledReport {
             name: sc.fluid.file.name.clone(),
@@ -508,9 +514,10 @@ impl Outputs<'_> {
                 wall_frame_momentum: e.wall_frame.to_array(),
             }),
             solid_cg: implicit(c).then_some(cg_tally),
-            particle_probes: probe_reports(&self.particle_probes.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(), &self.probe_samples, 0.5),
+            particle_probes,
             glottis: glottis_report,
             schafer_turek: super::schafer_turek::schafer_turek_report(sc, c, &dir.join("coupling.csv"))?,
+            flap,
             instability: instability.map(|e| e.to_string()),
             state_hash: state_hash(c),
             resumed_from_step,

@@ -21,6 +21,7 @@ mod columns;
 pub mod coupled;
 mod coupled_engine;
 pub mod driver;
+pub mod flap;
 mod glottal_record;
 pub mod lattice_gas;
 mod mirror;

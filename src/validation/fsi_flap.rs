@@ -15,8 +15,7 @@ use crate::scene::coupled::CoupledScene;
 use std::path::PathBuf;
 
 /// Published envelope of the limit cycle (../shared/reference).
-pub const FREQUENCY_HZ: (f64, f64) = (2.94, 3.31);
-pub const TIP_DISPLACEMENT_CM: (f64, f64) = (1.0, 1.42);
+pub use crate::run::flap::{FREQUENCY_HZ, TIP_DISPLACEMENT_CM};
 
 /// The lattice Mach number of the validation runs: the scenes' 0.1 (160,800 coupled steps for
 /// 3 s). Not 0.2, although both methods are stable there (`fsi_flap_time_step`: method 1
