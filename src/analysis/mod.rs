@@ -1,6 +1,8 @@
-//! Analysis of measured series (physics core: imports nothing above it) and the closed forms they are read against (beam theory): least-squares fits,
-//! spectra, the work a force does per period, where the glottis closes, f0, the glottal-flow (voice) measures, a wake's Strouhal number, band-limited resampling and synthetic test
-//! signals with known answers.
+//! Analysis of measured series (physics core: imports nothing above it) and the closed forms
+//! they are read against: least-squares fits, spectra, the work a force does per period, where
+//! the glottis closes, f0, the glottal-flow (voice) measures, a wake's Strouhal number,
+//! band-limited resampling, synthetic test signals with known answers, beam theory and Ghia et
+//! al.'s cavity tables.
 
 pub mod beam;
 pub mod cavity;
