@@ -139,7 +139,8 @@ pub fn beam_report(sc: &SolidScene, solid_csv: &Path) -> anyhow::Result<Option<B
     let text = std::fs::read_to_string(solid_csv).with_context(|| format!("reading {}", solid_csv.display()))?;
     let columns = Columns::parse(&text).with_context(|| format!("{}", solid_csv.display()))?;
     let time = columns.get("time")?;
-    let mut uy = columns.get(&format!("{probe}_uy"))?;
+    let whole = columns.get(&format!("{probe}_uy"))?;
+    let mut uy = whole.clone();
     let n = time.len();
     if n < 2 {
         return Ok(Some(report));
@@ -170,8 +171,7 @@ pub fn beam_report(sc: &SolidScene, solid_csv: &Path) -> anyhow::Result<Option<B
         l.error_vs_theory = Some(end / l.deflection_theory - 1.0);
         // the last theoretical period, when the run is at least that long
         if t_end - time[0] >= first_period_theory {
-            let last: Vec<f64> =
-                time.iter().zip(&columns.get(&format!("{probe}_uy"))?).filter(|(t, _)| **t >= t_end - first_period_theory).map(|(_, u)| *u).collect();
+            let last: Vec<f64> = time.iter().zip(&whole).filter(|(t, _)| **t >= t_end - first_period_theory).map(|(_, u)| *u).collect();
             let (hi, lo) = last.iter().fold((f64::MIN, f64::MAX), |(h, l), &u| (h.max(u), l.min(u)));
             l.last_period_swing = Some((hi - lo) / l.deflection_theory.abs());
         }
